@@ -1,0 +1,57 @@
+// Shared pieces of the coopdyn command line: argument parsing, JSON output, torque profiles.
+#pragma once
+
+#include <cstdio>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "service/dynamics/constrained_dynamics.h"
+#include "service/dynamics/system.h"
+
+namespace coopdyn::cli {
+
+// --key value pairs (and bare --flags) after the subcommand; repeated keys are kept in order.
+struct Args {
+  std::multimap<std::string, std::string> kv;
+  bool has(const std::string& k) const { return kv.count(k) > 0; }
+  std::string get(const std::string& k, const std::string& def = "") const {
+    auto it = kv.find(k);
+    return it == kv.end() ? def : it->second;
+  }
+  std::vector<std::string> all(const std::string& k) const;
+};
+// Returns false and prints the problem on a malformed command line.
+bool parse_args(int argc, char** argv, int first, Args* out);
+
+// Writes the evaluation at (q, v, tau) as the JSON object documented in README.md.
+void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const Eigen::VectorXd& q,
+                     const Eigen::VectorXd& v, const Eigen::VectorXd& tau);
+
+// Torque profiles: "JOINT:constant:VALUE", "JOINT:step:VALUE:T0", "JOINT:pulse:VALUE:T0:T1", or a
+// CSV file "file.csv" whose header is "t,JOINT,..." (piecewise constant between rows).
+class TorqueProfile {
+ public:
+  // Throws std::runtime_error with the reason on a bad spec.
+  void add(const System& sys, const std::string& spec);
+  void eval(double t, Eigen::VectorXd& tau) const;  // tau must be sized nv; set, not accumulated
+ private:
+  struct Term {
+    int dof;
+    int kind;  // 0 constant, 1 step, 2 pulse
+    double value, t0, t1;
+  };
+  std::vector<Term> terms_;
+  std::vector<int> csv_dofs_;
+  std::vector<double> csv_t_;
+  std::vector<std::vector<double>> csv_rows_;
+};
+
+int velocity_index(const System& sys, const std::string& name);  // -1 if absent
+
+int cmd_eval(const Args& a);
+int cmd_sim(const Args& a);
+
+}  // namespace coopdyn::cli

@@ -1,0 +1,35 @@
+// coopdyn: offline evaluation and simulation of a scene.
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+#include "clients/common.h"
+
+namespace {
+void usage() {
+  std::fprintf(stderr,
+               "usage:\n"
+               "  coopdyn eval --scene FILE [--state FILE.json] [--formulation NAME]\n"
+               "  coopdyn sim  --scene FILE --duration T --dt H [--integrator semi_implicit_euler|rk4]\n"
+               "               [--torque PROFILE]... [--formulation NAME] [--out FILE.csv]\n"
+               "PROFILE: JOINT:constant:VALUE | JOINT:step:VALUE:T0 | JOINT:pulse:VALUE:T0:T1 | FILE.csv\n");
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
+    usage();
+    return argc < 2 ? 2 : 0;
+  }
+  const std::string cmd = argv[1];
+  coopdyn::cli::Args a;
+  if (!coopdyn::cli::parse_args(argc, argv, 2, &a)) {
+    usage();
+    return 2;
+  }
+  if (cmd == "eval") return coopdyn::cli::cmd_eval(a);
+  if (cmd == "sim") return coopdyn::cli::cmd_sim(a);
+  std::fprintf(stderr, "coopdyn: unknown command '%s'\n", cmd.c_str());
+  usage();
+  return 2;
+}

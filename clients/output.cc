@@ -1,0 +1,212 @@
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "clients/common.h"
+#include "service/algorithms/kinematics.h"
+
+namespace coopdyn::cli {
+
+std::vector<std::string> Args::all(const std::string& k) const {
+  std::vector<std::string> out;
+  auto r = kv.equal_range(k);
+  for (auto it = r.first; it != r.second; ++it) out.push_back(it->second);
+  return out;
+}
+
+bool parse_args(int argc, char** argv, int first, Args* out) {
+  for (int i = first; i < argc; ++i) {
+    std::string k = argv[i];
+    if (k.rfind("--", 0) != 0) {
+      std::fprintf(stderr, "coopdyn: unexpected argument '%s'\n", k.c_str());
+      return false;
+    }
+    k = k.substr(2);
+    std::string v;
+    const auto eq = k.find('=');
+    if (eq != std::string::npos) {
+      v = k.substr(eq + 1);
+      k = k.substr(0, eq);
+    } else if (i + 1 < argc && std::string(argv[i + 1]).rfind("--", 0) != 0) {
+      v = argv[++i];
+    }
+    out->kv.emplace(k, v);
+  }
+  return true;
+}
+
+namespace {
+void num(std::FILE* f, double x) {
+  if (std::isfinite(x)) std::fprintf(f, "%.12g", x);
+  else std::fprintf(f, "null");
+}
+void list(std::FILE* f, const double* x, int n) {
+  std::fprintf(f, "[");
+  for (int i = 0; i < n; ++i) {
+    if (i) std::fprintf(f, ", ");
+    num(f, x[i]);
+  }
+  std::fprintf(f, "]");
+}
+void names(std::FILE* f, const std::vector<std::string>& v) {
+  std::fprintf(f, "[");
+  for (size_t i = 0; i < v.size(); ++i) std::fprintf(f, "%s\"%s\"", i ? ", " : "", v[i].c_str());
+  std::fprintf(f, "]");
+}
+}  // namespace
+
+void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const Eigen::VectorXd& q,
+                     const Eigen::VectorXd& v, const Eigen::VectorXd& tau) {
+  const Model& model = sys.model;
+  static const char* ax[6] = {"wx", "wy", "wz", "vx", "vy", "vz"};
+  std::fprintf(f, "{\n  \"scene\": \"%s\",\n  \"formulation\": \"%s\",\n", sys.name.c_str(),
+               formulation_name(sys.options.formulation));
+  std::fprintf(f, "  \"coordinates\": {\"q\": ");
+  names(f, model.q_names);
+  std::fprintf(f, ", \"v\": ");
+  names(f, model.v_names);
+  std::fprintf(f, "},\n  \"q\": ");
+  list(f, q.data(), static_cast<int>(q.size()));
+  std::fprintf(f, ",\n  \"v\": ");
+  list(f, v.data(), static_cast<int>(v.size()));
+  std::fprintf(f, ",\n  \"tau\": ");
+  list(f, tau.data(), static_cast<int>(tau.size()));
+  std::fprintf(f, ",\n  \"vdot\": ");
+  list(f, ws.vdot.data(), static_cast<int>(ws.vdot.size()));
+  std::fprintf(f, ",\n  \"wrenches\": [");
+  bool first = true;
+  for (size_t s = 0; s < sys.constraints.specs.size(); ++s) {
+    const ConstraintSpec& c = sys.constraints.specs[s];
+    if (c.kind != ConstraintKind::kWeld) continue;
+    unsigned mask = 0;
+    const Vec6 w = tip_wrench(sys, ws, static_cast<int>(s), &mask);
+    std::fprintf(f, "%s\n    {\"name\": \"%s\", \"frame\": \"%s\", \"on\": \"%s\", \"by\": \"%s\", \"moment\": ", first ? "" : ",",
+                 c.name.c_str(), model.frames[c.frame_a].name.c_str(), model.frames[c.frame_a].name.c_str(),
+                 c.frame_b < 0 ? "world" : model.frames[c.frame_b].name.c_str());
+    first = false;
+    list(f, w.data(), 3);
+    std::fprintf(f, ", \"force\": ");
+    list(f, w.data() + 3, 3);
+    std::fprintf(f, ", \"constrained\": [");
+    bool fa = true;
+    for (int k = 0; k < 6; ++k)
+      if (c.axes[k]) {
+        std::fprintf(f, "%s\"%s\"", fa ? "" : ", ", ax[k]);
+        fa = false;
+      }
+    std::fprintf(f, "], \"indeterminate\": [");
+    fa = true;
+    for (int k = 0; k < 6; ++k)
+      if (mask & (1u << k)) {
+        std::fprintf(f, "%s\"%s\"", fa ? "" : ", ", ax[k]);
+        fa = false;
+      }
+    std::fprintf(f, "]}");
+  }
+  std::fprintf(f, "\n  ],\n  \"stresses\": [");
+  for (size_t a = 0; a < model.pseudo_dofs.size(); ++a) {
+    const int d = model.pseudo_dofs[a];
+    std::fprintf(f, "%s\n    {\"joint\": \"%s\", \"value\": ", a ? "," : "", model.v_names[d].c_str());
+    num(f, ws.stress[static_cast<Eigen::Index>(a)]);
+    std::fprintf(f, ", \"unit\": \"%s\"}", model.bodies[model.dof_body[d]].joint.type == JointType::kPrismatic ? "N" : "N*m");
+  }
+  const Diagnostics& d = ws.diag;
+  std::fprintf(f, "%s],\n  \"diagnostics\": {\"rows\": %d, \"rank\": %d, \"indeterminate\": %d, \"condition\": ",
+               model.pseudo_dofs.empty() ? "" : "\n  ", d.rows, d.rank, d.indeterminate);
+  num(f, d.condition);
+  std::fprintf(f, ", \"residual\": ");
+  num(f, d.residual);
+  std::fprintf(f, ", \"status\": \"%s\", \"reason\": \"%s\"}\n}\n", status_name(d.status), reason_text(d.reason));
+}
+
+int velocity_index(const System& sys, const std::string& name) {
+  const auto& n = sys.model.v_names;
+  for (size_t i = 0; i < n.size(); ++i)
+    if (n[i] == name) return static_cast<int>(i);
+  return -1;
+}
+
+namespace {
+std::vector<std::string> split(const std::string& s, char sep) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, sep)) out.push_back(item);
+  return out;
+}
+double to_num(const std::string& s, const std::string& what) {
+  try {
+    size_t pos = 0;
+    const double x = std::stod(s, &pos);
+    if (pos != s.size() || !std::isfinite(x)) throw std::invalid_argument("");
+    return x;
+  } catch (const std::exception&) {
+    throw std::runtime_error("bad number '" + s + "' in " + what);
+  }
+}
+}  // namespace
+
+void TorqueProfile::add(const System& sys, const std::string& spec) {
+  if (spec.size() > 4 && spec.substr(spec.size() - 4) == ".csv") {
+    std::ifstream f(spec);
+    if (!f) throw std::runtime_error("cannot open torque file '" + spec + "'");
+    std::string line;
+    if (!std::getline(f, line)) throw std::runtime_error(spec + ": empty file");
+    auto head = split(line, ',');
+    if (head.empty() || head[0] != "t") throw std::runtime_error(spec + ":1: header must start with 't'");
+    for (size_t i = 1; i < head.size(); ++i) {
+      const int d = velocity_index(sys, head[i]);
+      if (d < 0) throw std::runtime_error(spec + ":1: unknown joint '" + head[i] + "'");
+      csv_dofs_.push_back(d);
+    }
+    int ln = 1;
+    while (std::getline(f, line)) {
+      ++ln;
+      if (line.empty()) continue;
+      auto cells = split(line, ',');
+      if (cells.size() != head.size()) throw std::runtime_error(spec + ":" + std::to_string(ln) + ": wrong number of columns");
+      const double t = to_num(cells[0], spec + ":" + std::to_string(ln));
+      if (!csv_t_.empty() && t < csv_t_.back()) throw std::runtime_error(spec + ":" + std::to_string(ln) + ": time goes backwards");
+      csv_t_.push_back(t);
+      std::vector<double> row;
+      for (size_t i = 1; i < cells.size(); ++i) row.push_back(to_num(cells[i], spec + ":" + std::to_string(ln)));
+      csv_rows_.push_back(row);
+    }
+    return;
+  }
+  auto p = split(spec, ':');
+  if (p.size() < 3) throw std::runtime_error("torque profile '" + spec + "': expected JOINT:KIND:VALUE[:T0[:T1]]");
+  Term t{};
+  t.dof = velocity_index(sys, p[0]);
+  if (t.dof < 0) throw std::runtime_error("torque profile '" + spec + "': unknown joint '" + p[0] + "'");
+  t.value = to_num(p[2], spec);
+  if (p[1] == "constant" && p.size() == 3) t.kind = 0;
+  else if (p[1] == "step" && p.size() == 4) {
+    t.kind = 1;
+    t.t0 = to_num(p[3], spec);
+  } else if (p[1] == "pulse" && p.size() == 5) {
+    t.kind = 2;
+    t.t0 = to_num(p[3], spec);
+    t.t1 = to_num(p[4], spec);
+  } else {
+    throw std::runtime_error("torque profile '" + spec + "': kinds are constant:V, step:V:T0, pulse:V:T0:T1");
+  }
+  terms_.push_back(t);
+}
+
+void TorqueProfile::eval(double t, Eigen::VectorXd& tau) const {
+  tau.setZero();
+  for (const Term& x : terms_) {
+    const bool on = x.kind == 0 || (x.kind == 1 && t >= x.t0) || (x.kind == 2 && t >= x.t0 && t < x.t1);
+    if (on) tau[x.dof] += x.value;
+  }
+  if (!csv_t_.empty() && t >= csv_t_.front()) {
+    size_t i = 0;
+    while (i + 1 < csv_t_.size() && csv_t_[i + 1] <= t) ++i;
+    for (size_t k = 0; k < csv_dofs_.size(); ++k) tau[csv_dofs_[k]] += csv_rows_[i][k];
+  }
+}
+
+}  // namespace coopdyn::cli

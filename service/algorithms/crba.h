@@ -1,0 +1,12 @@
+// Composite-rigid-body algorithm (RBDA table 6.2): the joint-space inertia matrix M(q).
+#pragma once
+
+#include "service/model/model.h"
+
+namespace coopdyn {
+
+// Fills data.M (nv x nv, both triangles) and data.Ic. Requires forward_kinematics.
+// Joint armature (rotor inertia reflected through the gear, kg*m^2) is added on the diagonal.
+void crba(const Model& model, Data& data);
+
+}  // namespace coopdyn

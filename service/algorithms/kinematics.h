@@ -1,0 +1,22 @@
+// Forward kinematics: poses, velocities, motion subspaces and the velocity-product accelerations.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "service/model/model.h"
+
+namespace coopdyn {
+
+// Fills data.X_PB, X_WB, S, S_W, V, cJ, A0 for configuration q (nq) and velocity v (nv).
+// A0 is each body's spatial acceleration (in its own frame) with vdot = 0 and no gravity: the
+// velocity-product term from which every Jdot*v is read.
+void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q, const Eigen::VectorXd& v);
+
+// Pose of an operational frame in the world, after forward_kinematics.
+Transform frame_pose(const Model& model, const Data& data, int frame);
+// V_WF_F: spatial velocity of a frame in its own coordinates.
+Vec6 frame_velocity(const Model& model, const Data& data, int frame);
+// Jdot*v of a frame: its spatial acceleration at vdot = 0 (no gravity), in F.
+Vec6 frame_bias_acceleration(const Model& model, const Data& data, int frame);
+
+}  // namespace coopdyn

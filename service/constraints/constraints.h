@@ -1,0 +1,78 @@
+// Constraint specs, compiled into row blocks of G (rows x nv) and its right-hand side.
+//
+// Every block writes its rows of
+//     G vdot = gamma,   gamma = -Gdot v - stab,   stab = alpha * (G v) + beta * e   (Baumgarte)
+// and its multipliers lambda enter the equations of motion as  M vdot + h = tau + G^T lambda.
+// For a weld or point block, lambda is the wrench [moment; force] that the environment (the world,
+// or body B) exerts on tip frame A, at A's origin, in A's coordinates: what a force/torque sensor
+// at the tip would read. For a lock block (pseudo-joint), lambda is the generalized force the
+// structure carries along the pseudo-joint's axis: the internal stress.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "service/model/model.h"
+
+namespace coopdyn {
+
+enum class ConstraintKind {
+  kWeld,  // tip frame A held to the world (target pose) or to frame B; any subset of the 6 axes of A
+  kLock,  // one pseudo-joint DOF held at its initial value (METHOD s.4)
+};
+
+struct ConstraintSpec {
+  std::string name;
+  ConstraintKind kind = ConstraintKind::kWeld;
+  int frame_a = -1;              // weld: the tip
+  int frame_b = -1;              // weld: the other frame, -1 = the world
+  Transform X_WA_target;         // weld to world: where frame A is held
+  std::array<bool, 6> axes{{true, true, true, true, true, true}};  // [wx wy wz vx vy vz] of A
+  int dof = -1;                  // lock: velocity index
+  int q_index = -1;              // lock: position index
+  double q_target = 0.0;         // lock: held position
+  std::array<double, 6> compliance{{0, 0, 0, 0, 0, 0}};  // per axis (rad/(N*m), m/N), for the
+                                                         // split of indeterminate forces only
+};
+
+// The compiled set: specs plus row layout and supports. Immutable after compile().
+struct ConstraintSet {
+  std::vector<ConstraintSpec> specs;
+  double baumgarte_alpha = 0.0;  // 1/s
+  double baumgarte_beta = 0.0;   // 1/s^2
+  bool stabilize = false;
+
+  // filled by compile()
+  int rows = 0;
+  std::vector<int> row_offset;              // first row of each spec
+  std::vector<int> row_count;               // rows of each spec
+  std::vector<std::array<int, 6>> row_axis; // axis of each row within its spec (weld)
+  std::vector<std::vector<int>> support;    // DOFs each spec touches, ascending
+  std::vector<int> row_spec;                // spec of each row
+  Eigen::VectorXd row_compliance;           // (rows)
+
+  void compile(const Model& model);
+};
+
+// Workspace for constraint rows (sized once).
+struct ConstraintData {
+  ConstraintData(const Model& model, const ConstraintSet& set);
+  Eigen::MatrixXd G;        // (rows x nv)
+  Eigen::VectorXd Gdot_v;   // (rows) Gdot * v
+  Eigen::VectorXd err;      // (rows) position error (0 for rows without one)
+  Eigen::VectorXd Gv;       // (rows) G * v: constraint velocity
+  Eigen::VectorXd gamma;    // (rows) right-hand side
+  Eigen::Matrix<double, 6, Eigen::Dynamic> J_a, J_b;  // (6 x nv) scratch
+};
+
+// Fills G, Gdot_v, err, Gv and gamma after forward_kinematics(q, v).
+void constraint_rows(const Model& model, const Data& data, const ConstraintSet& set, const Eigen::VectorXd& q,
+                     const Eigen::VectorXd& v, ConstraintData& cd);
+
+// Stacked position error of every block at q (needs forward_kinematics at q).
+double constraint_position_error(const ConstraintData& cd);
+
+}  // namespace coopdyn

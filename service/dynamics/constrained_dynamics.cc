@@ -1,0 +1,413 @@
+#include "service/dynamics/constrained_dynamics.h"
+
+#include <cmath>
+#include <limits>
+
+#include "service/algorithms/crba.h"
+#include "service/algorithms/kinematics.h"
+#include "service/algorithms/rnea.h"
+#include "service/algorithms/tree_cholesky.h"
+
+namespace coopdyn {
+
+const char* formulation_name(Formulation f) {
+  switch (f) {
+    case Formulation::kMobilePlatform: return "mobile_platform";
+    case Formulation::kClassic: return "classic";
+    case Formulation::kPseudoJointSchur: return "pseudo_joint";
+    case Formulation::kSvdBaseline: return "svd";
+  }
+  return "?";
+}
+
+bool parse_formulation(const std::string& s, Formulation* f) {
+  for (Formulation x : {Formulation::kMobilePlatform, Formulation::kClassic, Formulation::kPseudoJointSchur,
+                        Formulation::kSvdBaseline})
+    if (s == formulation_name(x)) {
+      *f = x;
+      return true;
+    }
+  return false;
+}
+
+const char* status_name(Status s) {
+  switch (s) {
+    case Status::kOk: return "ok";
+    case Status::kIndeterminate: return "indeterminate";
+    case Status::kError: return "error";
+  }
+  return "?";
+}
+
+const char* reason_text(Reason r) {
+  switch (r) {
+    case Reason::kNone: return "";
+    case Reason::kNonFiniteInput: return "non-finite or malformed input state (NaN/Inf, wrong size, non-unit quaternion)";
+    case Reason::kMassMatrixSingular: return "mass matrix not positive definite: a DOF moves no mass";
+    case Reason::kPseudoBlockSingular:
+      return "pseudo-joint block d4 singular: the locks depend on the real constraints, choose other pseudo-joints";
+    case Reason::kNonFiniteResult: return "the solve produced a non-finite value";
+    case Reason::kOverconstrained: return "over-constrained: indeterminate constraint forces resolved by the scene's rule";
+  }
+  return "?";
+}
+
+Workspace::Workspace(const System& sys)
+    : data(sys.model), cd(sys.model, sys.constraints), llt(sys.constraints.rows), eig(sys.constraints.rows),
+      ntcn_ldlt(sys.constraints.rows) {
+  const int n = sys.model.nv(), m = sys.constraints.rows;
+  tau_c.setZero(n);
+  vdot.setZero(n);
+  lambda.setZero(m);
+  stress.setZero(static_cast<Eigen::Index>(sys.model.pseudo_dofs.size()));
+  row_indeterminate.assign(m, 0);
+  diag.rows = m;
+  Yt.setZero(n, m);
+  Q.setZero(m, m);
+  u.setZero(n);
+  rhs.setZero(m);
+  ev_inv.setZero(m);
+  NtCN.setZero(m, m);
+  tmp_m.setZero(m);
+  tmp_m2.setZero(m);
+  if (sys.options.formulation == Formulation::kPseudoJointSchur) {
+    const int p = static_cast<int>(sys.model.pseudo_dofs.size());
+    Minv.setZero(n, n);
+    P.setZero(n, m);
+    QinvPt.setZero(m, n);
+    D.setZero(n, n);
+    E.setZero(n);
+    d4.setZero(p, p);
+    d4_llt = Eigen::LLT<Eigen::MatrixXd>(p);
+    tp.setZero(p);
+  }
+  if (sys.options.formulation == Formulation::kSvdBaseline) {
+    for (size_t s = 0; s < sys.constraints.specs.size(); ++s)
+      tip_svd.emplace_back(n, sys.constraints.row_count[s], Eigen::ComputeThinU | Eigen::ComputeThinV);
+    Gk_t.setZero(n, 6);
+    R.setZero(m, m);
+    Gr.setZero(m, n);
+    q_svd = Eigen::JacobiSVD<Eigen::MatrixXd>(m, m, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  }
+}
+
+namespace {
+
+bool inputs_valid(const System& sys, const Eigen::VectorXd& q, const Eigen::VectorXd& v, const Eigen::VectorXd& tau) {
+  const Model& model = sys.model;
+  return configuration_valid(model, q) && v.size() == model.nv() && tau.size() == model.nv() && v.allFinite() &&
+         tau.allFinite();
+}
+
+// Solves Q x = b (Q symmetric PSD, ws.Q) into x. Fills rank, condition, indeterminate rows.
+// The fast path is a Cholesky factorization; otherwise an eigen-decomposition gives the rank and
+// the minimum-norm solution, optionally shifted along the null space by the compliance rule.
+void solve_q(const System& sys, Workspace& ws, const Eigen::VectorXd& b, Eigen::VectorXd& x, bool factor) {
+  const int m = sys.constraints.rows;
+  Diagnostics& dg = ws.diag;
+  if (factor) {
+    ws.fast_path = false;
+    ws.llt.compute(ws.Q);
+    if (ws.llt.info() == Eigen::Success) {
+      const auto d = ws.llt.matrixLLT().diagonal();
+      const double dmax = d.maxCoeff(), dmin = d.minCoeff();
+      const double ratio = dmin * dmin / (dmax * dmax);
+      if (ratio >= sys.options.fast_tol) {
+        ws.fast_path = true;
+        dg.rank = m;
+        dg.condition = 1.0 / ratio;
+        for (int i = 0; i < m; ++i) ws.row_indeterminate[i] = 0;
+      }
+    }
+    if (!ws.fast_path) {
+      ws.eig.compute(ws.Q);
+      const auto& ev = ws.eig.eigenvalues();  // ascending
+      const double emax = std::max(ev[m - 1], 0.0);
+      const double tol = sys.options.rank_tol * emax;
+      int rank = 0;
+      double emin_kept = emax;
+      for (int i = 0; i < m; ++i) {
+        if (ev[i] > tol && emax > 0.0) {
+          ws.ev_inv[i] = 1.0 / ev[i];
+          ++rank;
+          emin_kept = std::min(emin_kept, ev[i]);
+        } else {
+          ws.ev_inv[i] = 0.0;
+        }
+      }
+      dg.rank = rank;
+      dg.condition = rank > 0 ? emax / emin_kept : std::numeric_limits<double>::infinity();
+      const int k = m - rank;  // null-space eigenvectors are the first k columns
+      const auto& V = ws.eig.eigenvectors();
+      for (int i = 0; i < m; ++i) {
+        double s = 0.0;
+        for (int j = 0; j < k; ++j) s += V(i, j) * V(i, j);
+        ws.row_indeterminate[i] = s > 1e-12 ? 1 : 0;
+      }
+      if (k > 0 && sys.options.redundancy == Redundancy::kCompliance) {
+        // NtCN (k x k) padded with the identity to m x m, so that the LDLT keeps its size
+        const Eigen::VectorXd& c = sys.constraints.row_compliance;
+        const double cmax = c.maxCoeff();
+        ws.NtCN.setIdentity();
+        if (cmax > 0.0) {
+          for (int a = 0; a < k; ++a)
+            for (int bb = 0; bb < k; ++bb) {
+              double s = 0.0;
+              for (int i = 0; i < m; ++i) s += V(i, a) * c[i] * V(i, bb);
+              ws.NtCN(a, bb) = s + (a == bb ? 1e-12 * cmax : 0.0);
+            }
+          ws.ntcn_ldlt.compute(ws.NtCN);
+        }
+      }
+    }
+  }
+  if (ws.fast_path) {
+    x = b;
+    ws.llt.solveInPlace(x);
+    return;
+  }
+  const auto& V = ws.eig.eigenvectors();
+  ws.tmp_m.noalias() = V.transpose() * b;
+  ws.tmp_m.array() *= ws.ev_inv.array();
+  x.noalias() = V * ws.tmp_m;
+  const int k = m - dg.rank;
+  if (k > 0 && sys.options.redundancy == Redundancy::kCompliance && sys.constraints.row_compliance.maxCoeff() > 0.0) {
+    // z = -(N^T C N)^-1 N^T C x ; x += N z
+    const Eigen::VectorXd& c = sys.constraints.row_compliance;
+    ws.tmp_m2.setZero();
+    for (int a = 0; a < k; ++a) {
+      double s = 0.0;
+      for (int i = 0; i < m; ++i) s += V(i, a) * c[i] * x[i];
+      ws.tmp_m2[a] = -s;
+    }
+    ws.ntcn_ldlt.solveInPlace(ws.tmp_m2);
+    for (int a = 0; a < k; ++a) x += ws.tmp_m2[a] * V.col(a);
+  }
+}
+
+// Y^T = (G L^-1)^T and Q = Y Y^T from the rows of G.
+void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G, int rows) {
+  const Model& model = sys.model;
+  for (int r = 0; r < rows; ++r) {
+    ws.Yt.col(r) = G.row(r).transpose();
+    tree_solve_Lt(model, ws.data.L, ws.Yt.col(r));
+  }
+  ws.Q.noalias() = ws.Yt.transpose() * ws.Yt;
+}
+
+// lambda from Q lambda = gamma - Y u with u = L^-T tau_c, then vdot = L^-1 (u + Y^T lambda).
+void schur_solve(const System& sys, Workspace& ws, bool factor) {
+  const Model& model = sys.model;
+  ws.u = ws.tau_c;
+  tree_solve_Lt(model, ws.data.L, ws.u);
+  ws.rhs = ws.cd.gamma;
+  ws.rhs.noalias() -= ws.Yt.transpose() * ws.u;
+  solve_q(sys, ws, ws.rhs, ws.lambda, factor);
+  ws.vdot = ws.u;
+  ws.vdot.noalias() += ws.Yt * ws.lambda;
+  tree_solve_L(model, ws.data.L, ws.vdot);
+}
+
+bool pseudo_schur(const System& sys, Workspace& ws) {
+  // (18): vdot = D tau_c + E of the system with the pseudo-joints free, then (23)-(26).
+  const Model& model = sys.model;
+  const int n = model.nv(), m = sys.constraints.rows;
+  const std::vector<int>& pd = model.pseudo_dofs;
+  const int p = static_cast<int>(pd.size());
+  ws.Minv.setIdentity();
+  for (int j = 0; j < n; ++j) tree_solve_M(model, ws.data.L, ws.Minv.col(j));
+  ws.P = ws.Yt;  // M^-1 G^T = L^-1 Y^T
+  for (int r = 0; r < m; ++r) tree_solve_L(model, ws.data.L, ws.P.col(r));
+  // Q^-1 P^T, column by column through the same rank-revealing solve
+  for (int j = 0; j < n; ++j) {
+    ws.tmp_m2 = ws.P.row(j).transpose();
+    solve_q(sys, ws, ws.tmp_m2, ws.rhs, j == 0);
+    ws.QinvPt.col(j) = ws.rhs;
+  }
+  ws.D = ws.Minv;
+  ws.D.noalias() -= ws.P * ws.QinvPt;
+  solve_q(sys, ws, ws.cd.gamma, ws.rhs, false);
+  ws.E.noalias() = ws.P * ws.rhs;
+  // tau_c,p = -d4^-1 (d3 tau_c,r + e2); the pseudo-joints carry no applied torque of their own
+  for (int a = 0; a < p; ++a) ws.tau_c[pd[a]] = -ws.data.h[pd[a]];
+  for (int a = 0; a < p; ++a) {
+    double s = ws.E[pd[a]];
+    for (int j = 0; j < n; ++j) s += ws.D(pd[a], j) * ws.tau_c[j];
+    for (int bb = 0; bb < p; ++bb) s -= ws.D(pd[a], pd[bb]) * ws.tau_c[pd[bb]];
+    ws.tp[a] = -s;
+    for (int bb = 0; bb < p; ++bb) ws.d4(a, bb) = ws.D(pd[a], pd[bb]);
+  }
+  if (p > 0) {
+    ws.d4_llt.compute(ws.d4);
+    const double scale = ws.d4.diagonal().maxCoeff();
+    if (ws.d4_llt.info() != Eigen::Success || !(scale > 0.0)) return false;
+    const auto dl = ws.d4_llt.matrixLLT().diagonal();
+    if (dl.minCoeff() * dl.minCoeff() < 1e-10 * scale) return false;
+    ws.d4_llt.solveInPlace(ws.tp);
+  }
+  for (int a = 0; a < p; ++a) {
+    ws.tau_c[pd[a]] = ws.tp[a];
+    ws.stress[a] = ws.tp[a] + ws.data.h[pd[a]];
+  }
+  ws.vdot = ws.E;
+  ws.vdot.noalias() += ws.D * ws.tau_c;
+  // lambda for the real constraints with the locking torques applied
+  ws.u = ws.tau_c;
+  tree_solve_Lt(model, ws.data.L, ws.u);
+  ws.rhs = ws.cd.gamma;
+  ws.rhs.noalias() -= ws.Yt.transpose() * ws.u;
+  solve_q(sys, ws, ws.rhs, ws.lambda, false);
+  return true;
+}
+
+void svd_baseline(const System& sys, Workspace& ws) {
+  // (19)-(21): per tip, R_k spans the directions the tip can move in (range of G_k); rows in
+  // N(G_k^T) are identically zero and are dropped. Then Q_r = G_r M^-1 G_r^T by SVD.
+  const Model& model = sys.model;
+  const ConstraintSet& cs = sys.constraints;
+  const int n = model.nv(), m = cs.rows;
+  ws.R.setZero();
+  int mr = 0;
+  for (size_t s = 0; s < cs.specs.size(); ++s) {
+    const int r0 = cs.row_offset[s], nk = cs.row_count[s];
+    auto& svd = ws.tip_svd[s];
+    svd.compute(ws.cd.G.middleRows(r0, nk).transpose());
+    const auto& sv = svd.singularValues();
+    const double tol = std::sqrt(sys.options.rank_tol) * (sv.size() ? sv[0] : 0.0);
+    for (int i = 0; i < sv.size(); ++i)
+      if (sv[i] > tol && sv[0] > 0.0) {
+        ws.R.row(mr).segment(r0, nk) = svd.matrixV().col(i).transpose();
+        ++mr;
+      }
+  }
+  ws.mr = mr;
+  ws.Gr.topRows(mr).noalias() = ws.R.topRows(mr) * ws.cd.G;
+  for (int r = 0; r < mr; ++r) {
+    ws.Yt.col(r) = ws.Gr.row(r).transpose();
+    tree_solve_Lt(model, ws.data.L, ws.Yt.col(r));
+  }
+  for (int r = mr; r < m; ++r) ws.Yt.col(r).setZero();
+  ws.Q.noalias() = ws.Yt.transpose() * ws.Yt;  // reduced rows first, zero padding after
+  ws.u = ws.tau_c;
+  tree_solve_Lt(model, ws.data.L, ws.u);
+  ws.rhs.setZero();
+  ws.rhs.head(mr).noalias() = ws.R.topRows(mr) * ws.cd.gamma;
+  ws.rhs.noalias() -= ws.Yt.transpose() * ws.u;
+  ws.q_svd.compute(ws.Q);
+  const auto& sv = ws.q_svd.singularValues();
+  const double smax = sv.size() ? sv[0] : 0.0;
+  const double tol = sys.options.rank_tol * smax;
+  int rank = 0;
+  ws.tmp_m.noalias() = ws.q_svd.matrixU().transpose() * ws.rhs;
+  for (int i = 0; i < m; ++i) {
+    if (sv[i] > tol && smax > 0.0) {
+      ws.tmp_m[i] /= sv[i];
+      ++rank;
+    } else {
+      ws.tmp_m[i] = 0.0;
+    }
+  }
+  ws.tmp_m2.noalias() = ws.q_svd.matrixV() * ws.tmp_m;  // lambda_r (first mr entries)
+  ws.lambda.noalias() = ws.R.topRows(mr).transpose() * ws.tmp_m2.head(mr);
+  ws.diag.rank = rank;
+  ws.diag.condition = rank > 0 ? smax / sv[rank - 1] : std::numeric_limits<double>::infinity();
+  // rows outside the reduced space, or along the null space of Q_r, are indeterminate
+  for (int i = 0; i < m; ++i) {
+    double s = 0.0;
+    for (int r = 0; r < mr; ++r) s += ws.R(r, i) * ws.R(r, i);
+    for (int j = rank; j < m; ++j) {
+      double w = 0.0;
+      for (int r = 0; r < mr; ++r) w += ws.R(r, i) * ws.q_svd.matrixV()(r, j);
+      s -= w * w;
+    }
+    ws.row_indeterminate[i] = s < 1.0 - 1e-6 ? 1 : 0;
+  }
+  ws.vdot = ws.u;
+  ws.vdot.noalias() += ws.Yt * ws.tmp_m2;
+  tree_solve_L(model, ws.data.L, ws.vdot);
+  (void)n;
+}
+
+}  // namespace
+
+const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
+                            const Eigen::VectorXd& tau) {
+  const Model& model = sys.model;
+  Diagnostics& dg = ws.diag;
+  const int m = sys.constraints.rows;
+  dg.rows = m;
+  dg.rank = m;
+  dg.indeterminate = 0;
+  dg.condition = 1.0;
+  dg.residual = 0.0;
+  dg.status = Status::kOk;
+  dg.reason = Reason::kNone;
+  dg.bad_index = -1;
+  auto fail = [&](Reason r) -> const Diagnostics& {
+    dg.status = Status::kError;
+    dg.reason = r;
+    ws.vdot.setZero();
+    ws.lambda.setZero();
+    ws.stress.setZero();
+    return dg;
+  };
+  if (!inputs_valid(sys, q, v, tau)) return fail(Reason::kNonFiniteInput);
+
+  forward_kinematics(model, ws.data, q, v);
+  rnea_bias(model, ws.data);
+  crba(model, ws.data);
+  int bad = -1;
+  if (!tree_cholesky_factor(model, ws.data, 1e-13, &bad)) {
+    dg.bad_index = bad;
+    return fail(Reason::kMassMatrixSingular);
+  }
+  constraint_rows(model, ws.data, sys.constraints, q, v, ws.cd);
+  ws.tau_c = tau - ws.data.h;
+
+  switch (sys.options.formulation) {
+    case Formulation::kMobilePlatform:
+    case Formulation::kClassic:
+      build_q(sys, ws, ws.cd.G, m);
+      schur_solve(sys, ws, true);
+      // pseudo-joint stresses are the multipliers of their lock rows
+      for (size_t s = 0, a = 0; s < sys.constraints.specs.size(); ++s)
+        if (sys.constraints.specs[s].kind == ConstraintKind::kLock && a < model.pseudo_dofs.size())
+          ws.stress[a++] = ws.lambda[sys.constraints.row_offset[s]];
+      break;
+    case Formulation::kPseudoJointSchur:
+      build_q(sys, ws, ws.cd.G, m);
+      if (!pseudo_schur(sys, ws)) return fail(Reason::kPseudoBlockSingular);
+      break;
+    case Formulation::kSvdBaseline: svd_baseline(sys, ws); break;
+  }
+
+  dg.indeterminate = m - dg.rank;
+  if (m > 0) {
+    ws.tmp_m = ws.cd.gamma;
+    ws.tmp_m.noalias() -= ws.cd.G * ws.vdot;
+    dg.residual = ws.tmp_m.cwiseAbs().maxCoeff();
+  }
+  if (!ws.vdot.allFinite() || !ws.lambda.allFinite() || !ws.stress.allFinite() || !std::isfinite(dg.residual))
+    return fail(Reason::kNonFiniteResult);
+  if (dg.indeterminate > 0) {
+    dg.status = Status::kIndeterminate;
+    dg.reason = Reason::kOverconstrained;
+  }
+  return dg;
+}
+
+Vec6 tip_wrench(const System& sys, const Workspace& ws, int spec, unsigned* indeterminate) {
+  const ConstraintSet& cs = sys.constraints;
+  Vec6 w = Vec6::Zero();
+  unsigned mask = 0;
+  const int r0 = cs.row_offset[spec];
+  for (int k = 0; k < cs.row_count[spec]; ++k) {
+    const int ax = cs.row_axis[spec][k];
+    w[ax] = ws.lambda[r0 + k];
+    if (ws.row_indeterminate[r0 + k]) mask |= 1u << ax;
+  }
+  if (indeterminate) *indeterminate = mask;
+  return w;
+}
+
+}  // namespace coopdyn

@@ -1,0 +1,99 @@
+// Constrained forward dynamics with constraint-force estimation (METHOD s.3-6).
+//
+//   M vdot + h = tau + G^T lambda,   G vdot = gamma
+//   Q lambda = gamma - G M^-1 (tau - h),   Q = G M^-1 G^T       (paper (16)-(18))
+//
+// with M = L^T L factored tree-sparsely, Y = G L^-1, Q = Y Y^T. Q is solved by Cholesky when it is
+// well conditioned, else by a symmetric eigen-decomposition that reveals the rank (METHOD s.5): the
+// accelerations stay exact and finite, the indeterminate part of lambda follows the scene's rule
+// and is flagged per row. Nothing here allocates after the Workspace is built, logs or throws.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
+
+#include "service/constraints/constraints.h"
+#include "service/dynamics/system.h"
+#include "service/model/model.h"
+
+namespace coopdyn {
+
+enum class Status { kOk = 0, kIndeterminate = 1, kError = 2 };
+const char* status_name(Status s);
+
+enum class Reason {
+  kNone = 0,
+  kNonFiniteInput = 1,       // NaN/Inf in q, v or tau, or a non-unit quaternion
+  kMassMatrixSingular = 2,   // a DOF moves no mass (diag.bad_index names it)
+  kPseudoBlockSingular = 3,  // d4 of (24)-(26) singular: the pseudo-joints' locks depend on the
+                             // real constraints; choose other pseudo-joints (paper Fig. 4 vs 5)
+  kNonFiniteResult = 4,      // the solve produced NaN/Inf (never published)
+  kOverconstrained = 5,      // not an error: rank < rows, indeterminate part resolved by the rule
+};
+const char* reason_text(Reason r);
+
+struct Diagnostics {
+  int rows = 0;            // constraint rows
+  int rank = 0;            // numerical rank of Q
+  int indeterminate = 0;   // rows - rank: directions of lambda the physics leaves free
+  double condition = 1.0;  // condition estimate of Q on its range (pivot ratio on the fast path)
+  double residual = 0.0;   // max |G vdot - gamma|
+  Status status = Status::kOk;
+  Reason reason = Reason::kNone;
+  int bad_index = -1;      // DOF for kMassMatrixSingular
+};
+
+struct Workspace {
+  explicit Workspace(const System& sys);
+
+  Data data;
+  ConstraintData cd;
+  Eigen::VectorXd tau_c;   // (nv) tau - h
+  Eigen::VectorXd vdot;    // (nv) accelerations
+  Eigen::VectorXd lambda;  // (rows) constraint multipliers
+  Eigen::VectorXd stress;  // (pseudo DOFs) generalized force locking each pseudo-joint
+  std::vector<unsigned char> row_indeterminate;  // (rows) 1 if that component is not determined
+  Diagnostics diag;
+
+  // Schur solve
+  Eigen::MatrixXd Yt;  // (nv x rows) (G L^-1)^T
+  Eigen::MatrixXd Q;   // (rows x rows)
+  Eigen::VectorXd u;   // (nv)
+  Eigen::VectorXd rhs; // (rows)
+  Eigen::LLT<Eigen::MatrixXd> llt;
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig;
+  Eigen::VectorXd ev_inv;      // (rows) 1/eigenvalue on the range, 0 on the null space
+  Eigen::MatrixXd NtCN;        // (rows x rows) compliance split
+  Eigen::LDLT<Eigen::MatrixXd> ntcn_ldlt;
+  Eigen::VectorXd tmp_m, tmp_m2;  // (rows)
+  bool fast_path = true;
+
+  // kPseudoJointSchur only (empty otherwise)
+  Eigen::MatrixXd Minv, P, QinvPt, D;  // (nv x nv), (nv x rows), (rows x nv), (nv x nv)
+  Eigen::VectorXd E;                   // (nv)
+  Eigen::MatrixXd d4;                  // (p x p)
+  Eigen::LLT<Eigen::MatrixXd> d4_llt;
+  Eigen::VectorXd tp;                  // (p)
+
+  // kSvdBaseline only (empty otherwise)
+  std::vector<Eigen::JacobiSVD<Eigen::MatrixXd>> tip_svd;  // per spec, of G_k^T (nv x rows_k)
+  Eigen::MatrixXd Gk_t;      // (nv x 6) scratch
+  Eigen::MatrixXd R;         // (rows x rows) block-diagonal reduction, first mr rows used
+  Eigen::MatrixXd Gr;        // (rows x nv) reduced G
+  Eigen::JacobiSVD<Eigen::MatrixXd> q_svd;
+  int mr = 0;
+};
+
+// Evaluates accelerations, constraint forces and diagnostics at (q, v, tau). Never throws.
+const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
+                            const Eigen::VectorXd& tau);
+
+// Wrench [moment; force] on the tip of weld spec s, in the tip frame; unconstrained axes are 0.
+// *indeterminate (optional) gets a 6-bit mask of components the physics leaves free.
+Vec6 tip_wrench(const System& sys, const Workspace& ws, int spec, unsigned* indeterminate = nullptr);
+
+}  // namespace coopdyn

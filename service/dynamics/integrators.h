@@ -1,0 +1,33 @@
+// Time integration of the constrained dynamics. Each step evaluates the full constrained system
+// (accelerations and constraint forces) through evaluate(); the Stepper owns every buffer.
+#pragma once
+
+#include <string>
+
+#include <Eigen/Core>
+
+#include "service/dynamics/constrained_dynamics.h"
+
+namespace coopdyn {
+
+enum class Integrator {
+  kSemiImplicitEuler,  // v+ = v + h vdot(q, v);  q+ = q (+) h v+   (symplectic Euler)
+  kRk4,                // classical Runge-Kutta in (q, v), quaternions renormalized after the step
+};
+const char* integrator_name(Integrator i);
+bool parse_integrator(const std::string& s, Integrator* i);
+
+struct Stepper {
+  explicit Stepper(const System& sys);
+  Workspace ws;        // the evaluation at the start of the last step (wrenches are read here)
+  Workspace ws_stage;  // RK4 stages
+  Eigen::VectorXd k_q[4], k_v[4];  // (nq), (nv)
+  Eigen::VectorXd q_s, v_s;        // stage state
+};
+
+// Advances (q, v) by dt under tau. Returns the diagnostics of the evaluation at the start state;
+// on an error status, q and v are left unchanged.
+const Diagnostics& step(const System& sys, Stepper& st, Integrator integ, double dt, const Eigen::VectorXd& tau,
+                        Eigen::VectorXd& q, Eigen::VectorXd& v);
+
+}  // namespace coopdyn

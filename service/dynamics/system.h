@@ -1,0 +1,53 @@
+// A System is what a scene compiles to: the tree, its constraints and how to solve them.
+// Immutable once built; every workspace is sized from it.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "service/constraints/constraints.h"
+#include "service/model/model.h"
+
+namespace coopdyn {
+
+enum class Formulation {
+  kMobilePlatform,    // s.3: the load is the floating root, arm bases are tips welded to the world;
+                      //      pseudo-joints (if any) are locked by rows of the same solve
+  kClassic,           // s.2, (11): world-rooted arms, the load a free body, tips welded to the load
+  kPseudoJointSchur,  // s.4, (22)-(26): vdot = D tau_c + E of the unlocked system, then the
+                      //      pseudo-joint block eliminated by d4^{-1}
+  kSvdBaseline,       // s.6, (19)-(21): per-tip SVD keeps the directions a tip can move in, then an
+                      //      SVD pseudo-inverse of the reduced Q
+};
+const char* formulation_name(Formulation f);
+bool parse_formulation(const std::string& s, Formulation* f);
+
+enum class Redundancy {
+  kMinNorm,     // indeterminate part of lambda set to zero (the paper's eta = 0, (41)-(42))
+  kCompliance,  // minimizes lambda^T C lambda over the indeterminate directions, C the per-row
+                // compliances: the elastic (Menabrea) split of a statically indeterminate load
+};
+
+struct SolverOptions {
+  Formulation formulation = Formulation::kMobilePlatform;
+  Redundancy redundancy = Redundancy::kMinNorm;
+  // A direction of Q = G M^-1 G^T is dependent when its eigenvalue is <= rank_tol * the largest
+  // (equivalently a singular value of G M^-1/2 below sqrt(rank_tol) = 1e-5 of the largest).
+  double rank_tol = 1e-10;
+  // The Cholesky fast path is taken when every pivot of Q is >= fast_tol * the largest pivot;
+  // otherwise the eigen-decomposition decides the rank.
+  double fast_tol = 1e-8;
+};
+
+struct System {
+  std::string name;
+  Model model;
+  ConstraintSet constraints;  // compiled; includes pseudo-joint locks except in kPseudoJointSchur
+  SolverOptions options;
+  Eigen::VectorXd q0, v0;     // initial state (satisfies the constraints)
+  Eigen::VectorXd tau_limit;  // (nv) |tau| allowed per DOF (commands above are rejected); inf = none
+};
+
+}  // namespace coopdyn

@@ -1,0 +1,140 @@
+// The immutable kinematic tree (Model) and the workspace sized from it (Data).
+//
+// A Model is built once (by the scene loader or a test), then only read. Every algorithm is a free
+// function f(const Model&, Data&, inputs...) and allocates nothing: Data's constructor sizes every
+// buffer from the Model.
+//
+// Bodies are numbered in topological order (a parent before its children); the world is -1. Each
+// body has one joint connecting it to its parent:  X_PB(q) = X_PJ * X_JB(q), where X_PJ is the
+// fixed placement of the joint frame J in the parent body frame P and X_JB(q) the joint motion.
+// The body frame B is the joint's moving frame.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "service/spatial/spatial.h"
+
+namespace coopdyn {
+
+enum class JointType {
+  kFixed,      // 0 DOF
+  kRevolute,   // 1 DOF, rotation about `axis` (unit, in J)
+  kPrismatic,  // 1 DOF, translation along `axis`
+  kRevolute2,  // 2 DOF, R = Rot(axis, q0) * Rot(axis2, q1): two revolute axes through one point,
+               //        as the paper's wheel contact joint (yaw, then lean about the rotated axis)
+  kFloating,   // 6 DOF mobile platform: q = [p_PB (3); quaternion w,x,y,z (4)], v = V_PB_B [w; v]
+};
+
+int joint_nq(JointType t);
+int joint_nv(JointType t);
+const char* joint_type_name(JointType t);
+
+struct Joint {
+  JointType type = JointType::kFixed;
+  Vec3 axis = Vec3::UnitZ();
+  Vec3 axis2 = Vec3::UnitX();
+  std::string name;
+  double armature = 0.0;  // rotor inertia reflected at the joint (kg*m^2 or kg), added to M
+  bool pseudo = false;  // a joint the real structure lacks; locked by computed torques (METHOD s.4)
+  int nq = 0, nv = 0;
+  int idx_q = 0, idx_v = 0;  // first coordinate in q and in v
+};
+
+struct Body {
+  std::string name;
+  int parent = -1;
+  Transform X_PJ;  // joint placement in the parent body frame
+  Joint joint;
+  Inertia inertia;  // in the body frame
+};
+
+// An operational frame rigidly attached to a body (a tip, a grasp point, a contact frame).
+struct Frame {
+  std::string name;
+  int body = -1;  // -1: the world
+  Transform X_BF;
+};
+
+class Model {
+ public:
+  Vec3 gravity_W = Vec3(0, 0, -9.81);  // m/s^2 in world coordinates
+
+  // Adds a body and returns its index. Throws std::invalid_argument on a bad parent or name.
+  int add_body(const std::string& name, int parent, const Transform& X_PJ, Joint joint, const Inertia& I);
+  int add_frame(const std::string& name, int body, const Transform& X_BF);
+
+  int nbodies() const { return static_cast<int>(bodies.size()); }
+  int nq() const { return nq_; }
+  int nv() const { return nv_; }
+  int body_index(const std::string& name) const;   // -1 if absent
+  int frame_index(const std::string& name) const;  // -1 if absent
+  int joint_index(const std::string& name) const;  // body index of the joint, -1 if absent
+
+  // true if body a is b or an ancestor of b
+  bool is_ancestor(int a, int b) const;
+  // velocity indices that move body b (its own joint and all ancestors'), ascending
+  std::vector<int> support_dofs(int body) const;
+  // the same for the body of an operational frame (empty for the world), without allocating
+  const std::vector<int>& frame_support(int frame) const {
+    const int b = frames[frame].body;
+    return b >= 0 ? body_support[b] : empty_;
+  }
+
+  std::vector<Body> bodies;
+  std::vector<Frame> frames;
+  // DOF-level parent (Featherstone's lambda over velocity indices, RBDA s.6.5): the previous DOF of
+  // the same joint, or the last DOF of the nearest ancestor with DOFs; -1 at a root.
+  std::vector<int> dof_parent;
+  std::vector<int> dof_body;  // body that owns each velocity index
+  std::vector<std::string> q_names, v_names;
+  std::vector<int> pseudo_dofs;  // velocity indices of pseudo-joints, ascending
+  std::vector<std::vector<int>> body_support;  // support_dofs of every body
+
+  // Neutral configuration (zero angles, identity quaternions).
+  Eigen::VectorXd neutral() const;
+
+ private:
+  int nq_ = 0, nv_ = 0;
+  std::vector<int> empty_;
+};
+
+// Workspace for all algorithms on one Model. Construct once; nothing resizes later.
+struct Data {
+  explicit Data(const Model& model);
+
+  // kinematics (per body)
+  std::vector<Transform> X_PB;  // body pose in its parent (world for roots)
+  std::vector<Transform> X_WB;  // body pose in the world
+  std::vector<Mat6> S;          // motion subspace, in B, first nv columns used
+  std::vector<Vec6> V;          // V_WB_B: body spatial velocity in B
+  std::vector<Vec6> A0;         // body spatial acceleration in B at vdot = 0, no gravity (the
+                                // velocity-product term used for Jdot*v)
+  std::vector<Vec6> cJ;         // joint velocity-product acceleration S'qdot, in B
+  Eigen::Matrix<double, 6, Eigen::Dynamic> S_W;  // (6 x nv) motion subspace columns in world coords
+
+  // dynamics
+  std::vector<Vec6> a;        // RNEA scratch: vdot-linear part of body accelerations, in B
+  std::vector<Vec6> f;        // RNEA body forces, in B
+  std::vector<Inertia> Ic;    // composite inertias, in B
+  Eigen::VectorXd h;          // (nv) bias forces: Coriolis, centrifugal, gravity
+  Eigen::MatrixXd M;          // (nv x nv) joint-space inertia
+  Eigen::MatrixXd L;          // (nv x nv) tree-sparse factor, M = L^T L (lower triangular)
+  bool L_ok = false;
+  Eigen::VectorXd tmp_v;      // (nv) scratch
+};
+
+// Configuration integration: q_out = q (+) v*dt on the joint manifolds (exact on SO(3) x R^3 with
+// body-frame velocity). q_out may alias q.
+void integrate(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& v, double dt,
+               Eigen::VectorXd& q_out);
+// Time derivative of q in the embedding coordinates (quaternion rates) for a given v.
+void q_derivative(const Model& model, const Eigen::VectorXd& q, const Eigen::VectorXd& v, Eigen::VectorXd& qdot);
+// Renormalizes the quaternions of floating joints in place.
+void normalize_configuration(const Model& model, Eigen::VectorXd& q);
+// Returns false if any coordinate is NaN/Inf or a quaternion is far from unit length.
+bool configuration_valid(const Model& model, const Eigen::VectorXd& q);
+
+}  // namespace coopdyn

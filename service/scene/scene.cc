@@ -1,0 +1,658 @@
+#include "service/scene/scene.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <Eigen/Eigenvalues>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "service/algorithms/crba.h"
+#include "service/algorithms/kinematics.h"
+#include "service/algorithms/tree_cholesky.h"
+
+namespace coopdyn {
+
+namespace {
+
+struct Ctx {
+  std::string file;
+  std::string dir;
+};
+
+[[noreturn]] void fail(const Ctx& c, const YAML::Node& n, const std::string& msg) {
+  std::ostringstream os;
+  os << c.file;
+  if (n.IsDefined() && n.Mark().line >= 0) os << ":" << n.Mark().line + 1 << ":" << n.Mark().column + 1;
+  os << ": " << msg;
+  throw SceneError(os.str());
+}
+
+void check_keys(const Ctx& c, const YAML::Node& n, std::initializer_list<const char*> allowed, const std::string& what) {
+  if (!n.IsMap()) fail(c, n, what + " must be a mapping");
+  std::set<std::string> ok(allowed.begin(), allowed.end());
+  for (const auto& kv : n) {
+    const std::string k = kv.first.as<std::string>();
+    if (!ok.count(k)) {
+      std::string list;
+      for (const auto& a : allowed) list += std::string(list.empty() ? "" : ", ") + a;
+      fail(c, kv.first, "unknown key '" + k + "' in " + what + " (allowed: " + list + ")");
+    }
+  }
+}
+
+YAML::Node require(const Ctx& c, const YAML::Node& n, const char* key, const std::string& what) {
+  YAML::Node v = n[key];
+  if (!v.IsDefined() || v.IsNull()) fail(c, n, what + ": missing '" + key + "'");
+  return v;
+}
+
+double as_double(const Ctx& c, const YAML::Node& n, const std::string& what) {
+  double x;
+  if (!n.IsScalar()) fail(c, n, what + " must be a number");
+  try {
+    const std::string s = n.as<std::string>();
+    if (s == "pi") return M_PI;
+    if (s == "-pi") return -M_PI;
+    if (s == "pi/2") return M_PI / 2;
+    if (s == "-pi/2") return -M_PI / 2;
+    x = n.as<double>();
+  } catch (const YAML::Exception&) {
+    fail(c, n, what + " must be a number, got '" + n.as<std::string>() + "'");
+  }
+  if (!std::isfinite(x)) fail(c, n, what + " must be finite");
+  return x;
+}
+
+double get_double(const Ctx& c, const YAML::Node& n, const char* key, double def, const std::string& what) {
+  YAML::Node v = n[key];
+  if (!v.IsDefined() || v.IsNull()) return def;
+  return as_double(c, v, what + "." + key);
+}
+
+std::string get_string(const Ctx& c, const YAML::Node& n, const char* key, const std::string& def) {
+  YAML::Node v = n[key];
+  if (!v.IsDefined() || v.IsNull()) return def;
+  if (!v.IsScalar()) fail(c, v, std::string("'") + key + "' must be a string");
+  return v.as<std::string>();
+}
+
+bool get_bool(const Ctx& c, const YAML::Node& n, const char* key, bool def) {
+  YAML::Node v = n[key];
+  if (!v.IsDefined() || v.IsNull()) return def;
+  try {
+    return v.as<bool>();
+  } catch (const YAML::Exception&) {
+    fail(c, v, std::string("'") + key + "' must be true or false");
+  }
+}
+
+std::vector<double> as_list(const Ctx& c, const YAML::Node& n, int expect, const std::string& what) {
+  if (!n.IsSequence()) fail(c, n, what + " must be a list");
+  if (expect >= 0 && static_cast<int>(n.size()) != expect)
+    fail(c, n, what + " must have " + std::to_string(expect) + " entries, got " + std::to_string(n.size()));
+  std::vector<double> out;
+  for (size_t i = 0; i < n.size(); ++i) out.push_back(as_double(c, n[i], what + "[" + std::to_string(i) + "]"));
+  return out;
+}
+
+Vec3 as_vec3(const Ctx& c, const YAML::Node& n, const std::string& what) {
+  auto l = as_list(c, n, 3, what);
+  return Vec3(l[0], l[1], l[2]);
+}
+
+Transform get_pose(const Ctx& c, const YAML::Node& n, const std::string& what) {
+  if (!n.IsDefined() || n.IsNull()) return Transform();
+  check_keys(c, n, {"xyz", "rpy"}, what);
+  Transform X;
+  if (n["xyz"]) X.p = as_vec3(c, n["xyz"], what + ".xyz");
+  if (n["rpy"]) X.R = rpy_matrix(as_vec3(c, n["rpy"], what + ".rpy"));
+  return X;
+}
+
+// mass, com, inertia [ixx, iyy, izz, ixy, iyz, ixz] about the centre of mass
+Inertia get_inertia(const Ctx& c, const YAML::Node& n, const std::string& what) {
+  const double m = get_double(c, n, "mass", 0.0, what);
+  if (m < 0.0) fail(c, n["mass"], what + ": negative mass " + std::to_string(m));
+  Vec3 com = Vec3::Zero();
+  if (n["com"]) com = as_vec3(c, n["com"], what + ".com");
+  Mat3 I = Mat3::Zero();
+  if (n["inertia"]) {
+    auto v = as_list(c, n["inertia"], 6, what + ".inertia");
+    I << v[0], v[3], v[5], v[3], v[1], v[4], v[5], v[4], v[2];
+    Eigen::SelfAdjointEigenSolver<Mat3> es(I);
+    const Vec3 p = es.eigenvalues();
+    const double tol = 1e-12 * std::max(1.0, p.cwiseAbs().maxCoeff());
+    if (p.minCoeff() < -tol) fail(c, n["inertia"], what + ": inertia tensor is not positive semi-definite");
+    // The triangle inequality of physical bodies is not enforced: published models use idealized
+    // rotor-only inertias (PUMA link 1 is [0, 0.35, 0]); positive semi-definiteness is what M needs.
+  }
+  return Inertia(m, com, I);
+}
+
+std::array<bool, 6> get_axes(const Ctx& c, const YAML::Node& n, const std::string& what) {
+  std::array<bool, 6> ax{{false, false, false, false, false, false}};
+  if (!n.IsDefined() || n.IsNull()) return {{true, true, true, true, true, true}};
+  if (!n.IsSequence() || n.size() == 0) fail(c, n, what + ": axes must be a non-empty list of wx wy wz vx vy vz");
+  static const char* names[6] = {"wx", "wy", "wz", "vx", "vy", "vz"};
+  for (const auto& a : n) {
+    const std::string s = a.as<std::string>();
+    int k = -1;
+    for (int i = 0; i < 6; ++i)
+      if (s == names[i]) k = i;
+    if (k < 0) fail(c, a, what + ": unknown axis '" + s + "' (use wx wy wz vx vy vz)");
+    ax[k] = true;
+  }
+  return ax;
+}
+
+std::array<double, 6> get_compliance(const Ctx& c, const YAML::Node& n, const std::string& what) {
+  std::array<double, 6> cp{{0, 0, 0, 0, 0, 0}};
+  if (!n.IsDefined() || n.IsNull()) return cp;
+  if (n.IsScalar()) {
+    const double x = as_double(c, n, what);
+    cp.fill(x);
+  } else {
+    auto l = as_list(c, n, 6, what);
+    for (int i = 0; i < 6; ++i) cp[i] = l[i];
+  }
+  for (double x : cp)
+    if (x < 0) fail(c, n, what + ": compliance must be >= 0");
+  return cp;
+}
+
+// ---- DH robots ---------------------------------------------------------------------------------
+
+struct DhLink {
+  double a = 0, d = 0, alpha = 0, offset = 0;
+  Inertia I;
+  double armature = 0;
+  double tau_limit = std::numeric_limits<double>::infinity();
+};
+struct Robot {
+  std::string name;
+  std::vector<DhLink> links;
+};
+
+// K_i = Tz(d) Tx(a) Rx(alpha): the fixed part of the standard DH transform T_{i-1,i} = Rz(theta) K_i
+Transform dh_fixed(const DhLink& l) { return trans(0, 0, l.d) * trans(l.a, 0, 0) * rot_x(l.alpha); }
+
+Robot parse_robot(const Ctx& c, const YAML::Node& n, const std::string& name) {
+  check_keys(c, n, {"source", "convention", "links", "file"}, "robot '" + name + "'");
+  const std::string conv = get_string(c, n, "convention", "standard_dh");
+  if (conv != "standard_dh") fail(c, n["convention"], "robot '" + name + "': only convention standard_dh is supported");
+  Robot r;
+  r.name = name;
+  const YAML::Node links = require(c, n, "links", "robot '" + name + "'");
+  if (!links.IsSequence() || links.size() == 0) fail(c, links, "robot '" + name + "': links must be a non-empty list");
+  for (size_t i = 0; i < links.size(); ++i) {
+    const YAML::Node& l = links[i];
+    const std::string w = "robot '" + name + "' link " + std::to_string(i + 1);
+    check_keys(c, l, {"a", "d", "alpha", "offset", "mass", "com", "inertia", "armature", "tau_limit"}, w);
+    DhLink dl;
+    dl.a = get_double(c, l, "a", 0, w);
+    dl.d = get_double(c, l, "d", 0, w);
+    dl.alpha = get_double(c, l, "alpha", 0, w);
+    dl.offset = get_double(c, l, "offset", 0, w);
+    dl.I = get_inertia(c, l, w);
+    dl.armature = get_double(c, l, "armature", 0, w);
+    if (dl.armature < 0) fail(c, l["armature"], w + ": armature must be >= 0");
+    dl.tau_limit = get_double(c, l, "tau_limit", std::numeric_limits<double>::infinity(), w);
+    r.links.push_back(dl);
+  }
+  return r;
+}
+
+YAML::Node load_yaml_file(const Ctx& c, const std::string& path, const YAML::Node& where) {
+  std::ifstream f(path);
+  if (!f) fail(c, where, "cannot open '" + path + "'");
+  try {
+    return YAML::Load(f);
+  } catch (const YAML::ParserException& e) {
+    throw SceneError(path + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1) +
+                     ": YAML syntax error: " + e.msg);
+  }
+}
+
+struct ArmSpec {
+  std::string name;
+  const Robot* robot = nullptr;
+  Transform X_W_base;
+  Transform tool;
+  std::vector<double> q;
+  std::vector<double> v;
+  std::set<int> fixed;  // 1-based joint numbers held fixed
+  bool grasp_given = false;
+  Transform X_L_EE;
+  std::array<double, 6> compliance{{0, 0, 0, 0, 0, 0}};
+  YAML::Node node;
+};
+
+Transform dh_forward(const ArmSpec& a) {
+  Transform X;
+  for (size_t i = 0; i < a.robot->links.size(); ++i) {
+    const DhLink& l = a.robot->links[i];
+    X = X * rot_z(a.q[i] + l.offset) * dh_fixed(l);
+  }
+  return X;
+}
+
+void set_floating_q(Eigen::VectorXd& q, int idx, const Transform& X) {
+  q.segment<3>(idx) = X.p;
+  Quat qu(X.R);
+  qu.normalize();
+  q[idx + 3] = qu.w();
+  q[idx + 4] = qu.x();
+  q[idx + 5] = qu.y();
+  q[idx + 6] = qu.z();
+}
+
+struct Builder {
+  Ctx c;
+  System sys;
+  std::vector<double> q0, v0;  // indexed like the model as it grows
+  std::vector<double> tau_lim;
+  std::vector<int> q_floating_idx;
+
+  int add(const std::string& name, int parent, const Transform& X_PJ, const Joint& j, const Inertia& I,
+          const std::vector<double>& jq, const std::vector<double>& jv, double tau_limit, const YAML::Node& where) {
+    int id;
+    try {
+      id = sys.model.add_body(name, parent, X_PJ, j, I);
+    } catch (const std::invalid_argument& e) {
+      fail(c, where, e.what());
+    }
+    const Joint& jj = sys.model.bodies[id].joint;
+    for (int k = 0; k < jj.nq; ++k) q0.push_back(k < static_cast<int>(jq.size()) ? jq[k] : 0.0);
+    for (int k = 0; k < jj.nv; ++k) {
+      v0.push_back(k < static_cast<int>(jv.size()) ? jv[k] : 0.0);
+      tau_lim.push_back(tau_limit);
+    }
+    return id;
+  }
+};
+
+void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, Robot>& robots, bool mobile_platform) {
+  const Ctx& c = B.c;
+  const YAML::Node load = require(c, root, "load", "scene");
+  check_keys(c, load, {"name", "mass", "com", "inertia", "pose", "velocity"}, "load");
+  const std::string load_name = get_string(c, load, "name", "load");
+  const Inertia I_load = get_inertia(c, load, "load");
+  const Transform X_W_L = get_pose(c, require(c, load, "pose", "load"), "load.pose");
+
+  std::vector<ArmSpec> arms;
+  const YAML::Node an = require(c, root, "arms", "scene");
+  if (!an.IsSequence() || an.size() == 0) fail(c, an, "arms must be a non-empty list");
+  for (const auto& a : an) {
+    check_keys(c, a, {"name", "robot", "base", "tool", "q", "v", "grasp", "fixed_joints", "compliance"}, "arm");
+    ArmSpec s;
+    s.node = YAML::Node(a);
+    s.name = get_string(c, a, "name", "");
+    if (s.name.empty()) fail(c, a, "arm: missing 'name'");
+    const std::string rn = get_string(c, a, "robot", "");
+    auto it = robots.find(rn);
+    if (it == robots.end()) fail(c, a["robot"].IsDefined() ? a["robot"] : a, "arm '" + s.name + "': unknown robot '" + rn + "'");
+    s.robot = &it->second;
+    const int n = static_cast<int>(s.robot->links.size());
+    s.X_W_base = get_pose(c, require(c, a, "base", "arm '" + s.name + "'"), "arm '" + s.name + "'.base");
+    s.tool = get_pose(c, a["tool"], "arm '" + s.name + "'.tool");
+    s.q = as_list(c, require(c, a, "q", "arm '" + s.name + "'"), n, "arm '" + s.name + "'.q");
+    s.v = a["v"] ? as_list(c, a["v"], n, "arm '" + s.name + "'.v") : std::vector<double>(n, 0.0);
+    if (a["fixed_joints"]) {
+      for (double x : as_list(c, a["fixed_joints"], -1, "arm '" + s.name + "'.fixed_joints")) {
+        const int k = static_cast<int>(x);
+        if (k < 1 || k > n) fail(c, a["fixed_joints"], "arm '" + s.name + "': fixed joint " + std::to_string(k) + " out of range");
+        s.fixed.insert(k);
+      }
+    }
+    const YAML::Node g = a["grasp"];
+    if (g.IsDefined() && !g.IsNull() && !(g.IsScalar() && g.as<std::string>() == "at_initial_state")) {
+      s.grasp_given = true;
+      s.X_L_EE = get_pose(c, g, "arm '" + s.name + "'.grasp");
+    }
+    s.compliance = get_compliance(c, a["compliance"], "arm '" + s.name + "'.compliance");
+    arms.push_back(s);
+  }
+  // grasps: given ones must close with the load pose, missing ones are read off the initial state
+  for (ArmSpec& s : arms) {
+    const Transform X_W_EE = s.X_W_base * dh_forward(s) * s.tool;
+    if (s.grasp_given) {
+      const Vec6 e = pose_error((X_W_L * s.X_L_EE).inverse() * X_W_EE);
+      if (e.cwiseAbs().maxCoeff() > 1e-6) {
+        std::ostringstream os;
+        os << "initial state does not close: arm '" << s.name << "' end-effector misses its grasp on the load by "
+           << e.tail<3>().norm() << " m and " << e.head<3>().norm() << " rad";
+        fail(c, s.node, os.str());
+      }
+    } else {
+      s.X_L_EE = X_W_L.inverse() * X_W_EE;
+    }
+  }
+
+  Model& model = B.sys.model;
+  ConstraintSet& cs = B.sys.constraints;
+  Joint jf;
+  jf.type = JointType::kFloating;
+  jf.name = load_name;
+  std::vector<double> lq(7, 0.0), lv(6, 0.0);
+  {
+    Eigen::VectorXd tmp(7);
+    set_floating_q(tmp, 0, X_W_L);
+    for (int k = 0; k < 7; ++k) lq[k] = tmp[k];
+    if (load["velocity"]) {
+      auto l = as_list(c, load["velocity"], 6, "load.velocity");
+      for (int k = 0; k < 6; ++k) lv[k] = l[k];
+    }
+  }
+  if (mobile_platform) {
+    const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, std::numeric_limits<double>::infinity(), load);
+    for (const ArmSpec& s : arms) {
+      const auto& links = s.robot->links;
+      const int n = static_cast<int>(links.size());
+      Joint fixed;
+      fixed.type = JointType::kFixed;
+      int parent = B.add(s.name + ".link" + std::to_string(n), L, s.X_L_EE * s.tool.inverse(), fixed, links[n - 1].I, {}, {},
+                         0, s.node);
+      for (int i = n; i >= 1; --i) {
+        const DhLink& l = links[i - 1];
+        Joint j;
+        j.type = s.fixed.count(i) ? JointType::kFixed : JointType::kRevolute;
+        j.axis = -Vec3::UnitZ();
+        j.name = s.name + ".q" + std::to_string(i);
+        j.armature = l.armature;
+        Transform X_PJ = dh_fixed(l).inverse() * rot_z(-l.offset);
+        if (j.type == JointType::kFixed) X_PJ = X_PJ * rot_z(-s.q[i - 1]);
+        // the arm's base is welded to the world, so its inertia does no work; a nominal rotational
+        // inertia (no mass, hence no weight) keeps M regular for the joint that moves only the base
+        Inertia I = i > 1 ? links[i - 2].I : Inertia(0.0, Vec3::Zero(), 1e-3 * Mat3::Identity());
+        parent = B.add(s.name + ".link" + std::to_string(i - 1), parent, X_PJ, j, I, {s.q[i - 1]}, {s.v[i - 1]},
+                       l.tau_limit, s.node);
+      }
+      model.add_frame(s.name + ".base", parent, Transform());
+      ConstraintSpec w;
+      w.name = s.name + ".base";
+      w.kind = ConstraintKind::kWeld;
+      w.frame_a = model.frame_index(s.name + ".base");
+      w.frame_b = -1;
+      w.X_WA_target = s.X_W_base;
+      w.compliance = s.compliance;
+      cs.specs.push_back(w);
+    }
+  } else {
+    for (const ArmSpec& s : arms) {
+      const auto& links = s.robot->links;
+      const int n = static_cast<int>(links.size());
+      int parent = -1;
+      Transform K_prev = s.X_W_base;
+      for (int i = 1; i <= n; ++i) {
+        const DhLink& l = links[i - 1];
+        Joint j;
+        j.type = s.fixed.count(i) ? JointType::kFixed : JointType::kRevolute;
+        j.axis = Vec3::UnitZ();
+        j.name = s.name + ".q" + std::to_string(i);
+        j.armature = l.armature;
+        Transform X_PJ = K_prev * rot_z(l.offset);
+        if (j.type == JointType::kFixed) X_PJ = X_PJ * rot_z(s.q[i - 1]);
+        parent = B.add(s.name + ".link" + std::to_string(i), parent, X_PJ, j, l.I.transformed(dh_fixed(l)), {s.q[i - 1]},
+                       {s.v[i - 1]}, l.tau_limit, s.node);
+        K_prev = dh_fixed(l);
+      }
+      model.add_frame(s.name + ".ee", parent, K_prev * s.tool);
+    }
+    const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, std::numeric_limits<double>::infinity(), load);
+    for (const ArmSpec& s : arms) {
+      model.add_frame(load_name + "." + s.name, L, s.X_L_EE);
+      ConstraintSpec w;
+      w.name = s.name + ".ee";
+      w.kind = ConstraintKind::kWeld;
+      w.frame_a = model.frame_index(s.name + ".ee");
+      w.frame_b = model.frame_index(load_name + "." + s.name);
+      w.compliance = s.compliance;
+      cs.specs.push_back(w);
+    }
+  }
+}
+
+void build_bodies(Builder& B, const YAML::Node& root) {
+  const Ctx& c = B.c;
+  Model& model = B.sys.model;
+  const YAML::Node bn = require(c, root, "bodies", "scene");
+  if (!bn.IsSequence() || bn.size() == 0) fail(c, bn, "bodies must be a non-empty list");
+  for (const auto& b : bn) {
+    check_keys(c, b, {"name", "parent", "placement", "joint", "mass", "com", "inertia"}, "body");
+    const std::string name = get_string(c, b, "name", "");
+    if (name.empty()) fail(c, b, "body: missing 'name'");
+    const std::string pn = get_string(c, b, "parent", "world");
+    int parent = -1;
+    if (pn != "world") {
+      parent = model.body_index(pn);
+      if (parent < 0) fail(c, b["parent"], "body '" + name + "': unknown parent '" + pn + "' (parents must come first)");
+    }
+    const Transform X_PJ = get_pose(c, b["placement"], "body '" + name + "'.placement");
+    const Inertia I = get_inertia(c, b, "body '" + name + "'");
+    Joint j;
+    std::vector<double> jq, jv;
+    const YAML::Node jn = b["joint"];
+    if (!jn.IsDefined() || jn.IsNull()) {
+      j.type = JointType::kFixed;
+    } else {
+      check_keys(c, jn, {"type", "axis", "axis2", "name", "pseudo", "q", "v", "armature", "tau_limit"}, "joint of '" + name + "'");
+      const std::string t = get_string(c, jn, "type", "");
+      if (t == "fixed") j.type = JointType::kFixed;
+      else if (t == "revolute") j.type = JointType::kRevolute;
+      else if (t == "prismatic") j.type = JointType::kPrismatic;
+      else if (t == "revolute2") j.type = JointType::kRevolute2;
+      else if (t == "floating") j.type = JointType::kFloating;
+      else fail(c, jn["type"].IsDefined() ? jn["type"] : jn, "body '" + name + "': unknown joint type '" + t +
+                "' (fixed, revolute, prismatic, revolute2, floating)");
+      if (jn["axis"]) j.axis = as_vec3(c, jn["axis"], "joint axis");
+      if (jn["axis2"]) j.axis2 = as_vec3(c, jn["axis2"], "joint axis2");
+      j.name = get_string(c, jn, "name", name);
+      j.pseudo = get_bool(c, jn, "pseudo", false);
+      j.armature = get_double(c, jn, "armature", 0.0, "joint");
+      if (j.pseudo && j.type != JointType::kRevolute && j.type != JointType::kPrismatic)
+        fail(c, jn, "body '" + name + "': a pseudo-joint must be revolute or prismatic");
+      if (j.type == JointType::kFloating) {
+        Eigen::VectorXd tmp(7);
+        set_floating_q(tmp, 0, get_pose(c, jn["q"], "floating joint q"));
+        jq.assign(tmp.data(), tmp.data() + 7);
+        jv = jn["v"] ? as_list(c, jn["v"], 6, "joint v") : std::vector<double>(6, 0.0);
+      } else {
+        const int nq = joint_nq(j.type);
+        if (jn["q"]) jq = jn["q"].IsSequence() ? as_list(c, jn["q"], nq, "joint q") : std::vector<double>{as_double(c, jn["q"], "joint q")};
+        if (jn["v"]) jv = jn["v"].IsSequence() ? as_list(c, jn["v"], nq, "joint v") : std::vector<double>{as_double(c, jn["v"], "joint v")};
+        if (static_cast<int>(jq.size()) > nq || static_cast<int>(jv.size()) > nq) fail(c, jn, "body '" + name + "': too many q/v values");
+      }
+    }
+    const double lim = (jn.IsDefined() && !jn.IsNull()) ? get_double(c, jn, "tau_limit", std::numeric_limits<double>::infinity(), "joint")
+                                                       : std::numeric_limits<double>::infinity();
+    B.add(name, parent, X_PJ, j, I, jq, jv, lim, b);
+  }
+  if (root["frames"]) {
+    for (const auto& f : root["frames"]) {
+      check_keys(c, f, {"name", "body", "xyz", "rpy"}, "frame");
+      const std::string fname = get_string(c, f, "name", "");
+      const std::string bname = get_string(c, f, "body", "world");
+      int body = -1;
+      if (bname != "world") {
+        body = model.body_index(bname);
+        if (body < 0) fail(c, f, "frame '" + fname + "': unknown body '" + bname + "'");
+      }
+      Transform X;
+      if (f["xyz"]) X.p = as_vec3(c, f["xyz"], "frame xyz");
+      if (f["rpy"]) X.R = rpy_matrix(as_vec3(c, f["rpy"], "frame rpy"));
+      try {
+        model.add_frame(fname, body, X);
+      } catch (const std::invalid_argument& e) {
+        fail(c, f, e.what());
+      }
+    }
+  }
+  if (root["constraints"]) {
+    for (const auto& k : root["constraints"]) {
+      check_keys(c, k, {"name", "type", "frame", "to", "axes", "target", "compliance"}, "constraint");
+      ConstraintSpec s;
+      s.name = get_string(c, k, "name", "");
+      const std::string type = get_string(c, k, "type", "weld");
+      if (type != "weld" && type != "point") fail(c, k, "constraint '" + s.name + "': unknown type '" + type + "' (weld, point)");
+      const std::string fa = get_string(c, k, "frame", "");
+      s.frame_a = model.frame_index(fa);
+      if (s.frame_a < 0) fail(c, k["frame"].IsDefined() ? k["frame"] : k, "constraint '" + s.name + "': unknown frame '" + fa + "'");
+      if (s.name.empty()) s.name = fa;
+      const std::string to = get_string(c, k, "to", "world");
+      if (to != "world") {
+        s.frame_b = model.frame_index(to);
+        if (s.frame_b < 0) fail(c, k["to"], "constraint '" + s.name + "': unknown frame '" + to + "'");
+      }
+      s.axes = type == "point" ? std::array<bool, 6>{{false, false, false, true, true, true}} : get_axes(c, k["axes"], "constraint '" + s.name + "'");
+      s.compliance = get_compliance(c, k["compliance"], "constraint '" + s.name + "'.compliance");
+      if (k["target"]) {
+        if (s.frame_b >= 0) fail(c, k["target"], "constraint '" + s.name + "': 'target' only applies to welds to the world");
+        s.X_WA_target = get_pose(c, k["target"], "constraint target");
+      } else {
+        s.X_WA_target.p.setConstant(std::numeric_limits<double>::quiet_NaN());  // read off q0 below
+      }
+      B.sys.constraints.specs.push_back(s);
+    }
+  }
+}
+
+}  // namespace
+
+System load_scene_string(const std::string& text, const std::string& file, const SceneOverrides& ov) {
+  Builder B;
+  B.c.file = file;
+  B.c.dir = std::filesystem::path(file).parent_path().string();
+  const Ctx& c = B.c;
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::ParserException& e) {
+    throw SceneError(file + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1) +
+                     ": YAML syntax error: " + e.msg);
+  }
+  if (!root.IsMap()) fail(c, root, "a scene must be a YAML mapping");
+  try {
+    check_keys(c, root, {"name", "description", "source", "gravity", "formulation", "redundancy", "stabilization", "robots",
+                         "load", "arms", "bodies", "frames", "constraints"},
+               "scene");
+    System& sys = B.sys;
+    sys.name = get_string(c, root, "name", std::filesystem::path(file).stem().string());
+    if (root["gravity"]) sys.model.gravity_W = as_vec3(c, root["gravity"], "gravity");
+    const std::string fs = get_string(c, root, "formulation", "mobile_platform");
+    if (!parse_formulation(fs, &sys.options.formulation))
+      fail(c, root["formulation"], "unknown formulation '" + fs + "' (mobile_platform, classic, pseudo_joint, svd)");
+    if (ov.formulation) sys.options.formulation = *ov.formulation;
+    const std::string red = get_string(c, root, "redundancy", "min_norm");
+    if (red == "min_norm") sys.options.redundancy = Redundancy::kMinNorm;
+    else if (red == "compliance") sys.options.redundancy = Redundancy::kCompliance;
+    else fail(c, root["redundancy"], "unknown redundancy rule '" + red + "' (min_norm, compliance)");
+    if (root["stabilization"]) {
+      const YAML::Node st = root["stabilization"];
+      if (st.IsScalar() && st.as<std::string>() == "none") {
+      } else {
+        check_keys(c, st, {"baumgarte"}, "stabilization");
+        const YAML::Node bg = st["baumgarte"];
+        check_keys(c, bg, {"alpha", "beta"}, "stabilization.baumgarte");
+        sys.constraints.stabilize = true;
+        sys.constraints.baumgarte_alpha = get_double(c, bg, "alpha", 0.0, "baumgarte");
+        sys.constraints.baumgarte_beta = get_double(c, bg, "beta", 0.0, "baumgarte");
+        if (sys.constraints.baumgarte_alpha < 0 || sys.constraints.baumgarte_beta < 0)
+          fail(c, bg, "Baumgarte gains must be >= 0");
+      }
+    }
+    std::map<std::string, Robot> robots;
+    if (root["robots"]) {
+      for (const auto& kv : root["robots"]) {
+        const std::string rn = kv.first.as<std::string>();
+        YAML::Node rnode = kv.second;
+        if (rnode["file"]) {
+          const std::string rel = rnode["file"].as<std::string>();
+          const std::string path = (std::filesystem::path(c.dir) / rel).string();
+          Ctx rc{path, std::filesystem::path(path).parent_path().string()};
+          YAML::Node rf = load_yaml_file(c, path, rnode["file"]);
+          robots[rn] = parse_robot(rc, rf, rn);
+        } else {
+          robots[rn] = parse_robot(c, rnode, rn);
+        }
+      }
+    }
+    const bool has_arms = root["arms"].IsDefined(), has_bodies = root["bodies"].IsDefined();
+    if (has_arms == has_bodies) fail(c, root, "a scene declares either 'arms' (with a 'load') or 'bodies', not both or neither");
+    if (has_arms) {
+      build_arms(B, root, robots, sys.options.formulation != Formulation::kClassic);
+    } else {
+      if (sys.options.formulation == Formulation::kClassic && root["formulation"].as<std::string>("") != "classic")
+        fail(c, root, "formulation classic applies to scenes with arms holding a load");
+      build_bodies(B, root);
+    }
+    Model& model = sys.model;
+    sys.q0 = Eigen::Map<Eigen::VectorXd>(B.q0.data(), static_cast<Eigen::Index>(B.q0.size()));
+    sys.v0 = Eigen::Map<Eigen::VectorXd>(B.v0.data(), static_cast<Eigen::Index>(B.v0.size()));
+    sys.tau_limit = Eigen::Map<Eigen::VectorXd>(B.tau_lim.data(), static_cast<Eigen::Index>(B.tau_lim.size()));
+
+    // pseudo-joint locks are rows of the solve, except in the explicit Schur form (24)-(26)
+    if (sys.options.formulation != Formulation::kPseudoJointSchur) {
+      for (int d : model.pseudo_dofs) {
+        ConstraintSpec s;
+        s.kind = ConstraintKind::kLock;
+        s.dof = d;
+        const Body& body = model.bodies[model.dof_body[d]];
+        s.name = "lock:" + body.joint.name;
+        s.q_index = body.joint.idx_q + (d - body.joint.idx_v);
+        s.q_target = sys.q0[s.q_index];
+        sys.constraints.specs.push_back(s);
+      }
+    }
+    // welds to the world without an explicit target hold the frame where q0 puts it
+    Data data(model);
+    forward_kinematics(model, data, sys.q0, sys.v0);
+    for (ConstraintSpec& s : sys.constraints.specs)
+      if (s.kind == ConstraintKind::kWeld && s.frame_b < 0 && !s.X_WA_target.p.allFinite())
+        s.X_WA_target = frame_pose(model, data, s.frame_a);
+    sys.constraints.compile(model);
+
+    // the initial state must satisfy the constraints and give a positive definite M
+    ConstraintData cd(model, sys.constraints);
+    constraint_rows(model, data, sys.constraints, sys.q0, sys.v0, cd);
+    for (size_t s = 0; s < sys.constraints.specs.size(); ++s) {
+      const int r0 = sys.constraints.row_offset[s], n = sys.constraints.row_count[s];
+      const double pe = cd.err.segment(r0, n).cwiseAbs().maxCoeff();
+      const double ve = cd.Gv.segment(r0, n).cwiseAbs().maxCoeff();
+      if (pe > 1e-6) {
+        std::ostringstream os;
+        os << "initial state does not close constraint '" << sys.constraints.specs[s].name << "': position error " << pe;
+        fail(c, root, os.str());
+      }
+      if (ve > 1e-6) {
+        std::ostringstream os;
+        os << "initial velocity violates constraint '" << sys.constraints.specs[s].name << "': velocity error " << ve;
+        fail(c, root, os.str());
+      }
+    }
+    crba(model, data);
+    int bad = -1;
+    if (!tree_cholesky_factor(model, data, 1e-13, &bad)) {
+      fail(c, root, "mass matrix is singular at the initial state: velocity coordinate '" + model.v_names[bad] +
+                        "' moves no mass (give its subtree a mass or inertia, or the joint an armature)");
+    }
+    return sys;
+  } catch (const YAML::Exception& e) {
+    throw SceneError(file + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1) + ": " + e.msg);
+  }
+}
+
+System load_scene(const std::string& path, const SceneOverrides& ov) {
+  std::ifstream f(path);
+  if (!f) throw SceneError(path + ": cannot open scene file");
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return load_scene_string(ss.str(), path, ov);
+}
+
+}  // namespace coopdyn
