@@ -46,7 +46,7 @@ void rnea(const Model& model, Data& data, const Eigen::VectorXd& vdot, const std
   for (int i = nb - 1; i >= 0; --i) {
     const Body& b = model.bodies[i];
     const Joint& j = b.joint;
-    for (int k = 0; k < j.nv; ++k) tau[j.idx_v + k] = data.S[i].col(k).dot(data.f[i]);
+    for (int k = 0; k < j.nv; ++k) tau[j.idx_v + k] = data.S[i].col(k).dot(data.f[i]) + j.armature * vdot[j.idx_v + k];
     if (b.parent >= 0) data.f[b.parent] += data.X_PB[i].act_force(data.f[i]);
   }
 }

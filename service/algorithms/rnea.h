@@ -11,7 +11,8 @@ namespace coopdyn {
 // gravity; the paper's "C"). Requires forward_kinematics(q, v). data.f holds the body forces.
 void rnea_bias(const Model& model, Data& data);
 
-// tau = M vdot + h - sum of J_k^T F_k of the external body forces f_ext (per body, in B).
+// tau = M vdot + h - sum of J_k^T F_k of the external body forces f_ext (per body, in B); M
+// includes the joint armatures, as crba's does.
 // After the call, data.f[i] is the spatial force that body i's parent transmits to body i across
 // joint i, in B coordinates (the joint reaction, "full force propagation").
 // f_ext may be nullptr. Requires forward_kinematics(q, v).

@@ -7,6 +7,7 @@
 #include "service/algorithms/kinematics.h"
 #include "service/algorithms/rnea.h"
 #include "service/algorithms/tree_cholesky.h"
+#include "service/dynamics/jacobi.h"
 
 namespace coopdyn {
 
@@ -53,8 +54,7 @@ const char* reason_text(Reason r) {
 }
 
 Workspace::Workspace(const System& sys)
-    : data(sys.model), cd(sys.model, sys.constraints), llt(sys.constraints.rows), eig(sys.constraints.rows),
-      ntcn_ldlt(sys.constraints.rows) {
+    : data(sys.model), cd(sys.model, sys.constraints), llt(sys.constraints.rows), ntcn_ldlt(sys.constraints.rows) {
   const int n = sys.model.nv(), m = sys.constraints.rows;
   tau_c.setZero(n);
   vdot.setZero(n);
@@ -66,6 +66,9 @@ Workspace::Workspace(const System& sys)
   Q.setZero(m, m);
   u.setZero(n);
   rhs.setZero(m);
+  eig_A.setZero(m, m);
+  eig_V.setZero(m, m);
+  eig_w.setZero(m);
   ev_inv.setZero(m);
   NtCN.setZero(m, m);
   tmp_m.setZero(m);
@@ -82,12 +85,14 @@ Workspace::Workspace(const System& sys)
     tp.setZero(p);
   }
   if (sys.options.formulation == Formulation::kSvdBaseline) {
-    for (size_t s = 0; s < sys.constraints.specs.size(); ++s)
-      tip_svd.emplace_back(n, sys.constraints.row_count[s], Eigen::ComputeThinU | Eigen::ComputeThinV);
-    Gk_t.setZero(n, 6);
+    for (size_t s = 0; s < sys.constraints.specs.size(); ++s) {
+      const int k = sys.constraints.row_count[s];
+      tip_B.push_back(Eigen::MatrixXd::Zero(k, n));
+      tip_U.push_back(Eigen::MatrixXd::Zero(k, k));
+      tip_s.push_back(Eigen::VectorXd::Zero(k));
+    }
     R.setZero(m, m);
     Gr.setZero(m, n);
-    q_svd = Eigen::JacobiSVD<Eigen::MatrixXd>(m, m, Eigen::ComputeFullU | Eigen::ComputeFullV);
   }
 }
 
@@ -120,8 +125,9 @@ void solve_q(const System& sys, Workspace& ws, const Eigen::VectorXd& b, Eigen::
       }
     }
     if (!ws.fast_path) {
-      ws.eig.compute(ws.Q);
-      const auto& ev = ws.eig.eigenvalues();  // ascending
+      ws.eig_A = ws.Q;
+      jacobi_eigen(ws.eig_A, ws.eig_w, ws.eig_V);
+      const auto& ev = ws.eig_w;  // ascending
       const double emax = std::max(ev[m - 1], 0.0);
       const double tol = sys.options.rank_tol * emax;
       int rank = 0;
@@ -138,7 +144,7 @@ void solve_q(const System& sys, Workspace& ws, const Eigen::VectorXd& b, Eigen::
       dg.rank = rank;
       dg.condition = rank > 0 ? emax / emin_kept : std::numeric_limits<double>::infinity();
       const int k = m - rank;  // null-space eigenvectors are the first k columns
-      const auto& V = ws.eig.eigenvectors();
+      const auto& V = ws.eig_V;
       for (int i = 0; i < m; ++i) {
         double s = 0.0;
         for (int j = 0; j < k; ++j) s += V(i, j) * V(i, j);
@@ -166,7 +172,7 @@ void solve_q(const System& sys, Workspace& ws, const Eigen::VectorXd& b, Eigen::
     ws.llt.solveInPlace(x);
     return;
   }
-  const auto& V = ws.eig.eigenvectors();
+  const auto& V = ws.eig_V;
   ws.tmp_m.noalias() = V.transpose() * b;
   ws.tmp_m.array() *= ws.ev_inv.array();
   x.noalias() = V * ws.tmp_m;
@@ -270,13 +276,14 @@ void svd_baseline(const System& sys, Workspace& ws) {
   int mr = 0;
   for (size_t s = 0; s < cs.specs.size(); ++s) {
     const int r0 = cs.row_offset[s], nk = cs.row_count[s];
-    auto& svd = ws.tip_svd[s];
-    svd.compute(ws.cd.G.middleRows(r0, nk).transpose());
-    const auto& sv = svd.singularValues();
-    const double tol = std::sqrt(sys.options.rank_tol) * (sv.size() ? sv[0] : 0.0);
-    for (int i = 0; i < sv.size(); ++i)
+    Eigen::MatrixXd& B = ws.tip_B[s];
+    B = ws.cd.G.middleRows(r0, nk);
+    jacobi_svd_rows(B, ws.tip_U[s], ws.tip_s[s]);
+    const Eigen::VectorXd& sv = ws.tip_s[s];
+    const double tol = std::sqrt(sys.options.rank_tol) * sv[0];
+    for (int i = 0; i < nk; ++i)
       if (sv[i] > tol && sv[0] > 0.0) {
-        ws.R.row(mr).segment(r0, nk) = svd.matrixV().col(i).transpose();
+        ws.R.row(mr).segment(r0, nk) = ws.tip_U[s].col(i).transpose();
         ++mr;
       }
   }
@@ -293,31 +300,36 @@ void svd_baseline(const System& sys, Workspace& ws) {
   ws.rhs.setZero();
   ws.rhs.head(mr).noalias() = ws.R.topRows(mr) * ws.cd.gamma;
   ws.rhs.noalias() -= ws.Yt.transpose() * ws.u;
-  ws.q_svd.compute(ws.Q);
-  const auto& sv = ws.q_svd.singularValues();
-  const double smax = sv.size() ? sv[0] : 0.0;
+  // SVD of the symmetric PSD Q_r = its eigen-decomposition (singular values descending below)
+  ws.eig_A = ws.Q;
+  jacobi_eigen(ws.eig_A, ws.eig_w, ws.eig_V);
+  const Eigen::VectorXd& ev = ws.eig_w;  // ascending
+  const double smax = m ? std::max(ev[m - 1], 0.0) : 0.0;
   const double tol = sys.options.rank_tol * smax;
   int rank = 0;
-  ws.tmp_m.noalias() = ws.q_svd.matrixU().transpose() * ws.rhs;
+  double smin_kept = smax;
+  ws.tmp_m.noalias() = ws.eig_V.transpose() * ws.rhs;
   for (int i = 0; i < m; ++i) {
-    if (sv[i] > tol && smax > 0.0) {
-      ws.tmp_m[i] /= sv[i];
+    if (ev[i] > tol && smax > 0.0) {
+      ws.tmp_m[i] /= ev[i];
       ++rank;
+      smin_kept = std::min(smin_kept, ev[i]);
     } else {
       ws.tmp_m[i] = 0.0;
     }
   }
-  ws.tmp_m2.noalias() = ws.q_svd.matrixV() * ws.tmp_m;  // lambda_r (first mr entries)
+  ws.tmp_m2.noalias() = ws.eig_V * ws.tmp_m;  // lambda_r (first mr entries)
   ws.lambda.noalias() = ws.R.topRows(mr).transpose() * ws.tmp_m2.head(mr);
   ws.diag.rank = rank;
-  ws.diag.condition = rank > 0 ? smax / sv[rank - 1] : std::numeric_limits<double>::infinity();
+  ws.diag.condition = rank > 0 ? smax / smin_kept : std::numeric_limits<double>::infinity();
   // rows outside the reduced space, or along the null space of Q_r, are indeterminate
   for (int i = 0; i < m; ++i) {
     double s = 0.0;
     for (int r = 0; r < mr; ++r) s += ws.R(r, i) * ws.R(r, i);
-    for (int j = rank; j < m; ++j) {
+    for (int j = 0; j < m; ++j) {  // eigenvectors of the null space: eigenvalue <= tol
+      if (ev[j] > tol && smax > 0.0) continue;
       double w = 0.0;
-      for (int r = 0; r < mr; ++r) w += ws.R(r, i) * ws.q_svd.matrixV()(r, j);
+      for (int r = 0; r < mr; ++r) w += ws.R(r, i) * ws.eig_V(r, j);
       s -= w * w;
     }
     ws.row_indeterminate[i] = s < 1.0 - 1e-6 ? 1 : 0;

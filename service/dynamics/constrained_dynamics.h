@@ -13,8 +13,6 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
-#include <Eigen/Eigenvalues>
-#include <Eigen/SVD>
 
 #include "service/constraints/constraints.h"
 #include "service/dynamics/system.h"
@@ -65,7 +63,8 @@ struct Workspace {
   Eigen::VectorXd u;   // (nv)
   Eigen::VectorXd rhs; // (rows)
   Eigen::LLT<Eigen::MatrixXd> llt;
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig;
+  Eigen::MatrixXd eig_A, eig_V;  // (rows x rows) Jacobi eigen-decomposition of Q (rank path)
+  Eigen::VectorXd eig_w;         // (rows) eigenvalues, ascending
   Eigen::VectorXd ev_inv;      // (rows) 1/eigenvalue on the range, 0 on the null space
   Eigen::MatrixXd NtCN;        // (rows x rows) compliance split
   Eigen::LDLT<Eigen::MatrixXd> ntcn_ldlt;
@@ -80,11 +79,10 @@ struct Workspace {
   Eigen::VectorXd tp;                  // (p)
 
   // kSvdBaseline only (empty otherwise)
-  std::vector<Eigen::JacobiSVD<Eigen::MatrixXd>> tip_svd;  // per spec, of G_k^T (nv x rows_k)
-  Eigen::MatrixXd Gk_t;      // (nv x 6) scratch
+  std::vector<Eigen::MatrixXd> tip_B, tip_U;  // per spec: (rows_k x nv) rows of G_k, (rows_k x rows_k)
+  std::vector<Eigen::VectorXd> tip_s;          // per spec: singular values of G_k
   Eigen::MatrixXd R;         // (rows x rows) block-diagonal reduction, first mr rows used
   Eigen::MatrixXd Gr;        // (rows x nv) reduced G
-  Eigen::JacobiSVD<Eigen::MatrixXd> q_svd;
   int mr = 0;
 };
 

@@ -1,0 +1,61 @@
+// Nothing the loop calls allocates after start-up: evaluate() and step() of every scene and every
+// formulation, thousands of times, under a counting heap.
+#define COOPDYN_COUNTING_ALLOCATOR_IMPL
+#include "tests/counting_allocator.h"
+
+#include <gtest/gtest.h>
+
+#include "service/dynamics/integrators.h"
+#include "tests/test_util.h"
+
+using namespace coopdyn;
+using namespace coopdyn::testing;
+
+TEST(NoAllocation, EvaluateAndStepOfEveryScene) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  for (const auto& name : all_scenes()) {
+    for (auto f : {Formulation::kMobilePlatform, Formulation::kClassic, Formulation::kPseudoJointSchur,
+                   Formulation::kSvdBaseline}) {
+      if (name == "four_bar" && f == Formulation::kMobilePlatform) continue;
+      if (name != "four_bar" && f == Formulation::kPseudoJointSchur) continue;
+      SCOPED_TRACE(name + " " + formulation_name(f));
+      const System sys = load(name, f);
+      Stepper st(sys);
+      std::mt19937 rng(5);
+      const int n = sys.model.nv();
+      std::vector<Eigen::VectorXd> qs, vs, taus;  // inputs prepared before counting
+      for (int k = 0; k < 16; ++k) {
+        Eigen::VectorXd q, v;
+        random_state(sys, rng, 0.2, q, v);
+        qs.push_back(q);
+        vs.push_back(v);
+        taus.push_back(Eigen::VectorXd::Random(n));
+      }
+      Eigen::VectorXd q = sys.q0, v = sys.v0;
+      const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
+      evaluate(sys, st.ws, q, v, zero);  // warm-up outside the count is not needed, but harmless
+      long evals = 0;
+      {
+        AllocationCounter c;
+        for (int k = 0; k < 2000; ++k) {
+          evaluate(sys, st.ws, qs[k % 16], vs[k % 16], taus[k % 16]);
+          ++evals;
+        }
+        for (int k = 0; k < 500; ++k) step(sys, st, k % 2 ? Integrator::kRk4 : Integrator::kSemiImplicitEuler, 1e-3, zero, q, v);
+        EXPECT_EQ(c.count(), 0);
+      }
+      EXPECT_EQ(evals, 2000);
+      EXPECT_TRUE(q.allFinite());
+    }
+  }
+}
+
+TEST(NoAllocation, TheCounterSeesEigenAndStdAllocations) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  AllocationCounter c;
+  Eigen::VectorXd x(1000);
+  x.setOnes();
+  std::vector<int> v(10);
+  EXPECT_GE(c.count(), 2);
+  EXPECT_EQ(x.sum() + v.size(), 1010);
+}

@@ -1,0 +1,123 @@
+// Scene files: every shipped scene loads and closes; broken ones are rejected with file, line and
+// reason; a scene allocates only what it declares.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "tests/test_util.h"
+
+using namespace coopdyn;
+using namespace coopdyn::testing;
+
+namespace {
+std::string read(const std::string& path) {
+  std::ifstream f(path);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+std::string error_of(const std::string& text, const std::string& name = "bad.yaml") {
+  try {
+    load_scene_string(text, name);
+  } catch (const SceneError& e) {
+    return e.what();
+  }
+  return "";
+}
+std::string replaced(std::string text, const std::string& a, const std::string& b) {
+  const auto p = text.find(a);
+  EXPECT_NE(p, std::string::npos) << a;
+  if (p != std::string::npos) text.replace(p, a.size(), b);
+  return text;
+}
+}  // namespace
+
+TEST(Scene, ShippedScenesLoadWithTheirDeclaredSizes) {
+  struct Expect {
+    const char* name;
+    int nv, rows, pseudo;
+  };
+  for (const Expect& e : {Expect{"two_puma_load", 18, 12, 0}, Expect{"two_5dof_arms_load", 16, 12, 0},
+                          Expect{"planar_arms_load", 12, 12, 0}, Expect{"four_bar", 6, 5, 2}}) {
+    SCOPED_TRACE(e.name);
+    const System sys = load(e.name);
+    EXPECT_EQ(sys.model.nv(), e.nv);
+    EXPECT_EQ(sys.constraints.rows, e.rows);
+    EXPECT_EQ(static_cast<int>(sys.model.pseudo_dofs.size()), e.pseudo);
+  }
+}
+
+TEST(Scene, LeavesOutWhatItDoesNotDeclare) {
+  // no platform without a load in the mobile-platform form, no locks without pseudo-joints, no
+  // stabilization unless asked, no SVD or Schur buffers unless that formulation is selected
+  const System puma = load("two_puma_load");
+  EXPECT_EQ(puma.model.bodies[0].joint.type, JointType::kFloating);
+  EXPECT_FALSE(puma.constraints.stabilize);
+  Workspace w(puma);
+  EXPECT_EQ(w.tip_B.size(), 0u);
+  EXPECT_EQ(w.Minv.size(), 0);
+  EXPECT_EQ(w.stress.size(), 0);
+  const System fb = load("four_bar");
+  for (const Body& b : fb.model.bodies) EXPECT_NE(b.joint.type, JointType::kFloating);
+  int locks = 0;
+  for (const auto& s : fb.constraints.specs) locks += s.kind == ConstraintKind::kLock;
+  EXPECT_EQ(locks, 2);
+  const System fbs = load("four_bar", Formulation::kPseudoJointSchur);
+  for (const auto& s : fbs.constraints.specs) EXPECT_NE(s.kind, ConstraintKind::kLock);
+  Workspace ws(fbs);
+  EXPECT_EQ(ws.Minv.rows(), fbs.model.nv());
+  const System sv = load("two_puma_load", Formulation::kSvdBaseline);
+  Workspace wsv(sv);
+  EXPECT_EQ(wsv.tip_B.size(), 2u);
+}
+
+TEST(Scene, MissingFileIsAClearError) {
+  try {
+    load_scene("/nonexistent/scene.yaml");
+    FAIL();
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/scene.yaml"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("cannot open"), std::string::npos);
+  }
+}
+
+TEST(Scene, BrokenScenesNameFileLineAndReason) {
+  const std::string fb = read(scene_path("four_bar"));
+  const std::string puma = read(scene_path("two_puma_load"));
+  // unknown joint type
+  std::string e = error_of(replaced(fb, "type: prismatic", "type: helical"), "fb.yaml");
+  EXPECT_NE(e.find("fb.yaml:"), std::string::npos) << e;
+  EXPECT_NE(e.find("unknown joint type 'helical'"), std::string::npos) << e;
+  // unknown parent body
+  e = error_of(replaced(fb, "parent: crank_b", "parent: crank_x"), "fb.yaml");
+  EXPECT_NE(e.find("unknown parent 'crank_x'"), std::string::npos) << e;
+  // unknown frame in a constraint
+  e = error_of(replaced(fb, "to: cut_b", "to: cut_z"), "fb.yaml");
+  EXPECT_NE(e.find("unknown frame 'cut_z'"), std::string::npos) << e;
+  // negative mass, with its line number
+  e = error_of(replaced(fb, "mass: 0.7", "mass: -0.7"), "fb.yaml");
+  EXPECT_NE(e.find("negative mass"), std::string::npos) << e;
+  EXPECT_NE(e.find("fb.yaml:46:"), std::string::npos) << e;
+  // non-closing initial state: the rocker angle off by 0.01 rad
+  e = error_of(replaced(fb, "q: 1.3684540886165397", "q: 1.3784540886165397"), "fb.yaml");
+  EXPECT_NE(e.find("initial state does not close constraint 'coupler_cut'"), std::string::npos) << e;
+  // an explicit grasp that the arm does not reach
+  e = error_of(replaced(puma, "    grasp: at_initial_state\n  - name: arm2",
+                        "    grasp: {xyz: [0, -0.2, 0]}\n  - name: arm2"),
+               std::string(COOPDYN_SOURCE_DIR) + "/config/scenes/p.yaml");
+  EXPECT_NE(e.find("initial state does not close: arm 'arm1'"), std::string::npos) << e;
+  // unknown key (a typo) and YAML syntax
+  e = error_of(replaced(fb, "gravity:", "gravity_w:"), "fb.yaml");
+  EXPECT_NE(e.find("unknown key 'gravity_w'"), std::string::npos) << e;
+  e = error_of("name: x\nbodies: [ {name: a\n", "syn.yaml");
+  EXPECT_NE(e.find("syn.yaml:"), std::string::npos) << e;
+  EXPECT_NE(e.find("YAML syntax error"), std::string::npos) << e;
+  // a joint that moves no mass
+  e = error_of("bodies:\n  - {name: a, joint: {type: revolute, name: ghost}}\n", "m.yaml");
+  EXPECT_NE(e.find("'ghost' moves no mass"), std::string::npos) << e;
+  // unknown robot and out-of-range fixed joint
+  e = error_of(replaced(puma, "robot: puma560\n    base: {xyz: [0, 0.75", "robot: puma600\n    base: {xyz: [0, 0.75"),
+               std::string(COOPDYN_SOURCE_DIR) + "/config/scenes/p.yaml");
+  EXPECT_NE(e.find("unknown robot 'puma600'"), std::string::npos) << e;
+}

@@ -1,0 +1,74 @@
+// Helpers shared by the tests: scene paths, random states, finite differences, a plain KKT solve.
+#pragma once
+
+#include <random>
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "service/algorithms/crba.h"
+#include "service/algorithms/kinematics.h"
+#include "service/algorithms/rnea.h"
+#include "service/dynamics/constrained_dynamics.h"
+#include "service/scene/scene.h"
+
+namespace coopdyn::testing {
+
+inline std::string scene_path(const std::string& name) {
+  return std::string(COOPDYN_SOURCE_DIR) + "/config/scenes/" + name + ".yaml";
+}
+
+inline const std::vector<std::string>& all_scenes() {
+  static const std::vector<std::string> s = {"two_puma_load", "two_5dof_arms_load", "planar_arms_load", "four_bar"};
+  return s;
+}
+
+inline System load(const std::string& name, std::optional<Formulation> f = std::nullopt) {
+  SceneOverrides ov;
+  ov.formulation = f;
+  return load_scene(scene_path(name), ov);
+}
+
+// A random configuration near q0 (joint angles perturbed, platform pose perturbed) and random v.
+inline void random_state(const System& sys, std::mt19937& rng, double spread, Eigen::VectorXd& q, Eigen::VectorXd& v) {
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  const Model& m = sys.model;
+  Eigen::VectorXd dv(m.nv());
+  for (int i = 0; i < m.nv(); ++i) dv[i] = spread * U(rng);
+  q.resize(m.nq());
+  integrate(m, sys.q0, dv, 1.0, q);
+  v.resize(m.nv());
+  for (int i = 0; i < m.nv(); ++i) v[i] = U(rng);
+}
+
+// Projects v onto the null space of G (so the constraints hold at velocity level).
+inline Eigen::VectorXd project_velocity(const Eigen::MatrixXd& G, const Eigen::VectorXd& v) {
+  if (G.rows() == 0) return v;
+  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(G);
+  return v - cod.solve(G * v);
+}
+
+// Plain KKT solve [M G^T; G 0][vdot; -lambda] = [tau - h; gamma], least squares / minimum norm.
+inline void kkt_solve(const Eigen::MatrixXd& M, const Eigen::MatrixXd& G, const Eigen::VectorXd& tau_c,
+                      const Eigen::VectorXd& gamma, Eigen::VectorXd& vdot, Eigen::VectorXd& lambda) {
+  const int n = static_cast<int>(M.rows()), m = static_cast<int>(G.rows());
+  Eigen::MatrixXd K = Eigen::MatrixXd::Zero(n + m, n + m);
+  K.topLeftCorner(n, n) = M;
+  K.topRightCorner(n, m) = -G.transpose();
+  K.bottomLeftCorner(m, n) = G;
+  Eigen::VectorXd r(n + m);
+  r << tau_c, gamma;
+  Eigen::VectorXd x = K.completeOrthogonalDecomposition().solve(r);
+  vdot = x.head(n);
+  lambda = x.tail(m);
+}
+
+// Index of a name in a list (-1 if absent).
+inline int index_of(const std::vector<std::string>& v, const std::string& s) {
+  for (size_t i = 0; i < v.size(); ++i)
+    if (v[i] == s) return static_cast<int>(i);
+  return -1;
+}
+
+}  // namespace coopdyn::testing
