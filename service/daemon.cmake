@@ -1,0 +1,25 @@
+# coopdynd and its layers: LCM types, the codec (service/io), the runtime (service/runtime).
+# Included at the end of service/CMakeLists.txt.
+add_subdirectory(${PROJECT_SOURCE_DIR}/lcmtypes ${CMAKE_BINARY_DIR}/lcmtypes)
+
+# coopdyn_io: the only library that sees generated lcmtypes (privately)
+add_library(coopdyn_io
+  ${CMAKE_CURRENT_LIST_DIR}/io/codec.cc
+  ${CMAKE_CURRENT_LIST_DIR}/io/convert.cc
+  ${CMAKE_CURRENT_LIST_DIR}/io/lcm_bus.cc
+)
+target_link_libraries(coopdyn_io PUBLIC coopdyn_core Threads::Threads ${LCM_LINK_LIBRARIES}
+                                 PRIVATE coopdyn_lcmtypes)
+target_include_directories(coopdyn_io PUBLIC ${LCM_INCLUDE_DIRS})
+add_dependencies(coopdyn_io coopdyn_lcmtypes_gen)
+
+# coopdyn_runtime: the fixed-rate loop, handoff, statistics, config, real-time options
+add_library(coopdyn_runtime
+  ${CMAKE_CURRENT_LIST_DIR}/runtime/config.cc
+  ${CMAKE_CURRENT_LIST_DIR}/runtime/realtime.cc
+  ${CMAKE_CURRENT_LIST_DIR}/runtime/service_loop.cc
+)
+target_link_libraries(coopdyn_runtime PUBLIC coopdyn_io yaml-cpp Threads::Threads)
+
+add_executable(coopdynd ${CMAKE_CURRENT_LIST_DIR}/daemon/main.cc)
+target_link_libraries(coopdynd PRIVATE coopdyn_runtime coopdyn_scene spdlog::spdlog)

@@ -1,0 +1,229 @@
+// coopdynd: the real-time constrained-dynamics service.
+//
+//   coopdynd --scene FILE [--config FILE] [--lcm-url URL] [--mode simulate|estimate]
+//            [--rate HZ] [--duration S]
+//
+// Threads: the loop (ServiceLoop::run, optionally SCHED_FIFO), the LCM receive thread
+// (lcm_handle_timeout -> decode -> triple buffer), spdlog's async logger thread, and this main
+// thread, which waits for SIGINT/SIGTERM (or --duration), drains the loop's event ring into the log
+// and prints the summary line at exit.
+#include <signal.h>
+#include <spdlog/async.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <future>
+#include <string>
+#include <thread>
+
+#include "service/dynamics/constrained_dynamics.h"
+#include "service/io/lcm_bus.h"
+#include "service/runtime/config.h"
+#include "service/runtime/realtime.h"
+#include "service/runtime/service_loop.h"
+#include "service/scene/scene.h"
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+std::atomic<int> g_signal{0};
+void on_signal(int sig) {
+  g_signal.store(sig);
+  g_stop.store(true);
+}
+
+void usage(std::FILE* f) {
+  std::fprintf(f,
+               "usage: coopdynd --scene FILE [--config FILE] [--lcm-url URL] [--mode simulate|estimate]\n"
+               "                [--rate HZ] [--duration S]\n"
+               "  --config    service config (YAML; see config/coopdynd.yaml); defaults are built in\n"
+               "  --duration  stop by itself after S seconds (default: run until SIGINT/SIGTERM)\n");
+}
+
+bool parse_double(const char* s, double* out) {
+  char* end = nullptr;
+  *out = std::strtod(s, &end);
+  return end && *end == 0 && end != s && std::isfinite(*out);
+}
+
+void log_event(const coopdyn::runtime::Event& e) {
+  using coopdyn::runtime::EventCode;
+  switch (e.code) {
+    case EventCode::kCommandExpired:
+      spdlog::warn("command seq {} expired after {} ms: applying the safe torque", e.a, e.b);
+      break;
+    case EventCode::kCommandResumed: spdlog::info("commands resumed (seq {})", e.a); break;
+    case EventCode::kStateExpired:
+      spdlog::warn("measured state seq {} expired after {} ms: publishing error status", e.a, e.b);
+      break;
+    case EventCode::kStateResumed: spdlog::info("measured states resumed (seq {})", e.a); break;
+    case EventCode::kFault:
+      spdlog::error("numerical failure at tick {} (t = {:.3f} s): {}; simulation stopped, publishing error status",
+                    e.b, e.x, coopdyn::reason_text(static_cast<coopdyn::Reason>(e.a)));
+      break;
+    case EventCode::kOverrun: spdlog::warn("overrun at tick {}: {} period(s) behind", e.b, e.a); break;
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace coopdyn;
+  std::string scene_path, config_path, url_override, mode_override;
+  double rate_override = 0, duration = -1;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&](const char* name) -> const char* {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "coopdynd: %s needs a value\n", name);
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (a == "--help" || a == "-h") {
+      usage(stdout);
+      return 0;
+    } else if (a == "--scene") scene_path = value("--scene");
+    else if (a == "--config") config_path = value("--config");
+    else if (a == "--lcm-url") url_override = value("--lcm-url");
+    else if (a == "--mode") mode_override = value("--mode");
+    else if (a == "--rate") {
+      if (!parse_double(value("--rate"), &rate_override)) {
+        std::fprintf(stderr, "coopdynd: --rate must be a number (Hz)\n");
+        return 2;
+      }
+    } else if (a == "--duration") {
+      if (!parse_double(value("--duration"), &duration) || duration < 0) {
+        std::fprintf(stderr, "coopdynd: --duration must be a number of seconds >= 0\n");
+        return 2;
+      }
+    } else {
+      std::fprintf(stderr, "coopdynd: unknown argument '%s'\n", a.c_str());
+      usage(stderr);
+      return 2;
+    }
+  }
+  if (scene_path.empty()) {
+    std::fprintf(stderr, "coopdynd: --scene FILE is required\n");
+    usage(stderr);
+    return 2;
+  }
+
+  // --- configuration and scene: every problem stops here, with a clear message ---
+  runtime::ServiceConfig cfg;
+  try {
+    if (!config_path.empty()) cfg = runtime::load_config(config_path);
+    if (!url_override.empty()) cfg.lcm_url = url_override;
+    if (rate_override > 0) cfg.rate_hz = rate_override;
+    if (!mode_override.empty() && !runtime::parse_mode(mode_override, &cfg.mode))
+      throw runtime::ConfigError("--mode must be simulate or estimate");
+    runtime::validate(cfg);
+  } catch (const runtime::ConfigError& e) {
+    std::fprintf(stderr, "coopdynd: config error: %s\n", e.what());
+    return 2;
+  }
+  System sys;
+  try {
+    sys = load_scene(scene_path);
+  } catch (const SceneError& e) {
+    std::fprintf(stderr, "coopdynd: scene error: %s\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "coopdynd: scene error: %s: %s\n", scene_path.c_str(), e.what());
+    return 1;
+  }
+
+  // --- logging: asynchronous, never called from the loop thread ---
+  spdlog::init_thread_pool(1024, 1);
+  auto logger = std::make_shared<spdlog::async_logger>(
+      "coopdynd", std::make_shared<spdlog::sinks::stderr_color_sink_mt>(), spdlog::thread_pool(),
+      spdlog::async_overflow_policy::overrun_oldest);
+  spdlog::set_default_logger(logger);
+  spdlog::set_level(spdlog::level::from_str(cfg.log_level));
+  spdlog::set_pattern("[%H:%M:%S.%e] [coopdynd] [%^%l%$] %v");
+
+  std::unique_ptr<io::LcmBus> bus;
+  try {
+    bus = std::make_unique<io::LcmBus>(cfg.lcm_url);
+  } catch (const std::exception& e) {
+    spdlog::shutdown();
+    std::fprintf(stderr, "coopdynd: %s\n", e.what());
+    return 1;
+  }
+
+  int tips = 0;
+  for (const auto& c : sys.constraints.specs) tips += c.kind == ConstraintKind::kWeld;
+  runtime::ServiceLoop loop(sys, cfg, *bus);
+  if (cfg.mode == runtime::ServiceMode::kSimulate)
+    bus->subscribe(cfg.command_channel,
+                   [&](const void* d, int n, long long t) { loop.commands().offer(d, n, t); });
+  else
+    bus->subscribe(cfg.state_channel, [&](const void* d, int n, long long t) { loop.states().offer(d, n, t); });
+
+  spdlog::info("scene '{}' from {}: nq {}, nv {}, {} tips, {} pseudo-joint stresses, {} constraint rows, formulation {}",
+               sys.name, scene_path, sys.model.nq(), sys.model.nv(), tips, sys.model.pseudo_dofs.size(),
+               sys.constraints.rows, formulation_name(sys.options.formulation));
+  spdlog::info("mode {}, {} Hz ({} integrator), watchdog {} ms, safe torque {}, overrun policy {}",
+               runtime::mode_name(cfg.mode), cfg.rate_hz, integrator_name(cfg.integrator), cfg.watchdog_ms,
+               cfg.safe_torque == runtime::SafeTorque::kZero ? "zero" : "damping",
+               cfg.overrun == runtime::OverrunPolicy::kSkip ? "skip"
+                                                           : "catch_up (max " + std::to_string(cfg.max_catch_up) + ")");
+  spdlog::info("LCM {}: {} {} -> {} (output), {} (stats every {} s)", cfg.lcm_url,
+               cfg.mode == runtime::ServiceMode::kSimulate ? "commands on" : "measured states on",
+               cfg.mode == runtime::ServiceMode::kSimulate ? cfg.command_channel : cfg.state_channel,
+               cfg.output_channel, cfg.stats_channel, cfg.stats_period_s);
+
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+
+  bus->start();
+  std::promise<std::vector<runtime::RealtimeResult>> rt_promise;
+  auto rt_future = rt_promise.get_future();
+  std::thread loop_thread([&] {
+    rt_promise.set_value(runtime::apply_realtime(cfg.realtime));
+    loop.run(g_stop);
+  });
+  for (const auto& r : rt_future.get()) {
+    if (r.ok) spdlog::info("{}", r.line);
+    else spdlog::warn("{}", r.line);
+  }
+  spdlog::info("running; SIGINT or SIGTERM stops");
+
+  const auto t_start = std::chrono::steady_clock::now();
+  runtime::Event e;
+  while (!g_stop.load()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    while (loop.events().pop(&e)) log_event(e);
+    if (duration >= 0 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count() >= duration)
+      g_stop.store(true);
+  }
+  loop_thread.join();
+  bus->stop();
+  while (loop.events().pop(&e)) log_event(e);
+
+  const io::StatsFrame s = loop.totals();
+  const int sig = g_signal.load();
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  spdlog::shutdown();
+  std::printf(
+      "coopdynd: stopped (%s) after %lld ticks in %.1f s: overruns %lld, skipped %lld; %s received %lld, accepted %lld, "
+      "rejected %lld, out-of-order %lld, expired %lld; numerical errors %lld; lateness us p50 %.1f p99 %.1f p99.9 %.1f "
+      "max %.1f; compute us p50 %.1f p99 %.1f p99.9 %.1f max %.1f\n",
+      sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "duration", static_cast<long long>(s.tick), secs,
+      static_cast<long long>(s.overruns), static_cast<long long>(s.skipped_periods),
+      cfg.mode == runtime::ServiceMode::kSimulate ? "commands" : "states", static_cast<long long>(s.received),
+      static_cast<long long>(s.accepted), static_cast<long long>(s.rejected), static_cast<long long>(s.out_of_order),
+      static_cast<long long>(s.expired), static_cast<long long>(s.numerical_errors), s.lateness_us[0], s.lateness_us[1],
+      s.lateness_us[2], s.lateness_us[3], s.compute_us[0], s.compute_us[1], s.compute_us[2], s.compute_us[3]);
+  std::fflush(stdout);
+  return 0;
+}

@@ -1,0 +1,321 @@
+// The loop-side codec: command/state decoders (receive thread), output/stats encoders (loop thread).
+#include "service/io/codec.h"
+
+#include <cmath>
+#include <cstring>
+#include <unordered_map>
+
+#include "coopdyn/loop_stats_t.hpp"
+#include "coopdyn/measured_state_t.hpp"
+#include "coopdyn/output_t.hpp"
+#include "coopdyn/torque_command_t.hpp"
+#include "service/io/wire.h"
+
+namespace coopdyn::io {
+
+static_assert(static_cast<int>(Mode::kEstimate) == coopdyn::output_t::MODE_ESTIMATE, "mode codes");
+static_assert(static_cast<int>(Input::kStateExpired) == coopdyn::output_t::INPUT_STATE_EXPIRED, "input codes");
+static_assert(kReasonNoState == coopdyn::output_t::REASON_NO_STATE, "reason codes");
+static_assert(kReasonStateStale == coopdyn::output_t::REASON_STATE_STALE, "reason codes");
+static_assert(static_cast<int>(Reason::kOverconstrained) == coopdyn::output_t::REASON_OVERCONSTRAINED, "core reasons");
+static_assert(static_cast<int>(Status::kError) == coopdyn::output_t::STATUS_ERROR, "status codes");
+
+const char* reject_name(Reject r) {
+  switch (r) {
+    case Reject::kNone: return "none";
+    case Reject::kDecode: return "malformed";
+    case Reject::kCount: return "wrong count";
+    case Reject::kUnknownName: return "unknown name";
+    case Reject::kDuplicateName: return "duplicate name";
+    case Reject::kNonFinite: return "NaN/Inf";
+    case Reject::kOverLimit: return "over tau_limit";
+  }
+  return "?";
+}
+
+const char* input_name(Input i) {
+  switch (i) {
+    case Input::kCommand: return "command";
+    case Input::kNoCommand: return "no command (safe torque)";
+    case Input::kCommandExpired: return "command expired (safe torque)";
+    case Input::kState: return "state";
+    case Input::kNoState: return "no state";
+    case Input::kStateExpired: return "state expired";
+  }
+  return "?";
+}
+
+namespace {
+using NameMap = std::unordered_map<std::string, int>;
+NameMap index_of(const std::vector<std::string>& names) {
+  NameMap m;
+  for (size_t i = 0; i < names.size(); ++i) m.emplace(names[i], static_cast<int>(i));
+  return m;
+}
+
+// Maps named values onto out (scene order). names empty: values must be the full vector.
+// seen: (n) scratch. Unnamed entries keep fill.
+Reject map_named(const NameMap& map, const std::vector<std::string>& names, const double* values, int count, int n,
+                 std::vector<unsigned char>& seen, double fill, Eigen::VectorXd& out, bool require_all) {
+  if (names.empty()) {
+    if (count != n) return Reject::kCount;
+    for (int i = 0; i < n; ++i) {
+      if (!std::isfinite(values[i])) return Reject::kNonFinite;
+      out[i] = values[i];
+    }
+    return Reject::kNone;
+  }
+  if (static_cast<int>(names.size()) != count || count > n) return Reject::kCount;
+  if (require_all && count != n) return Reject::kCount;
+  std::fill(seen.begin(), seen.end(), 0);
+  out.setConstant(fill);
+  for (int i = 0; i < count; ++i) {
+    auto it = map.find(names[i]);
+    if (it == map.end()) return Reject::kUnknownName;
+    if (seen[it->second]) return Reject::kDuplicateName;
+    seen[it->second] = 1;
+    if (!std::isfinite(values[i])) return Reject::kNonFinite;
+    out[it->second] = values[i];
+  }
+  return Reject::kNone;
+}
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+struct CommandDecoder::Impl {
+  const System& sys;
+  NameMap v_index;
+  std::vector<unsigned char> seen;
+  coopdyn::torque_command_t msg;
+  explicit Impl(const System& s) : sys(s), v_index(index_of(s.model.v_names)), seen(s.model.nv()) {
+    msg.names.reserve(s.model.nv());
+    msg.tau.reserve(s.model.nv());
+  }
+};
+
+CommandDecoder::CommandDecoder(const System& sys) : impl_(new Impl(sys)) {}
+CommandDecoder::~CommandDecoder() = default;
+
+Reject CommandDecoder::decode(const void* data, int len, CommandSlot& out) {
+  Impl& m = *impl_;
+  const int nv = m.sys.model.nv();
+  // layout: hash, utime, seq, num_names, names[], num_torques, tau[]
+  wire::Reader r(data, len);
+  if (!r.hash(coopdyn::torque_command_t::getHash()) || !r.skip(16)) return Reject::kDecode;
+  int32_t num_names = 0, num_torques = 0;
+  if (!r.count(&num_names) || !r.strings(num_names) || !r.count(&num_torques) || !r.skip(8LL * num_torques))
+    return Reject::kDecode;
+  if (num_names > 4 * nv + 16 || num_torques > 4 * nv + 16) return Reject::kCount;
+  try {
+    if (m.msg.decode(data, 0, len) < 0) return Reject::kDecode;
+  } catch (...) {  // the generated decoder on hostile input; not reachable after the scan above
+    return Reject::kDecode;
+  }
+  const Reject rj = map_named(m.v_index, m.msg.names, m.msg.tau.data(), m.msg.num_torques, nv, m.seen, 0.0, out.tau,
+                              false);
+  if (rj != Reject::kNone) return rj;
+  for (int i = 0; i < nv; ++i)
+    if (std::abs(out.tau[i]) > m.sys.tau_limit[i]) return Reject::kOverLimit;
+  out.utime = m.msg.utime;
+  out.seq = m.msg.seq;
+  return Reject::kNone;
+}
+
+// ---------------------------------------------------------------------------------------------
+struct StateDecoder::Impl {
+  const System& sys;
+  NameMap q_index, v_index;
+  std::vector<unsigned char> seen_q, seen_v;
+  Eigen::VectorXd tmp_tau;
+  coopdyn::measured_state_t msg;
+  explicit Impl(const System& s)
+      : sys(s),
+        q_index(index_of(s.model.q_names)),
+        v_index(index_of(s.model.v_names)),
+        seen_q(s.model.nq()),
+        seen_v(s.model.nv()),
+        tmp_tau(s.model.nv()) {}
+};
+
+StateDecoder::StateDecoder(const System& sys) : impl_(new Impl(sys)) {}
+StateDecoder::~StateDecoder() = default;
+
+Reject StateDecoder::decode(const void* data, int len, StateSlot& out) {
+  Impl& m = *impl_;
+  const int nq = m.sys.model.nq(), nv = m.sys.model.nv();
+  // layout: hash, utime, seq, num_q_names, q_names[], num_q, q[], num_v_names, v_names[], num_v, v[], tau[]
+  wire::Reader r(data, len);
+  if (!r.hash(coopdyn::measured_state_t::getHash()) || !r.skip(16)) return Reject::kDecode;
+  int32_t nqn = 0, nqq = 0, nvn = 0, nvv = 0;
+  if (!r.count(&nqn) || !r.strings(nqn) || !r.count(&nqq) || !r.skip(8LL * nqq) || !r.count(&nvn) || !r.strings(nvn) ||
+      !r.count(&nvv) || !r.skip(16LL * nvv))
+    return Reject::kDecode;
+  if (nqn > 4 * nq + 16 || nqq > 4 * nq + 16 || nvn > 4 * nv + 16 || nvv > 4 * nv + 16) return Reject::kCount;
+  try {
+    if (m.msg.decode(data, 0, len) < 0) return Reject::kDecode;
+  } catch (...) {
+    return Reject::kDecode;
+  }
+  // a state must be complete: every coordinate given
+  Reject rj = map_named(m.q_index, m.msg.q_names, m.msg.q.data(), m.msg.num_q, nq, m.seen_q, 0.0, out.q, true);
+  if (rj != Reject::kNone) return rj;
+  rj = map_named(m.v_index, m.msg.v_names, m.msg.v.data(), m.msg.num_v, nv, m.seen_v, 0.0, out.v, true);
+  if (rj != Reject::kNone) return rj;
+  rj = map_named(m.v_index, m.msg.v_names, m.msg.tau.data(), m.msg.num_v, nv, m.seen_v, 0.0, out.tau, true);
+  if (rj != Reject::kNone) return rj;
+  out.utime = m.msg.utime;
+  out.seq = m.msg.seq;
+  return Reject::kNone;
+}
+
+// ---------------------------------------------------------------------------------------------
+struct OutputEncoder::Impl {
+  const System& sys;
+  std::vector<int> weld_specs;  // spec index of each published tip
+  coopdyn::output_t msg;
+  int size = 0;
+  explicit Impl(const System& s) : sys(s) {
+    const Model& model = s.model;
+    const ConstraintSet& cs = s.constraints;
+    for (size_t k = 0; k < cs.specs.size(); ++k)
+      if (cs.specs[k].kind == ConstraintKind::kWeld) weld_specs.push_back(static_cast<int>(k));
+    msg = coopdyn::output_t();
+    msg.num_tips = static_cast<int32_t>(weld_specs.size());
+    for (int k : weld_specs) {
+      const ConstraintSpec& c = cs.specs[k];
+      msg.tip_names.push_back(c.name);
+      msg.tip_frames.push_back(model.frames[c.frame_a].name);
+      msg.tip_by.push_back(c.frame_b < 0 ? "world" : model.frames[c.frame_b].name);
+      int8_t mask = 0;
+      for (int a = 0; a < 6; ++a)
+        if (c.axes[a]) mask = static_cast<int8_t>(mask | (1 << a));
+      msg.constrained_mask.push_back(mask);
+    }
+    msg.wrench.assign(weld_specs.size(), std::vector<double>(6, 0.0));
+    msg.indeterminate_mask.assign(weld_specs.size(), 0);
+    msg.num_stresses = static_cast<int32_t>(model.pseudo_dofs.size());
+    for (int d : model.pseudo_dofs) msg.stress_names.push_back(model.v_names[d]);
+    msg.stress.assign(model.pseudo_dofs.size(), 0.0);
+    msg.nq = model.nq();
+    msg.q_names = model.q_names;
+    msg.q.assign(model.nq(), 0.0);
+    msg.nv = model.nv();
+    msg.v_names = model.v_names;
+    msg.v.assign(model.nv(), 0.0);
+    msg.tau.assign(model.nv(), 0.0);
+    msg.vdot.assign(model.nv(), 0.0);
+    msg.input_seq = msg.input_utime = -1;
+    size = msg.getEncodedSize();
+  }
+  void zero_dynamics() {
+    msg.rows = msg.rank = msg.indeterminate = 0;
+    msg.condition = msg.residual = 0;
+    for (auto& w : msg.wrench) std::fill(w.begin(), w.end(), 0.0);
+    std::fill(msg.indeterminate_mask.begin(), msg.indeterminate_mask.end(), 0);
+    std::fill(msg.stress.begin(), msg.stress.end(), 0.0);
+    std::fill(msg.vdot.begin(), msg.vdot.end(), 0.0);
+  }
+};
+
+OutputEncoder::OutputEncoder(const System& sys) : impl_(new Impl(sys)) {}
+OutputEncoder::~OutputEncoder() = default;
+int OutputEncoder::max_size() const { return impl_->size; }
+
+namespace {
+inline bool copy_finite(const Eigen::VectorXd* src, std::vector<double>& dst) {
+  bool ok = true;
+  for (size_t i = 0; i < dst.size(); ++i) {
+    const double x = src ? (*src)[static_cast<Eigen::Index>(i)] : 0.0;
+    ok = ok && std::isfinite(x);
+    dst[i] = std::isfinite(x) ? x : 0.0;
+  }
+  return ok;
+}
+}  // namespace
+
+int OutputEncoder::encode(const OutputFrame& f, uint8_t* buf, int cap, bool* sanitized) {
+  Impl& m = *impl_;
+  coopdyn::output_t& o = m.msg;
+  o.utime = f.utime;
+  o.tick = f.tick;
+  o.sim_time = f.sim_time;
+  o.mode = static_cast<int8_t>(f.mode);
+  o.status = f.status;
+  o.reason = f.reason;
+  o.input = static_cast<int8_t>(f.input);
+  o.input_seq = f.input_seq;
+  o.input_utime = f.input_utime;
+  bool finite = std::isfinite(f.sim_time);
+  finite = copy_finite(f.q, o.q) && finite;
+  finite = copy_finite(f.v, o.v) && finite;
+  finite = copy_finite(f.tau, o.tau) && finite;
+  bool bad = !finite;
+  if (f.valid && f.ws) {
+    const Workspace& ws = *f.ws;
+    o.rows = ws.diag.rows;
+    o.rank = ws.diag.rank;
+    o.indeterminate = ws.diag.indeterminate;
+    o.condition = ws.diag.condition;
+    o.residual = ws.diag.residual;
+    bool ok = std::isfinite(o.residual);
+    if (!std::isfinite(o.condition)) o.condition = -1;  // "infinite": a documented sentinel, not Inf
+    for (size_t t = 0; t < m.weld_specs.size(); ++t) {
+      unsigned mask = 0;
+      const Vec6 w = tip_wrench(m.sys, ws, m.weld_specs[t], &mask);
+      for (int k = 0; k < 6; ++k) {
+        o.wrench[t][k] = w[k];
+        ok = ok && std::isfinite(w[k]);
+      }
+      o.indeterminate_mask[t] = static_cast<int8_t>(mask);
+    }
+    ok = copy_finite(&ws.stress, o.stress) && ok;
+    ok = copy_finite(&ws.vdot, o.vdot) && ok;
+    bad = bad || !ok;
+  } else {
+    m.zero_dynamics();
+  }
+  if (bad) {
+    m.zero_dynamics();
+    o.status = coopdyn::output_t::STATUS_ERROR;
+    o.reason = coopdyn::output_t::REASON_NONFINITE_RESULT;
+  }
+  if (sanitized) *sanitized = bad;
+  if (cap < m.size) return -1;
+  return o.encode(buf, 0, cap);
+}
+
+// ---------------------------------------------------------------------------------------------
+struct StatsEncoder::Impl {
+  coopdyn::loop_stats_t msg;
+};
+StatsEncoder::StatsEncoder() : impl_(new Impl) {}
+StatsEncoder::~StatsEncoder() = default;
+int StatsEncoder::max_size() const { return impl_->msg.getEncodedSize(); }
+
+int StatsEncoder::encode(const StatsFrame& s, uint8_t* buf, int cap) {
+  coopdyn::loop_stats_t& o = impl_->msg;
+  o.utime = s.utime;
+  o.tick = s.tick;
+  o.period_us = s.period_us;
+  o.window_ticks = s.window_ticks;
+  o.lateness_p50_us = s.lateness_us[0];
+  o.lateness_p99_us = s.lateness_us[1];
+  o.lateness_p999_us = s.lateness_us[2];
+  o.lateness_max_us = s.lateness_us[3];
+  o.compute_p50_us = s.compute_us[0];
+  o.compute_p99_us = s.compute_us[1];
+  o.compute_p999_us = s.compute_us[2];
+  o.compute_max_us = s.compute_us[3];
+  o.overruns = s.overruns;
+  o.skipped_periods = s.skipped_periods;
+  o.commands_received = s.received;
+  o.commands_accepted = s.accepted;
+  o.commands_rejected = s.rejected;
+  o.commands_out_of_order = s.out_of_order;
+  o.commands_expired = s.expired;
+  o.numerical_errors = s.numerical_errors;
+  if (cap < o.getEncodedSize()) return -1;
+  return o.encode(buf, 0, cap);
+}
+
+}  // namespace coopdyn::io

@@ -1,0 +1,110 @@
+// LCM codec: the only code that includes the generated lcmtypes (in codec.cc / convert.cc).
+//
+// Incoming bytes are untrusted: every count and string length is bounds-checked before the
+// generated decoder runs (it would otherwise resize to a hostile count), then names, sizes, NaN/Inf
+// and the scene's torque limits are checked. Decoders run on the receive thread and reuse one
+// message object, so after the first few messages they do not allocate either.
+// Encoders run on the loop thread: the message object is sized and named once in the constructor,
+// each tick overwrites numbers only and encodes into a caller's preallocated buffer. No allocation,
+// no exceptions, no logging.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "service/dynamics/constrained_dynamics.h"
+#include "service/dynamics/system.h"
+#include "service/io/messages.h"
+
+namespace coopdyn::io {
+
+class CommandDecoder {
+ public:
+  explicit CommandDecoder(const System& sys);
+  ~CommandDecoder();
+  // Decodes and validates a torque_command_t into out (out.tau sized nv). On a reject, out is
+  // partly written and must not be used. Never throws.
+  Reject decode(const void* data, int len, CommandSlot& out);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+class StateDecoder {
+ public:
+  explicit StateDecoder(const System& sys);
+  ~StateDecoder();
+  Reject decode(const void* data, int len, StateSlot& out);  // measured_state_t, as above
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// What one tick publishes. valid = false: the dynamics numbers are published as 0 (error status).
+struct OutputFrame {
+  int64_t utime = 0, tick = 0;
+  double sim_time = 0;
+  Mode mode = Mode::kSimulate;
+  int8_t status = 0;   // Status of the core (0 ok, 1 indeterminate, 2 error)
+  int16_t reason = 0;  // Reason of the core, or kReason* of the service
+  Input input = Input::kNoCommand;
+  int64_t input_seq = -1, input_utime = -1;
+  bool valid = false;
+  const Eigen::VectorXd* q = nullptr;    // (nq) state the evaluation used
+  const Eigen::VectorXd* v = nullptr;    // (nv)
+  const Eigen::VectorXd* tau = nullptr;  // (nv) applied torque
+  const Workspace* ws = nullptr;         // evaluation (vdot, lambda, stress, diag) when valid
+};
+
+class OutputEncoder {
+ public:
+  explicit OutputEncoder(const System& sys);
+  ~OutputEncoder();
+  int max_size() const;  // bytes; constant for a scene
+  // Encodes into buf; returns the length, or -1 if cap is too small. If any published number
+  // would be NaN/Inf, all dynamics numbers are zeroed and the status becomes error
+  // (kNonFiniteResult); *sanitized (optional) tells.
+  int encode(const OutputFrame& f, uint8_t* buf, int cap, bool* sanitized = nullptr);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+class StatsEncoder {
+ public:
+  StatsEncoder();
+  ~StatsEncoder();
+  int max_size() const;
+  int encode(const StatsFrame& s, uint8_t* buf, int cap);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// --- for clients and tests (these allocate) ---
+
+// torque_command_t; names empty: tau in the scene's order.
+std::vector<uint8_t> encode_torque_command(int64_t utime, int64_t seq, const std::vector<std::string>& names,
+                                           const std::vector<double>& tau);
+// measured_state_t; empty name lists: scene order.
+std::vector<uint8_t> encode_measured_state(int64_t utime, int64_t seq, const std::vector<std::string>& q_names,
+                                           const std::vector<double>& q, const std::vector<std::string>& v_names,
+                                           const std::vector<double>& v, const std::vector<double>& tau);
+bool decode_output(const void* data, int len, DecodedOutput* out);
+bool decode_stats(const void* data, int len, StatsFrame* out);
+
+// Message types by their LCM fingerprint (the first 8 bytes).
+enum class MessageType { kUnknown, kTorqueCommand, kMeasuredState, kOutput, kLoopStats };
+MessageType identify(const void* data, int len);
+const char* type_name(MessageType t);  // "coopdyn.output_t", ...
+// One CSV line per message: *header describes this message's columns (it depends on the scene's
+// names), *row its values, neither with a trailing newline. False if it does not decode.
+bool to_csv(MessageType t, const void* data, int len, std::string* header, std::string* row);
+
+}  // namespace coopdyn::io

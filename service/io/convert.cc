@@ -1,0 +1,266 @@
+// Client-side conversions (allocate freely; never on the loop path): message encoding for
+// `coopdyn send` and tests, decoding and CSV rows for `coopdyn log`.
+#include <cstdio>
+#include <cstring>
+
+#include "coopdyn/loop_stats_t.hpp"
+#include "coopdyn/measured_state_t.hpp"
+#include "coopdyn/output_t.hpp"
+#include "coopdyn/torque_command_t.hpp"
+#include "service/io/codec.h"
+
+namespace coopdyn::io {
+
+namespace {
+template <class M>
+std::vector<uint8_t> encode_msg(const M& m) {
+  std::vector<uint8_t> buf(static_cast<size_t>(m.getEncodedSize()));
+  m.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  return buf;
+}
+template <class M>
+bool decode_msg(const void* data, int len, M* m) {
+  if (len < 8) return false;
+  try {
+    return m->decode(data, 0, len) >= 0;
+  } catch (...) {
+    return false;
+  }
+}
+int64_t hash_of(const void* data, int len) {
+  if (len < 8) return 0;
+  const uint8_t* b = static_cast<const uint8_t*>(data);
+  uint64_t h = 0;
+  for (int i = 0; i < 8; ++i) h = (h << 8) | b[i];
+  return static_cast<int64_t>(h);
+}
+void num(std::string* s, double x) {
+  char b[32];
+  std::snprintf(b, sizeof b, ",%.10g", x);
+  *s += b;
+}
+void inum(std::string* s, long long x) {
+  char b[32];
+  std::snprintf(b, sizeof b, ",%lld", x);
+  *s += b;
+}
+}  // namespace
+
+std::vector<uint8_t> encode_torque_command(int64_t utime, int64_t seq, const std::vector<std::string>& names,
+                                           const std::vector<double>& tau) {
+  coopdyn::torque_command_t m;
+  m.utime = utime;
+  m.seq = seq;
+  m.num_names = static_cast<int32_t>(names.size());
+  m.names = names;
+  m.num_torques = static_cast<int32_t>(tau.size());
+  m.tau = tau;
+  return encode_msg(m);
+}
+
+std::vector<uint8_t> encode_measured_state(int64_t utime, int64_t seq, const std::vector<std::string>& q_names,
+                                           const std::vector<double>& q, const std::vector<std::string>& v_names,
+                                           const std::vector<double>& v, const std::vector<double>& tau) {
+  coopdyn::measured_state_t m;
+  m.utime = utime;
+  m.seq = seq;
+  m.num_q_names = static_cast<int32_t>(q_names.size());
+  m.q_names = q_names;
+  m.num_q = static_cast<int32_t>(q.size());
+  m.q = q;
+  m.num_v_names = static_cast<int32_t>(v_names.size());
+  m.v_names = v_names;
+  m.num_v = static_cast<int32_t>(v.size());
+  m.v = v;
+  m.tau = tau;
+  m.tau.resize(v.size(), 0.0);
+  return encode_msg(m);
+}
+
+bool decode_output(const void* data, int len, DecodedOutput* out) {
+  coopdyn::output_t m;
+  if (!decode_msg(data, len, &m)) return false;
+  out->utime = m.utime;
+  out->tick = m.tick;
+  out->sim_time = m.sim_time;
+  out->mode = m.mode;
+  out->status = m.status;
+  out->reason = m.reason;
+  out->input = m.input;
+  out->input_seq = m.input_seq;
+  out->input_utime = m.input_utime;
+  out->rows = m.rows;
+  out->rank = m.rank;
+  out->indeterminate = m.indeterminate;
+  out->condition = m.condition;
+  out->residual = m.residual;
+  out->tip_names = m.tip_names;
+  out->tip_frames = m.tip_frames;
+  out->tip_by = m.tip_by;
+  out->wrench.assign(m.wrench.size(), {});
+  for (size_t t = 0; t < m.wrench.size(); ++t)
+    for (int k = 0; k < 6; ++k) out->wrench[t][k] = m.wrench[t][k];
+  out->constrained_mask.assign(m.constrained_mask.begin(), m.constrained_mask.end());
+  out->indeterminate_mask.assign(m.indeterminate_mask.begin(), m.indeterminate_mask.end());
+  out->stress_names = m.stress_names;
+  out->stress = m.stress;
+  out->q_names = m.q_names;
+  out->v_names = m.v_names;
+  out->q = m.q;
+  out->v = m.v;
+  out->tau = m.tau;
+  out->vdot = m.vdot;
+  return true;
+}
+
+bool decode_stats(const void* data, int len, StatsFrame* s) {
+  coopdyn::loop_stats_t o;
+  if (!decode_msg(data, len, &o)) return false;
+  s->utime = o.utime;
+  s->tick = o.tick;
+  s->period_us = o.period_us;
+  s->window_ticks = o.window_ticks;
+  s->lateness_us[0] = o.lateness_p50_us;
+  s->lateness_us[1] = o.lateness_p99_us;
+  s->lateness_us[2] = o.lateness_p999_us;
+  s->lateness_us[3] = o.lateness_max_us;
+  s->compute_us[0] = o.compute_p50_us;
+  s->compute_us[1] = o.compute_p99_us;
+  s->compute_us[2] = o.compute_p999_us;
+  s->compute_us[3] = o.compute_max_us;
+  s->overruns = o.overruns;
+  s->skipped_periods = o.skipped_periods;
+  s->received = o.commands_received;
+  s->accepted = o.commands_accepted;
+  s->rejected = o.commands_rejected;
+  s->out_of_order = o.commands_out_of_order;
+  s->expired = o.commands_expired;
+  s->numerical_errors = o.numerical_errors;
+  return true;
+}
+
+MessageType identify(const void* data, int len) {
+  const int64_t h = hash_of(data, len);
+  if (h == coopdyn::torque_command_t::getHash()) return MessageType::kTorqueCommand;
+  if (h == coopdyn::measured_state_t::getHash()) return MessageType::kMeasuredState;
+  if (h == coopdyn::output_t::getHash()) return MessageType::kOutput;
+  if (h == coopdyn::loop_stats_t::getHash()) return MessageType::kLoopStats;
+  return MessageType::kUnknown;
+}
+
+const char* type_name(MessageType t) {
+  switch (t) {
+    case MessageType::kTorqueCommand: return "coopdyn.torque_command_t";
+    case MessageType::kMeasuredState: return "coopdyn.measured_state_t";
+    case MessageType::kOutput: return "coopdyn.output_t";
+    case MessageType::kLoopStats: return "coopdyn.loop_stats_t";
+    case MessageType::kUnknown: break;
+  }
+  return "unknown";
+}
+
+bool to_csv(MessageType t, const void* data, int len, std::string* header, std::string* row) {
+  static const char* comp[6] = {"mx", "my", "mz", "fx", "fy", "fz"};
+  header->clear();
+  row->clear();
+  switch (t) {
+    case MessageType::kTorqueCommand: {
+      coopdyn::torque_command_t m;
+      if (!decode_msg(data, len, &m)) return false;
+      *header = "utime,seq";
+      inum(row, m.utime);
+      inum(row, m.seq);
+      for (int i = 0; i < m.num_torques; ++i) {
+        *header += ",tau:" + (i < m.num_names ? m.names[i] : std::to_string(i));
+        num(row, m.tau[i]);
+      }
+      break;
+    }
+    case MessageType::kMeasuredState: {
+      coopdyn::measured_state_t m;
+      if (!decode_msg(data, len, &m)) return false;
+      *header = "utime,seq";
+      inum(row, m.utime);
+      inum(row, m.seq);
+      for (int i = 0; i < m.num_q; ++i) {
+        *header += ",q:" + (i < m.num_q_names ? m.q_names[i] : std::to_string(i));
+        num(row, m.q[i]);
+      }
+      for (int i = 0; i < m.num_v; ++i) {
+        *header += ",v:" + (i < m.num_v_names ? m.v_names[i] : std::to_string(i));
+        num(row, m.v[i]);
+      }
+      for (int i = 0; i < m.num_v; ++i) {
+        *header += ",tau:" + (i < m.num_v_names ? m.v_names[i] : std::to_string(i));
+        num(row, m.tau[i]);
+      }
+      break;
+    }
+    case MessageType::kOutput: {
+      coopdyn::output_t m;
+      if (!decode_msg(data, len, &m)) return false;
+      *header = "utime,tick,sim_time,mode,status,reason,input,input_seq,input_utime,rows,rank,indeterminate,condition,residual";
+      inum(row, m.utime);
+      inum(row, m.tick);
+      num(row, m.sim_time);
+      inum(row, m.mode);
+      inum(row, m.status);
+      inum(row, m.reason);
+      inum(row, m.input);
+      inum(row, m.input_seq);
+      inum(row, m.input_utime);
+      inum(row, m.rows);
+      inum(row, m.rank);
+      inum(row, m.indeterminate);
+      num(row, m.condition);
+      num(row, m.residual);
+      for (int i = 0; i < m.num_tips; ++i) {
+        for (int k = 0; k < 6; ++k) {
+          *header += "," + m.tip_names[i] + "." + comp[k];
+          num(row, m.wrench[i][k]);
+        }
+        *header += "," + m.tip_names[i] + ".indeterminate_mask";
+        inum(row, m.indeterminate_mask[i]);
+      }
+      for (int i = 0; i < m.num_stresses; ++i) {
+        *header += ",stress:" + m.stress_names[i];
+        num(row, m.stress[i]);
+      }
+      for (int i = 0; i < m.nq; ++i) {
+        *header += ",q:" + m.q_names[i];
+        num(row, m.q[i]);
+      }
+      for (const char* what : {"v", "tau", "vdot"}) {
+        const std::vector<double>& x = !std::strcmp(what, "v") ? m.v : !std::strcmp(what, "tau") ? m.tau : m.vdot;
+        for (int i = 0; i < m.nv; ++i) {
+          *header += std::string(",") + what + ":" + m.v_names[i];
+          num(row, x[i]);
+        }
+      }
+      break;
+    }
+    case MessageType::kLoopStats: {
+      StatsFrame s;
+      if (!decode_stats(data, len, &s)) return false;
+      *header =
+          "utime,tick,period_us,window_ticks,lateness_p50_us,lateness_p99_us,lateness_p999_us,lateness_max_us,"
+          "compute_p50_us,compute_p99_us,compute_p999_us,compute_max_us,overruns,skipped_periods,commands_received,"
+          "commands_accepted,commands_rejected,commands_out_of_order,commands_expired,numerical_errors";
+      inum(row, s.utime);
+      inum(row, s.tick);
+      num(row, s.period_us);
+      inum(row, s.window_ticks);
+      for (double x : s.lateness_us) num(row, x);
+      for (double x : s.compute_us) num(row, x);
+      for (long long x : {s.overruns, s.skipped_periods, s.received, s.accepted, s.rejected, s.out_of_order, s.expired,
+                          s.numerical_errors})
+        inum(row, x);
+      break;
+    }
+    case MessageType::kUnknown: return false;
+  }
+  if (!row->empty() && (*row)[0] == ',') row->erase(0, 1);
+  return true;
+}
+
+}  // namespace coopdyn::io

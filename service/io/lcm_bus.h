@@ -1,0 +1,57 @@
+// LCM behind the Bus interface, plus a receive thread.
+//
+// Publishing: lcm_publish() of raw bytes from the caller's thread. With udpm:// that is one
+// sendmsg() on a non-blocking-in-practice UDP socket into the kernel (fragmenting messages above
+// the MTU), no heap allocation in LCM 1.3's udpm path; that is why the loop publishes directly
+// instead of handing bytes to a publisher thread (one copy and one wake-up less, documented in
+// README "Running the service"). memq:// (tests) copies each message on the heap: fine for tests,
+// not for a real-time loop.
+// Receiving: a thread runs lcm_handle_timeout() and calls the raw handlers; the loop never
+// touches lcm_handle.
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "service/io/bus.h"
+
+typedef struct _lcm_t lcm_t;
+
+namespace coopdyn::io {
+
+class LcmBus : public Bus {
+ public:
+  // raw message: bytes, length, receive time (CLOCK_MONOTONIC ns, taken by the receive thread)
+  using Handler = std::function<void(const void* data, int len, long long recv_ns)>;
+
+  // Throws std::runtime_error with a hint (multicast route, URL) when LCM cannot start.
+  explicit LcmBus(const std::string& url);
+  ~LcmBus() override;
+  LcmBus(const LcmBus&) = delete;
+  LcmBus& operator=(const LcmBus&) = delete;
+
+  int publish(const char* channel, const void* data, int len) override;
+
+  // Subscribe before start(); the handler runs on the receive thread. channel is a regex in LCM.
+  void subscribe(const std::string& channel, Handler h);
+  void start();  // starts the receive thread
+  void stop();   // joins it (also done by the destructor)
+  lcm_t* raw() { return lcm_; }
+
+ private:
+  static void on_message(const void* rbuf, const char* channel, void* user);
+  lcm_t* lcm_ = nullptr;
+  std::vector<std::unique_ptr<Handler>> handlers_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+long long monotonic_ns();  // CLOCK_MONOTONIC
+long long wall_us();       // CLOCK_REALTIME, microseconds since the epoch (LCM's utime)
+
+}  // namespace coopdyn::io

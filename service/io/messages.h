@@ -1,0 +1,85 @@
+// Plain data that crosses the LCM boundary, free of generated lcmtypes: the codec (codec.h) fills
+// and reads these; the runtime and the clients see only these.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace coopdyn::io {
+
+// Why an incoming message was not applied.
+enum class Reject {
+  kNone = 0,
+  kDecode,         // not a well-formed message of the expected type (hash, sizes, truncation)
+  kCount,          // wrong number of values for the scene (or names and values disagree)
+  kUnknownName,    // a name that is not one of the scene's coordinates
+  kDuplicateName,  // the same coordinate named twice
+  kNonFinite,      // NaN or Inf
+  kOverLimit,      // |tau| above the scene's tau_limit
+};
+constexpr int kRejectKinds = 7;
+const char* reject_name(Reject r);
+
+// A validated torque command, in the scene's velocity order. Sized once (nv).
+struct CommandSlot {
+  int64_t utime = -1;   // publisher's clock, us
+  int64_t seq = -1;
+  int64_t recv_ns = 0;  // CLOCK_MONOTONIC at receipt, ns
+  Eigen::VectorXd tau;  // (nv) N*m or N
+};
+
+// A validated measured state, in the scene's coordinate order. Sized once (nq, nv).
+struct StateSlot {
+  int64_t utime = -1;
+  int64_t seq = -1;
+  int64_t recv_ns = 0;
+  Eigen::VectorXd q, v, tau;  // (nq), (nv), (nv)
+};
+
+// Codes carried by output_t (mirrors its constants; the codec checks they agree).
+enum class Mode : int8_t { kSimulate = 0, kEstimate = 1 };
+enum class Input : int8_t {
+  kCommand = 0,
+  kNoCommand = 1,
+  kCommandExpired = 2,
+  kState = 3,
+  kNoState = 4,
+  kStateExpired = 5,
+};
+const char* input_name(Input i);
+constexpr int16_t kReasonNoState = 100;
+constexpr int16_t kReasonStateStale = 101;
+
+// Loop statistics (loop_stats_t).
+struct StatsFrame {
+  int64_t utime = 0, tick = 0;
+  double period_us = 0;
+  int64_t window_ticks = 0;
+  double lateness_us[4] = {0, 0, 0, 0};  // p50, p99, p99.9, max
+  double compute_us[4] = {0, 0, 0, 0};
+  int64_t overruns = 0, skipped_periods = 0;
+  int64_t received = 0, accepted = 0, rejected = 0, out_of_order = 0, expired = 0, numerical_errors = 0;
+};
+
+// A decoded output_t, for clients and tests (allocates; never used by the loop).
+struct DecodedOutput {
+  int64_t utime = 0, tick = 0;
+  double sim_time = 0;
+  int mode = 0, status = 0, reason = 0, input = 0;
+  int64_t input_seq = -1, input_utime = -1;
+  int rows = 0, rank = 0, indeterminate = 0;
+  double condition = 0, residual = 0;
+  std::vector<std::string> tip_names, tip_frames, tip_by;
+  std::vector<std::array<double, 6>> wrench;
+  std::vector<int> constrained_mask, indeterminate_mask;
+  std::vector<std::string> stress_names;
+  std::vector<double> stress;
+  std::vector<std::string> q_names, v_names;
+  std::vector<double> q, v, tau, vdot;
+};
+
+}  // namespace coopdyn::io

@@ -1,0 +1,68 @@
+// The service configuration (config/coopdynd.yaml): rate, LCM URL and channels, mode, watchdog,
+// safe torque, overrun policy, real-time options. Checked completely at start-up.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+#include "service/dynamics/integrators.h"
+
+namespace coopdyn::runtime {
+
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+enum class ServiceMode { kSimulate, kEstimate };
+enum class SafeTorque {
+  kZero,     // tau = 0 on every DOF
+  kDamping,  // tau = -damping * v on the DOFs with a finite tau_limit (the actuated joints),
+             // clamped to the limit; 0 elsewhere
+};
+enum class OverrunPolicy {
+  kCatchUp,  // run missed ticks back to back, at most max_catch_up, then skip the rest: simulated
+             // time keeps pace with the wall clock after short stalls
+  kSkip,     // drop missed periods and resume at the next deadline: sim time falls behind wall time
+};
+
+struct RealtimeOptions {
+  bool sched_fifo = false;  // SCHED_FIFO for the loop thread (needs CAP_SYS_NICE or root)
+  int priority = 80;        // 1..99
+  int cpu = -1;             // pin the loop thread to this CPU; -1: no affinity
+  bool mlockall = false;    // lock current and future pages (no page faults in the loop)
+};
+
+struct ServiceConfig {
+  double rate_hz = 1000.0;
+  std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";
+  std::string command_channel = "COOPDYN_COMMAND";
+  std::string state_channel = "COOPDYN_STATE";
+  std::string output_channel = "COOPDYN_OUTPUT";
+  std::string stats_channel = "COOPDYN_STATS";
+  ServiceMode mode = ServiceMode::kSimulate;
+  Integrator integrator = Integrator::kRk4;
+  double watchdog_ms = 100.0;  // a command (state) older than this expires
+  SafeTorque safe_torque = SafeTorque::kZero;
+  double damping = 0.0;        // N*m*s/rad (or N*s/m) for kDamping
+  OverrunPolicy overrun = OverrunPolicy::kCatchUp;
+  int max_catch_up = 10;       // ticks
+  double stats_period_s = 1.0;
+  RealtimeOptions realtime;
+  std::string log_level = "info";
+
+  long long period_ns() const { return static_cast<long long>(1e9 / rate_hz + 0.5); }
+  long long watchdog_ns() const { return static_cast<long long>(watchdog_ms * 1e6 + 0.5); }
+};
+
+// Reads a config file; keys absent keep the defaults above. Throws ConfigError with
+// "file:line:col: reason" on a missing file, YAML error, unknown key or bad value.
+ServiceConfig load_config(const std::string& path);
+ServiceConfig load_config_string(const std::string& yaml_text, const std::string& name_for_errors);
+// Re-checks values (after command-line overrides); throws ConfigError.
+void validate(const ServiceConfig& c);
+
+const char* mode_name(ServiceMode m);
+bool parse_mode(const std::string& s, ServiceMode* m);
+
+}  // namespace coopdyn::runtime

@@ -1,0 +1,56 @@
+// Single-producer single-consumer ring of small fixed-size events: how the loop "logs" without
+// logging. The loop pushes (wait-free, no allocation, drops and counts when full); the daemon's
+// monitor thread pops and writes them through spdlog.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+
+namespace coopdyn::runtime {
+
+enum class EventCode : int32_t {
+  kCommandExpired,  // a: seq of the expired command, b: age ms
+  kCommandResumed,  // a: seq
+  kStateExpired,    // a: seq
+  kStateResumed,    // a: seq
+  kFault,           // a: reason code, b: tick
+  kOverrun,         // a: periods behind, b: tick (first of a burst only)
+};
+
+struct Event {
+  EventCode code;
+  int64_t a = 0, b = 0;
+  double x = 0;
+};
+
+template <int N>
+class EventRing {
+  static_assert((N & (N - 1)) == 0, "power of two");
+
+ public:
+  bool push(const Event& e) {
+    const uint32_t h = head_.load(std::memory_order_relaxed);
+    if (h - tail_.load(std::memory_order_acquire) >= N) {
+      dropped_.fetch_add(1, std::memory_order_relaxed);
+      return false;
+    }
+    buf_[h & (N - 1)] = e;
+    head_.store(h + 1, std::memory_order_release);
+    return true;
+  }
+  bool pop(Event* e) {
+    const uint32_t t = tail_.load(std::memory_order_relaxed);
+    if (t == head_.load(std::memory_order_acquire)) return false;
+    *e = buf_[t & (N - 1)];
+    tail_.store(t + 1, std::memory_order_release);
+    return true;
+  }
+  uint64_t dropped() const { return dropped_.load(std::memory_order_relaxed); }
+
+ private:
+  Event buf_[N];
+  std::atomic<uint32_t> head_{0}, tail_{0};
+  std::atomic<uint64_t> dropped_{0};
+};
+
+}  // namespace coopdyn::runtime

@@ -1,0 +1,255 @@
+#include "service/runtime/service_loop.h"
+
+#include <time.h>
+
+#include <cerrno>
+#include <cmath>
+
+#include "service/io/lcm_bus.h"
+
+namespace coopdyn::runtime {
+
+namespace {
+double us(int64_t ns) { return static_cast<double>(ns) * 1e-3; }
+void percentiles(const Histogram& h, double out[4]) {
+  out[0] = us(h.percentile(0.50));
+  out[1] = us(h.percentile(0.99));
+  out[2] = us(h.percentile(0.999));
+  out[3] = us(h.max());
+}
+}  // namespace
+
+ServiceLoop::ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& bus)
+    : sys_(sys),
+      cfg_(cfg),
+      bus_(bus),
+      period_ns_(cfg.period_ns()),
+      watchdog_ns_(cfg.watchdog_ns()),
+      dt_(1.0 / cfg.rate_hz),
+      stats_every_(std::max<int64_t>(1, std::llround(cfg.stats_period_s * cfg.rate_hz))),
+      commands_(sys, cfg.watchdog_ns(), [&](io::CommandSlot& s) { s.tau = Eigen::VectorXd::Zero(sys.model.nv()); }),
+      states_(sys, cfg.watchdog_ns(),
+              [&](io::StateSlot& s) {
+                s.q = sys.q0;
+                s.v = sys.v0;
+                s.tau = Eigen::VectorXd::Zero(sys.model.nv());
+              }),
+      stepper_(sys),
+      ws_(sys),
+      q_(sys.q0),
+      v_(sys.v0),
+      tau_(Eigen::VectorXd::Zero(sys.model.nv())),
+      q_prev_(sys.q0),
+      v_prev_(sys.v0),
+      actuated_(sys.model.nv(), 0),
+      out_enc_(sys),
+      out_buf_(static_cast<size_t>(out_enc_.max_size())),
+      stats_buf_(static_cast<size_t>(stats_enc_.max_size())) {
+  const Model& m = sys.model;
+  for (int i = 0; i < m.nv(); ++i) actuated_[i] = std::isfinite(sys.tau_limit[i]) ? 1 : 0;
+  for (int d : m.pseudo_dofs) actuated_[d] = 0;
+  last_input_ = cfg.mode == ServiceMode::kSimulate ? io::Input::kNoCommand : io::Input::kNoState;
+}
+
+const InputCounters& ServiceLoop::input_counters() const {
+  return cfg_.mode == ServiceMode::kSimulate ? commands_.counters() : states_.counters();
+}
+
+void ServiceLoop::safe_torque(const Eigen::VectorXd& v) {
+  tau_.setZero();
+  if (cfg_.safe_torque != SafeTorque::kDamping) return;
+  for (Eigen::Index i = 0; i < tau_.size(); ++i) {
+    if (!actuated_[i]) continue;
+    const double lim = sys_.tau_limit[i];
+    tau_[i] = std::max(-lim, std::min(lim, -cfg_.damping * v[i]));
+  }
+}
+
+void ServiceLoop::tick(long long now) {
+  if (!started_) {
+    started_ = true;
+    t0_ns_ = now;
+  }
+  io::OutputFrame f;
+  f.tick = ticks_.load(std::memory_order_relaxed);
+
+  if (cfg_.mode == ServiceMode::kSimulate) {
+    f.mode = io::Mode::kSimulate;
+    if (commands_.update()) have_cmd_ = true;
+    const io::CommandSlot& c = commands_.latest();
+    io::Input in = !have_cmd_ ? io::Input::kNoCommand
+                   : now - c.recv_ns > watchdog_ns_ ? io::Input::kCommandExpired
+                                                    : io::Input::kCommand;
+    if (in == io::Input::kCommandExpired && !input_expired_) {
+      input_expired_ = true;
+      expired_.fetch_add(1, std::memory_order_relaxed);
+      events_.push({EventCode::kCommandExpired, c.seq, (now - c.recv_ns) / 1000000, 0});
+    } else if (in == io::Input::kCommand && input_expired_) {
+      input_expired_ = false;
+      events_.push({EventCode::kCommandResumed, c.seq, 0, 0});
+    }
+    last_input_ = in;
+    if (in == io::Input::kCommand) tau_ = c.tau;
+    else safe_torque(v_);
+    f.input = in;
+    f.input_seq = have_cmd_ ? c.seq : -1;
+    f.input_utime = have_cmd_ ? c.utime : -1;
+    f.sim_time = sim_time_;
+    f.tau = &tau_;
+    if (faulted_.load(std::memory_order_relaxed)) {
+      // latched: the state stays where it was last good, nothing is integrated
+      f.valid = false;
+      f.status = static_cast<int8_t>(Status::kError);
+      f.reason = static_cast<int16_t>(fault_reason_);
+      f.q = &q_;
+      f.v = &v_;
+    } else {
+      q_prev_ = q_;
+      v_prev_ = v_;
+      const Diagnostics& d = step(sys_, stepper_, cfg_.integrator, dt_, tau_, q_, v_);
+      const bool ok = d.status != Status::kError && q_.allFinite() && v_.allFinite();
+      f.q = &q_prev_;
+      f.v = &v_prev_;
+      f.ws = &stepper_.ws;
+      f.valid = ok;
+      if (ok) {
+        f.status = static_cast<int8_t>(d.status);
+        f.reason = static_cast<int16_t>(d.reason);
+        sim_time_ += dt_;
+      } else {
+        q_ = q_prev_;
+        v_ = v_prev_;
+        fault_reason_ = d.status == Status::kError ? d.reason : Reason::kNonFiniteResult;
+        faulted_.store(true, std::memory_order_relaxed);
+        numerical_errors_.fetch_add(1, std::memory_order_relaxed);
+        events_.push({EventCode::kFault, static_cast<int64_t>(fault_reason_), f.tick, sim_time_});
+        f.status = static_cast<int8_t>(Status::kError);
+        f.reason = static_cast<int16_t>(fault_reason_);
+      }
+    }
+  } else {
+    f.mode = io::Mode::kEstimate;
+    if (states_.update()) have_state_ = true;
+    const io::StateSlot& s = states_.latest();
+    io::Input in = !have_state_ ? io::Input::kNoState
+                   : now - s.recv_ns > watchdog_ns_ ? io::Input::kStateExpired
+                                                    : io::Input::kState;
+    if (in == io::Input::kStateExpired && !input_expired_) {
+      input_expired_ = true;
+      expired_.fetch_add(1, std::memory_order_relaxed);
+      events_.push({EventCode::kStateExpired, s.seq, (now - s.recv_ns) / 1000000, 0});
+    } else if (in == io::Input::kState && input_expired_) {
+      input_expired_ = false;
+      events_.push({EventCode::kStateResumed, s.seq, 0, 0});
+    }
+    last_input_ = in;
+    f.input = in;
+    f.input_seq = have_state_ ? s.seq : -1;
+    f.input_utime = have_state_ ? s.utime : -1;
+    f.sim_time = static_cast<double>(now - t0_ns_) * 1e-9;
+    f.q = &s.q;
+    f.v = &s.v;
+    f.tau = &s.tau;
+    if (in == io::Input::kState) {
+      const Diagnostics& d = evaluate(sys_, ws_, s.q, s.v, s.tau);
+      f.valid = d.status != Status::kError;
+      f.ws = &ws_;
+      f.status = static_cast<int8_t>(d.status);
+      f.reason = static_cast<int16_t>(d.reason);
+      if (!f.valid) numerical_errors_.fetch_add(1, std::memory_order_relaxed);
+    } else {
+      f.valid = false;
+      f.status = static_cast<int8_t>(Status::kError);
+      f.reason = in == io::Input::kNoState ? io::kReasonNoState : io::kReasonStateStale;
+    }
+  }
+
+  f.utime = io::wall_us();
+  bool sanitized = false;
+  const int len = out_enc_.encode(f, out_buf_.data(), static_cast<int>(out_buf_.size()), &sanitized);
+  if (sanitized && f.valid) numerical_errors_.fetch_add(1, std::memory_order_relaxed);
+  if (len > 0) bus_.publish(cfg_.output_channel.c_str(), out_buf_.data(), len);
+  ticks_.fetch_add(1, std::memory_order_relaxed);
+  if (++since_stats_ >= stats_every_) {
+    publish_stats();
+    since_stats_ = 0;
+  }
+}
+
+void ServiceLoop::fill_counters(io::StatsFrame& s) const {
+  const InputCounters& c = input_counters();
+  s.tick = ticks();
+  s.period_us = static_cast<double>(period_ns_) * 1e-3;
+  s.overruns = overruns();
+  s.skipped_periods = skipped_periods();
+  s.received = c.received.load(std::memory_order_relaxed);
+  s.accepted = c.accepted.load(std::memory_order_relaxed);
+  s.rejected = c.rejected.load(std::memory_order_relaxed);
+  s.out_of_order = c.out_of_order.load(std::memory_order_relaxed);
+  s.expired = expirations();
+  s.numerical_errors = numerical_errors();
+}
+
+void ServiceLoop::publish_stats() {
+  io::StatsFrame s;
+  s.utime = io::wall_us();
+  fill_counters(s);
+  s.window_ticks = since_stats_;
+  percentiles(late_win_, s.lateness_us);
+  percentiles(comp_win_, s.compute_us);
+  late_win_.reset();
+  comp_win_.reset();
+  const int len = stats_enc_.encode(s, stats_buf_.data(), static_cast<int>(stats_buf_.size()));
+  if (len > 0) bus_.publish(cfg_.stats_channel.c_str(), stats_buf_.data(), len);
+}
+
+io::StatsFrame ServiceLoop::totals() const {
+  io::StatsFrame s;
+  s.utime = io::wall_us();
+  fill_counters(s);
+  s.window_ticks = late_all_.total();
+  percentiles(late_all_, s.lateness_us);
+  percentiles(comp_all_, s.compute_us);
+  return s;
+}
+
+void ServiceLoop::record_timing(long long lateness_ns, long long compute_ns) {
+  late_win_.record(lateness_ns);
+  comp_win_.record(compute_ns);
+  late_all_.record(lateness_ns);
+  comp_all_.record(compute_ns);
+}
+
+void ServiceLoop::run(const std::atomic<bool>& stop, long long max_ticks) {
+  long long next = io::monotonic_ns() + period_ns_;
+  long long n = 0;
+  while (!stop.load(std::memory_order_relaxed) && (max_ticks < 0 || n < max_ticks)) {
+    timespec ts;
+    ts.tv_sec = static_cast<time_t>(next / 1000000000LL);
+    ts.tv_nsec = static_cast<long>(next % 1000000000LL);
+    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+    }
+    const long long wake = io::monotonic_ns();
+    tick(wake);
+    const long long end = io::monotonic_ns();
+    record_timing(wake - next, end - wake);
+    ++n;
+    next += period_ns_;
+    if (end > next) {
+      // overrun: this tick ended after the next deadline; `behind` deadlines have passed
+      overruns_.fetch_add(1, std::memory_order_relaxed);
+      const long long behind = (end - next) / period_ns_ + 1;
+      if (!in_overrun_) events_.push({EventCode::kOverrun, behind, ticks(), 0});
+      in_overrun_ = true;
+      long long skip = cfg_.overrun == OverrunPolicy::kSkip ? behind : std::max(0LL, behind - cfg_.max_catch_up);
+      if (skip > 0) {
+        next += skip * period_ns_;
+        skipped_.fetch_add(skip, std::memory_order_relaxed);
+      }
+    } else {
+      in_overrun_ = false;
+    }
+  }
+}
+
+}  // namespace coopdyn::runtime

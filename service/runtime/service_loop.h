@@ -1,0 +1,105 @@
+// The fixed-rate loop of coopdynd.
+//
+// Each tick (tick(now)): take the newest input from the receive thread (triple buffer), apply the
+// watchdog, then
+//   simulate: one integrator step of dt = 1/rate under the command (or the safe torque); the
+//             published wrenches, stresses and accelerations are those of the step's start state,
+//             published together with that state (q, v) and tau, so any output can be reproduced
+//             offline by evaluate(q, v, tau);
+//   estimate: evaluate() at the measured state, no integration;
+// encode output_t into a preallocated buffer and publish it; every stats period publish
+// loop_stats_t. tick() does not sleep, allocate, lock, log or throw; tests call it directly.
+// run() calls tick() at absolute deadlines (clock_nanosleep TIMER_ABSTIME on CLOCK_MONOTONIC),
+// records wake-up lateness and compute time, and applies the overrun policy.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <vector>
+
+#include "service/dynamics/integrators.h"
+#include "service/dynamics/system.h"
+#include "service/io/bus.h"
+#include "service/io/codec.h"
+#include "service/runtime/config.h"
+#include "service/runtime/event_ring.h"
+#include "service/runtime/histogram.h"
+#include "service/runtime/inbox.h"
+
+namespace coopdyn::runtime {
+
+class ServiceLoop {
+ public:
+  // Sizes every buffer. sys, cfg and bus must outlive the loop.
+  ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& bus);
+  ServiceLoop(const ServiceLoop&) = delete;
+  ServiceLoop& operator=(const ServiceLoop&) = delete;
+
+  // receive side (call from the receive thread)
+  CommandInbox& commands() { return commands_; }
+  StateInbox& states() { return states_; }
+
+  // One period at monotonic time now_ns. Loop thread only.
+  void tick(long long now_ns);
+  // Ticks at the configured rate until stop is set (or max_ticks ticks, if >= 0).
+  void run(const std::atomic<bool>& stop, long long max_ticks = -1);
+  // Adds one tick's timing to the statistics (run() does this; tests may too).
+  void record_timing(long long lateness_ns, long long compute_ns);
+
+  // --- read by tests and the daemon's monitor ---
+  int64_t ticks() const { return ticks_.load(std::memory_order_relaxed); }
+  int64_t overruns() const { return overruns_.load(std::memory_order_relaxed); }
+  int64_t skipped_periods() const { return skipped_.load(std::memory_order_relaxed); }
+  int64_t expirations() const { return expired_.load(std::memory_order_relaxed); }
+  int64_t numerical_errors() const { return numerical_errors_.load(std::memory_order_relaxed); }
+  bool faulted() const { return faulted_.load(std::memory_order_relaxed); }
+  const InputCounters& input_counters() const;
+  EventRing<256>& events() { return events_; }
+  // loop thread (or after run() returned)
+  const Eigen::VectorXd& q() const { return q_; }
+  const Eigen::VectorXd& v() const { return v_; }
+  const Eigen::VectorXd& tau() const { return tau_; }
+  double sim_time() const { return sim_time_; }
+  io::Input last_input() const { return last_input_; }
+  // totals since start: lateness and compute percentiles in the frame (for the summary line)
+  io::StatsFrame totals() const;
+
+ private:
+  void safe_torque(const Eigen::VectorXd& v);
+  void publish_stats();
+  void fill_counters(io::StatsFrame& s) const;
+
+  const System& sys_;
+  const ServiceConfig& cfg_;
+  io::Bus& bus_;
+  const long long period_ns_, watchdog_ns_;
+  const double dt_;
+  const int64_t stats_every_;
+
+  CommandInbox commands_;
+  StateInbox states_;
+  Stepper stepper_;                  // simulate
+  Workspace ws_;                     // estimate
+  Eigen::VectorXd q_, v_, tau_;      // (nq), (nv), (nv): simulated state, applied torque
+  Eigen::VectorXd q_prev_, v_prev_;  // state at the start of the last step (what is published)
+  std::vector<unsigned char> actuated_;  // (nv) finite tau_limit and not a pseudo-joint
+  io::OutputEncoder out_enc_;
+  io::StatsEncoder stats_enc_;
+  std::vector<uint8_t> out_buf_, stats_buf_;
+
+  bool started_ = false;
+  long long t0_ns_ = 0;
+  double sim_time_ = 0;
+  bool have_cmd_ = false, have_state_ = false, input_expired_ = false;
+  io::Input last_input_ = io::Input::kNoCommand;
+  std::atomic<bool> faulted_{false};
+  Reason fault_reason_ = Reason::kNone;
+  bool in_overrun_ = false;
+  int64_t since_stats_ = 0;
+
+  std::atomic<int64_t> ticks_{0}, overruns_{0}, skipped_{0}, expired_{0}, numerical_errors_{0};
+  Histogram late_win_, comp_win_, late_all_, comp_all_;
+  EventRing<256> events_;
+};
+
+}  // namespace coopdyn::runtime
