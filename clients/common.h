@@ -53,5 +53,7 @@ int velocity_index(const System& sys, const std::string& name);  // -1 if absent
 
 int cmd_eval(const Args& a);
 int cmd_sim(const Args& a);
+int cmd_send(const Args&);
+int cmd_log(const Args&);
 
 }  // namespace coopdyn::cli

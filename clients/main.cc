@@ -12,6 +12,9 @@ void usage() {
                "  coopdyn eval --scene FILE [--state FILE.json] [--formulation NAME]\n"
                "  coopdyn sim  --scene FILE --duration T --dt H [--integrator semi_implicit_euler|rk4]\n"
                "               [--torque PROFILE]... [--formulation NAME] [--out FILE.csv]\n"
+               "  coopdyn send --scene FILE --torque PROFILE... [--rate HZ] [--duration S] [--lcm-url URL]\n"
+               "               [--channel C] [--seq N] [--measure-latency] [--output-channel C]\n"
+               "  coopdyn log  --in FILE.lcmlog [--out DIR] [--no-plot]\n"
                "PROFILE: JOINT:constant:VALUE | JOINT:step:VALUE:T0 | JOINT:pulse:VALUE:T0:T1 | FILE.csv\n");
 }
 }  // namespace
@@ -29,6 +32,8 @@ int main(int argc, char** argv) {
   }
   if (cmd == "eval") return coopdyn::cli::cmd_eval(a);
   if (cmd == "sim") return coopdyn::cli::cmd_sim(a);
+  if (cmd == "send") return coopdyn::cli::cmd_send(a);
+  if (cmd == "log") return coopdyn::cli::cmd_log(a);
   std::fprintf(stderr, "coopdyn: unknown command '%s'\n", cmd.c_str());
   usage();
   return 2;

@@ -1,0 +1,16 @@
+# coopdynd tests: the loop (tick by tick through an in-memory bus), no allocation in the loop,
+# real LCM round trips (memq://, and udpm:// against build/bin/coopdynd as a child process),
+# lcm-logger + coopdyn log. Included at the end of tests/CMakeLists.txt.
+add_executable(coopdynd_tests
+  ${CMAKE_CURRENT_LIST_DIR}/loop_test.cc
+  ${CMAKE_CURRENT_LIST_DIR}/loop_no_allocation_test.cc
+  ${CMAKE_CURRENT_LIST_DIR}/lcm_daemon_test.cc
+)
+target_link_libraries(coopdynd_tests PRIVATE coopdyn_runtime coopdyn_scene GTest::gtest GTest::gtest_main)
+target_compile_definitions(coopdynd_tests PRIVATE
+  COOPDYN_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
+  COOPDYND_PATH="$<TARGET_FILE:coopdynd>"
+  COOPDYN_PATH="$<TARGET_FILE:coopdyn>")
+target_include_directories(coopdynd_tests PRIVATE ${PROJECT_SOURCE_DIR})
+add_dependencies(coopdynd_tests coopdynd coopdyn)
+gtest_discover_tests(coopdynd_tests DISCOVERY_TIMEOUT 60 PROPERTIES LABELS daemon)

@@ -1,0 +1,135 @@
+// Helpers for the coopdynd tests: scenes, an allocation-free in-memory bus, offline comparison.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstring>
+#include <dirent.h>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "service/dynamics/constrained_dynamics.h"
+#include "service/io/bus.h"
+#include "service/io/codec.h"
+#include "service/scene/scene.h"
+
+namespace coopdyn::daemon_test {
+
+inline std::string scene_path(const std::string& name) {
+  return std::string(COOPDYN_SOURCE_DIR) + "/config/scenes/" + name + ".yaml";
+}
+
+// Every scene in config/scenes that loads (scenes are the lead's; one that does not load is
+// reported by the scene tests, not here).
+inline std::vector<std::string> loadable_scenes() {
+  std::vector<std::string> out;
+  const std::string dir = std::string(COOPDYN_SOURCE_DIR) + "/config/scenes";
+  if (DIR* d = opendir(dir.c_str())) {
+    while (dirent* e = readdir(d)) {
+      std::string n = e->d_name;
+      if (n.size() > 5 && n.substr(n.size() - 5) == ".yaml") {
+        n = n.substr(0, n.size() - 5);
+        try {
+          load_scene(scene_path(n));
+          out.push_back(n);
+        } catch (const std::exception&) {
+        }
+      }
+    }
+    closedir(d);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// The last message per channel, in fixed storage: publish() never allocates.
+class FakeBus : public io::Bus {
+ public:
+  static constexpr int kCap = 1 << 16;
+  struct Slot {
+    char channel[64] = {0};
+    std::array<uint8_t, kCap> data{};
+    int len = 0;
+    long count = 0;
+  };
+  int publish(const char* channel, const void* data, int len) override {
+    for (Slot& s : slots_) {
+      if (s.channel[0] == 0) std::strncpy(s.channel, channel, sizeof s.channel - 1);
+      if (std::strcmp(s.channel, channel) == 0) {
+        if (len > kCap) return -1;
+        std::memcpy(s.data.data(), data, static_cast<size_t>(len));
+        s.len = len;
+        ++s.count;
+        return 0;
+      }
+    }
+    return -1;
+  }
+  const Slot* find(const char* channel) const {
+    for (const Slot& s : slots_)
+      if (std::strcmp(s.channel, channel) == 0) return &s;
+    return nullptr;
+  }
+  long count(const char* channel) const {
+    const Slot* s = find(channel);
+    return s ? s->count : 0;
+  }
+  io::DecodedOutput last_output(const char* channel = "COOPDYN_OUTPUT") const {
+    io::DecodedOutput o;
+    const Slot* s = find(channel);
+    EXPECT_TRUE(s && io::decode_output(s->data.data(), s->len, &o)) << "no decodable output on " << channel;
+    return o;
+  }
+
+ private:
+  Slot slots_[4];
+};
+
+inline Eigen::VectorXd vec(const std::vector<double>& x) {
+  return Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<Eigen::Index>(x.size()));
+}
+inline std::vector<double> stdvec(const Eigen::VectorXd& x) { return std::vector<double>(x.data(), x.data() + x.size()); }
+
+// Asserts that a published output equals the offline evaluate() at the (q, v, tau) it carries:
+// same wrenches per tip, stresses, accelerations and diagnostics.
+inline void expect_matches_offline(const System& sys, const io::DecodedOutput& o, double tol = 1e-9) {
+  ASSERT_EQ(static_cast<int>(o.q.size()), sys.model.nq());
+  ASSERT_EQ(static_cast<int>(o.v.size()), sys.model.nv());
+  Workspace ws(sys);
+  const Diagnostics& d = evaluate(sys, ws, vec(o.q), vec(o.v), vec(o.tau));
+  EXPECT_EQ(o.status, static_cast<int>(d.status));
+  EXPECT_EQ(o.reason, static_cast<int>(d.reason));
+  EXPECT_EQ(o.rank, d.rank);
+  EXPECT_EQ(o.rows, d.rows);
+  int t = 0;
+  for (size_t s = 0; s < sys.constraints.specs.size(); ++s) {
+    if (sys.constraints.specs[s].kind != ConstraintKind::kWeld) continue;
+    ASSERT_LT(t, static_cast<int>(o.wrench.size()));
+    EXPECT_EQ(o.tip_names[t], sys.constraints.specs[s].name);
+    unsigned mask = 0;
+    const Vec6 w = tip_wrench(sys, ws, static_cast<int>(s), &mask);
+    const double scale = 1.0 + w.cwiseAbs().maxCoeff();
+    for (int k = 0; k < 6; ++k) EXPECT_NEAR(o.wrench[t][k], w[k], tol * scale) << o.tip_names[t] << " component " << k;
+    EXPECT_EQ(static_cast<unsigned>(o.indeterminate_mask[t]) & 0x3f, mask);
+    ++t;
+  }
+  EXPECT_EQ(t, static_cast<int>(o.wrench.size()));
+  ASSERT_EQ(static_cast<Eigen::Index>(o.stress.size()), ws.stress.size());
+  for (Eigen::Index k = 0; k < ws.stress.size(); ++k)
+    EXPECT_NEAR(o.stress[k], ws.stress[k], tol * (1.0 + std::abs(ws.stress[k])));
+  for (Eigen::Index k = 0; k < ws.vdot.size(); ++k) EXPECT_NEAR(o.vdot[k], ws.vdot[k], tol * (1.0 + std::abs(ws.vdot[k])));
+}
+
+// A torque within the scene's limits on every DOF that is not a pseudo-joint.
+inline Eigen::VectorXd some_torque(const System& sys, unsigned seed, double scale = 2.0) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-scale, scale);
+  Eigen::VectorXd tau = Eigen::VectorXd::Zero(sys.model.nv());
+  for (int i = 0; i < sys.model.nv(); ++i) tau[i] = std::max(-sys.tau_limit[i], std::min(sys.tau_limit[i], u(rng)));
+  for (int d : sys.model.pseudo_dofs) tau[d] = 0;
+  return tau;
+}
+
+}  // namespace coopdyn::daemon_test

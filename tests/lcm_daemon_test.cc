@@ -1,0 +1,344 @@
+// Real LCM: an in-process memq:// round trip through the running loop, and udpm:// (ttl=0)
+// between this test and build/bin/coopdynd as a child process (simulate and estimate mode,
+// SIGTERM shutdown, start-up errors), and lcm-logger recording a run that `coopdyn log` converts.
+#include <gtest/gtest.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+#include "service/io/lcm_bus.h"
+#include "service/runtime/service_loop.h"
+#include "tests/daemon_test_util.h"
+
+extern char** environ;
+
+using namespace coopdyn;
+using namespace coopdyn::daemon_test;
+using namespace std::chrono_literals;
+
+namespace {
+
+std::string tmp_path(const std::string& what) {
+  return (::testing::TempDir().empty() ? std::string("/tmp/") : ::testing::TempDir()) + "coopdynd_test_" +
+         std::to_string(getpid()) + "_" + what;
+}
+std::string slurp(const std::string& p) {
+  std::ifstream f(p);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+// A child process with stdout and stderr to files.
+struct Child {
+  pid_t pid = -1;
+  std::string out, err;
+  Child(const std::vector<std::string>& argv, const std::string& name) : out(tmp_path(name + ".out")), err(tmp_path(name + ".err")) {
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_addopen(&fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    std::vector<char*> args;
+    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    if (posix_spawn(&pid, args[0], &fa, nullptr, args.data(), environ) != 0) pid = -1;
+    posix_spawn_file_actions_destroy(&fa);
+  }
+  // exit code, or -signal; waits at most `limit` and then kills
+  int wait(std::chrono::milliseconds limit = 20s) {
+    const auto end = std::chrono::steady_clock::now() + limit;
+    int st = 0;
+    while (true) {
+      const pid_t r = waitpid(pid, &st, WNOHANG);
+      if (r == pid) break;
+      if (std::chrono::steady_clock::now() > end) {
+        kill(pid, SIGKILL);
+        waitpid(pid, &st, 0);
+        ADD_FAILURE() << "child did not exit in time";
+        break;
+      }
+      std::this_thread::sleep_for(10ms);
+    }
+    pid = -1;
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -WTERMSIG(st);
+  }
+  void signal(int s) { kill(pid, s); }
+  ~Child() {
+    if (pid > 0) {
+      kill(pid, SIGKILL);
+      waitpid(pid, nullptr, 0);
+    }
+    std::remove(out.c_str());
+    std::remove(err.c_str());
+  }
+};
+
+// A multicast URL private to this test process (ttl=0: never leaves the machine).
+std::string private_udpm_url(int offset) {
+  return "udpm://239.255.76.67:" + std::to_string(20000 + (getpid() * 7 + offset) % 30000) + "?ttl=0";
+}
+
+// Collects decoded outputs from a bus.
+struct OutputSink {
+  std::mutex mu;
+  std::vector<io::DecodedOutput> outs;
+  void attach(io::LcmBus& bus, const std::string& channel = "COOPDYN_OUTPUT") {
+    bus.subscribe(channel, [this](const void* d, int n, long long) {
+      io::DecodedOutput o;
+      if (!io::decode_output(d, n, &o)) return;
+      std::lock_guard<std::mutex> lk(mu);
+      outs.push_back(std::move(o));
+    });
+  }
+  template <class Pred>
+  bool wait_for(Pred p, std::chrono::milliseconds limit) {
+    const auto end = std::chrono::steady_clock::now() + limit;
+    while (std::chrono::steady_clock::now() < end) {
+      {
+        std::lock_guard<std::mutex> lk(mu);
+        for (const auto& o : outs)
+          if (p(o)) return true;
+      }
+      std::this_thread::sleep_for(5ms);
+    }
+    return false;
+  }
+  std::vector<io::DecodedOutput> snapshot() {
+    std::lock_guard<std::mutex> lk(mu);
+    return outs;
+  }
+};
+
+std::unique_ptr<io::LcmBus> try_bus(const std::string& url) {
+  try {
+    return std::make_unique<io::LcmBus>(url);
+  } catch (const std::exception& e) {
+    return nullptr;
+  }
+}
+
+}  // namespace
+
+// memq://: publisher, loop (running at 1 kHz in its thread) and subscriber in one process.
+TEST(LcmRoundTrip, MemqCommandsInWrenchesOutEqualOffline) {
+  const System sys = load_scene(scene_path("two_puma_load"));
+  runtime::ServiceConfig cfg;
+  io::LcmBus bus("memq://");
+  runtime::ServiceLoop loop(sys, cfg, bus);
+  bus.subscribe(cfg.command_channel, [&](const void* d, int n, long long t) { loop.commands().offer(d, n, t); });
+  OutputSink sink;
+  sink.attach(bus);
+  bus.start();
+  std::atomic<bool> stop{false};
+  std::thread th([&] { loop.run(stop); });
+  const Eigen::VectorXd tau = some_torque(sys, 7);
+  for (int seq = 1; seq <= 20; ++seq) {
+    const auto b = io::encode_torque_command(io::wall_us(), seq, {}, stdvec(tau * (seq / 20.0)));
+    bus.publish(cfg.command_channel.c_str(), b.data(), static_cast<int>(b.size()));
+    std::this_thread::sleep_for(5ms);
+  }
+  const bool got = sink.wait_for([](const io::DecodedOutput& o) { return o.input_seq == 20; }, 5s);
+  stop = true;
+  th.join();
+  bus.stop();
+  ASSERT_TRUE(got) << "no output used the last command";
+  int checked = 0;
+  for (const auto& o : sink.snapshot()) {
+    if (o.input != static_cast<int>(io::Input::kCommand)) continue;
+    for (int i = 0; i < tau.size(); ++i) ASSERT_NEAR(o.tau[i], tau[i] * (o.input_seq / 20.0), 1e-12);
+    if (checked++ % 10 == 0) expect_matches_offline(sys, o);
+  }
+  EXPECT_GT(checked, 20);
+}
+
+class DaemonProcess : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    url_ = private_udpm_url(static_cast<int>(std::hash<std::string>()(
+                                ::testing::UnitTest::GetInstance()->current_test_info()->name()) %
+                            1000));
+    bus_ = try_bus(url_);
+    if (!bus_) GTEST_SKIP() << "LCM udpm unavailable (no multicast route? 'ip route add 224.0.0.0/4 dev lo')";
+    sys_ = load_scene(scene_path("two_puma_load"));
+  }
+  std::unique_ptr<Child> start_daemon(const std::vector<std::string>& extra, const std::string& name = "coopdynd") {
+    std::vector<std::string> argv = {COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--lcm-url", url_,
+                                     "--duration", "20"};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    return std::make_unique<Child>(argv, name);
+  }
+  std::string url_;
+  std::unique_ptr<io::LcmBus> bus_;
+  System sys_;
+};
+
+TEST_F(DaemonProcess, UdpmSimulateCommandsInWrenchesOutThenSigterm) {
+  OutputSink sink;
+  sink.attach(*bus_);
+  bus_->start();
+  auto d = start_daemon({});
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  const Eigen::VectorXd tau = some_torque(sys_, 9);
+  for (int seq = 1; seq <= 30; ++seq) {
+    const auto b = io::encode_torque_command(io::wall_us(), seq, {}, stdvec(tau));
+    bus_->publish("COOPDYN_COMMAND", b.data(), static_cast<int>(b.size()));
+    std::this_thread::sleep_for(5ms);
+  }
+  // one malformed and one out-of-order command: counted by the daemon, never applied
+  const auto bad = io::encode_torque_command(io::wall_us(), 31, {"nope"}, {1.0});
+  bus_->publish("COOPDYN_COMMAND", bad.data(), static_cast<int>(bad.size()));
+  const auto old = io::encode_torque_command(io::wall_us(), 3, {}, stdvec(-tau));
+  bus_->publish("COOPDYN_COMMAND", old.data(), static_cast<int>(old.size()));
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.input_seq == 30; }, 5s));
+  std::this_thread::sleep_for(50ms);
+  d->signal(SIGTERM);
+  EXPECT_EQ(d->wait(), 0) << slurp(d->err);
+  bus_->stop();
+  const std::string summary = slurp(d->out);
+  EXPECT_NE(summary.find("coopdynd: stopped (SIGTERM)"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("received 32, accepted 30, rejected 1, out-of-order 1"), std::string::npos) << summary;
+  int checked = 0;
+  for (const auto& o : sink.snapshot()) {
+    if (o.input != static_cast<int>(io::Input::kCommand)) continue;
+    for (int i = 0; i < tau.size(); ++i) ASSERT_EQ(o.tau[i], tau[i]);
+    if (checked++ % 10 == 0) expect_matches_offline(sys_, o);
+  }
+  EXPECT_GT(checked, 10);
+}
+
+TEST_F(DaemonProcess, UdpmEstimateMeasuredStateInWrenchesOut) {
+  OutputSink sink;
+  sink.attach(*bus_);
+  bus_->start();
+  auto d = start_daemon({"--mode", "estimate"});
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  Eigen::VectorXd v = sys_.v0;
+  for (int i = 0; i < v.size(); ++i) v[i] = 0.05 * std::sin(i + 1.0);
+  const Eigen::VectorXd tau = some_torque(sys_, 4);
+  for (int seq = 1; seq <= 10; ++seq) {
+    const auto b = io::encode_measured_state(io::wall_us(), seq, sys_.model.q_names, stdvec(sys_.q0),
+                                             sys_.model.v_names, stdvec(v * seq), stdvec(tau));
+    bus_->publish("COOPDYN_STATE", b.data(), static_cast<int>(b.size()));
+    std::this_thread::sleep_for(5ms);
+  }
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.input_seq == 10; }, 5s));
+  d->signal(SIGINT);
+  EXPECT_EQ(d->wait(), 0) << slurp(d->err);
+  bus_->stop();
+  EXPECT_NE(slurp(d->out).find("coopdynd: stopped (SIGINT)"), std::string::npos);
+  int checked = 0;
+  for (const auto& o : sink.snapshot()) {
+    if (o.input != static_cast<int>(io::Input::kState)) {
+      EXPECT_EQ(o.status, static_cast<int>(Status::kError));  // no state yet: says so, publishes zeros
+      continue;
+    }
+    for (int i = 0; i < v.size(); ++i) ASSERT_EQ(o.v[i], v[i] * o.input_seq);
+    if (checked++ % 5 == 0) expect_matches_offline(sys_, o);
+  }
+  EXPECT_GT(checked, 5);
+}
+
+TEST(DaemonStartup, BrokenSceneOrConfigStopsWithAClearMessage) {
+  const std::string bad_scene = tmp_path("bad_scene.yaml");
+  std::ofstream(bad_scene) << "name: x\nrobots: [\n";
+  {
+    Child c({COOPDYND_PATH, "--scene", bad_scene, "--lcm-url", "memq://"}, "bad_scene");
+    EXPECT_EQ(c.wait(), 1);
+    EXPECT_NE(slurp(c.err).find(bad_scene), std::string::npos) << slurp(c.err);
+  }
+  const std::string bad_cfg = tmp_path("bad_cfg.yaml");
+  std::ofstream(bad_cfg) << "rate_hz: 1000\nmode: dream\n";
+  {
+    Child c({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", bad_cfg}, "bad_cfg");
+    EXPECT_EQ(c.wait(), 2);
+    EXPECT_NE(slurp(c.err).find(bad_cfg + ":2:"), std::string::npos) << slurp(c.err);
+    EXPECT_NE(slurp(c.err).find("mode must be simulate or estimate"), std::string::npos);
+  }
+  {
+    Child c({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", "/no/such/file.yaml"}, "no_cfg");
+    EXPECT_EQ(c.wait(), 2);
+  }
+  std::remove(bad_scene.c_str());
+  std::remove(bad_cfg.c_str());
+}
+
+// lcm-logger records a daemon run driven by `coopdyn send`; `coopdyn log` finds the three channels
+// with their types, rates near the configured ones, and writes one CSV row per message.
+TEST_F(DaemonProcess, LcmLoggerRunConvertsToCsv) {
+  if (access("/usr/bin/lcm-logger", X_OK) != 0) GTEST_SKIP() << "lcm-logger (Debian liblcm-bin) not installed";
+  const std::string log_path = tmp_path("run.lcmlog"), out_dir = tmp_path("run_csv");
+  const std::string cfg_path = tmp_path("cfg.yaml");
+  std::ofstream(cfg_path) << "rate_hz: 200\nstats_period_s: 0.25\n";
+  OutputSink sink;
+  sink.attach(*bus_);
+  bus_->start();
+  Child logger({"/usr/bin/lcm-logger", "--lcm-url=" + url_, "-f", "-q", log_path}, "logger");
+  auto d = start_daemon({"--config", cfg_path});
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  Child send({COOPDYN_PATH, "send", "--scene", scene_path("two_puma_load"), "--lcm-url", url_, "--rate", "100",
+              "--duration", "0.6", "--torque", sys_.model.v_names[7] + ":pulse:1.0:0.1:0.3"},
+             "send");
+  EXPECT_EQ(send.wait(), 0) << slurp(send.err);
+  std::this_thread::sleep_for(300ms);
+  d->signal(SIGTERM);
+  EXPECT_EQ(d->wait(), 0) << slurp(d->err);
+  logger.signal(SIGINT);
+  logger.wait();
+  bus_->stop();
+  Child conv({COOPDYN_PATH, "log", "--in", log_path, "--out", out_dir, "--no-plot"}, "log");
+  ASSERT_EQ(conv.wait(), 0) << slurp(conv.err);
+  const std::string table = slurp(conv.out);
+  struct Row {
+    std::string type;
+    long n = 0;
+    double rate = 0;
+  };
+  std::map<std::string, Row> rows;
+  std::istringstream in(table);
+  std::string line;
+  while (std::getline(in, line)) {
+    std::istringstream ls(line);
+    std::string ch;
+    Row r;
+    if (ls >> ch >> r.type >> r.n >> r.rate) rows[ch] = r;
+  }
+  ASSERT_EQ(rows.count("COOPDYN_OUTPUT"), 1u) << table;
+  ASSERT_EQ(rows.count("COOPDYN_COMMAND"), 1u) << table;
+  ASSERT_EQ(rows.count("COOPDYN_STATS"), 1u) << table;
+  EXPECT_EQ(rows["COOPDYN_OUTPUT"].type, "coopdyn.output_t");
+  EXPECT_EQ(rows["COOPDYN_COMMAND"].type, "coopdyn.torque_command_t");
+  EXPECT_EQ(rows["COOPDYN_STATS"].type, "coopdyn.loop_stats_t");
+  EXPECT_EQ(rows["COOPDYN_COMMAND"].n, 61);  // 0.6 s at 100 Hz, both ends
+  // rates from the log's own timestamps: the configured 200 Hz and 100 Hz, 4 Hz stats (wide
+  // bands: a loaded 2-core machine delays delivery, not the count)
+  EXPECT_NEAR(rows["COOPDYN_OUTPUT"].rate, 200, 60) << table;
+  EXPECT_NEAR(rows["COOPDYN_COMMAND"].rate, 100, 30) << table;
+  EXPECT_NEAR(rows["COOPDYN_STATS"].rate, 4, 1.5) << table;
+  // one CSV row per message, with the tip wrench columns
+  std::ifstream csv(out_dir + "/COOPDYN_OUTPUT.csv");
+  std::string head;
+  std::getline(csv, head);
+  EXPECT_EQ(head.rfind("log_time,utime,tick,sim_time", 0), 0u) << head;
+  EXPECT_NE(head.find(".fz"), std::string::npos);
+  long n = 0;
+  while (std::getline(csv, line)) ++n;
+  EXPECT_EQ(n, rows["COOPDYN_OUTPUT"].n);
+  // the pulse is in the commands' CSV: 1.0 on the pulsed joint for 0.1 <= t < 0.3
+  std::ifstream cc(out_dir + "/COOPDYN_COMMAND.csv");
+  std::getline(cc, head);
+  EXPECT_NE(head.find("tau:"), std::string::npos);
+  for (const char* f : {"COOPDYN_OUTPUT.csv", "COOPDYN_COMMAND.csv", "COOPDYN_STATS.csv"})
+    std::remove((out_dir + "/" + f).c_str());
+  rmdir(out_dir.c_str());
+  std::remove(log_path.c_str());
+  std::remove(cfg_path.c_str());
+}

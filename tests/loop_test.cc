@@ -1,0 +1,388 @@
+// ServiceLoop driven tick by tick through an in-memory bus: outputs equal the offline evaluate()
+// of the state they carry, the loop integrates like step(), the watchdog, rejected commands,
+// sequence handling and numerical failures. Times are synthetic (tick(now) with chosen now).
+#include <gtest/gtest.h>
+
+#include <thread>
+
+#include "service/dynamics/integrators.h"
+#include "service/runtime/histogram.h"
+#include "service/runtime/service_loop.h"
+#include "service/runtime/triple_buffer.h"
+#include "tests/daemon_test_util.h"
+
+using namespace coopdyn;
+using namespace coopdyn::daemon_test;
+using runtime::Offer;
+using runtime::ServiceConfig;
+using runtime::ServiceLoop;
+
+namespace {
+constexpr long long kMs = 1000000;
+
+std::vector<uint8_t> command(int64_t seq, const Eigen::VectorXd& tau, const std::vector<std::string>& names = {}) {
+  return io::encode_torque_command(1000 + seq, seq, names, stdvec(tau));
+}
+
+struct Rig {
+  System sys;
+  ServiceConfig cfg;
+  FakeBus bus;
+  std::unique_ptr<ServiceLoop> loop;
+  explicit Rig(const std::string& scene, runtime::ServiceMode mode = runtime::ServiceMode::kSimulate) {
+    sys = load_scene(scene_path(scene));
+    cfg.mode = mode;
+    loop = std::make_unique<ServiceLoop>(sys, cfg, bus);
+  }
+  void reset() { loop = std::make_unique<ServiceLoop>(sys, cfg, bus); }
+  Offer send(const std::vector<uint8_t>& b, long long t, io::Reject* why = nullptr) {
+    return loop->commands().offer(b.data(), static_cast<int>(b.size()), t, why);
+  }
+};
+}  // namespace
+
+TEST(TripleBuffer, ReaderSeesWholeNewestValues) {
+  struct Pair {
+    long a = 0, b = 0;
+  };
+  runtime::TripleBuffer<Pair> tb([](Pair&) {});
+  std::atomic<bool> done{false};
+  std::thread writer([&] {
+    for (long i = 1; i <= 200000; ++i) {
+      Pair& p = tb.write_slot();
+      p.a = i;
+      p.b = -i;
+      tb.publish();
+    }
+    done = true;
+  });
+  long last = 0, reads = 0;
+  while (!done.load()) {
+    tb.update();
+    const Pair& p = tb.read_slot();
+    ASSERT_EQ(p.a, -p.b) << "torn read";
+    ASSERT_GE(p.a, last) << "went back in time";
+    last = p.a;
+    ++reads;
+  }
+  writer.join();
+  tb.update();
+  EXPECT_EQ(tb.read_slot().a, 200000);  // the newest value always arrives
+  EXPECT_GT(reads, 0);
+}
+
+TEST(Histogram, PercentilesWithinBucketResolution) {
+  runtime::Histogram h;
+  for (int i = 1; i <= 100000; ++i) h.record(i * 10);  // uniform 10 ns .. 1 ms
+  EXPECT_EQ(h.total(), 100000);
+  EXPECT_EQ(h.max(), 1000000);
+  for (double p : {0.5, 0.99, 0.999}) {
+    const double exact = p * 1e6;
+    EXPECT_NEAR(static_cast<double>(h.percentile(p)), exact, exact / 64 + 10) << p;
+  }
+  for (int64_t v : {0LL, 1LL, 127LL, 128LL, 1000LL, 123456789LL}) {
+    const int i = runtime::Histogram::index(static_cast<uint64_t>(v));
+    EXPECT_LE(v, runtime::Histogram::upper(i));
+    if (i > 0) {
+      EXPECT_GT(v, runtime::Histogram::upper(i - 1));
+    }
+  }
+}
+
+// Commands in, wrenches out: every scene, each output equal to the offline evaluation of the state
+// it carries, and the state advancing exactly like step() under the commanded torque.
+TEST(ServiceLoop, SimulateOutputsEqualOfflineEvaluateAndStep) {
+  const auto scenes = loadable_scenes();
+  ASSERT_FALSE(scenes.empty());
+  for (const auto& name : scenes) {
+    SCOPED_TRACE(name);
+    Rig r(name);
+    const Eigen::VectorXd tau = some_torque(r.sys, 3);
+    ASSERT_EQ(r.send(command(1, tau), 0), Offer::kAccepted);
+    Stepper ref(r.sys);
+    Eigen::VectorXd q = r.sys.q0, v = r.sys.v0;
+    for (int k = 0; k < 20; ++k) {
+      r.loop->tick(k * kMs);
+      const io::DecodedOutput o = r.bus.last_output();
+      EXPECT_EQ(o.tick, k);
+      EXPECT_EQ(o.input, static_cast<int>(io::Input::kCommand));
+      EXPECT_EQ(o.input_seq, 1);
+      EXPECT_NEAR(o.sim_time, k * 1e-3, 1e-12);
+      for (int i = 0; i < tau.size(); ++i) ASSERT_EQ(o.tau[i], tau[i]);
+      for (int i = 0; i < q.size(); ++i) ASSERT_NEAR(o.q[i], q[i], 1e-12) << "q[" << i << "] at tick " << k;
+      expect_matches_offline(r.sys, o);
+      step(r.sys, ref, r.cfg.integrator, 1e-3, tau, q, v);
+    }
+    EXPECT_EQ(r.bus.count("COOPDYN_OUTPUT"), 20);
+  }
+}
+
+// Named partial commands: the named DOFs get their torque, the others 0.
+TEST(ServiceLoop, NamedCommandMapsByName) {
+  Rig r("two_puma_load");
+  const auto& names = r.sys.model.v_names;
+  const int a = 7, b = 15;
+  ASSERT_EQ(r.send(io::encode_torque_command(0, 1, {names[b], names[a]}, {-3.0, 2.0}), 0), Offer::kAccepted);
+  r.loop->tick(0);
+  const io::DecodedOutput o = r.bus.last_output();
+  for (int i = 0; i < r.sys.model.nv(); ++i) EXPECT_EQ(o.tau[i], i == a ? 2.0 : i == b ? -3.0 : 0.0) << names[i];
+}
+
+TEST(ServiceLoop, EstimateOutputsEqualOfflineEvaluate) {
+  for (const auto& name : loadable_scenes()) {
+    SCOPED_TRACE(name);
+    Rig r(name, runtime::ServiceMode::kEstimate);
+    r.loop->tick(0);
+    io::DecodedOutput o = r.bus.last_output();
+    EXPECT_EQ(o.input, static_cast<int>(io::Input::kNoState));
+    EXPECT_EQ(o.status, static_cast<int>(Status::kError));
+    EXPECT_EQ(o.reason, io::kReasonNoState);
+    // a measured state with names in reverse order, a velocity, and measured torques
+    const System& s = r.sys;
+    std::mt19937 rng(11);
+    std::normal_distribution<double> n01(0, 0.3);
+    Eigen::VectorXd v = s.v0;
+    for (int i = 0; i < v.size(); ++i) v[i] += n01(rng);
+    const Eigen::VectorXd tau = some_torque(s, 5);
+    std::vector<std::string> qn(s.model.q_names.rbegin(), s.model.q_names.rend());
+    std::vector<std::string> vn(s.model.v_names.rbegin(), s.model.v_names.rend());
+    std::vector<double> qr(s.q0.data(), s.q0.data() + s.q0.size()), vr = stdvec(v), tr = stdvec(tau);
+    std::reverse(qr.begin(), qr.end());
+    std::reverse(vr.begin(), vr.end());
+    std::reverse(tr.begin(), tr.end());
+    const auto msg = io::encode_measured_state(5, 1, qn, qr, vn, vr, tr);
+    ASSERT_EQ(r.loop->states().offer(msg.data(), static_cast<int>(msg.size()), 1 * kMs), Offer::kAccepted);
+    r.loop->tick(2 * kMs);
+    o = r.bus.last_output();
+    EXPECT_EQ(o.input, static_cast<int>(io::Input::kState));
+    EXPECT_EQ(o.input_seq, 1);
+    for (int i = 0; i < v.size(); ++i) {
+      EXPECT_EQ(o.v[i], v[i]);
+      EXPECT_EQ(o.tau[i], tau[i]);
+    }
+    expect_matches_offline(s, o);
+    // no integration in estimate mode: the same state gives the same output next tick
+    r.loop->tick(3 * kMs);
+    const io::DecodedOutput o2 = r.bus.last_output();
+    EXPECT_EQ(o2.q, o.q);
+    EXPECT_EQ(o2.wrench, o.wrench);
+    // stale after the watchdog
+    r.loop->tick(1 * kMs + r.cfg.watchdog_ns() + kMs);
+    const io::DecodedOutput o3 = r.bus.last_output();
+    EXPECT_EQ(o3.input, static_cast<int>(io::Input::kStateExpired));
+    EXPECT_EQ(o3.status, static_cast<int>(Status::kError));
+    EXPECT_EQ(o3.reason, io::kReasonStateStale);
+    for (const auto& w : o3.wrench)
+      for (double x : w) EXPECT_EQ(x, 0.0);
+    EXPECT_EQ(r.loop->expirations(), 1);
+  }
+}
+
+TEST(ServiceLoop, WatchdogAppliesSafeTorqueAndSaysSo) {
+  Rig r("two_puma_load");
+  const long long wd = r.cfg.watchdog_ns();
+  r.loop->tick(0);
+  io::DecodedOutput o = r.bus.last_output();
+  EXPECT_EQ(o.input, static_cast<int>(io::Input::kNoCommand));
+  EXPECT_EQ(o.input_seq, -1);
+  for (double x : o.tau) EXPECT_EQ(x, 0.0);
+
+  const Eigen::VectorXd tau = some_torque(r.sys, 1);
+  r.send(command(1, tau), 10 * kMs);
+  r.loop->tick(10 * kMs + wd);  // exactly at the watchdog: still fresh
+  o = r.bus.last_output();
+  EXPECT_EQ(o.input, static_cast<int>(io::Input::kCommand));
+  EXPECT_EQ(o.tau[6], tau[6]);
+  r.loop->tick(10 * kMs + wd + 1);  // 1 ns later: expired
+  o = r.bus.last_output();
+  EXPECT_EQ(o.input, static_cast<int>(io::Input::kCommandExpired));
+  EXPECT_EQ(o.input_seq, 1);
+  for (double x : o.tau) EXPECT_EQ(x, 0.0);
+  EXPECT_EQ(r.loop->expirations(), 1);
+  r.loop->tick(10 * kMs + 2 * wd);
+  EXPECT_EQ(r.loop->expirations(), 1) << "one expiry, counted once";
+  runtime::Event e;
+  bool saw = false;
+  while (r.loop->events().pop(&e)) saw = saw || e.code == runtime::EventCode::kCommandExpired;
+  EXPECT_TRUE(saw);
+  // a new command resumes
+  r.send(command(2, tau), 10 * kMs + 2 * wd);
+  r.loop->tick(10 * kMs + 2 * wd + kMs);
+  o = r.bus.last_output();
+  EXPECT_EQ(o.input, static_cast<int>(io::Input::kCommand));
+  EXPECT_EQ(o.tau[6], tau[6]);
+}
+
+TEST(ServiceLoop, DampingSafeTorqueOnActuatedJointsOnly) {
+  Rig r("two_puma_load");
+  r.cfg.safe_torque = runtime::SafeTorque::kDamping;
+  r.cfg.damping = 4.0;
+  for (int i = 6; i < r.sys.model.nv(); ++i) r.sys.tau_limit[i] = 0.5;  // arm joints actuated, platform not
+  r.reset();
+  Eigen::VectorXd tau = Eigen::VectorXd::Zero(r.sys.model.nv());
+  for (int k = 0; k < 30; ++k) r.loop->tick(k * kMs);  // the arms fall under gravity: v != 0
+  const Eigen::VectorXd v = r.loop->v();
+  r.loop->tick(30 * kMs);
+  const io::DecodedOutput o = r.bus.last_output();
+  EXPECT_EQ(o.input, static_cast<int>(io::Input::kNoCommand));
+  for (int i = 0; i < r.sys.model.nv(); ++i) {
+    const double expect = i < 6 ? 0.0 : std::max(-0.5, std::min(0.5, -4.0 * v[i]));
+    EXPECT_NEAR(o.tau[i], expect, 1e-15) << r.sys.model.v_names[i];
+  }
+}
+
+TEST(ServiceLoop, MalformedCommandsAreRejectedCountedNeverApplied) {
+  Rig r("two_puma_load");
+  const int nv = r.sys.model.nv();
+  r.sys.tau_limit[8] = 10.0;
+  r.reset();
+  const Eigen::VectorXd good = some_torque(r.sys, 2);
+  ASSERT_EQ(r.send(command(1, good), 0), Offer::kAccepted);
+  const auto& names = r.sys.model.v_names;
+  Eigen::VectorXd nan = good, inf = good, big = good;
+  nan[3] = std::nan("");
+  inf[4] = -std::numeric_limits<double>::infinity();
+  big[8] = 10.5;
+  std::vector<uint8_t> valid = command(9, good);
+  std::vector<uint8_t> truncated(valid.begin(), valid.end() - 5);
+  std::vector<uint8_t> garbage(64, 0xAB);
+  // a valid header whose names count claims 2^30 entries
+  std::vector<uint8_t> hostile(valid.begin(), valid.begin() + 24);
+  for (uint8_t b : {0x40, 0x00, 0x00, 0x00}) hostile.push_back(b);
+  // one name of length 0 (LCM lengths count the NUL, so 0 is invalid)
+  std::vector<uint8_t> zero_len(valid.begin(), valid.begin() + 24);
+  for (uint8_t b : {0, 0, 0, 1, 0, 0, 0, 0}) zero_len.push_back(b);
+
+  const std::vector<std::pair<std::vector<uint8_t>, io::Reject>> cases = {
+      {io::encode_torque_command(0, 2, {}, std::vector<double>(nv - 1, 0.0)), io::Reject::kCount},
+      {io::encode_torque_command(0, 3, {names[0], names[1]}, {1.0}), io::Reject::kCount},
+      {io::encode_torque_command(0, 4, {"no_such_joint"}, {1.0}), io::Reject::kUnknownName},
+      {io::encode_torque_command(0, 5, {names[7], names[7]}, {1.0, 2.0}), io::Reject::kDuplicateName},
+      {command(6, nan), io::Reject::kNonFinite},
+      {command(7, inf), io::Reject::kNonFinite},
+      {command(8, big), io::Reject::kOverLimit},
+      {truncated, io::Reject::kDecode},
+      {garbage, io::Reject::kDecode},
+      {hostile, io::Reject::kDecode},
+      {zero_len, io::Reject::kDecode},
+      {io::encode_measured_state(0, 10, {}, {}, {}, {}, {}), io::Reject::kDecode},  // another type
+  };
+  int n = 0;
+  for (const auto& [bytes, reason] : cases) {
+    SCOPED_TRACE(n);
+    io::Reject why = io::Reject::kNone;
+    EXPECT_EQ(r.send(bytes, kMs, &why), Offer::kRejected);
+    EXPECT_EQ(why, reason) << io::reject_name(why);
+    ++n;
+    r.loop->tick(2 * kMs);
+    const io::DecodedOutput o = r.bus.last_output();
+    EXPECT_EQ(o.input_seq, 1) << "the last good command stays in force";
+    for (int i = 0; i < nv; ++i) ASSERT_EQ(o.tau[i], good[i]);
+  }
+  const auto& c = r.loop->input_counters();
+  EXPECT_EQ(c.rejected.load(), n);
+  EXPECT_EQ(c.accepted.load(), 1);
+  EXPECT_EQ(c.by_reason[static_cast<int>(io::Reject::kNonFinite)].load(), 2);
+  // exactly at the limit is allowed
+  big[8] = 10.0;
+  EXPECT_EQ(r.send(command(20, big), 3 * kMs), Offer::kAccepted);
+}
+
+TEST(ServiceLoop, SequenceNumbersOutOfOrderDroppedResyncAfterExpiry) {
+  Rig r("two_puma_load");
+  const long long wd = r.cfg.watchdog_ns();
+  Eigen::VectorXd t5 = some_torque(r.sys, 5), t3 = some_torque(r.sys, 3), t6 = some_torque(r.sys, 6);
+  EXPECT_EQ(r.send(command(5, t5), 0), Offer::kAccepted);
+  EXPECT_EQ(r.send(command(3, t3), kMs), Offer::kOutOfOrder);
+  EXPECT_EQ(r.send(command(5, t3), kMs), Offer::kOutOfOrder);
+  r.loop->tick(2 * kMs);
+  io::DecodedOutput o = r.bus.last_output();
+  EXPECT_EQ(o.input_seq, 5);
+  EXPECT_EQ(o.tau[9], t5[9]);
+  EXPECT_EQ(r.send(command(6, t6), 3 * kMs), Offer::kAccepted);
+  r.loop->tick(4 * kMs);
+  EXPECT_EQ(r.bus.last_output().input_seq, 6);
+  // two commands between ticks: the newest wins
+  EXPECT_EQ(r.send(command(7, t3), 5 * kMs), Offer::kAccepted);
+  EXPECT_EQ(r.send(command(8, t5), 5 * kMs), Offer::kAccepted);
+  r.loop->tick(6 * kMs);
+  EXPECT_EQ(r.bus.last_output().input_seq, 8);
+  // a restarted sender (seq 1) is followed once the last command has expired
+  EXPECT_EQ(r.send(command(1, t3), 5 * kMs + wd), Offer::kOutOfOrder);
+  EXPECT_EQ(r.send(command(1, t3), 5 * kMs + wd + 1), Offer::kAccepted);
+  r.loop->tick(5 * kMs + wd + 2);
+  o = r.bus.last_output();
+  EXPECT_EQ(o.input_seq, 1);
+  EXPECT_EQ(o.input, static_cast<int>(io::Input::kCommand));
+  EXPECT_EQ(r.loop->input_counters().out_of_order.load(), 3);
+}
+
+// A singular mass matrix (every body massless, no armature): error status with the core's reason,
+// no NaN anywhere, the state frozen, latched on later ticks.
+TEST(ServiceLoop, NumericalFailureLatchesSafeErrorState) {
+  Rig r("two_puma_load");
+  for (auto& b : r.sys.model.bodies) {
+    b.inertia = Inertia();
+    b.joint.armature = 0;
+  }
+  r.reset();
+  for (int k = 0; k < 3; ++k) {
+    r.loop->tick(k * kMs);
+    const io::DecodedOutput o = r.bus.last_output();
+    EXPECT_EQ(o.status, static_cast<int>(Status::kError));
+    EXPECT_EQ(o.reason, static_cast<int>(Reason::kMassMatrixSingular));
+    for (const auto& w : o.wrench)
+      for (double x : w) EXPECT_EQ(x, 0.0);
+    for (double x : o.vdot) EXPECT_EQ(x, 0.0);
+    for (int i = 0; i < r.sys.model.nq(); ++i) EXPECT_EQ(o.q[i], r.sys.q0[i]);
+  }
+  EXPECT_TRUE(r.loop->faulted());
+  EXPECT_EQ(r.loop->numerical_errors(), 1);
+}
+
+// Estimate mode: a measured state that evaluate() refuses (a non-unit platform quaternion) gives
+// an error status and zeros, and the next good state is evaluated again (no latch).
+TEST(ServiceLoop, EstimateBadStateIsAnErrorForThatStateOnly) {
+  Rig r("two_puma_load", runtime::ServiceMode::kEstimate);
+  std::vector<double> q = stdvec(r.sys.q0);
+  q[3] = 2.0;  // quaternion w of the floating load
+  auto bad = io::encode_measured_state(0, 1, {}, q, {}, stdvec(r.sys.v0), std::vector<double>(r.sys.model.nv(), 0.0));
+  ASSERT_EQ(r.loop->states().offer(bad.data(), static_cast<int>(bad.size()), 0), Offer::kAccepted);
+  r.loop->tick(kMs);
+  io::DecodedOutput o = r.bus.last_output();
+  EXPECT_EQ(o.status, static_cast<int>(Status::kError));
+  EXPECT_EQ(o.reason, static_cast<int>(Reason::kNonFiniteInput));
+  for (double x : o.vdot) EXPECT_EQ(x, 0.0);
+  auto good = io::encode_measured_state(0, 2, {}, stdvec(r.sys.q0), {}, stdvec(r.sys.v0),
+                                        std::vector<double>(r.sys.model.nv(), 0.0));
+  ASSERT_EQ(r.loop->states().offer(good.data(), static_cast<int>(good.size()), 2 * kMs), Offer::kAccepted);
+  r.loop->tick(3 * kMs);
+  o = r.bus.last_output();
+  EXPECT_NE(o.status, static_cast<int>(Status::kError));
+  expect_matches_offline(r.sys, o);
+}
+
+TEST(ServiceLoop, StatsPublishedEveryPeriodWithCounters) {
+  Rig r("two_puma_load");
+  r.cfg.stats_period_s = 0.01;  // every 10 ticks at 1 kHz
+  r.reset();
+  r.send(command(1, some_torque(r.sys, 1)), 0);
+  r.send(io::encode_torque_command(0, 2, {"nope"}, {1.0}), 0);
+  for (int k = 0; k < 35; ++k) {
+    r.loop->tick(k * kMs);
+    r.loop->record_timing(1000 * (k % 5), 20000);
+  }
+  EXPECT_EQ(r.bus.count("COOPDYN_STATS"), 3);
+  const auto* s = r.bus.find("COOPDYN_STATS");
+  io::StatsFrame f;
+  ASSERT_TRUE(io::decode_stats(s->data.data(), s->len, &f));
+  EXPECT_EQ(f.tick, 30);
+  EXPECT_EQ(f.window_ticks, 10);
+  EXPECT_EQ(f.received, 2);
+  EXPECT_EQ(f.accepted, 1);
+  EXPECT_EQ(f.rejected, 1);
+  EXPECT_DOUBLE_EQ(f.period_us, 1000.0);
+  // the 30th tick's timing is recorded after it publishes: the window holds ticks 19..28
+  EXPECT_NEAR(f.lateness_us[3], 4.0, 0.07);
+  EXPECT_NEAR(f.compute_us[0], 20.0, 20.0 / 64);
+}
