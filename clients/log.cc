@@ -150,6 +150,7 @@ int cmd_log(const Args& a) {
     if (c.type == io::MessageType::kLoopStats && stats_csv.empty()) stats_csv = c.path;
   }
   if (a.has("no-plot") || (out_csv.empty() && stats_csv.empty())) return 0;
+  std::fflush(stdout);  // the table before the plotter's own lines
   const std::string py = a.get("python", "/usr/bin/python3");
   if (std::system((shell_quote(py) + " -c 'import matplotlib' >/dev/null 2>&1").c_str()) != 0) {
     std::printf(

@@ -7,6 +7,9 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include "service/io/lcm_bus.h"
 #include "service/runtime/service_loop.h"
 #include "tests/daemon_test_util.h"
 
@@ -74,4 +77,29 @@ TEST(LoopNoAllocation, RunWithDeadlineSleeps) {
   EXPECT_EQ(allocations, 0);
   EXPECT_EQ(loop.ticks(), 300);
   EXPECT_EQ(loop.totals().window_ticks, 300);
+}
+
+// The loop publishes from its own thread with lcm_publish over udpm: that path must not allocate
+// either (LCM 1.3: one sendmsg per datagram; larger messages are fragmented in place).
+TEST(LoopNoAllocation, UdpmPublishOfEncodedBytes) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  std::unique_ptr<io::LcmBus> bus;
+  try {
+    bus = std::make_unique<io::LcmBus>("udpm://239.255.76.67:" + std::to_string(20000 + getpid() % 30000) + "?ttl=0");
+  } catch (const std::exception&) {
+    GTEST_SKIP() << "LCM udpm unavailable (no multicast route?)";
+  }
+  std::vector<uint8_t> small(1500, 1), large(100000, 2);  // one datagram, and a fragmented one
+  bus->publish("COOPDYN_WARMUP", small.data(), static_cast<int>(small.size()));
+  bus->publish("COOPDYN_WARMUP", large.data(), static_cast<int>(large.size()));
+  long allocations;
+  {
+    AllocationCounter c;
+    for (int k = 0; k < 500; ++k) {
+      bus->publish("COOPDYN_OUTPUT", small.data(), static_cast<int>(small.size()));
+      if (k % 50 == 0) bus->publish("COOPDYN_OUTPUT", large.data(), static_cast<int>(large.size()));
+    }
+    allocations = c.count();
+  }
+  EXPECT_EQ(allocations, 0);
 }

@@ -12,6 +12,7 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -66,9 +67,32 @@ void log_event(const coopdyn::runtime::Event& e) {
       spdlog::error("numerical failure at tick {} (t = {:.3f} s): {}; simulation stopped, publishing error status",
                     e.b, e.x, coopdyn::reason_text(static_cast<coopdyn::Reason>(e.a)));
       break;
-    case EventCode::kOverrun: spdlog::warn("overrun at tick {}: {} period(s) behind", e.b, e.a); break;
+    case EventCode::kOverrun: break;  // aggregated by OverrunReport
   }
 }
+
+// Overruns come in bursts on a loaded machine: one warning per second at most, with the count.
+struct OverrunReport {
+  long bursts = 0;
+  long long worst = 0, first_tick = -1;
+  std::chrono::steady_clock::time_point last = std::chrono::steady_clock::now();
+  void add(const coopdyn::runtime::Event& e) {
+    if (e.code != coopdyn::runtime::EventCode::kOverrun) return;
+    if (first_tick < 0) first_tick = e.b;
+    ++bursts;
+    worst = std::max<long long>(worst, e.a);
+  }
+  void flush(bool force) {
+    const auto now = std::chrono::steady_clock::now();
+    if (bursts == 0 || (!force && now - last < std::chrono::seconds(1))) return;
+    spdlog::warn("{} overrun burst(s) since tick {} (worst {} period(s) behind); policy applied, see loop_stats_t",
+                 bursts, first_tick, worst);
+    bursts = 0;
+    worst = 0;
+    first_tick = -1;
+    last = now;
+  }
+};
 
 }  // namespace
 
@@ -199,16 +223,25 @@ int main(int argc, char** argv) {
 
   const auto t_start = std::chrono::steady_clock::now();
   runtime::Event e;
+  OverrunReport overruns;
   while (!g_stop.load()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    while (loop.events().pop(&e)) log_event(e);
+    while (loop.events().pop(&e)) {
+      log_event(e);
+      overruns.add(e);
+    }
+    overruns.flush(false);
     if (duration >= 0 &&
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count() >= duration)
       g_stop.store(true);
   }
   loop_thread.join();
   bus->stop();
-  while (loop.events().pop(&e)) log_event(e);
+  while (loop.events().pop(&e)) {
+    log_event(e);
+    overruns.add(e);
+  }
+  overruns.flush(true);
 
   const io::StatsFrame s = loop.totals();
   const int sig = g_signal.load();
