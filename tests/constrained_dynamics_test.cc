@@ -103,8 +103,11 @@ TEST(ConstrainedDynamics, AgreesWithAPlainKktSolve) {
     Eigen::VectorXd vdot, lambda;
     kkt_solve(ws.data.M, ws.cd.G, e.tau - ws.data.h, ws.cd.gamma, vdot, lambda);
     EXPECT_LT((vdot - ws.vdot).norm(), 1e-8 * (1 + vdot.norm()));
-    if (d.indeterminate == 0) EXPECT_LT((lambda - ws.lambda).norm(), 1e-7 * (1 + lambda.norm()));
-    else EXPECT_LT((ws.cd.G.transpose() * (lambda - ws.lambda)).norm(), 1e-7 * (1 + lambda.norm()));
+    if (d.indeterminate == 0) {
+      EXPECT_LT((lambda - ws.lambda).norm(), 1e-7 * (1 + lambda.norm()));
+    } else {
+      EXPECT_LT((ws.cd.G.transpose() * (lambda - ws.lambda)).norm(), 1e-7 * (1 + lambda.norm()));
+    }
   }
 }
 
@@ -131,7 +134,9 @@ TEST(ConstrainedDynamics, MobilePlatformClassicAndSvdAgreeOnArmScenes) {
       EXPECT_LT((a_cl - wmp.vdot).norm(), 1e-8 * (1 + wmp.vdot.norm()));
       EXPECT_LT((wsv.vdot - wmp.vdot).norm(), 1e-8 * (1 + wmp.vdot.norm()));
       EXPECT_EQ(wcl.diag.rank, wmp.diag.rank);
-      if (wmp.diag.indeterminate == 0) EXPECT_LT((wsv.lambda - wmp.lambda).norm(), 1e-7 * (1 + wmp.lambda.norm()));
+      if (wmp.diag.indeterminate == 0) {
+        EXPECT_LT((wsv.lambda - wmp.lambda).norm(), 1e-7 * (1 + wmp.lambda.norm()));
+      }
     }
   }
 }

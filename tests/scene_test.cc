@@ -2,6 +2,7 @@
 // reason; a scene allocates only what it declares.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <sstream>
 
@@ -98,7 +99,8 @@ TEST(Scene, BrokenScenesNameFileLineAndReason) {
   // negative mass, with its line number
   e = error_of(replaced(fb, "mass: 0.7", "mass: -0.7"), "fb.yaml");
   EXPECT_NE(e.find("negative mass"), std::string::npos) << e;
-  EXPECT_NE(e.find("fb.yaml:46:"), std::string::npos) << e;
+  const auto line = 1 + std::count(fb.begin(), fb.begin() + static_cast<long>(fb.find("mass: 0.7")), '\n');
+  EXPECT_NE(e.find("fb.yaml:" + std::to_string(line) + ":"), std::string::npos) << e;
   // non-closing initial state: the rocker angle off by 0.01 rad
   e = error_of(replaced(fb, "q: 1.3684540886165397", "q: 1.3784540886165397"), "fb.yaml");
   EXPECT_NE(e.find("initial state does not close constraint 'coupler_cut'"), std::string::npos) << e;

@@ -1,5 +1,8 @@
 #include "service/dynamics/integrators.h"
 
+#include "service/algorithms/kinematics.h"
+#include "service/dynamics/jacobi.h"
+
 namespace coopdyn {
 
 const char* integrator_name(Integrator i) {
@@ -26,6 +29,50 @@ Stepper::Stepper(const System& sys) : ws(sys), ws_stage(sys) {
   }
   q_s.setZero(sys.model.nq());
   v_s.setZero(sys.model.nv());
+  const int m = sys.constraints.rows;
+  if (sys.options.projection_iterations > 0) {
+    GGt.setZero(m, m);
+    eA.setZero(m, m);
+    eV.setZero(m, m);
+    ew.setZero(m);
+    r.setZero(m);
+    dv.setZero(sys.model.nv());
+  }
+}
+
+namespace {
+// x <- G^T (G G^T)^+ b, with G G^T eigen-decomposed in st (rank-safe)
+void apply_pinv(const System& sys, Stepper& st, const Eigen::MatrixXd& G, const Eigen::VectorXd& b, Eigen::VectorXd& x) {
+  const int m = sys.constraints.rows;
+  st.GGt.noalias() = G * G.transpose();
+  st.eA = st.GGt;
+  jacobi_eigen(st.eA, st.ew, st.eV);
+  const double emax = m ? std::max(st.ew[m - 1], 0.0) : 0.0;
+  st.r.noalias() = st.eV.transpose() * b;
+  for (int i = 0; i < m; ++i) st.r[i] = st.ew[i] > sys.options.rank_tol * emax && emax > 0 ? st.r[i] / st.ew[i] : 0.0;
+  st.ew.noalias() = st.eV * st.r;  // reuse as (G G^T)^+ b
+  x.noalias() = G.transpose() * st.ew;
+}
+}  // namespace
+
+double project_state(const System& sys, Stepper& st, Eigen::VectorXd& q, Eigen::VectorXd& v) {
+  const Model& model = sys.model;
+  Workspace& ws = st.ws_stage;
+  double err = 0.0;
+  for (int it = 0; it < std::max(1, sys.options.projection_iterations); ++it) {
+    forward_kinematics(model, ws.data, q, v);
+    constraint_rows(model, ws.data, sys.constraints, q, v, ws.cd);
+    err = ws.cd.err.size() ? ws.cd.err.cwiseAbs().maxCoeff() : 0.0;
+    if (err < 1e-13) break;
+    apply_pinv(sys, st, ws.cd.G, ws.cd.err, st.dv);
+    integrate(model, q, st.dv, -1.0, q);
+  }
+  forward_kinematics(model, ws.data, q, v);
+  constraint_rows(model, ws.data, sys.constraints, q, v, ws.cd);
+  err = ws.cd.err.size() ? ws.cd.err.cwiseAbs().maxCoeff() : 0.0;
+  apply_pinv(sys, st, ws.cd.G, ws.cd.Gv, st.dv);
+  v -= st.dv;
+  return err;
 }
 
 const Diagnostics& step(const System& sys, Stepper& st, Integrator integ, double dt, const Eigen::VectorXd& tau,
@@ -57,6 +104,7 @@ const Diagnostics& step(const System& sys, Stepper& st, Integrator integ, double
       break;
     }
   }
+  if (sys.options.projection_iterations > 0 && sys.constraints.rows > 0) project_state(sys, st, q, v);
   return d0;
 }
 

@@ -23,10 +23,17 @@ struct Stepper {
   Workspace ws_stage;  // RK4 stages
   Eigen::VectorXd k_q[4], k_v[4];  // (nq), (nv)
   Eigen::VectorXd q_s, v_s;        // stage state
+  // projection scratch
+  Eigen::MatrixXd GGt, eA, eV;     // (rows x rows)
+  Eigen::VectorXd ew, r, dv;       // (rows), (rows), (nv)
 };
 
+// Projects (q, v) onto the constraint manifold (see SolverOptions::projection_iterations). Returns
+// the largest position error left. Allocation-free.
+double project_state(const System& sys, Stepper& st, Eigen::VectorXd& q, Eigen::VectorXd& v);
+
 // Advances (q, v) by dt under tau. Returns the diagnostics of the evaluation at the start state;
-// on an error status, q and v are left unchanged.
+// on an error status, q and v are left unchanged. Projects afterwards if the scene asks.
 const Diagnostics& step(const System& sys, Stepper& st, Integrator integ, double dt, const Eigen::VectorXd& tau,
                         Eigen::VectorXd& q, Eigen::VectorXd& v);
 

@@ -39,6 +39,10 @@ struct SolverOptions {
   // The Cholesky fast path is taken when every pivot of Q is >= fast_tol * the largest pivot;
   // otherwise the eigen-decomposition decides the rank.
   double fast_tol = 1e-8;
+  // Projection onto the constraint manifold after every integrator step: Gauss-Newton iterations
+  // on the position error, then the velocity projected onto the null space of G (Euclidean metric,
+  // rank-safe pseudo-inverse). 0 = off.
+  int projection_iterations = 0;
 };
 
 struct System {

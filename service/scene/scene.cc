@@ -556,7 +556,15 @@ System load_scene_string(const std::string& text, const std::string& file, const
       const YAML::Node st = root["stabilization"];
       if (st.IsScalar() && st.as<std::string>() == "none") {
       } else {
-        check_keys(c, st, {"baumgarte"}, "stabilization");
+        check_keys(c, st, {"baumgarte", "projection"}, "stabilization");
+        if (st["projection"]) {
+          check_keys(c, st["projection"], {"iterations"}, "stabilization.projection");
+          const double it = get_double(c, st["projection"], "iterations", 3, "projection");
+          if (it < 1 || it > 50) fail(c, st["projection"], "projection iterations must be in 1..50");
+          sys.options.projection_iterations = static_cast<int>(it);
+        }
+      }
+      if (st.IsMap() && st["baumgarte"]) {
         const YAML::Node bg = st["baumgarte"];
         check_keys(c, bg, {"alpha", "beta"}, "stabilization.baumgarte");
         sys.constraints.stabilize = true;
