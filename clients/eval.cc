@@ -48,26 +48,8 @@ bool read_state(const std::string& path, const System& sys, Eigen::VectorXd& q, 
 }  // namespace
 
 int cmd_eval(const Args& a) {
-  if (!a.has("scene")) {
-    std::fprintf(stderr, "coopdyn eval: --scene FILE is required\n");
-    return 2;
-  }
-  SceneOverrides ov;
-  if (a.has("formulation")) {
-    Formulation f;
-    if (!parse_formulation(a.get("formulation"), &f)) {
-      std::fprintf(stderr, "coopdyn eval: unknown formulation '%s'\n", a.get("formulation").c_str());
-      return 2;
-    }
-    ov.formulation = f;
-  }
   System sys;
-  try {
-    sys = load_scene(a.get("scene"), ov);
-  } catch (const SceneError& e) {
-    std::fprintf(stderr, "coopdyn: %s\n", e.what());
-    return 1;
-  }
+  if (const int rc = load_cli_scene(a, "eval", &sys)) return rc;
   Eigen::VectorXd q = sys.q0, v = sys.v0, tau = Eigen::VectorXd::Zero(sys.model.nv());
   if (a.has("state") && !read_state(a.get("state"), sys, q, v, tau)) return 1;
   Workspace ws(sys);

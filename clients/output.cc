@@ -6,6 +6,7 @@
 
 #include "clients/common.h"
 #include "service/algorithms/kinematics.h"
+#include "service/scene/scene.h"
 
 namespace coopdyn::cli {
 
@@ -119,6 +120,30 @@ void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const
   std::fprintf(f, ", \"residual\": ");
   num(f, d.residual);
   std::fprintf(f, ", \"status\": \"%s\", \"reason\": \"%s\"}\n}\n", status_name(d.status), reason_text(d.reason));
+}
+
+int load_cli_scene(const Args& a, const char* cmd, System* sys) {
+  if (!a.has("scene")) {
+    std::fprintf(stderr, "coopdyn %s: --scene FILE is required\n", cmd);
+    return 2;
+  }
+  SceneOverrides ov;
+  if (a.has("formulation")) {
+    Formulation f;
+    if (!parse_formulation(a.get("formulation"), &f)) {
+      std::fprintf(stderr, "coopdyn %s: unknown formulation '%s' (mobile_platform, classic, pseudo_joint, svd)\n", cmd,
+                   a.get("formulation").c_str());
+      return 2;
+    }
+    ov.formulation = f;
+  }
+  try {
+    *sys = load_scene(a.get("scene"), ov);
+  } catch (const SceneError& e) {
+    std::fprintf(stderr, "coopdyn: %s\n", e.what());
+    return 1;
+  }
+  return 0;
 }
 
 int velocity_index(const System& sys, const std::string& name) {

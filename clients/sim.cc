@@ -10,8 +10,8 @@
 namespace coopdyn::cli {
 
 int cmd_sim(const Args& a) {
-  if (!a.has("scene") || !a.has("duration") || !a.has("dt")) {
-    std::fprintf(stderr, "coopdyn sim: --scene, --duration and --dt are required\n");
+  if (!a.has("duration") || !a.has("dt")) {
+    std::fprintf(stderr, "coopdyn sim: --duration and --dt are required\n");
     return 2;
   }
   double T, h;
@@ -31,22 +31,8 @@ int cmd_sim(const Args& a) {
     std::fprintf(stderr, "coopdyn sim: unknown integrator '%s' (semi_implicit_euler, rk4)\n", a.get("integrator").c_str());
     return 2;
   }
-  SceneOverrides ov;
-  if (a.has("formulation")) {
-    Formulation f;
-    if (!parse_formulation(a.get("formulation"), &f)) {
-      std::fprintf(stderr, "coopdyn sim: unknown formulation '%s'\n", a.get("formulation").c_str());
-      return 2;
-    }
-    ov.formulation = f;
-  }
   System sys;
-  try {
-    sys = load_scene(a.get("scene"), ov);
-  } catch (const SceneError& e) {
-    std::fprintf(stderr, "coopdyn: %s\n", e.what());
-    return 1;
-  }
+  if (const int rc = load_cli_scene(a, "sim", &sys)) return rc;
   TorqueProfile prof;
   try {
     for (const auto& s : a.all("torque")) prof.add(sys, s);
