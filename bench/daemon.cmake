@@ -1,0 +1,5 @@
+# Per-tick cost of coopdynd's loop and codec (Google Benchmark). Loop timing in place, with
+# cyclictest next to it, is bench/loop_timing.sh. Included at the end of bench/CMakeLists.txt.
+add_executable(loop_bench ${CMAKE_CURRENT_LIST_DIR}/loop_bench.cc)
+target_link_libraries(loop_bench PRIVATE coopdyn_runtime coopdyn_scene benchmark::benchmark)
+target_compile_definitions(loop_bench PRIVATE COOPDYN_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
