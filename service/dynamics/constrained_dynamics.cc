@@ -81,7 +81,7 @@ Workspace::Workspace(const System& sys)
     D.setZero(n, n);
     E.setZero(n);
     d4.setZero(p, p);
-    d4_llt = Eigen::LLT<Eigen::MatrixXd>(p);
+    d4_llt.compute(Eigen::MatrixXd::Identity(p, p));  // sizes it; LLT(p) leaves its info unset
     tp.setZero(p);
   }
   if (sys.options.formulation == Formulation::kSvdBaseline) {
