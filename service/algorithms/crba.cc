@@ -4,7 +4,7 @@ namespace coopdyn {
 
 void crba(const Model& model, Data& data) {
   const int nb = model.nbodies();
-  for (int i = 0; i < nb; ++i) data.Ic[i] = model.bodies[i].inertia;
+  for (int i = 0; i < nb; ++i) data.Ic[i] = data.I[i];
   for (int i = nb - 1; i >= 0; --i) {
     const int p = model.bodies[i].parent;
     if (p >= 0) data.Ic[p] += data.Ic[i].transformed(data.X_PB[i]);

@@ -1,5 +1,7 @@
 #include "service/algorithms/kinematics.h"
 
+#include <cmath>
+
 namespace coopdyn {
 
 void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
@@ -15,7 +17,13 @@ void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q
     switch (j.type) {
       case JointType::kFixed: break;
       case JointType::kRevolute: {
-        X_JB.R = Eigen::AngleAxisd(q[j.idx_q], j.axis).toRotationMatrix();
+        // Rodrigues with one sin/cos: R = c I + s [a]x + (1 - c) a a^T
+        const double sn = std::sin(q[j.idx_q]), cs = std::cos(q[j.idx_q]);
+        const Vec3& a = j.axis;
+        const Vec3 t = (1.0 - cs) * a;
+        X_JB.R << cs + t.x() * a.x(), t.x() * a.y() - sn * a.z(), t.x() * a.z() + sn * a.y(),
+                  t.y() * a.x() + sn * a.z(), cs + t.y() * a.y(), t.y() * a.z() - sn * a.x(),
+                  t.z() * a.x() - sn * a.y(), t.z() * a.y() + sn * a.x(), cs + t.z() * a.z();
         S.col(0) << j.axis, Vec3::Zero();
         vJ = S.col(0) * v[j.idx_v];
         break;

@@ -15,7 +15,7 @@ inline Vec6 gravity_offset(const Model& model, const Data& data, int i) {
 void rnea_bias(const Model& model, Data& data) {
   const int nb = model.nbodies();
   for (int i = 0; i < nb; ++i) {
-    const Inertia& I = model.bodies[i].inertia;
+    const RigidInertia& I = data.I[i];
     const Vec6 a = data.A0[i] + gravity_offset(model, data, i);
     data.f[i] = I * a + cross_force(data.V[i], I * data.V[i]);
   }
@@ -39,7 +39,7 @@ void rnea(const Model& model, Data& data, const Eigen::VectorXd& vdot, const std
     for (int k = 0; k < j.nv; ++k) a += data.S[i].col(k) * vdot[j.idx_v + k];
     data.a[i] = a;  // vdot-linear part
     const Vec6 a_full = a + data.A0[i] + gravity_offset(model, data, i);
-    const Inertia& I = b.inertia;
+    const RigidInertia& I = data.I[i];
     data.f[i] = I * a_full + cross_force(data.V[i], I * data.V[i]);
     if (f_ext) data.f[i] -= (*f_ext)[i];
   }

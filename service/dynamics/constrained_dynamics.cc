@@ -54,7 +54,7 @@ const char* reason_text(Reason r) {
 }
 
 Workspace::Workspace(const System& sys)
-    : data(sys.model), cd(sys.model, sys.constraints), llt(sys.constraints.rows), ntcn_ldlt(sys.constraints.rows) {
+    : data(sys.model), cd(sys.model, sys.constraints), ntcn_ldlt(sys.constraints.rows) {
   const int n = sys.model.nv(), m = sys.constraints.rows;
   tau_c.setZero(n);
   vdot.setZero(n);
@@ -63,6 +63,31 @@ Workspace::Workspace(const System& sys)
   row_indeterminate.assign(m, 0);
   diag.rows = m;
   Yt.setZero(n, m);
+  Lq.setZero(m, m);
+  const ConstraintSet& cs = sys.constraints;
+  const int ns = static_cast<int>(cs.specs.size());
+  std::vector<std::vector<char>> touch(ns, std::vector<char>(n, 0));
+  for (int s = 0; s < ns; ++s) {
+    for (int d : cs.support[s])
+      for (int a : sys.model.body_support[sys.model.dof_body[d]]) touch[s][a] = 1;
+    y_support.emplace_back();
+    for (int d = 0; d < n; ++d)
+      if (touch[s][d]) y_support[s].push_back(d);
+  }
+  for (int s = 0; s < ns; ++s) Yb.push_back(YBlock::Zero(n, 6));
+  pair_ranges.resize(static_cast<size_t>(ns) * ns);
+  for (int s = 0; s < ns; ++s)
+    for (int t = s; t < ns; ++t)
+      for (int d = 0; d < n;) {
+        if (!(touch[s][d] && touch[t][d])) {
+          ++d;
+          continue;
+        }
+        int e = d;
+        while (e < n && touch[s][e] && touch[t][e]) ++e;
+        pair_ranges[s * ns + t].push_back({d, e - d});
+        d = e;
+      }
   Q.setZero(m, m);
   u.setZero(n);
   rhs.setZero(m);
@@ -104,6 +129,25 @@ bool inputs_valid(const System& sys, const Eigen::VectorXd& q, const Eigen::Vect
          tau.allFinite();
 }
 
+// Unblocked Cholesky Q = L L^T into the lower triangle of L (the small sizes here make Eigen's
+// blocked LLT slower). Returns false on a non-positive pivot.
+bool small_cholesky(const Eigen::MatrixXd& Q, Eigen::MatrixXd& L, int m) {
+  for (int j = 0; j < m; ++j) {
+    double d = Q(j, j);
+    for (int k = 0; k < j; ++k) d -= L(j, k) * L(j, k);
+    if (!(d > 0.0)) return false;
+    const double ljj = std::sqrt(d);
+    L(j, j) = ljj;
+    const double inv = 1.0 / ljj;
+    for (int i = j + 1; i < m; ++i) {
+      double sum = Q(i, j);
+      for (int k = 0; k < j; ++k) sum -= L(i, k) * L(j, k);
+      L(i, j) = sum * inv;
+    }
+  }
+  return true;
+}
+
 // Solves Q x = b (Q symmetric PSD, ws.Q) into x. Fills rank, condition, indeterminate rows.
 // The fast path is a Cholesky factorization; otherwise an eigen-decomposition gives the rank and
 // the minimum-norm solution, optionally shifted along the null space by the compliance rule.
@@ -112,9 +156,8 @@ void solve_q(const System& sys, Workspace& ws, const Eigen::VectorXd& b, Eigen::
   Diagnostics& dg = ws.diag;
   if (factor) {
     ws.fast_path = false;
-    ws.llt.compute(ws.Q);
-    if (ws.llt.info() == Eigen::Success) {
-      const auto d = ws.llt.matrixLLT().diagonal();
+    if (small_cholesky(ws.Q, ws.Lq, m)) {
+      const auto d = ws.Lq.diagonal();
       const double dmax = d.maxCoeff(), dmin = d.minCoeff();
       const double ratio = dmin * dmin / (dmax * dmax);
       if (ratio >= sys.options.fast_tol) {
@@ -169,7 +212,8 @@ void solve_q(const System& sys, Workspace& ws, const Eigen::VectorXd& b, Eigen::
   }
   if (ws.fast_path) {
     x = b;
-    ws.llt.solveInPlace(x);
+    ws.Lq.triangularView<Eigen::Lower>().solveInPlace(x);
+    ws.Lq.triangularView<Eigen::Lower>().transpose().solveInPlace(x);
     return;
   }
   const auto& V = ws.eig_V;
@@ -191,14 +235,40 @@ void solve_q(const System& sys, Workspace& ws, const Eigen::VectorXd& b, Eigen::
   }
 }
 
-// Y^T = (G L^-1)^T and Q = Y Y^T from the rows of G.
-void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G, int rows) {
+// Y^T = (G L^-1)^T and Q = Y Y^T from the rows of G, touching only the DOFs each row reaches: the
+// arms of a mobile platform share only the platform's DOFs, so their off-diagonal blocks of Q are
+// sums over 6 entries.
+void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G) {
   const Model& model = sys.model;
-  for (int r = 0; r < rows; ++r) {
-    ws.Yt.col(r) = G.row(r).transpose();
-    tree_solve_Lt(model, ws.data.L, ws.Yt.col(r));
+  const ConstraintSet& cs = sys.constraints;
+  const Eigen::MatrixXd& L = ws.data.L;
+  const int ns = static_cast<int>(cs.specs.size());
+  // L^-T solve of each spec's rows at once: one 6-wide row operation per (DOF, ancestor) pair
+  for (int s = 0; s < ns; ++s) {
+    const std::vector<int>& sup = ws.y_support[s];
+    Workspace::YBlock& Y = ws.Yb[s];
+    const int r0 = cs.row_offset[s], nk = cs.row_count[s];
+    for (int d : sup)
+      for (int k = 0; k < nk; ++k) Y(d, k) = G(r0 + k, d);
+    for (auto it = sup.rbegin(); it != sup.rend(); ++it) {
+      const int i = *it;
+      Y.row(i) *= 1.0 / L(i, i);
+      for (int j = model.dof_parent[i]; j >= 0; j = model.dof_parent[j]) Y.row(j) -= L(i, j) * Y.row(i);
+    }
+    for (int d : sup)
+      for (int k = 0; k < nk; ++k) ws.Yt(d, r0 + k) = Y(d, k);
   }
-  ws.Q.noalias() = ws.Yt.transpose() * ws.Yt;
+  // Q_st = sum over the DOFs both specs reach of outer products of 6-vectors
+  for (int s = 0; s < ns; ++s)
+    for (int t = s; t < ns; ++t) {
+      Mat6 acc = Mat6::Zero();
+      for (const auto& rg : ws.pair_ranges[s * ns + t])
+        for (int d = rg.first, e = rg.first + rg.second; d < e; ++d)
+          acc.noalias() += ws.Yb[s].row(d).transpose() * ws.Yb[t].row(d);
+      const int rs = cs.row_offset[s], rt = cs.row_offset[t], ks = cs.row_count[s], kt = cs.row_count[t];
+      ws.Q.block(rs, rt, ks, kt) = acc.topLeftCorner(ks, kt);
+      if (s != t) ws.Q.block(rt, rs, kt, ks) = acc.topLeftCorner(ks, kt).transpose();
+    }
 }
 
 // lambda from Q lambda = gamma - Y u with u = L^-T tau_c, then vdot = L^-1 (u + Y^T lambda).
@@ -379,7 +449,7 @@ const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::Vecto
   switch (sys.options.formulation) {
     case Formulation::kMobilePlatform:
     case Formulation::kClassic:
-      build_q(sys, ws, ws.cd.G, m);
+      build_q(sys, ws, ws.cd.G);
       schur_solve(sys, ws, true);
       // pseudo-joint stresses are the multipliers of their lock rows
       for (size_t s = 0, a = 0; s < sys.constraints.specs.size(); ++s)
@@ -387,7 +457,7 @@ const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::Vecto
           ws.stress[a++] = ws.lambda[sys.constraints.row_offset[s]];
       break;
     case Formulation::kPseudoJointSchur:
-      build_q(sys, ws, ws.cd.G, m);
+      build_q(sys, ws, ws.cd.G);
       if (!pseudo_schur(sys, ws)) return fail(Reason::kPseudoBlockSingular);
       break;
     case Formulation::kSvdBaseline: svd_baseline(sys, ws); break;

@@ -62,7 +62,13 @@ struct Workspace {
   Eigen::MatrixXd Q;   // (rows x rows)
   Eigen::VectorXd u;   // (nv)
   Eigen::VectorXd rhs; // (rows)
-  Eigen::LLT<Eigen::MatrixXd> llt;
+  Eigen::MatrixXd Lq;           // (rows x rows) Cholesky factor of Q on the fast path (lower)
+  // sparsity of Y = G L^-1: the DOFs each spec's rows touch after the L^-T solve (ancestor-closed),
+  // and for each pair of specs s <= t the contiguous ranges of DOFs both touch (where Q_st sums)
+  std::vector<std::vector<int>> y_support;
+  using YBlock = Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>;
+  std::vector<YBlock> Yb;  // per spec: (nv x 6) its rows of Y as columns, one DOF per row
+  std::vector<std::vector<std::pair<int, int>>> pair_ranges;  // index s * nspecs + t
   Eigen::MatrixXd eig_A, eig_V;  // (rows x rows) Jacobi eigen-decomposition of Q (rank path)
   Eigen::VectorXd eig_w;         // (rows) eigenvalues, ascending
   Eigen::VectorXd ev_inv;      // (rows) 1/eigenvalue on the range, 0 on the null space

@@ -156,6 +156,7 @@ Data::Data(const Model& model) {
   a.assign(nb, Vec6::Zero());
   f.assign(nb, Vec6::Zero());
   Ic.resize(nb);
+  for (int i = 0; i < nb; ++i) I.push_back(RigidInertia(model.bodies[i].inertia));
   h.setZero(nv);
   M.setZero(nv, nv);
   L.setZero(nv, nv);

@@ -118,7 +118,8 @@ struct Data {
   // dynamics
   std::vector<Vec6> a;        // RNEA scratch: vdot-linear part of body accelerations, in B
   std::vector<Vec6> f;        // RNEA body forces, in B
-  std::vector<Inertia> Ic;    // composite inertias, in B
+  std::vector<RigidInertia> I;   // body inertias, in B (from the model, in the fast form)
+  std::vector<RigidInertia> Ic;  // composite inertias, in B
   Eigen::VectorXd h;          // (nv) bias forces: Coriolis, centrifugal, gravity
   Eigen::MatrixXd M;          // (nv x nv) joint-space inertia
   Eigen::MatrixXd L;          // (nv x nv) tree-sparse factor, M = L^T L (lower triangular)

@@ -199,4 +199,42 @@ struct Inertia {
   }
 };
 
+// The same rigid-body inertia in the form the recursive algorithms use (RBDA s.2.13): mass m,
+// first moment h = m c and rotational inertia Io about the frame origin. All three add directly, and
+// I*V costs two 3x3 products; Data keeps one per body and the composites in this form.
+struct RigidInertia {
+  double m = 0.0;
+  Vec3 h = Vec3::Zero();
+  Mat3 Io = Mat3::Zero();
+
+  RigidInertia() = default;
+  explicit RigidInertia(const Inertia& I) : m(I.m), h(I.m * I.c), Io(I.I_origin()) {}
+
+  Vec6 operator*(const Vec6& V) const {
+    const Vec3 w = V.head<3>(), v = V.tail<3>();
+    Vec6 F;
+    F.head<3>() = Io * w + h.cross(v);
+    F.tail<3>() = m * v - h.cross(w);
+    return F;
+  }
+  // this inertia (given in B coordinates) in A coordinates, X = X_AB
+  RigidInertia transformed(const Transform& X) const {
+    RigidInertia r;
+    const Vec3 hR = X.R * h;
+    const Vec3& p = X.p;
+    r.m = m;
+    r.h = hR + m * p;
+    r.Io.noalias() = X.R * Io * X.R.transpose();
+    const Mat3 S = hR * p.transpose();
+    r.Io += (2.0 * hR.dot(p) + m * p.squaredNorm()) * Mat3::Identity() - S - S.transpose() - m * p * p.transpose();
+    return r;
+  }
+  RigidInertia& operator+=(const RigidInertia& o) {
+    m += o.m;
+    h += o.h;
+    Io += o.Io;
+    return *this;
+  }
+};
+
 }  // namespace coopdyn
