@@ -15,6 +15,8 @@
 #include <sstream>
 #include <thread>
 
+#include <yaml-cpp/yaml.h>
+
 #include "service/io/lcm_bus.h"
 #include "service/runtime/service_loop.h"
 #include "tests/daemon_test_util.h"
@@ -126,6 +128,45 @@ std::unique_ptr<io::LcmBus> try_bus(const std::string& url) {
   }
 }
 
+// Runs `coopdyn eval --state` on the (q, v, tau) an output carries and compares the wrenches of
+// its JSON with the output's: the daemon and the offline command agree.
+void expect_matches_coopdyn_eval(const io::DecodedOutput& o, const std::string& tag) {
+  const std::string state = tmp_path(tag + "_state.json");
+  {
+    std::ofstream f(state);
+    f.precision(17);
+    auto list = [&](const char* k, const std::vector<double>& x) {
+      f << "\"" << k << "\": [";
+      for (size_t i = 0; i < x.size(); ++i) f << (i ? ", " : "") << x[i];
+      f << "]";
+    };
+    f << "{";
+    list("q", o.q);
+    f << ", ";
+    list("v", o.v);
+    f << ", ";
+    list("tau", o.tau);
+    f << "}\n";
+  }
+  Child eval({COOPDYN_PATH, "eval", "--scene", scene_path("two_puma_load"), "--state", state}, tag + "_eval");
+  ASSERT_EQ(eval.wait(), 0) << slurp(eval.err);
+  const YAML::Node j = YAML::Load(slurp(eval.out));
+  const YAML::Node w = j["wrenches"];
+  ASSERT_EQ(w.size(), o.wrench.size());
+  for (size_t t = 0; t < w.size(); ++t) {
+    EXPECT_EQ(w[t]["name"].as<std::string>(), o.tip_names[t]);
+    EXPECT_EQ(w[t]["frame"].as<std::string>(), o.tip_frames[t]);
+    for (int k = 0; k < 6; ++k) {
+      const double x = k < 3 ? w[t]["moment"][k].as<double>() : w[t]["force"][k - 3].as<double>();
+      EXPECT_NEAR(o.wrench[t][k], x, 1e-9 * (1 + std::abs(x))) << o.tip_names[t] << " " << k;
+    }
+  }
+  const YAML::Node vd = j["vdot"];
+  ASSERT_EQ(vd.size(), o.vdot.size());
+  for (size_t i = 0; i < o.vdot.size(); ++i) EXPECT_NEAR(o.vdot[i], vd[i].as<double>(), 1e-9 * (1 + std::abs(o.vdot[i])));
+  std::remove(state.c_str());
+}
+
 }  // namespace
 
 // memq://: publisher, loop (running at 1 kHz in its thread) and subscriber in one process.
@@ -213,6 +254,13 @@ TEST_F(DaemonProcess, UdpmSimulateCommandsInWrenchesOutThenSigterm) {
     if (checked++ % 10 == 0) expect_matches_offline(sys_, o);
   }
   EXPECT_GT(checked, 10);
+  // and the offline command line agrees on the last commanded output
+  const auto outs = sink.snapshot();
+  for (auto it = outs.rbegin(); it != outs.rend(); ++it)
+    if (it->input == static_cast<int>(io::Input::kCommand)) {
+      expect_matches_coopdyn_eval(*it, "sim");
+      break;
+    }
 }
 
 TEST_F(DaemonProcess, UdpmEstimateMeasuredStateInWrenchesOut) {
@@ -245,6 +293,9 @@ TEST_F(DaemonProcess, UdpmEstimateMeasuredStateInWrenchesOut) {
     if (checked++ % 5 == 0) expect_matches_offline(sys_, o);
   }
   EXPECT_GT(checked, 5);
+  const auto outs = sink.snapshot();
+  ASSERT_FALSE(outs.empty());
+  if (outs.back().input == static_cast<int>(io::Input::kState)) expect_matches_coopdyn_eval(outs.back(), "est");
 }
 
 TEST(DaemonStartup, BrokenSceneOrConfigStopsWithAClearMessage) {

@@ -178,7 +178,7 @@ struct OutputEncoder::Impl {
     const Model& model = s.model;
     const ConstraintSet& cs = s.constraints;
     for (size_t k = 0; k < cs.specs.size(); ++k)
-      if (cs.specs[k].kind == ConstraintKind::kWeld) weld_specs.push_back(static_cast<int>(k));
+      if (cs.specs[k].kind != ConstraintKind::kLock && cs.specs[k].frame_a >= 0) weld_specs.push_back(static_cast<int>(k));
     msg = coopdyn::output_t();
     msg.num_tips = static_cast<int32_t>(weld_specs.size());
     for (int k : weld_specs) {
