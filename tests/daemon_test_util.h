@@ -105,7 +105,7 @@ inline void expect_matches_offline(const System& sys, const io::DecodedOutput& o
   EXPECT_EQ(o.rows, d.rows);
   int t = 0;
   for (size_t s = 0; s < sys.constraints.specs.size(); ++s) {
-    if (sys.constraints.specs[s].kind == ConstraintKind::kLock || sys.constraints.specs[s].frame_a < 0) continue;
+    if (sys.constraints.specs[s].kind == ConstraintKind::kLock) continue;
     ASSERT_LT(t, static_cast<int>(o.wrench.size()));
     EXPECT_EQ(o.tip_names[t], sys.constraints.specs[s].name);
     unsigned mask = 0;

@@ -178,14 +178,22 @@ struct OutputEncoder::Impl {
     const Model& model = s.model;
     const ConstraintSet& cs = s.constraints;
     for (size_t k = 0; k < cs.specs.size(); ++k)
-      if (cs.specs[k].kind != ConstraintKind::kLock && cs.specs[k].frame_a >= 0) weld_specs.push_back(static_cast<int>(k));
+      if (cs.specs[k].kind != ConstraintKind::kLock) weld_specs.push_back(static_cast<int>(k));
     msg = coopdyn::output_t();
     msg.num_tips = static_cast<int32_t>(weld_specs.size());
     for (int k : weld_specs) {
       const ConstraintSpec& c = cs.specs[k];
       msg.tip_names.push_back(c.name);
-      msg.tip_frames.push_back(model.frames[c.frame_a].name);
-      msg.tip_by.push_back(c.frame_b < 0 ? "world" : model.frames[c.frame_b].name);
+      // A tip without a model frame is a wheel's ground contact: its frame is the moving contact
+      // frame C of the constraint ("<name>.contact", x heading, y lateral, z ground normal), as in
+      // `coopdyn eval`.
+      if (c.frame_a >= 0) {
+        msg.tip_frames.push_back(model.frames[c.frame_a].name);
+        msg.tip_by.push_back(c.frame_b < 0 ? "world" : model.frames[c.frame_b].name);
+      } else {
+        msg.tip_frames.push_back(c.name + ".contact");
+        msg.tip_by.push_back("ground");
+      }
       int8_t mask = 0;
       for (int a = 0; a < 6; ++a)
         if (c.axes[a]) mask = static_cast<int8_t>(mask | (1 << a));
