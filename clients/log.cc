@@ -47,18 +47,18 @@ if out_csv:
     t = c["sim_time"]
     tips = [h[:-3] for h in head if h.endswith(".fx")]
     stresses = [h for h in head if h.startswith("stress:")]
-    rows = 2 * len(tips) + (1 if stresses else 0)
-    fig, axes = plt.subplots(max(rows, 1), 1, figsize=(10, 2.6 * max(rows, 1)), sharex=True, squeeze=False)
-    i = 0
+    panels = []  # (title, unit, [(label, column)]); all-zero panels (a wheel's moments) are left out
     for tip in tips:
         for kind, comps, unit in (("moment", ("mx", "my", "mz"), "N*m"), ("force", ("fx", "fy", "fz"), "N")):
-            ax = axes[i][0]; i += 1
-            for k in comps: ax.plot(t, c[tip + "." + k], label=k)
-            ax.set_ylabel(unit); ax.set_title(f"{tip}: {kind} on the tip, tip frame"); ax.legend(loc="upper right"); ax.grid(True)
+            cols = [(k, tip + "." + k) for k in comps]
+            if any(x != 0 for _, col in cols for x in c[col]):
+                panels.append((f"{tip}: {kind} on the tip, in the tip frame", unit, cols))
     if stresses:
-        ax = axes[i][0]
-        for s in stresses: ax.plot(t, c[s], label=s[7:])
-        ax.set_title("pseudo-joint stresses"); ax.legend(loc="upper right"); ax.grid(True)
+        panels.append(("pseudo-joint stresses", "N*m or N", [(s[7:], s) for s in stresses]))
+    fig, axes = plt.subplots(max(len(panels), 1), 1, figsize=(10, 2.6 * max(len(panels), 1)), sharex=True, squeeze=False)
+    for ax, (title, unit, cols) in zip((a[0] for a in axes), panels):
+        for label, col in cols: ax.plot(t, c[col], label=label)
+        ax.set_ylabel(unit); ax.set_title(title); ax.legend(loc="upper right"); ax.grid(True)
     axes[-1][0].set_xlabel("simulation time [s]")
     fig.tight_layout(); fig.savefig(out + "/wrenches.png", dpi=90); made.append(out + "/wrenches.png")
 if stats_csv:
