@@ -12,8 +12,8 @@ void usage() {
                "  coopdyn eval --scene FILE [--state FILE.json] [--formulation NAME]\n"
                "  coopdyn sim  --scene FILE --duration T --dt H [--integrator semi_implicit_euler|rk4]\n"
                "               [--torque PROFILE]... [--formulation NAME] [--out FILE.csv]\n"
-               "  coopdyn send --scene FILE --torque PROFILE... [--rate HZ] [--duration S] [--lcm-url URL]\n"
-               "               [--channel C] [--seq N] [--measure-latency] [--output-channel C]\n"
+               "  coopdyn send --scene FILE (--torque PROFILE... | --states SIM.csv) [--rate HZ] [--duration S]\n"
+               "               [--lcm-url URL] [--channel C] [--seq N] [--measure-latency] [--output-channel C]\n"
                "  coopdyn log  --in FILE.lcmlog [--out DIR] [--no-plot]\n"
                "PROFILE: JOINT:constant:VALUE | JOINT:step:VALUE:T0 | JOINT:pulse:VALUE:T0:T1 | FILE.csv\n");
 }

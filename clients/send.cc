@@ -9,6 +9,8 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <fstream>
+#include <sstream>
 #include <mutex>
 #include <random>
 #include <stdexcept>
@@ -26,6 +28,71 @@ namespace {
 std::atomic<bool> g_send_stop{false};
 void on_sigint(int) { g_send_stop = true; }
 
+// A `coopdyn sim --out` CSV read as measured states: columns t, q:NAME..., v:NAME..., tau:NAME...
+struct StateTable {
+  std::vector<std::string> q_names, v_names;
+  std::vector<double> t;
+  std::vector<std::vector<double>> q, v, tau;
+};
+bool read_states(const std::string& path, StateTable* st, std::string* err) {
+  std::ifstream f(path);
+  if (!f) {
+    *err = "cannot open '" + path + "'";
+    return false;
+  }
+  auto split = [](const std::string& line) {
+    std::vector<std::string> out;
+    std::stringstream ss(line);
+    std::string cell;
+    while (std::getline(ss, cell, ',')) out.push_back(cell);
+    return out;
+  };
+  std::string line;
+  if (!std::getline(f, line)) {
+    *err = path + ": empty";
+    return false;
+  }
+  const auto head = split(line);
+  std::vector<int> qc, vc, tc;
+  int tcol = -1;
+  for (size_t i = 0; i < head.size(); ++i) {
+    const std::string& h = head[i];
+    if (h == "t") tcol = static_cast<int>(i);
+    else if (h.rfind("q:", 0) == 0) st->q_names.push_back(h.substr(2)), qc.push_back(static_cast<int>(i));
+    else if (h.rfind("v:", 0) == 0) st->v_names.push_back(h.substr(2)), vc.push_back(static_cast<int>(i));
+    else if (h.rfind("tau:", 0) == 0) tc.push_back(static_cast<int>(i));
+  }
+  if (tcol < 0 || qc.empty() || vc.empty() || tc.size() != vc.size()) {
+    *err = path + ":1: expected the columns of 'coopdyn sim --out': t, q:..., v:..., tau:...";
+    return false;
+  }
+  int ln = 1;
+  while (std::getline(f, line)) {
+    ++ln;
+    const auto cells = split(line);
+    if (cells.size() != head.size()) continue;  // a trailing partial line
+    try {
+      auto pick = [&](const std::vector<int>& cols) {
+        std::vector<double> x;
+        for (int c : cols) x.push_back(std::stod(cells[c]));
+        return x;
+      };
+      st->t.push_back(std::stod(cells[tcol]));
+      st->q.push_back(pick(qc));
+      st->v.push_back(pick(vc));
+      st->tau.push_back(pick(tc));
+    } catch (const std::exception&) {
+      *err = path + ":" + std::to_string(ln) + ": not a number";
+      return false;
+    }
+  }
+  if (st->t.empty()) {
+    *err = path + ": no rows";
+    return false;
+  }
+  return true;
+}
+
 double pct(std::vector<double> v, double p) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
@@ -35,8 +102,11 @@ double pct(std::vector<double> v, double p) {
 }  // namespace
 
 int cmd_send(const Args& a) {
-  if (!a.has("scene") || !a.has("torque")) {
-    std::fprintf(stderr, "coopdyn send: --scene FILE and at least one --torque PROFILE are required\n");
+  const bool replay = a.has("states");
+  if (!a.has("scene") || (!a.has("torque") && !replay)) {
+    std::fprintf(stderr,
+                 "coopdyn send: --scene FILE and at least one --torque PROFILE (commands) or --states FILE.csv "
+                 "(measured states, estimate mode) are required\n");
     return 2;
   }
   double rate = 100, duration = 2, t0 = 0;
@@ -68,8 +138,17 @@ int cmd_send(const Args& a) {
     std::fprintf(stderr, "coopdyn send: %s\n", e.what());
     return 2;
   }
+  StateTable states;
+  if (replay) {
+    std::string err;
+    if (!read_states(a.get("states"), &states, &err)) {
+      std::fprintf(stderr, "coopdyn send: %s\n", err.c_str());
+      return 2;
+    }
+    if (!a.has("duration")) duration = states.t.back() - states.t.front();
+  }
   const std::string url = a.get("lcm-url", "udpm://239.255.76.67:7667?ttl=0");
-  const std::string channel = a.get("channel", "COOPDYN_COMMAND");
+  const std::string channel = a.get("channel", replay ? "COOPDYN_STATE" : "COOPDYN_COMMAND");
   const std::string out_channel = a.get("output-channel", "COOPDYN_OUTPUT");
   const bool measure = a.has("measure-latency");
   const bool quiet = a.has("quiet");
@@ -119,10 +198,20 @@ int cmd_send(const Args& a) {
     const long long at = next + (measure ? phase(rng) : 0);
     timespec ts{static_cast<time_t>(at / 1000000000LL), static_cast<long>(at % 1000000000LL)};
     clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
-    prof.eval(t0 + static_cast<double>(i) / rate, tau);
+    const double t = t0 + static_cast<double>(i) / rate;
     const long long seq = seq0 + i;
-    const auto bytes = io::encode_torque_command(io::wall_us(), seq, no_names,
-                                                 std::vector<double>(tau.data(), tau.data() + tau.size()));
+    std::vector<uint8_t> bytes;
+    if (replay) {
+      // the last row at or before t (rows are piecewise constant in time)
+      const double tr = states.t.front() + t;
+      size_t r = static_cast<size_t>(std::upper_bound(states.t.begin(), states.t.end(), tr) - states.t.begin());
+      r = r == 0 ? 0 : r - 1;
+      bytes = io::encode_measured_state(io::wall_us(), seq, states.q_names, states.q[r], states.v_names, states.v[r],
+                                        states.tau[r]);
+    } else {
+      prof.eval(t, tau);
+      bytes = io::encode_torque_command(io::wall_us(), seq, no_names, std::vector<double>(tau.data(), tau.data() + tau.size()));
+    }
     if (measure) {
       std::lock_guard<std::mutex> lk(mu);
       sent_ns[seq] = io::monotonic_ns();
@@ -135,8 +224,8 @@ int cmd_send(const Args& a) {
   if (measure) std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the last outputs
   bus->stop();
   if (!quiet)
-    std::printf("coopdyn send: %lld commands on %s at %g Hz (seq %lld..%lld)\n", sent, channel.c_str(), rate, seq0,
-                seq0 + sent - 1);
+    std::printf("coopdyn send: %lld %s on %s at %g Hz (seq %lld..%lld)\n", sent, replay ? "measured states" : "commands",
+                channel.c_str(), rate, seq0, seq0 + sent - 1);
   if (measure) {
     std::lock_guard<std::mutex> lk(mu);
     std::printf(
