@@ -371,9 +371,9 @@ TEST_F(DaemonProcess, LcmLoggerRunConvertsToCsv) {
   EXPECT_EQ(rows["COOPDYN_COMMAND"].n, 61);  // 0.6 s at 100 Hz, both ends
   // rates from the log's own timestamps: the configured 200 Hz and 100 Hz, 4 Hz stats (wide
   // bands: a loaded 2-core machine delays delivery, not the count)
-  EXPECT_NEAR(rows["COOPDYN_OUTPUT"].rate, 200, 60) << table;
-  EXPECT_NEAR(rows["COOPDYN_COMMAND"].rate, 100, 30) << table;
-  EXPECT_NEAR(rows["COOPDYN_STATS"].rate, 4, 1.5) << table;
+  EXPECT_NEAR(rows["COOPDYN_OUTPUT"].rate, 200, 100) << table;
+  EXPECT_NEAR(rows["COOPDYN_COMMAND"].rate, 100, 50) << table;
+  EXPECT_NEAR(rows["COOPDYN_STATS"].rate, 4, 2) << table;
   // one CSV row per message, with the tip wrench columns
   std::ifstream csv(out_dir + "/COOPDYN_OUTPUT.csv");
   std::string head;
