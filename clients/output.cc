@@ -80,12 +80,28 @@ void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const
   bool first = true;
   for (size_t s = 0; s < sys.constraints.specs.size(); ++s) {
     const ConstraintSpec& c = sys.constraints.specs[s];
-    if (c.kind != ConstraintKind::kWeld) continue;
+    if (c.kind == ConstraintKind::kLock) continue;
     unsigned mask = 0;
     const Vec6 w = tip_wrench(sys, ws, static_cast<int>(s), &mask);
-    std::fprintf(f, "%s\n    {\"name\": \"%s\", \"frame\": \"%s\", \"on\": \"%s\", \"by\": \"%s\", \"moment\": ", first ? "" : ",",
-                 c.name.c_str(), model.frames[c.frame_a].name.c_str(), model.frames[c.frame_a].name.c_str(),
-                 c.frame_b < 0 ? "world" : model.frames[c.frame_b].name.c_str());
+    if (c.kind == ConstraintKind::kRolling) {
+      // wheel: the ground's force on the wheel at the contact point, in the contact frame C
+      const Transform X_WC = rolling_contact_frame(model, ws.data, c);
+      std::fprintf(f, "%s\n    {\"name\": \"%s\", \"frame\": \"%s.contact\", \"on\": \"%s\", \"by\": \"ground\", \"contact\": {\"p_W\": ",
+                   first ? "" : ",", c.name.c_str(), c.name.c_str(), model.bodies[c.body].name.c_str());
+      list(f, X_WC.p.data(), 3);
+      const Vec3 xc = X_WC.R.col(0), yc = X_WC.R.col(1), zc = X_WC.R.col(2);
+      std::fprintf(f, ", \"x_W\": ");
+      list(f, xc.data(), 3);
+      std::fprintf(f, ", \"y_W\": ");
+      list(f, yc.data(), 3);
+      std::fprintf(f, ", \"z_W\": ");
+      list(f, zc.data(), 3);
+      std::fprintf(f, "}, \"moment\": ");
+    } else {
+      std::fprintf(f, "%s\n    {\"name\": \"%s\", \"frame\": \"%s\", \"on\": \"%s\", \"by\": \"%s\", \"moment\": ", first ? "" : ",",
+                   c.name.c_str(), model.frames[c.frame_a].name.c_str(), model.frames[c.frame_a].name.c_str(),
+                   c.frame_b < 0 ? "world" : model.frames[c.frame_b].name.c_str());
+    }
     first = false;
     list(f, w.data(), 3);
     std::fprintf(f, ", \"force\": ");

@@ -56,7 +56,7 @@ int cmd_sim(const Args& a) {
   for (const auto& n : model.v_names) std::fprintf(out, ",v:%s", n.c_str());
   for (const auto& n : model.v_names) std::fprintf(out, ",tau:%s", n.c_str());
   for (size_t s = 0; s < cs.specs.size(); ++s)
-    if (cs.specs[s].kind == ConstraintKind::kWeld)
+    if (cs.specs[s].kind != ConstraintKind::kLock)
       for (int k = 0; k < 6; ++k) std::fprintf(out, ",%s.%s", cs.specs[s].name.c_str(), comp[k]);
   for (int d : model.pseudo_dofs) std::fprintf(out, ",stress:%s", model.v_names[d].c_str());
   std::fprintf(out, ",status,rank,residual,position_error\n");
@@ -75,7 +75,7 @@ int cmd_sim(const Args& a) {
     for (int k = 0; k < v_prev.size(); ++k) std::fprintf(out, ",%.12g", v_prev[k]);
     for (int k = 0; k < tau.size(); ++k) std::fprintf(out, ",%.12g", tau[k]);
     for (size_t s = 0; s < cs.specs.size(); ++s)
-      if (cs.specs[s].kind == ConstraintKind::kWeld) {
+      if (cs.specs[s].kind != ConstraintKind::kLock) {
         const Vec6 w = tip_wrench(sys, st.ws, static_cast<int>(s));
         for (int k = 0; k < 6; ++k) std::fprintf(out, ",%.12g", w[k]);
       }

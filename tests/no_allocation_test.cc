@@ -50,6 +50,37 @@ TEST(NoAllocation, EvaluateAndStepOfEveryScene) {
   }
 }
 
+TEST(NoAllocation, EvaluateAndStepOfTheWheelScenes) {
+  // rolling constraints (the vehicle on its rank-deficient path), mobile platform and SVD baseline
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  for (const auto& name : wheel_scenes()) {
+    for (auto f : {Formulation::kMobilePlatform, Formulation::kSvdBaseline}) {
+      SCOPED_TRACE(name + " " + formulation_name(f));
+      const System sys = load(name, f);
+      Stepper st(sys);
+      std::mt19937 rng(6);
+      const int n = sys.model.nv();
+      std::vector<Eigen::VectorXd> qs, vs, taus;
+      for (int k = 0; k < 16; ++k) {
+        Eigen::VectorXd q, v;
+        random_state(sys, rng, k % 2 ? 0.2 : 0.0, q, v);
+        qs.push_back(q);
+        vs.push_back(v);
+        taus.push_back(Eigen::VectorXd::Random(n));
+      }
+      Eigen::VectorXd q = sys.q0, v = sys.v0, tau = Eigen::VectorXd::Zero(n);
+      if (n > 6) tau[6] = 1.0;  // the vehicle's left drive torque
+      {
+        AllocationCounter c;
+        for (int k = 0; k < 2000; ++k) evaluate(sys, st.ws, qs[k % 16], vs[k % 16], taus[k % 16]);
+        for (int k = 0; k < 500; ++k) step(sys, st, k % 2 ? Integrator::kRk4 : Integrator::kSemiImplicitEuler, 1e-3, tau, q, v);
+        EXPECT_EQ(c.count(), 0);
+      }
+      EXPECT_TRUE(q.allFinite());
+    }
+  }
+}
+
 TEST(NoAllocation, TheCounterSeesEigenAndStdAllocations) {
   if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
   AllocationCounter c;

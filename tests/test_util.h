@@ -24,6 +24,14 @@ inline const std::vector<std::string>& all_scenes() {
   return s;
 }
 
+// Wheel scenes (explicit trees with rolling constraints; no classic/pseudo-joint form). Kept apart
+// from all_scenes(): their nonholonomic rows have velocity errors without a position error, which
+// the generic weld checks over all_scenes() do not expect; tests/wheel_test.cc covers them.
+inline const std::vector<std::string>& wheel_scenes() {
+  static const std::vector<std::string> s = {"unicycle", "two_wheel_vehicle"};
+  return s;
+}
+
 inline System load(const std::string& name, std::optional<Formulation> f = std::nullopt) {
   SceneOverrides ov;
   ov.formulation = f;

@@ -1,6 +1,7 @@
 #include "service/constraints/constraints.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 #include "service/algorithms/jacobians.h"
@@ -42,6 +43,18 @@ void ConstraintSet::compile(const Model& model) {
           sup = u;
         }
       }
+    } else if (c.kind == ConstraintKind::kRolling) {
+      if (c.body < 0 || c.body >= model.nbodies())
+        throw std::invalid_argument("constraint '" + c.name + "': unknown wheel body");
+      if (!(c.radius > 0.0) || !std::isfinite(c.radius))
+        throw std::invalid_argument("constraint '" + c.name + "': wheel radius must be > 0");
+      if (!(std::abs(c.axle.norm() - 1.0) < 1e-9))
+        throw std::invalid_argument("constraint '" + c.name + "': wheel axle must be a unit vector");
+      for (int k = 0; k < 3; ++k) {
+        ax[n++] = 3 + k;
+        comp.push_back(c.compliance[3 + k]);
+      }
+      sup = model.support_dofs(c.body);
     } else {
       if (c.dof < 0 || c.dof >= model.nv()) throw std::invalid_argument("constraint '" + c.name + "': bad DOF");
       ax[0] = 0;
@@ -69,6 +82,63 @@ ConstraintData::ConstraintData(const Model& model, const ConstraintSet& set) {
   J_b.setZero(6, model.nv());
 }
 
+namespace {
+
+// Contact geometry of a rolling disk and its time derivative along the motion (ConstraintKind::
+// kRolling). All vectors in world coordinates; n = z_W is the ground normal.
+struct RollingGeometry {
+  Vec3 a, d, x, y, p;              // axle, centre->top of the wheel plane, heading, lateral, contact point
+  Vec3 d_dot, x_dot, y_dot, p_dot; // their rates; p_dot is the geometric contact point's velocity
+                                   // (it runs around the rim), not the wheel material's
+};
+
+// R = R_WB, c = p_WB (wheel centre), w = angular velocity and c_dot = centre velocity (world).
+void rolling_geometry(const Mat3& R, const Vec3& c, const Vec3& axle, double r, const Vec3& w, const Vec3& c_dot,
+                      RollingGeometry& g) {
+  const Vec3 n = Vec3::UnitZ();
+  g.a = R * axle;
+  const Vec3 a_dot = w.cross(g.a);
+  const double s = n.dot(g.a), s_dot = n.dot(a_dot);
+  const Vec3 m = n - s * g.a;                    // |m| = |a x n| = sqrt(1 - s^2) = k
+  const Vec3 m_dot = -s_dot * g.a - s * a_dot;
+  const double k = m.norm();
+  if (k < 1e-9) {  // wheel lying flat: no heading; any frame, no rates (finite, not physical)
+    g.x = g.a.unitOrthogonal();
+    g.y = n.cross(g.x);
+    g.d = g.a.cross(g.x).normalized();
+    g.d_dot.setZero();
+    g.x_dot.setZero();
+    g.y_dot.setZero();
+    g.p = c - r * g.d;
+    g.p_dot = c_dot;
+    return;
+  }
+  const Vec3 b = g.a.cross(n), b_dot = a_dot.cross(n);
+  g.d = m / k;
+  g.d_dot = (m_dot - g.d * g.d.dot(m_dot)) / k;  // d/dt (m/|m|)
+  g.x = b / k;
+  g.x_dot = (b_dot - g.x * g.x.dot(b_dot)) / k;
+  g.y = n.cross(g.x);
+  g.y_dot = n.cross(g.x_dot);
+  g.p = c - r * g.d;
+  g.p_dot = c_dot - r * g.d_dot;
+}
+
+}  // namespace
+
+Transform rolling_contact_frame(const Model& model, const Data& data, const ConstraintSpec& c) {
+  (void)model;
+  const Transform& X_WB = data.X_WB[c.body];
+  RollingGeometry g;
+  rolling_geometry(X_WB.R, X_WB.p, c.axle, c.radius, Vec3::Zero(), Vec3::Zero(), g);
+  Transform X_WC;
+  X_WC.R.col(0) = g.x;
+  X_WC.R.col(1) = g.y;
+  X_WC.R.col(2) = Vec3::UnitZ();
+  X_WC.p = g.p;
+  return X_WC;
+}
+
 void constraint_rows(const Model& model, const Data& data, const ConstraintSet& set, const Eigen::VectorXd& q,
                      const Eigen::VectorXd& v, ConstraintData& cd) {
   for (size_t s = 0; s < set.specs.size(); ++s) {
@@ -80,6 +150,37 @@ void constraint_rows(const Model& model, const Data& data, const ConstraintSet& 
       cd.Gdot_v[r0] = 0.0;
       cd.err[r0] = q[c.q_index] - c.q_target;
       cd.Gv[r0] = v[c.dof];
+      continue;
+    }
+    if (c.kind == ConstraintKind::kRolling) {
+      // rows: C^T u, u = v_O + w x p_WP the wheel's material velocity at the contact point P, from
+      // the body twist at the world origin [w; v_O] = S_W v. Along the motion (vdot = 0)
+      //   d/dt (C^T u) = Cdot^T u + C^T (a_O + alpha x p_WP + w x pdot_WP)
+      // with [alpha; a_O] the body's spatial acceleration at vdot = 0 (A0) at the world origin.
+      const Transform& X_WB = data.X_WB[c.body];
+      const Vec6 V_W = X_WB.act(data.V[c.body]);
+      const Vec6 A_W = X_WB.act(data.A0[c.body]);
+      const Vec3 w = V_W.head<3>();
+      RollingGeometry g;
+      rolling_geometry(X_WB.R, X_WB.p, c.axle, c.radius, w, V_W.tail<3>() + w.cross(X_WB.p), g);
+      const Vec3 u = V_W.tail<3>() + w.cross(g.p);
+      const Vec3 u_dot = A_W.tail<3>() + A_W.head<3>().cross(g.p) + w.cross(g.p_dot);
+      const Vec3 nz = Vec3::UnitZ();
+      for (int d : sup) {
+        const Vec3 Jp = data.S_W.col(d).tail<3>() + data.S_W.col(d).head<3>().cross(g.p);
+        cd.G(r0, d) = g.x.dot(Jp);
+        cd.G(r0 + 1, d) = g.y.dot(Jp);
+        cd.G(r0 + 2, d) = nz.dot(Jp);
+      }
+      cd.Gv[r0] = g.x.dot(u);
+      cd.Gv[r0 + 1] = g.y.dot(u);
+      cd.Gv[r0 + 2] = nz.dot(u);
+      cd.Gdot_v[r0] = g.x_dot.dot(u) + g.x.dot(u_dot);
+      cd.Gdot_v[r0 + 1] = g.y_dot.dot(u) + g.y.dot(u_dot);
+      cd.Gdot_v[r0 + 2] = nz.dot(u_dot);
+      cd.err[r0] = 0.0;          // nonholonomic: no position error, so no Baumgarte beta term
+      cd.err[r0 + 1] = 0.0;
+      cd.err[r0 + 2] = g.p.z();  // height of the contact point above the ground
       continue;
     }
     Vec6 a_rel, V_rel, e;

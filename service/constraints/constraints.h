@@ -6,7 +6,9 @@
 // For a weld or point block, lambda is the wrench [moment; force] that the environment (the world,
 // or body B) exerts on tip frame A, at A's origin, in A's coordinates: what a force/torque sensor
 // at the tip would read. For a lock block (pseudo-joint), lambda is the generalized force the
-// structure carries along the pseudo-joint's axis: the internal stress.
+// structure carries along the pseudo-joint's axis: the internal stress. For a rolling block, lambda
+// is the force [fx; fy; fz] that the ground exerts on the wheel at the contact point, in the contact
+// frame C (x forward along the heading, y lateral to the left, z the ground normal).
 #pragma once
 
 #include <array>
@@ -22,6 +24,19 @@ namespace coopdyn {
 enum class ConstraintKind {
   kWeld,  // tip frame A held to the world (target pose) or to frame B; any subset of the 6 axes of A
   kLock,  // one pseudo-joint DOF held at its initial value (METHOD s.4)
+  // A rigid disk of radius r rolling without slip on the ground plane z = 0 (world z up), METHOD
+  // s.7. The wheel centre is the origin of `body`, `axle` (unit, body coordinates) its spin axis.
+  // The contact point P is the lowest point of the rim: p_WP = p_WB - r d, with d the unit vector
+  // of the wheel plane closest to the ground normal n = z_W, d = (n - (n.a) a) / |n - (n.a) a|,
+  // a = R_WB axle. Contact frame C, R_WC = [x_C y_C n]:
+  //   x_C = a x n / |a x n|   heading: a positive spin about +axle rolls the wheel towards +x_C
+  //   y_C = n x x_C           lateral, to the left of the heading
+  // Three rows, the velocity of the wheel's material point at P along x_C, y_C, n:
+  //   x, y  longitudinal and lateral no-slip: nonholonomic, err = 0, no Baumgarte beta term
+  //   z     ground contact: holonomic, err = height of P above the ground, stabilized
+  // Gdot*v is analytic (the motion of P around the rim and the rotation of C included). A wheel
+  // lying flat (axle vertical, |a x n| -> 0) has no heading; rows stay finite but meaningless.
+  kRolling,
 };
 
 struct ConstraintSpec {
@@ -35,8 +50,16 @@ struct ConstraintSpec {
   int q_index = -1;              // lock: position index
   double q_target = 0.0;         // lock: held position
   std::array<double, 6> compliance{{0, 0, 0, 0, 0, 0}};  // per axis (rad/(N*m), m/N), for the
-                                                         // split of indeterminate forces only
+                                                         // split of indeterminate forces only;
+                                                         // rolling: entries 3..5 (x, y, z of C)
+  int body = -1;                 // rolling: the wheel body (its origin is the wheel centre)
+  Vec3 axle = Vec3::UnitY();     // rolling: spin axis, unit, in the body frame
+  double radius = 0.0;           // rolling: wheel radius (m)
 };
+
+// Contact geometry of a rolling spec after forward_kinematics: X_WC (contact frame C at the contact
+// point P, see ConstraintKind::kRolling). Allocation-free.
+Transform rolling_contact_frame(const Model& model, const Data& data, const ConstraintSpec& c);
 
 // The compiled set: specs plus row layout and supports. Immutable after compile().
 struct ConstraintSet {
@@ -49,7 +72,8 @@ struct ConstraintSet {
   int rows = 0;
   std::vector<int> row_offset;              // first row of each spec
   std::vector<int> row_count;               // rows of each spec
-  std::vector<std::array<int, 6>> row_axis; // axis of each row within its spec (weld)
+  std::vector<std::array<int, 6>> row_axis; // axis of each row within its spec (weld; rolling:
+                                            // 3 4 5 = force along x_C y_C z_C)
   std::vector<std::vector<int>> support;    // DOFs each spec touches, ascending
   std::vector<int> row_spec;                // spec of each row
   Eigen::VectorXd row_compliance;           // (rows)

@@ -495,11 +495,40 @@ void build_bodies(Builder& B, const YAML::Node& root) {
   }
   if (root["constraints"]) {
     for (const auto& k : root["constraints"]) {
-      check_keys(c, k, {"name", "type", "frame", "to", "axes", "target", "compliance"}, "constraint");
+      check_keys(c, k, {"name", "type", "frame", "to", "axes", "target", "compliance", "body", "axle", "radius"}, "constraint");
       ConstraintSpec s;
       s.name = get_string(c, k, "name", "");
       const std::string type = get_string(c, k, "type", "weld");
-      if (type != "weld" && type != "point") fail(c, k, "constraint '" + s.name + "': unknown type '" + type + "' (weld, point)");
+      if (type == "rolling") {
+        // a wheel rolling without slip on the ground z = 0 (ConstraintKind::kRolling)
+        for (const char* key : {"frame", "to", "axes", "target"})
+          if (k[key]) fail(c, k[key], "constraint '" + s.name + "': '" + key + "' does not apply to a rolling wheel");
+        s.kind = ConstraintKind::kRolling;
+        const std::string bname = get_string(c, k, "body", "");
+        s.body = model.body_index(bname);
+        if (s.body < 0) fail(c, k["body"].IsDefined() ? k["body"] : k, "constraint '" + s.name + "': unknown wheel body '" + bname + "'");
+        if (s.name.empty()) s.name = bname;
+        const Vec3 axle = as_vec3(c, require(c, k, "axle", "constraint '" + s.name + "'"), "constraint '" + s.name + "'.axle");
+        if (axle.norm() < 1e-9) fail(c, k["axle"], "constraint '" + s.name + "': axle must be a nonzero vector");
+        s.axle = axle.normalized();
+        s.radius = as_double(c, require(c, k, "radius", "constraint '" + s.name + "'"), "constraint '" + s.name + "'.radius");
+        if (!(s.radius > 0)) fail(c, k["radius"], "constraint '" + s.name + "': radius must be > 0");
+        if (k["compliance"]) {  // scalar or [x, y, z] of the contact frame (m/N)
+          const YAML::Node cn = k["compliance"];
+          std::vector<double> l = cn.IsScalar() ? std::vector<double>(3, as_double(c, cn, "compliance"))
+                                                : as_list(c, cn, 3, "constraint '" + s.name + "'.compliance");
+          for (int i = 0; i < 3; ++i) {
+            if (l[i] < 0) fail(c, cn, "constraint '" + s.name + "': compliance must be >= 0");
+            s.compliance[3 + i] = l[i];
+          }
+        }
+        s.axes = {{false, false, false, true, true, true}};
+        B.sys.constraints.specs.push_back(s);
+        continue;
+      }
+      for (const char* key : {"body", "axle", "radius"})
+        if (k[key]) fail(c, k[key], "constraint '" + s.name + "': '" + key + "' only applies to type rolling");
+      if (type != "weld" && type != "point") fail(c, k, "constraint '" + s.name + "': unknown type '" + type + "' (weld, point, rolling)");
       const std::string fa = get_string(c, k, "frame", "");
       s.frame_a = model.frame_index(fa);
       if (s.frame_a < 0) fail(c, k["frame"].IsDefined() ? k["frame"] : k, "constraint '" + s.name + "': unknown frame '" + fa + "'");
