@@ -562,3 +562,79 @@ constraints:
   EXPECT_NE(err("  - {type: rolling, body: wheel, radius: 0.25}").find("missing 'axle'"), std::string::npos);
   EXPECT_EQ(err("  - {type: rolling, body: wheel, axle: [0, 2, 0], radius: 0.25}"), "no error");  // normalized
 }
+
+namespace {
+// The vehicle reduced to the plane (the rod's spin is driven by the reaction alone and drops out):
+// forward speed u and yaw rate Omega of the axle midpoint, wheel spins psi = (u -+ w Omega) / r.
+//   (M + 2 I3 / r^2) du/dt = (tau_L + tau_R) / r
+//   (Iz + 2 I3 w^2 / r^2) dOmega/dt = (tau_R - tau_L) w / r
+// and each wheel's longitudinal force from its spin balance: I3 psi_ddot = tau - r f_x.
+struct Planar {
+  double u_dot, Om_dot, fx_l, fx_r;
+};
+Planar planar_vehicle(double tau_l, double tau_r) {
+  const double M = 7.0, r = 0.25, w = 0.25, I3 = 0.09375, I1 = 0.046875, mw = 3.0, Iz_rod = 0.0233333333333;
+  const double Iz = Iz_rod + 2 * (I1 + mw * w * w);
+  Planar p;
+  p.u_dot = (tau_l + tau_r) / r / (M + 2 * I3 / (r * r));
+  p.Om_dot = (tau_r - tau_l) * w / r / (Iz + 2 * I3 * w * w / (r * r));
+  p.fx_l = (tau_l - I3 * (p.u_dot - w * p.Om_dot) / r) / r;
+  p.fx_r = (tau_r - I3 * (p.u_dot + w * p.Om_dot) / r) / r;
+  return p;
+}
+}  // namespace
+
+TEST(Wheel, PaperPulseForcesMatchThePlanarAnalysis) {
+  // the paper's input (1 N*m on the left wheel) at rest: longitudinal forces from the planar
+  // analysis, the rod spun backwards by the reaction (-tau / I_rod,axial), normal forces 34.335 N
+  const System sys = load("two_wheel_vehicle");
+  const Model& m = sys.model;
+  Workspace ws(sys);
+  Eigen::VectorXd tau = Eigen::VectorXd::Zero(m.nv());
+  tau[index_of(m.v_names, "left_spin")] = 1.0;
+  ASSERT_NE(evaluate(sys, ws, sys.q0, sys.v0, tau).status, Status::kError);
+  const Planar p = planar_vehicle(1.0, 0.0);
+  const Vec3 fl = contact_force(sys, ws, "left"), fr = contact_force(sys, ws, "right");
+  EXPECT_NEAR(fl.x(), p.fx_l, 1e-10);
+  EXPECT_NEAR(fr.x(), p.fx_r, 1e-10);
+  EXPECT_NEAR(fl.y() + fr.y(), 0.0, 1e-10);
+  EXPECT_NEAR(fl.z(), 34.335, 1e-10);
+  EXPECT_NEAR(fr.z(), 34.335, 1e-10);
+  EXPECT_NEAR(ws.vdot[1], -1.0 / 0.005, 1e-8);  // rod.wy
+  EXPECT_NEAR(ws.vdot[3], p.u_dot, 1e-10);      // rod.vx
+  EXPECT_NEAR(ws.vdot[2], p.Om_dot, 1e-10);     // rod.wz
+  std::printf("[ two_wheel_vehicle ] 1 N*m on the left wheel at rest: fx left %.6f right %.6f N, du/dt %.4f m/s^2, dOmega/dt %.4f rad/s^2\n",
+              fl.x(), fr.x(), p.u_dot, p.Om_dot);
+}
+
+TEST(Wheel, PaperExperimentKeepsTheNormalForcesAt34335) {
+  // The paper's 2 s with its pulse. The angular momentum about the line through the two contact
+  // points stays zero (internal drive torques; contact forces on the line; gravity through it), so
+  // w (N_L - N_R) = -Omega H_spin - r sum f_y = 0: both wheels carry 34.335 N throughout, up to the
+  // integrator's error. After the pulse the vehicle turns steadily: sum f_y = M u Omega with
+  // u = du/dt * 0.5 s and Omega = dOmega/dt * 0.5 s of the planar analysis.
+  const System sys = load("two_wheel_vehicle");
+  const Model& m = sys.model;
+  Stepper st(sys);
+  Eigen::VectorXd q = sys.q0, v = sys.v0, tau = Eigen::VectorXd::Zero(m.nv());
+  const int il = index_of(m.v_names, "left_spin");
+  double max_dn = 0;
+  for (int i = 0; i <= 2000; ++i) {
+    tau[il] = i < 500 ? 1.0 : 0.0;
+    const Diagnostics& d = i < 2000 ? step(sys, st, Integrator::kRk4, 1e-3, tau, q, v) : evaluate(sys, st.ws, q, v, tau);
+    ASSERT_EQ(d.status, Status::kIndeterminate);
+    ASSERT_EQ(d.rank, 5);
+    const Vec3 fl = contact_force(sys, st.ws, "left"), fr = contact_force(sys, st.ws, "right");
+    max_dn = std::max({max_dn, std::abs(fl.z() - 34.335), std::abs(fr.z() - 34.335)});
+    ASSERT_NEAR(fl.y(), fr.y(), 1e-9);
+  }
+  EXPECT_LT(max_dn, 1e-4);
+  const Planar p = planar_vehicle(1.0, 0.0);
+  const double u = 0.5 * p.u_dot, Om = 0.5 * p.Om_dot;
+  const Vec3 fl = contact_force(sys, st.ws, "left"), fr = contact_force(sys, st.ws, "right");
+  EXPECT_NEAR(fl.y() + fr.y(), 7.0 * u * Om, 1e-4);
+  EXPECT_NEAR(fl.x(), 0.0, 1e-4);
+  EXPECT_NEAR(fr.x(), 0.0, 1e-4);
+  std::printf("[ two_wheel_vehicle ] paper's pulse, 2 s: max |N - 34.335| %.2e N; at 2 s sum f_y %.6f N (M u Omega = %.6f)\n", max_dn,
+              fl.y() + fr.y(), 7.0 * u * Om);
+}
