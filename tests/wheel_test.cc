@@ -219,7 +219,7 @@ TEST(Wheel, UnicycleAtRestCarriesItsWeight) {
     const Diagnostics& d = evaluate(sys, ws, sys.q0, v, tau);
     EXPECT_EQ(d.status, Status::kOk);
     EXPECT_EQ(d.rank, 3);
-    const Vec3 f = contact_force(sys, ws, "contact");
+    const Vec3 f = contact_force(sys, ws, "wheel");
     EXPECT_NEAR(f.z(), 3.0 * kG, 1e-10);
     EXPECT_NEAR(f.head<2>().norm(), 0.0, 1e-10);
   }
@@ -435,7 +435,7 @@ TEST(Wheel, RollingDiskSteadyCircleMatchesTheClassicalRelation) {
         const Vec3 alpha_W = Rot * ws.vdot.head<3>();
         const Vec3 acc_W = Rot * (ws.vdot.tail<3>() + v.head<3>().cross(v.tail<3>()));
         const Vec3 alpha_steady = sigma * Om * n.cross(a), acc_steady = Om * Om * rho * Vec3::UnitY();
-        const Vec3 f = contact_force(sys, ws, "contact");
+        const Vec3 f = contact_force(sys, ws, "wheel");
         if (factor == 1.0) {
           EXPECT_LT((alpha_W - alpha_steady).norm(), 1e-9 * alpha_steady.norm());
           EXPECT_LT((acc_W - acc_steady).norm(), 1e-9 * acc_steady.norm());
