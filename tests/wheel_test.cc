@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "service/algorithms/crba.h"
+#include "service/algorithms/rnea.h"
 #include "service/dynamics/integrators.h"
 #include "tests/test_util.h"
 
@@ -665,4 +666,90 @@ TEST(Wheel, ContactForcesDoNotDependOnTheRodsAxialInertia) {
   EXPECT_LT(worst, 1e-4);
   EXPECT_NEAR(va[1], -100.0, 1e-6);  // rod.wy after the pulse: -tau * 0.5 s / I_axial
   EXPECT_NEAR(vb[1], -10.0, 1e-6);
+}
+
+TEST(Wheel, SameAsThePapersJointStructure) {
+  // The paper's wheel (Fig. 7, 9): yaw and lean as a 2-DOF joint at the ground contact, the spin
+  // as a 1-DOF joint at the wheel centre, the contact tip moving on the ground. Built here as a tree
+  // rooted at the contact (x, y prismatic; yaw about z; lean about the heading x_C at P; a rigid
+  // radius up to the centre; spin about the axle), re-rooting the paper's mobile-platform chain.
+  // The contact then stays on the ground by construction (the normal row of the rolling constraint
+  // is identically zero: rank 2, its force 0 by min-norm), the normal force comes through the
+  // root joints, and only the no-slip rows act. At the same physical state the wheel's spatial
+  // acceleration and the ground's total wrench on the wheel at P must equal those of the floating
+  // wheel with the rolling constraint (unicycle scene).
+  const System paper = load_scene_string(R"(
+bodies:
+  - {name: base_x, joint: {type: prismatic, axis: [1, 0, 0], name: x}}
+  - {name: base_y, parent: base_x, joint: {type: prismatic, axis: [0, 1, 0], name: y}}
+  - {name: heading, parent: base_y, joint: {type: revolute, axis: [0, 0, 1], name: yaw}}
+  - {name: lean, parent: heading, joint: {type: revolute, axis: [1, 0, 0], name: lean}}
+  - name: wheel
+    parent: lean
+    placement: {xyz: [0, 0, 0.25]}
+    joint: {type: revolute, axis: [0, 1, 0], name: spin}
+    mass: 3.0
+    inertia: [0.046875, 0.09375, 0.046875, 0, 0, 0]
+constraints:
+  - {name: wheel, type: rolling, body: wheel, axle: [0, 1, 0], radius: 0.25}
+)",
+                                         "paper_wheel.yaml");
+  const System uni = load("unicycle");
+  const Model &mp = paper.model, &mu = uni.model;
+  const int wheel = mp.body_index("wheel");
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> U(-1, 1);
+  Workspace wp(paper), wu(uni);
+  double worst = 0;
+  for (int k = 0; k < 20; ++k) {
+    // a leaning, turning, rolling state of the paper's tree (velocities projected onto the no-slip rows)
+    Eigen::VectorXd q(5), v(5);
+    q << U(rng), U(rng), 3 * U(rng), 0.8 * U(rng), 3 * U(rng);
+    for (int i = 0; i < 5; ++i) v[i] = 5 * U(rng);
+    Data d(mp);
+    ConstraintData cd(mp, paper.constraints);
+    forward_kinematics(mp, d, q, v);
+    constraint_rows(mp, d, paper.constraints, q, v, cd);
+    v = project_velocity(cd.G, v);
+    const Eigen::VectorXd tau0 = Eigen::VectorXd::Zero(5);
+    ASSERT_NE(evaluate(paper, wp, q, v, tau0).status, Status::kError);
+    EXPECT_EQ(wp.diag.rank, 2);
+    EXPECT_LT(wp.cd.G.row(2).cwiseAbs().maxCoeff(), 1e-14);
+    // the same state for the floating wheel
+    const Transform& X_WB = wp.data.X_WB[wheel];
+    Eigen::VectorXd qu(7), vu(6);
+    qu.head<3>() = X_WB.p;
+    const Quat qq(X_WB.R);
+    qu.segment<4>(3) << qq.w(), qq.x(), qq.y(), qq.z();
+    vu = wp.data.V[wheel];
+    ASSERT_NE(evaluate(uni, wu, qu, vu, Eigen::VectorXd::Zero(6)).status, Status::kError);
+    ASSERT_LT(wu.cd.Gv.norm(), 1e-12);
+    // contact frames agree, and P is where the paper's 2-DOF joint sits
+    const Transform X_WC = rolling_contact_frame(mp, wp.data, paper.constraints.specs[0]);
+    const Transform X_WCu = rolling_contact_frame(mu, wu.data, uni.constraints.specs[0]);
+    EXPECT_LT((X_WC.p - X_WCu.p).norm(), 1e-12);
+    EXPECT_LT((X_WC.R - X_WCu.R).norm(), 1e-12);
+    EXPECT_LT((X_WC.p - wp.data.X_WB[mp.body_index("lean")].p).norm(), 1e-12);
+    // wheel spatial acceleration (body coordinates): the tree's S vdot + A0, the floating body's vdot
+    Eigen::VectorXd tau_id(5);
+    std::vector<Vec6> f_ext(mp.nbodies(), Vec6::Zero());
+    Vec6 F_C = Vec6::Zero();
+    F_C.tail<3>() = wp.lambda.head<3>();
+    f_ext[wheel] = X_WB.inv_act_force(X_WC.act_force(F_C));
+    rnea(mp, wp.data, wp.vdot, &f_ext, tau_id);
+    EXPECT_LT(tau_id.norm(), 1e-9);  // no joint torque needed: the tree's own consistency
+    const Vec6 a_tree = wp.data.a[wheel] + wp.data.A0[wheel];
+    EXPECT_LT((a_tree - wu.vdot).norm(), 1e-9 * (1 + wu.vdot.norm()));
+    // the ground's total wrench on the wheel at P in C: root joint reaction + no-slip forces
+    const Vec6 W_root = wp.data.X_WB[0].act_force(wp.data.f[0]);  // world coords, world origin
+    const Vec6 W_C = X_WC.inv_act_force(W_root + X_WC.act_force(F_C));
+    Vec6 W_uni = Vec6::Zero();
+    W_uni.tail<3>() = tip_wrench(uni, wu, 0).tail<3>();
+    EXPECT_LT((W_C - W_uni).norm(), 1e-9 * (1 + W_uni.norm())) << W_C.transpose() << " vs " << W_uni.transpose();
+    worst = std::max(worst, (W_C - W_uni).norm() / (1 + W_uni.norm()));
+    if (k == 0)
+      std::printf("[ paper's wheel tree ] state 0: ground on wheel at P in C [m; f]: tree (%.3g %.3g %.3g; %.6f %.6f %.6f), rolling (%.3g %.3g %.3g; %.6f %.6f %.6f)\n",
+                  W_C[0], W_C[1], W_C[2], W_C[3], W_C[4], W_C[5], W_uni[0], W_uni[1], W_uni[2], W_uni[3], W_uni[4], W_uni[5]);
+  }
+  std::printf("[ paper's wheel tree ] 20 states: worst relative wrench difference %.2e\n", worst);
 }
