@@ -54,6 +54,8 @@ int velocity_index(const System& sys, const std::string& name);  // -1 if absent
 // Loads --scene (with an optional --formulation override) for subcommand `cmd`; prints the reason
 // and returns the exit status (2 usage, 1 scene error) on failure, 0 on success.
 int load_cli_scene(const Args& a, const char* cmd, System* sys);
+// Adds every --torque PROFILE to *prof; prints the reason and returns 2 on a bad one, else 0.
+int load_cli_profile(const Args& a, const char* cmd, const System& sys, TorqueProfile* prof);
 
 int cmd_eval(const Args& a);
 int cmd_sim(const Args& a);

@@ -162,6 +162,16 @@ int load_cli_scene(const Args& a, const char* cmd, System* sys) {
   return 0;
 }
 
+int load_cli_profile(const Args& a, const char* cmd, const System& sys, TorqueProfile* prof) {
+  try {
+    for (const auto& spec : a.all("torque")) prof->add(sys, spec);
+  } catch (const std::runtime_error& e) {
+    std::fprintf(stderr, "coopdyn %s: %s\n", cmd, e.what());
+    return 2;
+  }
+  return 0;
+}
+
 int velocity_index(const System& sys, const std::string& name) {
   const auto& n = sys.model.v_names;
   for (size_t i = 0; i < n.size(); ++i)

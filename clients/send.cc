@@ -125,19 +125,9 @@ int cmd_send(const Args& a) {
     return 2;
   }
   System sys;
-  try {
-    sys = load_scene(a.get("scene"));
-  } catch (const SceneError& e) {
-    std::fprintf(stderr, "coopdyn: %s\n", e.what());
-    return 1;
-  }
+  if (const int rc = load_cli_scene(a, "send", &sys)) return rc;
   TorqueProfile prof;
-  try {
-    for (const auto& s : a.all("torque")) prof.add(sys, s);
-  } catch (const std::runtime_error& e) {
-    std::fprintf(stderr, "coopdyn send: %s\n", e.what());
-    return 2;
-  }
+  if (const int rc = load_cli_profile(a, "send", sys, &prof)) return rc;
   StateTable states;
   if (replay) {
     std::string err;

@@ -34,12 +34,7 @@ int cmd_sim(const Args& a) {
   System sys;
   if (const int rc = load_cli_scene(a, "sim", &sys)) return rc;
   TorqueProfile prof;
-  try {
-    for (const auto& s : a.all("torque")) prof.add(sys, s);
-  } catch (const std::runtime_error& e) {
-    std::fprintf(stderr, "coopdyn sim: %s\n", e.what());
-    return 2;
-  }
+  if (const int rc = load_cli_profile(a, "sim", sys, &prof)) return rc;
   std::FILE* out = stdout;
   if (a.has("out")) {
     out = std::fopen(a.get("out").c_str(), "w");
