@@ -38,14 +38,6 @@ Eval consistent_state(const System& sys, std::mt19937& rng, double spread, bool 
   return e;
 }
 
-// total spatial momentum about the world origin, in world coordinates
-Vec6 total_momentum(const Model& m, const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
-  Data d(m);
-  forward_kinematics(m, d, q, v);
-  Vec6 h = Vec6::Zero();
-  for (int i = 0; i < m.nbodies(); ++i) h += d.X_WB[i].act_force(m.bodies[i].inertia * d.V[i]);
-  return h;
-}
 
 // velocity vector of system b re-ordered into the coordinates of system a, by name
 Eigen::VectorXd by_name(const System& a, const System& b, const Eigen::VectorXd& xb) {

@@ -10,19 +10,6 @@
 using namespace coopdyn;
 using namespace coopdyn::testing;
 
-namespace {
-double potential_energy(const Model& m, const Eigen::VectorXd& q) {
-  Data d(m);
-  forward_kinematics(m, d, q, Eigen::VectorXd::Zero(m.nv()));
-  double V = 0;
-  for (int i = 0; i < m.nbodies(); ++i) {
-    const Inertia& I = m.bodies[i].inertia;
-    V -= I.m * m.gravity_W.dot(d.X_WB[i].R * I.c + d.X_WB[i].p);
-  }
-  return V;
-}
-}  // namespace
-
 TEST(Crba, MassMatrixIsSymmetricPositiveDefiniteAndMatchesRnea) {
   std::mt19937 rng(11);
   for (const auto& name : all_scenes()) {
@@ -126,7 +113,9 @@ TEST(TreeCholesky, FactorReproducesMassMatrixWithTreeSparsityAndSolves) {
       for (int j = 0; j < i; ++j) {
         bool anc = false;
         for (int k = m.dof_parent[i]; k >= 0; k = m.dof_parent[k]) anc |= (k == j);
-        if (!anc) EXPECT_EQ(d.L(i, j), 0.0) << "fill-in at " << i << "," << j;
+        if (!anc) {
+          EXPECT_EQ(d.L(i, j), 0.0) << "fill-in at " << i << "," << j;
+        }
       }
     Eigen::VectorXd b = Eigen::VectorXd::Random(m.nv()), x = b;
     tree_solve_M(m, d.L, x);

@@ -12,18 +12,6 @@ using namespace coopdyn;
 using namespace coopdyn::testing;
 
 namespace {
-double energy(const System& sys, const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
-  const Model& m = sys.model;
-  Data d(m);
-  forward_kinematics(m, d, q, v);
-  crba(m, d);
-  double V = 0;
-  for (int i = 0; i < m.nbodies(); ++i) {
-    const Inertia& I = m.bodies[i].inertia;
-    V -= I.m * m.gravity_W.dot(d.X_WB[i].R * I.c + d.X_WB[i].p);
-  }
-  return 0.5 * v.dot(d.M * v) + V;
-}
 struct SimRun {
   Eigen::VectorXd q, v;
   double max_err = 0;

@@ -72,6 +72,36 @@ inline void kkt_solve(const Eigen::MatrixXd& M, const Eigen::MatrixXd& G, const 
   lambda = x.tail(m);
 }
 
+// Potential energy of gravity, -sum m_i g . c_i (J).
+inline double potential_energy(const Model& m, const Eigen::VectorXd& q) {
+  Data d(m);
+  forward_kinematics(m, d, q, Eigen::VectorXd::Zero(m.nv()));
+  double V = 0;
+  for (int i = 0; i < m.nbodies(); ++i) {
+    const Inertia& I = m.bodies[i].inertia;
+    V -= I.m * m.gravity_W.dot(d.X_WB[i].R * I.c + d.X_WB[i].p);
+  }
+  return V;
+}
+
+// Kinetic (armatures included) plus potential energy (J).
+inline double energy(const System& sys, const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
+  const Model& m = sys.model;
+  Data d(m);
+  forward_kinematics(m, d, q, v);
+  crba(m, d);
+  return 0.5 * v.dot(d.M * v) + potential_energy(m, q);
+}
+
+// Total spatial momentum of the bodies about the world origin, in world coordinates.
+inline Vec6 total_momentum(const Model& m, const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
+  Data d(m);
+  forward_kinematics(m, d, q, v);
+  Vec6 h = Vec6::Zero();
+  for (int i = 0; i < m.nbodies(); ++i) h += d.X_WB[i].act_force(m.bodies[i].inertia * d.V[i]);
+  return h;
+}
+
 // Index of a name in a list (-1 if absent).
 inline int index_of(const std::vector<std::string>& v, const std::string& s) {
   for (size_t i = 0; i < v.size(); ++i)

@@ -42,27 +42,7 @@ double total_mass(const Model& m) {
   return M;
 }
 
-double energy(const System& sys, const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
-  const Model& m = sys.model;
-  Data d(m);
-  forward_kinematics(m, d, q, v);
-  crba(m, d);
-  double V = 0;
-  for (int i = 0; i < m.nbodies(); ++i) {
-    const Inertia& I = m.bodies[i].inertia;
-    V -= I.m * m.gravity_W.dot(d.X_WB[i].R * I.c + d.X_WB[i].p);
-  }
-  return 0.5 * v.dot(d.M * v) + V;
-}
 
-// total spatial momentum about the world origin, world coordinates
-Vec6 total_momentum(const Model& m, const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
-  Data d(m);
-  forward_kinematics(m, d, q, v);
-  Vec6 h = Vec6::Zero();
-  for (int i = 0; i < m.nbodies(); ++i) h += d.X_WB[i].act_force(m.bodies[i].inertia * d.V[i]);
-  return h;
-}
 
 // contact forces and gravity as one wrench about the world origin, world coordinates
 Vec6 external_wrench(const System& sys, const Workspace& ws) {
