@@ -1,11 +1,14 @@
 // Helpers shared by the tests: scene paths, random states, finite differences, a plain KKT solve.
 #pragma once
 
+#include <fstream>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include <Eigen/Dense>
+#include <gtest/gtest.h>
 
 #include "service/algorithms/crba.h"
 #include "service/algorithms/kinematics.h"
@@ -100,6 +103,28 @@ inline Vec6 total_momentum(const Model& m, const Eigen::VectorXd& q, const Eigen
   Vec6 h = Vec6::Zero();
   for (int i = 0; i < m.nbodies(); ++i) h += d.X_WB[i].act_force(m.bodies[i].inertia * d.V[i]);
   return h;
+}
+
+// The text of a shipped scene, and a copy of a text with one occurrence replaced (the test fails
+// if `from` is absent), for variants of the shipped scenes.
+inline std::string scene_text(const std::string& name) {
+  std::ifstream f(scene_path(name));
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+inline std::string replace_once(std::string text, const std::string& from, const std::string& to) {
+  const auto p = text.find(from);
+  EXPECT_NE(p, std::string::npos) << "not in the scene: " << from;
+  if (p != std::string::npos) text.replace(p, from.size(), to);
+  return text;
+}
+
+// Velocity index of a coordinate name (-1 if absent).
+inline int velocity_index_of(const System& sys, const std::string& name) {
+  for (int i = 0; i < sys.model.nv(); ++i)
+    if (sys.model.v_names[i] == name) return i;
+  return -1;
 }
 
 // Index of a name in a list (-1 if absent).
