@@ -123,3 +123,39 @@ TEST(Scene, BrokenScenesNameFileLineAndReason) {
                std::string(COOPDYN_SOURCE_DIR) + "/config/scenes/p.yaml");
   EXPECT_NE(e.find("unknown robot 'puma600'"), std::string::npos) << e;
 }
+
+TEST(Scene, UrdfRobotGivesTheSameDynamicsAsItsDhTwin) {
+  // planar_arms_load with its arms read from config/robots/planar3r.urdf instead of the DH table:
+  // same accelerations, same base wrenches, in both trees; URDF joint names and effort limits kept
+  const std::string dh = scene_text("planar_arms_load");
+  const auto a = dh.find("  planar3r:\n"), b = dh.find("load:\n");
+  ASSERT_NE(a, std::string::npos);
+  const std::string urdf = dh.substr(0, a) + "  planar3r: {urdf: ../robots/planar3r.urdf}\n" + dh.substr(b);
+  for (auto f : {Formulation::kMobilePlatform, Formulation::kClassic}) {
+    SCOPED_TRACE(formulation_name(f));
+    SceneOverrides ov;
+    ov.formulation = f;
+    const System s1 = load_scene_string(dh, scene_path("planar_dh"), ov);
+    const System s2 = load_scene_string(urdf, scene_path("planar_urdf"), ov);
+    ASSERT_EQ(s1.model.nv(), s2.model.nv());
+    EXPECT_NE(index_of(s2.model.v_names, "arm1.j2"), -1);
+    EXPECT_EQ(s2.tau_limit[index_of(s2.model.v_names, "arm1.j2")], 50.0);
+    Workspace w1(s1), w2(s2);
+    std::mt19937 rng(3);
+    Eigen::VectorXd v = Eigen::VectorXd::Zero(s1.model.nv()), tau = Eigen::VectorXd::Random(s1.model.nv());
+    tau.head(6).setZero();
+    if (f == Formulation::kClassic) tau.tail(6).setZero();
+    evaluate(s1, w1, s1.q0, v, tau);
+    evaluate(s2, w2, s2.q0, v, tau);
+    EXPECT_LT((w1.vdot - w2.vdot).norm(), 1e-9 * (1 + w1.vdot.norm()));
+    for (int c = 0; c < 2; ++c) EXPECT_LT((tip_wrench(s1, w1, c) - tip_wrench(s2, w2, c)).norm(), 1e-8);
+  }
+  // a URDF that is not there is a clear error
+  const std::string bad = dh.substr(0, a) + "  planar3r: {urdf: ../robots/nope.urdf}\n" + dh.substr(b);
+  try {
+    load_scene_string(bad, scene_path("bad_urdf"));
+    FAIL();
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot open URDF"), std::string::npos) << e.what();
+  }
+}

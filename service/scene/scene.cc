@@ -1,9 +1,11 @@
 #include "service/scene/scene.h"
 
+#include <urdf_parser/urdf_parser.h>
 #include <yaml-cpp/yaml.h>
 
 #include <Eigen/Eigenvalues>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -168,17 +170,36 @@ std::array<double, 6> get_compliance(const Ctx& c, const YAML::Node& n, const st
 
 // ---- DH robots ---------------------------------------------------------------------------------
 
-struct DhLink {
-  double a = 0, d = 0, alpha = 0, offset = 0;
-  Inertia I;
+// A serial robot as a chain of joints, URDF-style: joint i sits at X_origin (its frame in the
+// previous link's frame, the robot base for i = 1), moves about `axis` (in the joint frame), and
+// link i's frame is the joint frame after the motion. Standard DH and URDF both compile to this.
+struct ChainJoint {
+  std::string name;       // coordinate name suffix (DH: qK; URDF: the joint's name)
+  std::string link_name;  // the child link (DH: linkK; URDF: the link's name)
+  Transform X_origin;
+  Vec3 axis = Vec3::UnitZ();
+  bool prismatic = false;
+  bool fixed = false;  // a fixed joint of the robot itself (URDF "fixed")
+  Inertia I;           // link i, in link i's frame
   double armature = 0;
   double tau_limit = std::numeric_limits<double>::infinity();
 };
 struct Robot {
   std::string name;
-  std::vector<DhLink> links;
+  std::vector<ChainJoint> joints;
+  Transform X_last_EE;  // the end-effector frame in the last link's frame
+  std::string base_link = "link0";
 };
 
+// the joint's motion X_JB(q): rotation about, or translation along, its axis
+Transform chain_motion(const ChainJoint& j, double q) {
+  if (j.prismatic) return Transform(Mat3::Identity(), j.axis * q);
+  return Transform(Eigen::AngleAxisd(q, j.axis.normalized()).toRotationMatrix(), Vec3::Zero());
+}
+
+struct DhLink {
+  double a = 0, d = 0, alpha = 0, offset = 0;
+};
 // K_i = Tz(d) Tx(a) Rx(alpha): the fixed part of the standard DH transform T_{i-1,i} = Rz(theta) K_i
 Transform dh_fixed(const DhLink& l) { return trans(0, 0, l.d) * trans(l.a, 0, 0) * rot_x(l.alpha); }
 
@@ -190,6 +211,7 @@ Robot parse_robot(const Ctx& c, const YAML::Node& n, const std::string& name) {
   r.name = name;
   const YAML::Node links = require(c, n, "links", "robot '" + name + "'");
   if (!links.IsSequence() || links.size() == 0) fail(c, links, "robot '" + name + "': links must be a non-empty list");
+  Transform K_prev;  // identity for joint 1: the DH base frame is the robot base
   for (size_t i = 0; i < links.size(); ++i) {
     const YAML::Node& l = links[i];
     const std::string w = "robot '" + name + "' link " + std::to_string(i + 1);
@@ -199,12 +221,88 @@ Robot parse_robot(const Ctx& c, const YAML::Node& n, const std::string& name) {
     dl.d = get_double(c, l, "d", 0, w);
     dl.alpha = get_double(c, l, "alpha", 0, w);
     dl.offset = get_double(c, l, "offset", 0, w);
-    dl.I = get_inertia(c, l, w);
-    dl.armature = get_double(c, l, "armature", 0, w);
-    if (dl.armature < 0) fail(c, l["armature"], w + ": armature must be >= 0");
-    dl.tau_limit = get_double(c, l, "tau_limit", std::numeric_limits<double>::infinity(), w);
-    r.links.push_back(dl);
+    ChainJoint j;
+    j.name = "q" + std::to_string(i + 1);
+    j.link_name = "link" + std::to_string(i + 1);
+    // joint i turns about z of DH frame i-1, so its URDF-style frame is K_{i-1} Rz(offset); the
+    // link frame after the motion differs from DH frame i by K_i, which moves the inertia
+    j.X_origin = K_prev * rot_z(dl.offset);
+    j.axis = Vec3::UnitZ();
+    j.I = get_inertia(c, l, w).transformed(dh_fixed(dl));
+    j.armature = get_double(c, l, "armature", 0, w);
+    if (j.armature < 0) fail(c, l["armature"], w + ": armature must be >= 0");
+    j.tau_limit = get_double(c, l, "tau_limit", std::numeric_limits<double>::infinity(), w);
+    r.joints.push_back(j);
+    K_prev = dh_fixed(dl);
   }
+  r.X_last_EE = K_prev;  // DH frame n
+  return r;
+}
+
+// A serial chain from a URDF file (urdfdom): from `base` link to `tip` link (defaults: the root and
+// its only leaf). Revolute/continuous and prismatic joints move; fixed joints stay fixed.
+Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path, const std::string& name,
+                 std::string base, std::string tip) {
+  std::ifstream f(path);
+  if (!f) fail(c, where, "cannot open URDF '" + path + "'");
+  std::stringstream ss;
+  ss << f.rdbuf();
+  urdf::ModelInterfaceSharedPtr u = urdf::parseURDF(ss.str());
+  if (!u) fail(c, where, "URDF '" + path + "' could not be parsed (see the urdfdom message above)");
+  if (base.empty()) base = u->getRoot()->name;
+  urdf::LinkConstSharedPtr lk = u->getLink(tip.empty() ? base : tip);
+  if (!u->getLink(base)) fail(c, where, "URDF '" + path + "': no link '" + base + "'");
+  if (tip.empty()) {
+    urdf::LinkConstSharedPtr l = u->getLink(base);
+    while (l->child_links.size() == 1) l = l->child_links[0];
+    if (!l->child_links.empty()) fail(c, where, "URDF '" + path + "' branches below '" + l->name + "': give robots.<name>.tip");
+    tip = l->name;
+    lk = l;
+  }
+  if (!lk) fail(c, where, "URDF '" + path + "': no link '" + tip + "'");
+  std::vector<urdf::JointConstSharedPtr> chain;
+  for (urdf::LinkConstSharedPtr l = lk; l && l->name != base; l = l->getParent()) {
+    if (!l->parent_joint) fail(c, where, "URDF '" + path + "': '" + tip + "' is not below '" + base + "'");
+    chain.push_back(l->parent_joint);
+  }
+  std::reverse(chain.begin(), chain.end());
+  auto pose = [](const urdf::Pose& p) {
+    double x, y, z, w;
+    p.rotation.getQuaternion(x, y, z, w);
+    return Transform(Quat(w, x, y, z).normalized().toRotationMatrix(), Vec3(p.position.x, p.position.y, p.position.z));
+  };
+  Robot r;
+  r.name = name;
+  r.base_link = base;
+  for (const auto& jt : chain) {
+    urdf::LinkConstSharedPtr child = u->getLink(jt->child_link_name);
+    Inertia I;
+    if (child->inertial) {
+      const auto& in = *child->inertial;
+      if (in.mass < 0) fail(c, where, "URDF link '" + child->name + "': negative mass");
+      Mat3 Ic;
+      Ic << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
+      const Transform X = pose(in.origin);
+      I = Inertia(in.mass, X.p, X.R * Ic * X.R.transpose());
+    }
+    ChainJoint j;
+    j.name = jt->name;
+    j.link_name = child->name;
+    j.X_origin = pose(jt->parent_to_joint_origin_transform);
+    j.axis = Vec3(jt->axis.x, jt->axis.y, jt->axis.z);
+    j.I = I;
+    switch (jt->type) {
+      case urdf::Joint::REVOLUTE:
+      case urdf::Joint::CONTINUOUS: break;
+      case urdf::Joint::PRISMATIC: j.prismatic = true; break;
+      case urdf::Joint::FIXED: j.fixed = true; break;
+      default: fail(c, where, "URDF joint '" + jt->name + "': only revolute, continuous, prismatic and fixed joints");
+    }
+    if (!j.fixed && !(j.axis.norm() > 0)) fail(c, where, "URDF joint '" + jt->name + "': zero axis");
+    if (!j.fixed && jt->limits && jt->limits->effort > 0) j.tau_limit = jt->limits->effort;
+    r.joints.push_back(j);
+  }
+  if (r.joints.empty()) fail(c, where, "URDF '" + path + "': no joints between '" + base + "' and '" + tip + "'");
   return r;
 }
 
@@ -233,13 +331,11 @@ struct ArmSpec {
   YAML::Node node;
 };
 
-Transform dh_forward(const ArmSpec& a) {
+// the end-effector (before the tool) in the robot base frame at the arm's q
+Transform chain_forward(const ArmSpec& a) {
   Transform X;
-  for (size_t i = 0; i < a.robot->links.size(); ++i) {
-    const DhLink& l = a.robot->links[i];
-    X = X * rot_z(a.q[i] + l.offset) * dh_fixed(l);
-  }
-  return X;
+  for (size_t i = 0; i < a.robot->joints.size(); ++i) X = X * a.robot->joints[i].X_origin * chain_motion(a.robot->joints[i], a.q[i]);
+  return X * a.robot->X_last_EE;
 }
 
 void set_floating_q(Eigen::VectorXd& q, int idx, const Transform& X) {
@@ -298,11 +394,19 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
     auto it = robots.find(rn);
     if (it == robots.end()) fail(c, a["robot"].IsDefined() ? a["robot"] : a, "arm '" + s.name + "': unknown robot '" + rn + "'");
     s.robot = &it->second;
-    const int n = static_cast<int>(s.robot->links.size());
+    const int n = static_cast<int>(s.robot->joints.size());
+    int nm = 0;  // joints that can move (a URDF's own fixed joints take no q)
+    for (const ChainJoint& cj : s.robot->joints) nm += cj.fixed ? 0 : 1;
     s.X_W_base = get_pose(c, require(c, a, "base", "arm '" + s.name + "'"), "arm '" + s.name + "'.base");
     s.tool = get_pose(c, a["tool"], "arm '" + s.name + "'.tool");
-    s.q = as_list(c, require(c, a, "q", "arm '" + s.name + "'"), n, "arm '" + s.name + "'.q");
-    s.v = a["v"] ? as_list(c, a["v"], n, "arm '" + s.name + "'.v") : std::vector<double>(n, 0.0);
+    const std::vector<double> qm = as_list(c, require(c, a, "q", "arm '" + s.name + "'"), nm, "arm '" + s.name + "'.q");
+    const std::vector<double> vm = a["v"] ? as_list(c, a["v"], nm, "arm '" + s.name + "'.v") : std::vector<double>(nm, 0.0);
+    for (int i = 0, k = 0; i < n; ++i) {
+      const bool f = s.robot->joints[i].fixed;
+      s.q.push_back(f ? 0.0 : qm[k]);
+      s.v.push_back(f ? 0.0 : vm[k]);
+      k += f ? 0 : 1;
+    }
     if (a["fixed_joints"]) {
       for (double x : as_list(c, a["fixed_joints"], -1, "arm '" + s.name + "'.fixed_joints")) {
         const int k = static_cast<int>(x);
@@ -320,7 +424,7 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
   }
   // grasps: given ones must close with the load pose, missing ones are read off the initial state
   for (ArmSpec& s : arms) {
-    const Transform X_W_EE = s.X_W_base * dh_forward(s) * s.tool;
+    const Transform X_W_EE = s.X_W_base * chain_forward(s) * s.tool;
     if (s.grasp_given) {
       const Vec6 e = pose_error((X_W_L * s.X_L_EE).inverse() * X_W_EE);
       if (e.cwiseAbs().maxCoeff() > 1e-6) {
@@ -350,30 +454,34 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
     }
   }
   if (mobile_platform) {
+    // the load is the root; each arm hangs from it last link first (METHOD s.3). Body B_k of the
+    // reversed chain is link k's frame moved to joint k+1 (link_k * X_origin_{k+1}), so that joint
+    // k+1 reversed is a plain motion about -axis at the origin of its parent.
     const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, std::numeric_limits<double>::infinity(), load);
     for (const ArmSpec& s : arms) {
-      const auto& links = s.robot->links;
-      const int n = static_cast<int>(links.size());
+      const auto& J = s.robot->joints;
+      const int n = static_cast<int>(J.size());
       Joint fixed;
       fixed.type = JointType::kFixed;
-      int parent = B.add(s.name + ".link" + std::to_string(n), L, s.X_L_EE * s.tool.inverse(), fixed, links[n - 1].I, {}, {},
-                         0, s.node);
+      int parent = B.add(s.name + "." + J[n - 1].link_name, L, s.X_L_EE * s.tool.inverse() * s.robot->X_last_EE.inverse(),
+                         fixed, J[n - 1].I, {}, {}, 0, s.node);
       for (int i = n; i >= 1; --i) {
-        const DhLink& l = links[i - 1];
+        const ChainJoint& cj = J[i - 1];
         Joint j;
-        j.type = s.fixed.count(i) ? JointType::kFixed : JointType::kRevolute;
-        j.axis = -Vec3::UnitZ();
-        j.name = s.name + ".q" + std::to_string(i);
-        j.armature = l.armature;
-        Transform X_PJ = dh_fixed(l).inverse() * rot_z(-l.offset);
-        if (j.type == JointType::kFixed) X_PJ = X_PJ * rot_z(-s.q[i - 1]);
+        const bool held = cj.fixed || s.fixed.count(i);
+        j.type = held ? JointType::kFixed : (cj.prismatic ? JointType::kPrismatic : JointType::kRevolute);
+        j.axis = -cj.axis;
+        j.name = s.name + "." + cj.name;
+        j.armature = cj.armature;
+        Transform X_PJ = i == n ? Transform() : J[i].X_origin.inverse();
+        if (held) X_PJ = X_PJ * chain_motion(cj, -s.q[i - 1]);
         // the arm's base is welded to the world, so its inertia does no work; a nominal rotational
         // inertia (no mass, hence no weight) keeps M regular for the joint that moves only the base
-        Inertia I = i > 1 ? links[i - 2].I : Inertia(0.0, Vec3::Zero(), 1e-3 * Mat3::Identity());
-        parent = B.add(s.name + ".link" + std::to_string(i - 1), parent, X_PJ, j, I, {s.q[i - 1]}, {s.v[i - 1]},
-                       l.tau_limit, s.node);
+        const Inertia I = i > 1 ? J[i - 2].I.transformed(cj.X_origin.inverse()) : Inertia(0.0, Vec3::Zero(), 1e-3 * Mat3::Identity());
+        const std::string body = s.name + "." + (i > 1 ? J[i - 2].link_name : s.robot->base_link);
+        parent = B.add(body, parent, X_PJ, j, I, {s.q[i - 1]}, {s.v[i - 1]}, cj.tau_limit, s.node);
       }
-      model.add_frame(s.name + ".base", parent, Transform());
+      model.add_frame(s.name + ".base", parent, J[0].X_origin.inverse());
       ConstraintSpec w;
       w.name = s.name + ".base";
       w.kind = ConstraintKind::kWeld;
@@ -385,24 +493,22 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
     }
   } else {
     for (const ArmSpec& s : arms) {
-      const auto& links = s.robot->links;
-      const int n = static_cast<int>(links.size());
+      const auto& J = s.robot->joints;
+      const int n = static_cast<int>(J.size());
       int parent = -1;
-      Transform K_prev = s.X_W_base;
       for (int i = 1; i <= n; ++i) {
-        const DhLink& l = links[i - 1];
+        const ChainJoint& cj = J[i - 1];
         Joint j;
-        j.type = s.fixed.count(i) ? JointType::kFixed : JointType::kRevolute;
-        j.axis = Vec3::UnitZ();
-        j.name = s.name + ".q" + std::to_string(i);
-        j.armature = l.armature;
-        Transform X_PJ = K_prev * rot_z(l.offset);
-        if (j.type == JointType::kFixed) X_PJ = X_PJ * rot_z(s.q[i - 1]);
-        parent = B.add(s.name + ".link" + std::to_string(i), parent, X_PJ, j, l.I.transformed(dh_fixed(l)), {s.q[i - 1]},
-                       {s.v[i - 1]}, l.tau_limit, s.node);
-        K_prev = dh_fixed(l);
+        const bool held = cj.fixed || s.fixed.count(i);
+        j.type = held ? JointType::kFixed : (cj.prismatic ? JointType::kPrismatic : JointType::kRevolute);
+        j.axis = cj.axis;
+        j.name = s.name + "." + cj.name;
+        j.armature = cj.armature;
+        Transform X_PJ = (i == 1 ? s.X_W_base : Transform()) * cj.X_origin;
+        if (held) X_PJ = X_PJ * chain_motion(cj, s.q[i - 1]);
+        parent = B.add(s.name + "." + cj.link_name, parent, X_PJ, j, cj.I, {s.q[i - 1]}, {s.v[i - 1]}, cj.tau_limit, s.node);
       }
-      model.add_frame(s.name + ".ee", parent, K_prev * s.tool);
+      model.add_frame(s.name + ".ee", parent, s.robot->X_last_EE * s.tool);
     }
     const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, std::numeric_limits<double>::infinity(), load);
     for (const ArmSpec& s : arms) {
@@ -608,7 +714,11 @@ System load_scene_string(const std::string& text, const std::string& file, const
       for (const auto& kv : root["robots"]) {
         const std::string rn = kv.first.as<std::string>();
         YAML::Node rnode = kv.second;
-        if (rnode["file"]) {
+        if (rnode["urdf"]) {
+          check_keys(c, rnode, {"urdf", "base", "tip", "source"}, "robot '" + rn + "'");
+          const std::string path = (std::filesystem::path(c.dir) / rnode["urdf"].as<std::string>()).string();
+          robots[rn] = parse_urdf(c, rnode["urdf"], path, rn, get_string(c, rnode, "base", ""), get_string(c, rnode, "tip", ""));
+        } else if (rnode["file"]) {
           const std::string rel = rnode["file"].as<std::string>();
           const std::string path = (std::filesystem::path(c.dir) / rel).string();
           Ctx rc{path, std::filesystem::path(path).parent_path().string()};
