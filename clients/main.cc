@@ -10,7 +10,7 @@ void usage() {
   std::fprintf(stderr,
                "usage:\n"
                "  coopdyn eval --scene FILE [--state FILE.json] [--formulation NAME]\n"
-               "  coopdyn sim  --scene FILE --duration T --dt H [--integrator semi_implicit_euler|rk4]\n"
+               "  coopdyn sim  --scene FILE --duration T --dt H [--integrator semi_implicit_euler|rk4|implicit_euler]\n"
                "               [--torque PROFILE]... [--formulation NAME] [--out FILE.csv]\n"
                "  coopdyn send --scene FILE (--torque PROFILE... | --states SIM.csv) [--rate HZ] [--duration S]\n"
                "               [--lcm-url URL] [--channel C] [--seq N] [--measure-latency] [--output-channel C]\n"

@@ -28,7 +28,7 @@ int cmd_sim(const Args& a) {
   }
   Integrator integ = Integrator::kRk4;
   if (a.has("integrator") && !parse_integrator(a.get("integrator"), &integ)) {
-    std::fprintf(stderr, "coopdyn sim: unknown integrator '%s' (semi_implicit_euler, rk4)\n", a.get("integrator").c_str());
+    std::fprintf(stderr, "coopdyn sim: unknown integrator '%s' (semi_implicit_euler, rk4, implicit_euler)\n", a.get("integrator").c_str());
     return 2;
   }
   System sys;

@@ -42,6 +42,7 @@ TEST(NoAllocation, EvaluateAndStepOfEveryScene) {
           ++evals;
         }
         for (int k = 0; k < 500; ++k) step(sys, st, k % 2 ? Integrator::kRk4 : Integrator::kSemiImplicitEuler, 1e-3, zero, q, v);
+        for (int k = 0; k < 5; ++k) step(sys, st, Integrator::kImplicitEuler, 1e-3, zero, q, v);
         EXPECT_EQ(c.count(), 0);
       }
       EXPECT_EQ(evals, 2000);

@@ -9,12 +9,13 @@ const char* integrator_name(Integrator i) {
   switch (i) {
     case Integrator::kSemiImplicitEuler: return "semi_implicit_euler";
     case Integrator::kRk4: return "rk4";
+    case Integrator::kImplicitEuler: return "implicit_euler";
   }
   return "?";
 }
 
 bool parse_integrator(const std::string& s, Integrator* i) {
-  for (Integrator x : {Integrator::kSemiImplicitEuler, Integrator::kRk4})
+  for (Integrator x : {Integrator::kSemiImplicitEuler, Integrator::kRk4, Integrator::kImplicitEuler})
     if (s == integrator_name(x)) {
       *i = x;
       return true;
@@ -29,6 +30,14 @@ Stepper::Stepper(const System& sys) : ws(sys), ws_stage(sys) {
   }
   q_s.setZero(sys.model.nq());
   v_s.setZero(sys.model.nv());
+  const int nv = sys.model.nv();
+  Ja.setZero(nv, nv);
+  Jb.setZero(nv, nv);
+  K.setZero(nv, nv);
+  lu = Eigen::PartialPivLU<Eigen::MatrixXd>(nv);
+  vdot0.setZero(nv);
+  dq.setZero(nv);
+  rhs_v.setZero(nv);
   const int m = sys.constraints.rows;
   if (sys.options.projection_iterations > 0) {
     GGt.setZero(m, m);
@@ -101,6 +110,41 @@ const Diagnostics& step(const System& sys, Stepper& st, Integrator integ, double
       q += (dt / 6.0) * (st.k_q[0] + 2.0 * st.k_q[1] + 2.0 * st.k_q[2] + st.k_q[3]);
       v += (dt / 6.0) * (st.k_v[0] + 2.0 * st.k_v[1] + 2.0 * st.k_v[2] + st.k_v[3]);
       normalize_configuration(model, q);
+      break;
+    }
+    case Integrator::kImplicitEuler: {
+      const int nv = model.nv();
+      st.vdot0 = st.ws.vdot;
+      // finite-difference Jacobians of vdot(q, v), q perturbed in the tangent space
+      const double scale_q = 1e-7, scale_v = 1e-7 * (1.0 + v.cwiseAbs().maxCoeff());
+      for (int i = 0; i < nv; ++i) {
+        st.dq.setZero();
+        st.dq[i] = 1.0;
+        integrate(model, q, st.dq, scale_q, st.q_s);
+        const Diagnostics& da = evaluate(sys, st.ws_stage, st.q_s, v, tau);
+        if (da.status == Status::kError) return da;
+        st.Ja.col(i) = (st.ws_stage.vdot - st.vdot0) / scale_q;
+        st.v_s = v;
+        st.v_s[i] += scale_v;
+        const Diagnostics& db = evaluate(sys, st.ws_stage, q, st.v_s, tau);
+        if (db.status == Status::kError) return db;
+        st.Jb.col(i) = (st.ws_stage.vdot - st.vdot0) / scale_v;
+      }
+      st.K.setIdentity();
+      st.K -= dt * st.Jb;
+      st.K -= (dt * dt) * st.Ja;
+      st.rhs_v = st.vdot0;
+      st.rhs_v.noalias() += dt * (st.Ja * v);
+      st.rhs_v *= dt;
+      st.lu.compute(st.K);
+      st.dq = st.lu.solve(st.rhs_v);  // dv
+      if (!st.dq.allFinite()) {
+        st.ws.diag.status = Status::kError;
+        st.ws.diag.reason = Reason::kNonFiniteResult;
+        return st.ws.diag;
+      }
+      v += st.dq;
+      integrate(model, q, v, dt, q);
       break;
     }
   }

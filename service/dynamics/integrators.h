@@ -5,6 +5,7 @@
 #include <string>
 
 #include <Eigen/Core>
+#include <Eigen/LU>
 
 #include "service/dynamics/constrained_dynamics.h"
 
@@ -13,6 +14,10 @@ namespace coopdyn {
 enum class Integrator {
   kSemiImplicitEuler,  // v+ = v + h vdot(q, v);  q+ = q (+) h v+   (symplectic Euler)
   kRk4,                // classical Runge-Kutta in (q, v), quaternions renormalized after the step
+  kImplicitEuler,      // linearly implicit (Rosenbrock) Euler for stiff cases: with A = dvdot/dq,
+                       // B = dvdot/dv by finite differences (2 nv evaluations),
+                       //   (I - h B - h^2 A) dv = h (vdot + h A v),  v+ = v + dv,  q+ = q (+) h v+
+                       // L-stable on the linearized system, first order
 };
 const char* integrator_name(Integrator i);
 bool parse_integrator(const std::string& s, Integrator* i);
@@ -23,6 +28,10 @@ struct Stepper {
   Workspace ws_stage;  // RK4 stages
   Eigen::VectorXd k_q[4], k_v[4];  // (nq), (nv)
   Eigen::VectorXd q_s, v_s;        // stage state
+  // implicit Euler scratch (nv x nv and nv)
+  Eigen::MatrixXd Ja, Jb, K;
+  Eigen::PartialPivLU<Eigen::MatrixXd> lu;
+  Eigen::VectorXd vdot0, dq, rhs_v;
   // projection scratch
   Eigen::MatrixXd GGt, eA, eV;     // (rows x rows)
   Eigen::VectorXd ew, r, dv;       // (rows), (rows), (nv)
