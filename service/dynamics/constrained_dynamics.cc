@@ -8,6 +8,7 @@
 #include "service/algorithms/rnea.h"
 #include "service/algorithms/tree_cholesky.h"
 #include "service/dynamics/jacobi.h"
+#include "service/dynamics/q_solve.h"
 
 namespace coopdyn {
 
@@ -54,16 +55,14 @@ const char* reason_text(Reason r) {
 }
 
 Workspace::Workspace(const System& sys)
-    : data(sys.model), cd(sys.model, sys.constraints), ntcn_ldlt(sys.constraints.rows) {
+    : data(sys.model), cd(sys.model, sys.constraints), qs(sys.constraints.rows) {
   const int n = sys.model.nv(), m = sys.constraints.rows;
   tau_c.setZero(n);
   vdot.setZero(n);
   lambda.setZero(m);
   stress.setZero(static_cast<Eigen::Index>(sys.model.pseudo_dofs.size()));
-  row_indeterminate.assign(m, 0);
   diag.rows = m;
   Yt.setZero(n, m);
-  Lq.setZero(m, m);
   const ConstraintSet& cs = sys.constraints;
   const int ns = static_cast<int>(cs.specs.size());
   std::vector<std::vector<char>> touch(ns, std::vector<char>(n, 0));
@@ -94,8 +93,6 @@ Workspace::Workspace(const System& sys)
   eig_A.setZero(m, m);
   eig_V.setZero(m, m);
   eig_w.setZero(m);
-  ev_inv.setZero(m);
-  NtCN.setZero(m, m);
   tmp_m.setZero(m);
   tmp_m2.setZero(m);
   if (sys.options.formulation == Formulation::kPseudoJointSchur) {
@@ -129,110 +126,14 @@ bool inputs_valid(const System& sys, const Eigen::VectorXd& q, const Eigen::Vect
          tau.allFinite();
 }
 
-// Unblocked Cholesky Q = L L^T into the lower triangle of L (the small sizes here make Eigen's
-// blocked LLT slower). Returns false on a non-positive pivot.
-bool small_cholesky(const Eigen::MatrixXd& Q, Eigen::MatrixXd& L, int m) {
-  for (int j = 0; j < m; ++j) {
-    double d = Q(j, j);
-    for (int k = 0; k < j; ++k) d -= L(j, k) * L(j, k);
-    if (!(d > 0.0)) return false;
-    const double ljj = std::sqrt(d);
-    L(j, j) = ljj;
-    const double inv = 1.0 / ljj;
-    for (int i = j + 1; i < m; ++i) {
-      double sum = Q(i, j);
-      for (int k = 0; k < j; ++k) sum -= L(i, k) * L(j, k);
-      L(i, j) = sum * inv;
-    }
-  }
-  return true;
-}
-
-// Solves Q x = b (Q symmetric PSD, ws.Q) into x. Fills rank, condition, indeterminate rows.
-// The fast path is a Cholesky factorization; otherwise an eigen-decomposition gives the rank and
-// the minimum-norm solution, optionally shifted along the null space by the compliance rule.
+// Solves Q x = b through ws.qs; with factor, factors ws.Q first and records rank and condition.
 void solve_q(const System& sys, Workspace& ws, const Eigen::VectorXd& b, Eigen::VectorXd& x, bool factor) {
-  const int m = sys.constraints.rows;
-  Diagnostics& dg = ws.diag;
   if (factor) {
-    ws.fast_path = false;
-    if (small_cholesky(ws.Q, ws.Lq, m)) {
-      const auto d = ws.Lq.diagonal();
-      const double dmax = d.maxCoeff(), dmin = d.minCoeff();
-      const double ratio = dmin * dmin / (dmax * dmax);
-      if (ratio >= sys.options.fast_tol) {
-        ws.fast_path = true;
-        dg.rank = m;
-        dg.condition = 1.0 / ratio;
-        for (int i = 0; i < m; ++i) ws.row_indeterminate[i] = 0;
-      }
-    }
-    if (!ws.fast_path) {
-      ws.eig_A = ws.Q;
-      jacobi_eigen(ws.eig_A, ws.eig_w, ws.eig_V);
-      const auto& ev = ws.eig_w;  // ascending
-      const double emax = std::max(ev[m - 1], 0.0);
-      const double tol = sys.options.rank_tol * emax;
-      int rank = 0;
-      double emin_kept = emax;
-      for (int i = 0; i < m; ++i) {
-        if (ev[i] > tol && emax > 0.0) {
-          ws.ev_inv[i] = 1.0 / ev[i];
-          ++rank;
-          emin_kept = std::min(emin_kept, ev[i]);
-        } else {
-          ws.ev_inv[i] = 0.0;
-        }
-      }
-      dg.rank = rank;
-      dg.condition = rank > 0 ? emax / emin_kept : std::numeric_limits<double>::infinity();
-      const int k = m - rank;  // null-space eigenvectors are the first k columns
-      const auto& V = ws.eig_V;
-      for (int i = 0; i < m; ++i) {
-        double s = 0.0;
-        for (int j = 0; j < k; ++j) s += V(i, j) * V(i, j);
-        ws.row_indeterminate[i] = s > 1e-12 ? 1 : 0;
-      }
-      if (k > 0 && sys.options.redundancy == Redundancy::kCompliance) {
-        // NtCN (k x k) padded with the identity to m x m, so that the LDLT keeps its size
-        const Eigen::VectorXd& c = sys.constraints.row_compliance;
-        const double cmax = c.maxCoeff();
-        ws.NtCN.setIdentity();
-        if (cmax > 0.0) {
-          for (int a = 0; a < k; ++a)
-            for (int bb = 0; bb < k; ++bb) {
-              double s = 0.0;
-              for (int i = 0; i < m; ++i) s += V(i, a) * c[i] * V(i, bb);
-              ws.NtCN(a, bb) = s + (a == bb ? 1e-12 * cmax : 0.0);
-            }
-          ws.ntcn_ldlt.compute(ws.NtCN);
-        }
-      }
-    }
+    const QFactorInfo fi = ws.qs.factor(ws.Q, sys.options, sys.constraints.row_compliance);
+    ws.diag.rank = fi.rank;
+    ws.diag.condition = fi.condition;
   }
-  if (ws.fast_path) {
-    x = b;
-    ws.Lq.triangularView<Eigen::Lower>().solveInPlace(x);
-    ws.Lq.triangularView<Eigen::Lower>().transpose().solveInPlace(x);
-    return;
-  }
-  const auto& V = ws.eig_V;
-  ws.tmp_m.noalias() = V.transpose() * b;
-  ws.tmp_m.array() *= ws.ev_inv.array();
-  x.noalias() = V * ws.tmp_m;
-  const int k = m - dg.rank;
-  if (k > 0 && sys.options.redundancy == Redundancy::kCompliance && sys.constraints.row_compliance.maxCoeff() > 0.0) {
-    // z = -(N^T C N)^-1 N^T C x ; x += N z
-    const Eigen::VectorXd& c = sys.constraints.row_compliance;
-    ws.tmp_m2.setZero();
-    for (int a = 0; a < k; ++a) {
-      double s = 0.0;
-      for (int i = 0; i < m; ++i) s += V(i, a) * c[i] * x[i];
-      ws.tmp_m2[a] = -s;
-    }
-    ws.ntcn_ldlt.solveInPlace(ws.tmp_m2);
-    for (int a = 0; a < k; ++a) x += ws.tmp_m2[a] * V.col(a);
-  }
+  ws.qs.solve(b, x);
 }
 
 // Y^T = (G L^-1)^T and Q = Y Y^T from the rows of G, touching only the DOFs each row reaches: the
@@ -402,7 +303,7 @@ void svd_baseline(const System& sys, Workspace& ws) {
       for (int r = 0; r < mr; ++r) w += ws.R(r, i) * ws.eig_V(r, j);
       s -= w * w;
     }
-    ws.row_indeterminate[i] = s < 1.0 - 1e-6 ? 1 : 0;
+    ws.qs.row_indeterminate[i] = s < 1.0 - 1e-6 ? 1 : 0;
   }
   ws.vdot = ws.u;
   ws.vdot.noalias() += ws.Yt * ws.tmp_m2;
@@ -486,7 +387,7 @@ Vec6 tip_wrench(const System& sys, const Workspace& ws, int spec, unsigned* inde
   for (int k = 0; k < cs.row_count[spec]; ++k) {
     const int ax = cs.row_axis[spec][k];
     w[ax] = ws.lambda[r0 + k];
-    if (ws.row_indeterminate[r0 + k]) mask |= 1u << ax;
+    if (ws.qs.row_indeterminate[r0 + k]) mask |= 1u << ax;
   }
   if (indeterminate) *indeterminate = mask;
   return w;

@@ -15,6 +15,7 @@
 #include <Eigen/Core>
 
 #include "service/constraints/constraints.h"
+#include "service/dynamics/q_solve.h"
 #include "service/dynamics/system.h"
 #include "service/model/model.h"
 
@@ -54,7 +55,6 @@ struct Workspace {
   Eigen::VectorXd vdot;    // (nv) accelerations
   Eigen::VectorXd lambda;  // (rows) constraint multipliers
   Eigen::VectorXd stress;  // (pseudo DOFs) generalized force locking each pseudo-joint
-  std::vector<unsigned char> row_indeterminate;  // (rows) 1 if that component is not determined
   Diagnostics diag;
 
   // Schur solve
@@ -62,20 +62,16 @@ struct Workspace {
   Eigen::MatrixXd Q;   // (rows x rows)
   Eigen::VectorXd u;   // (nv)
   Eigen::VectorXd rhs; // (rows)
-  Eigen::MatrixXd Lq;           // (rows x rows) Cholesky factor of Q on the fast path (lower)
   // sparsity of Y = G L^-1: the DOFs each spec's rows touch after the L^-T solve (ancestor-closed),
   // and for each pair of specs s <= t the contiguous ranges of DOFs both touch (where Q_st sums)
   std::vector<std::vector<int>> y_support;
   using YBlock = Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>;
   std::vector<YBlock> Yb;  // per spec: (nv x 6) its rows of Y as columns, one DOF per row
   std::vector<std::vector<std::pair<int, int>>> pair_ranges;  // index s * nspecs + t
-  Eigen::MatrixXd eig_A, eig_V;  // (rows x rows) Jacobi eigen-decomposition of Q (rank path)
-  Eigen::VectorXd eig_w;         // (rows) eigenvalues, ascending
-  Eigen::VectorXd ev_inv;      // (rows) 1/eigenvalue on the range, 0 on the null space
-  Eigen::MatrixXd NtCN;        // (rows x rows) compliance split
-  Eigen::LDLT<Eigen::MatrixXd> ntcn_ldlt;
+  QSolver qs;                     // Q lambda = b: fast path, rank, indeterminate rows, rule
+  Eigen::MatrixXd eig_A, eig_V;  // (rows x rows) SVD baseline's eigen-decomposition of Q_r
+  Eigen::VectorXd eig_w;         // (rows)
   Eigen::VectorXd tmp_m, tmp_m2;  // (rows)
-  bool fast_path = true;
 
   // kPseudoJointSchur only (empty otherwise)
   Eigen::MatrixXd Minv, P, QinvPt, D;  // (nv x nv), (nv x rows), (rows x nv), (nv x nv)
