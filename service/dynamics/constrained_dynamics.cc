@@ -50,6 +50,7 @@ const char* reason_text(Reason r) {
       return "pseudo-joint block d4 singular: the locks depend on the real constraints, choose other pseudo-joints";
     case Reason::kNonFiniteResult: return "the solve produced a non-finite value";
     case Reason::kOverconstrained: return "over-constrained: indeterminate constraint forces resolved by the scene's rule";
+    case Reason::kDiverged: return "the integration diverged: the state left the scene's bounds";
   }
   return "?";
 }

@@ -32,6 +32,7 @@ enum class Reason {
                              // real constraints; choose other pseudo-joints (paper Fig. 4 vs 5)
   kNonFiniteResult = 4,      // the solve produced NaN/Inf (never published)
   kOverconstrained = 5,      // not an error: rank < rows, indeterminate part resolved by the rule
+  kDiverged = 6,             // the integrated state left the scene's bounds (the step diverged)
 };
 const char* reason_text(Reason r);
 
