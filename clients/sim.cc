@@ -78,7 +78,11 @@ int cmd_sim(const Args& a) {
     std::fprintf(out, ",%s,%d,%.3g,%.3g\n", status_name(d.status), d.rank, d.residual,
                  st.ws.cd.err.size() ? st.ws.cd.err.cwiseAbs().maxCoeff() : 0.0);
     if (d.status == Status::kError) {
-      std::fprintf(stderr, "coopdyn sim: stopped at t=%g: %s\n", t, reason_text(d.reason));
+      std::fprintf(stderr, "coopdyn sim: stopped at t=%g: %s", t, reason_text(d.reason));
+      if (d.reason == Reason::kDiverged && d.bad_index >= 0)
+        std::fprintf(stderr, " (v:%s reached %.3g, bound solver.max_speed %.3g; the last row is the last good state)",
+                     model.v_names[d.bad_index].c_str(), st.diverged_speed, sys.options.max_speed);
+      std::fprintf(stderr, "\n");
       rc = 3;
       break;
     }

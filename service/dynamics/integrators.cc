@@ -1,5 +1,7 @@
 #include "service/dynamics/integrators.h"
 
+#include <cmath>
+
 #include "service/algorithms/kinematics.h"
 #include "service/dynamics/jacobi.h"
 
@@ -38,6 +40,8 @@ Stepper::Stepper(const System& sys) : ws(sys), ws_stage(sys) {
   vdot0.setZero(nv);
   dq.setZero(nv);
   rhs_v.setZero(nv);
+  q_start.setZero(sys.model.nq());
+  v_start.setZero(sys.model.nv());
   const int m = sys.constraints.rows;
   if (sys.options.projection_iterations > 0) {
     GGt.setZero(m, m);
@@ -89,6 +93,8 @@ const Diagnostics& step(const System& sys, Stepper& st, Integrator integ, double
   const Model& model = sys.model;
   const Diagnostics& d0 = evaluate(sys, st.ws, q, v, tau);
   if (d0.status == Status::kError) return d0;
+  st.q_start = q;
+  st.v_start = v;
   switch (integ) {
     case Integrator::kSemiImplicitEuler:
       v += dt * st.ws.vdot;
@@ -149,6 +155,24 @@ const Diagnostics& step(const System& sys, Stepper& st, Integrator integ, double
     }
   }
   if (sys.options.projection_iterations > 0 && sys.constraints.rows > 0) project_state(sys, st, q, v);
+  // divergence detector: written as !(|v_i| <= bound) so that NaN trips it too
+  int bad = -2;
+  if (!q.allFinite()) bad = -1;
+  else
+    for (int i = 0; i < v.size(); ++i)
+      if (!(std::abs(v[i]) <= sys.options.max_speed) || !std::isfinite(v[i])) {
+        bad = i;
+        break;
+      }
+  if (bad != -2) {
+    st.diverged_speed = bad >= 0 ? std::abs(v[bad]) : 0.0;
+    q = st.q_start;
+    v = st.v_start;
+    st.ws.diag.status = Status::kError;
+    st.ws.diag.reason = Reason::kDiverged;
+    st.ws.diag.bad_index = bad;
+    return st.ws.diag;
+  }
   return d0;
 }
 

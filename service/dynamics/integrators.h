@@ -35,6 +35,9 @@ struct Stepper {
   // projection scratch
   Eigen::MatrixXd GGt, eA, eV;     // (rows x rows)
   Eigen::VectorXd ew, r, dv;       // (rows), (rows), (nv)
+  // start state of the last step, restored when the step diverges
+  Eigen::VectorXd q_start, v_start;  // (nq), (nv)
+  double diverged_speed = 0.0;       // |v_i| that tripped the detector in the last diverged step
 };
 
 // Projects (q, v) onto the constraint manifold (see SolverOptions::projection_iterations). Returns
@@ -43,6 +46,10 @@ double project_state(const System& sys, Stepper& st, Eigen::VectorXd& q, Eigen::
 
 // Advances (q, v) by dt under tau. Returns the diagnostics of the evaluation at the start state;
 // on an error status, q and v are left unchanged. Projects afterwards if the scene asks.
+// Divergence detector: when the new state is not finite or a velocity coordinate exceeds
+// SolverOptions::max_speed, q and v are restored to the start state and the returned diagnostics
+// (st.ws.diag) say kError / Reason::kDiverged, with bad_index the offending DOF (velocity index;
+// -1 for a non-finite q). st.ws keeps the (finite) evaluation at the start state.
 const Diagnostics& step(const System& sys, Stepper& st, Integrator integ, double dt, const Eigen::VectorXd& tau,
                         Eigen::VectorXd& q, Eigen::VectorXd& v);
 

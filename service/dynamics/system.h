@@ -43,6 +43,13 @@ struct SolverOptions {
   // on the position error, then the velocity projected onto the null space of G (Euclidean metric,
   // rank-safe pseudo-inverse). 0 = off.
   int projection_iterations = 0;
+  // Divergence bound (scene key `solver: {max_speed: S}`): after every integrator step each
+  // velocity coordinate must satisfy |v_i| <= max_speed (rad/s for joints and platform rotation,
+  // m/s for translation); otherwise step() reports Reason::kDiverged and keeps the start state.
+  // 1e4 rad/s is ~95,000 rpm (beyond any motor) and 1e4 m/s beyond any vehicle, while a wheel at
+  // 200 rad/s stays legal. One pass over v per step, no allocation. inf disables the check (NaN
+  // and Inf states are still caught).
+  double max_speed = 1e4;
 };
 
 struct System {

@@ -17,7 +17,13 @@ static_assert(static_cast<int>(Mode::kEstimate) == coopdyn::output_t::MODE_ESTIM
 static_assert(static_cast<int>(Input::kStateExpired) == coopdyn::output_t::INPUT_STATE_EXPIRED, "input codes");
 static_assert(kReasonNoState == coopdyn::output_t::REASON_NO_STATE, "reason codes");
 static_assert(kReasonStateStale == coopdyn::output_t::REASON_STATE_STALE, "reason codes");
+static_assert(static_cast<int>(Reason::kNone) == coopdyn::output_t::REASON_NONE, "core reasons");
+static_assert(static_cast<int>(Reason::kNonFiniteInput) == coopdyn::output_t::REASON_NONFINITE_INPUT, "core reasons");
+static_assert(static_cast<int>(Reason::kMassMatrixSingular) == coopdyn::output_t::REASON_MASS_MATRIX_SINGULAR, "core reasons");
+static_assert(static_cast<int>(Reason::kPseudoBlockSingular) == coopdyn::output_t::REASON_PSEUDO_BLOCK_SINGULAR, "core reasons");
+static_assert(static_cast<int>(Reason::kNonFiniteResult) == coopdyn::output_t::REASON_NONFINITE_RESULT, "core reasons");
 static_assert(static_cast<int>(Reason::kOverconstrained) == coopdyn::output_t::REASON_OVERCONSTRAINED, "core reasons");
+static_assert(static_cast<int>(Reason::kDiverged) == coopdyn::output_t::REASON_DIVERGED, "core reasons");
 static_assert(static_cast<int>(Status::kError) == coopdyn::output_t::STATUS_ERROR, "status codes");
 
 const char* reject_name(Reject r) {

@@ -673,8 +673,8 @@ System load_scene_string(const std::string& text, const std::string& file, const
   }
   if (!root.IsMap()) fail(c, root, "a scene must be a YAML mapping");
   try {
-    check_keys(c, root, {"name", "description", "source", "gravity", "formulation", "redundancy", "stabilization", "robots",
-                         "load", "arms", "bodies", "frames", "constraints"},
+    check_keys(c, root, {"name", "description", "source", "gravity", "formulation", "redundancy", "stabilization", "solver",
+                         "robots", "load", "arms", "bodies", "frames", "constraints"},
                "scene");
     System& sys = B.sys;
     sys.name = get_string(c, root, "name", std::filesystem::path(file).stem().string());
@@ -708,6 +708,15 @@ System load_scene_string(const std::string& text, const std::string& file, const
         if (sys.constraints.baumgarte_alpha < 0 || sys.constraints.baumgarte_beta < 0)
           fail(c, bg, "Baumgarte gains must be >= 0");
       }
+    }
+    if (root["solver"]) {  // divergence bound of step() (SolverOptions::max_speed)
+      const YAML::Node so = root["solver"];
+      if (!so.IsMap()) fail(c, so, "'solver' must be a mapping, e.g. {max_speed: 1e4}");
+      check_keys(c, so, {"max_speed"}, "solver");
+      const YAML::Node ms = so["max_speed"];
+      if (ms.IsScalar() && ms.as<std::string>() == "off") sys.options.max_speed = std::numeric_limits<double>::infinity();
+      else sys.options.max_speed = get_double(c, so, "max_speed", sys.options.max_speed, "solver");
+      if (!(sys.options.max_speed > 0)) fail(c, ms, "solver.max_speed must be > 0 (rad/s or m/s per DOF) or 'off'");
     }
     std::map<std::string, Robot> robots;
     if (root["robots"]) {
