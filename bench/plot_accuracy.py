@@ -1,0 +1,201 @@
+#!/usr/bin/python3
+"""Error against run time: plots, summary CSV and the Markdown block of bench/README.md.
+
+Reads bench/results/accuracy_<scene>.csv (written by accuracy_sweep), writes
+  docs/accuracy_<scene>.png            log-log: state error and wrench error against CPU time per
+                                       simulated second, one curve per formulation x integrator
+  bench/results/accuracy_summary.csv   per scene: answer, reference convergence, cheapest run that
+                                       meets each tolerance
+  bench/README.md                      the generated part of "Error against run time", between the
+                                       markers <!-- accuracy:begin --> and <!-- accuracy:end -->
+
+Usage: plot_accuracy.py REPO_ROOT [--seconds S] [--machine TEXT]
+"""
+import argparse
+import csv
+import math
+import os
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+SCENES = ["two_puma_load", "two_5dof_arms_load", "planar_arms_load", "four_bar", "unicycle", "two_wheel_vehicle"]
+INTEGRATORS = ["semi_implicit_euler", "rk4", "implicit_euler"]
+FORMULATIONS = ["mobile_platform", "classic", "pseudo_joint", "svd"]
+COLOR = {"semi_implicit_euler": "tab:blue", "rk4": "tab:green", "implicit_euler": "tab:red"}
+STYLE = {"mobile_platform": ("-", "o"), "classic": ("--", "s"), "pseudo_joint": ("-.", "^"), "svd": (":", "D")}
+# tolerances for "the cheapest run that is good enough": state error (max |q - q_ref|, |v - v_ref|,
+# SI units) and wrench error relative to the largest reference force component
+TOLERANCES = [("1e-3 / 1e-2", 1e-3, 1e-2), ("1e-6 / 1e-5", 1e-6, 1e-5)]
+FLOOR = 1e-16  # errors below are drawn at the floor (log axes)
+
+
+def fnum(s):
+    return float(s) if s not in ("", None) else None
+
+
+def read(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+def g(x, digits=2):
+    if x is None:
+        return "-"
+    if x == 0:
+        return "0"
+    return f"{x:.{digits}g}"
+
+
+def plot_scene(scene, rows, out_png):
+    sweep = [r for r in rows if r["role"] == "sweep"]
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5))
+    errors = []
+    for ax, key, label in ((axes[0], "state_err", "state error: max |q - q*|, |v - v*| (SI)"),
+                           (axes[1], "wrench_err", "wrench error: max |F - F*| (N, N*m)")):
+        for form in FORMULATIONS:
+            for integ in INTEGRATORS:
+                pts = [r for r in sweep if r["formulation"] == form and r["integrator"] == integ]
+                if not pts:
+                    continue
+                ok = [r for r in pts if r["status"] == "ok"]
+                if key == "state_err":
+                    errors += [f"{form}/{integ} @ {r['dt_ms']} ms: {r['error_reason']} at {r['error_time_s']} s"
+                               for r in pts if r["status"] != "ok"]
+                if not ok:
+                    continue
+                xs = [float(r["cpu_s_per_sim_s"]) for r in ok]
+                ys = [max(float(r[key]), FLOOR) for r in ok]
+                ls, mk = STYLE[form]
+                ax.plot(xs, ys, linestyle=ls, marker=mk, color=COLOR[integ], markersize=4, label=f"{form} / {integ}")
+                if form == ok[0]["formulation"] and (form == "mobile_platform" or form == "classic") and integ == "rk4":
+                    for r, x, y in zip(ok, xs, ys):
+                        ax.annotate(f"{float(r['dt_ms']):g} ms", (x, y), textcoords="offset points", xytext=(4, 4),
+                                    fontsize=7, color=COLOR[integ])
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("CPU time per simulated second (s)")
+        ax.set_ylabel(label)
+        ax.grid(True, which="major", alpha=0.4)
+        ax.grid(True, which="minor", alpha=0.1)
+    ref = [r for r in rows if r["role"] in ("reference", "reference_2x")]
+    answer = "analytic answer" if not ref else f"reference {sweep[0]['reference']}"
+    fig.suptitle(f"{scene}: {sweep[0]['scenario']}, {float(sweep[0]['duration_s']):g} s simulated, against the {answer}\n"
+                 f"steps 0.125-4 ms (labels on the RK4 curve); errors at common samples every 4 ms", fontsize=10)
+    axes[1].legend(fontsize=7, loc="best")
+    if errors:
+        fig.text(0.01, 0.01, "error status (not plotted): " + "; ".join(errors)[:400], fontsize=7, color="tab:red")
+    fig.tight_layout(rect=(0, 0.03, 1, 0.93))
+    fig.savefig(out_png, dpi=110)
+    plt.close(fig)
+
+
+def cheapest(sweep, tol_state, tol_wrench):
+    ok = [r for r in sweep if r["status"] == "ok" and float(r["state_err"]) <= tol_state
+          and float(r["wrench_rel_err"]) <= tol_wrench]
+    return min(ok, key=lambda r: float(r["cpu_s_per_sim_s"])) if ok else None
+
+
+def scene_table(scene, rows):
+    sweep = [r for r in rows if r["role"] == "sweep"]
+    dts = sorted({float(r["dt_ms"]) for r in sweep})
+    out = [f"**{scene}** ({sweep[0]['scenario']}, {float(sweep[0]['duration_s']):g} s). Cell: state error / "
+           "wrench error (relative) / CPU ms per simulated s; `err` = the run ended in an error status.", "",
+           "| formulation / integrator | " + " | ".join(f"{d:g} ms" for d in dts) + " |",
+           "|---|" + "---|" * len(dts)]
+    for form in FORMULATIONS:
+        for integ in INTEGRATORS:
+            pts = {float(r["dt_ms"]): r for r in sweep if r["formulation"] == form and r["integrator"] == integ}
+            if not pts:
+                continue
+            cells = []
+            for d in dts:
+                r = pts.get(d)
+                if r is None:
+                    cells.append("")
+                elif r["status"] != "ok":
+                    cells.append(f"err ({r['error_reason']} at {float(r['error_time_s']):.3g} s)")
+                else:
+                    cells.append(f"{g(fnum(r['state_err']))} / {g(fnum(r['wrench_rel_err']))} / "
+                                 f"{g(1e3 * float(r['cpu_s_per_sim_s']), 3)}")
+            out.append(f"| {form} / {integ} | " + " | ".join(cells) + " |")
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("root")
+    ap.add_argument("--seconds", type=float, default=None, help="wall time of the whole regeneration")
+    ap.add_argument("--machine", default="")
+    a = ap.parse_args()
+    res = os.path.join(a.root, "bench", "results")
+    docs = os.path.join(a.root, "docs")
+    os.makedirs(docs, exist_ok=True)
+
+    summary = []
+    md_summary = ["| scene | answer | reference converged (2x step vs ref: state / wrench rel) | not swept | "
+                  + " | ".join(f"cheapest with state <= {t[1]:g}, wrench rel <= {t[2]:g}" for t in TOLERANCES) + " |",
+                  "|---|---|---|---|" + "---|" * len(TOLERANCES)]
+    tables = []
+    for scene in SCENES:
+        path = os.path.join(res, f"accuracy_{scene}.csv")
+        if not os.path.exists(path):
+            print(f"missing {path}", file=sys.stderr)
+            continue
+        rows = read(path)
+        sweep = [r for r in rows if r["role"] == "sweep"]
+        if not sweep:
+            continue
+        plot_scene(scene, rows, os.path.join(docs, f"accuracy_{scene}.png"))
+        refs2 = [r for r in rows if r["role"] == "reference_2x"]
+        conv = "; ".join(f"{r['formulation']}: {g(fnum(r['state_err']))} / {g(fnum(r['wrench_rel_err']))}" for r in refs2)
+        answer = "analytic" if not refs2 else f"RK4 at {float(refs2[0]['dt_ms']) / 2:.4g} ms"
+        skipped = "; ".join(f"{r['formulation']} ({r['error_reason'].split(': ')[-1]})"
+                            for r in rows if r["role"] == "skipped")
+        cells = []
+        for name, ts, tw in TOLERANCES:
+            best = cheapest(sweep, ts, tw)
+            srow = {"scene": scene, "scenario": sweep[0]["scenario"], "duration_s": sweep[0]["duration_s"],
+                    "answer": answer, "reference_2x_vs_reference": conv if refs2 else "analytic",
+                    "not_swept": skipped, "tol_state": ts, "tol_wrench_rel": tw}
+            if best:
+                srow.update({k: best[k] for k in ("formulation", "integrator", "dt_ms", "cpu_s_per_sim_s", "state_err",
+                                                  "wrench_err", "wrench_rel_err", "constraint_drift", "energy_drift_J")})
+                cells.append(f"{best['formulation']} / {best['integrator']} / {float(best['dt_ms']):g} ms: "
+                             f"{g(1e3 * float(best['cpu_s_per_sim_s']), 3)} ms per s (state {g(fnum(best['state_err']))}, "
+                             f"wrench {g(fnum(best['wrench_rel_err']))})")
+            else:
+                cells.append("none in the sweep")
+            summary.append(srow)
+        md_summary.append(f"| {scene} | {answer} | {conv if refs2 else '-'} | {skipped or '-'} | " + " | ".join(cells) + " |")
+        tables += [""] + scene_table(scene, rows)
+
+    keys = ["scene", "scenario", "duration_s", "answer", "reference_2x_vs_reference", "not_swept", "tol_state",
+            "tol_wrench_rel", "formulation", "integrator", "dt_ms", "cpu_s_per_sim_s", "state_err", "wrench_err",
+            "wrench_rel_err", "constraint_drift", "energy_drift_J"]
+    with open(os.path.join(res, "accuracy_summary.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=keys)
+        w.writeheader()
+        for s in summary:
+            w.writerow({k: s.get(k, "") for k in keys})
+
+    block = ["<!-- accuracy:begin (generated by bench/accuracy.sh; edits here are overwritten) -->", ""]
+    if a.seconds is not None:
+        block += [f"Last regenerated in {a.seconds:.0f} s wall time{(' on ' + a.machine) if a.machine else ''}.", ""]
+    block += md_summary + tables + ["", "<!-- accuracy:end -->"]
+    readme = os.path.join(a.root, "bench", "README.md")
+    text = open(readme).read()
+    b, e = text.find("<!-- accuracy:begin"), text.find("<!-- accuracy:end -->")
+    if b < 0 or e < 0:
+        text = text.rstrip("\n") + "\n\n## Error against run time\n\n" + "\n".join(block) + "\n"
+    else:
+        text = text[:b] + "\n".join(block) + text[e + len("<!-- accuracy:end -->"):]
+    open(readme, "w").write(text)
+    print(f"wrote {len(summary) // len(TOLERANCES)} scenes: plots in docs/, summary in bench/results/, table in bench/README.md")
+
+
+if __name__ == "__main__":
+    main()
