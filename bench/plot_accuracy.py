@@ -22,7 +22,8 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-SCENES = ["two_puma_load", "two_5dof_arms_load", "planar_arms_load", "four_bar", "unicycle", "two_wheel_vehicle"]
+SCENES = ["two_puma_load", "two_5dof_arms_load", "planar_arms_load", "four_bar", "unicycle", "two_wheel_vehicle",
+          "two_wheel_vehicle_turn"]
 INTEGRATORS = ["semi_implicit_euler", "rk4", "implicit_euler"]
 FORMULATIONS = ["mobile_platform", "classic", "pseudo_joint", "svd"]
 COLOR = {"semi_implicit_euler": "tab:blue", "rk4": "tab:green", "implicit_euler": "tab:red"}
@@ -52,10 +53,13 @@ def g(x, digits=2):
 
 def plot_scene(scene, rows, out_png):
     sweep = [r for r in rows if r["role"] == "sweep"]
-    fig, axes = plt.subplots(1, 2, figsize=(12, 5))
+    panels = [("state_err", "state error: max |q - q*|, |v - v*| (SI)"),
+              ("wrench_err", "tip wrench error: max |F - F*| (N, N*m)")]
+    if any(fnum(r["stress_err"]) for r in sweep if r["status"] == "ok"):
+        panels.append(("stress_err", "pseudo-joint stress error (N*m, N)"))
+    fig, axes = plt.subplots(1, len(panels), figsize=(6 * len(panels), 5))
     errors = []
-    for ax, key, label in ((axes[0], "state_err", "state error: max |q - q*|, |v - v*| (SI)"),
-                           (axes[1], "wrench_err", "wrench error: max |F - F*| (N, N*m)")):
+    for ax, (key, label) in zip(axes, panels):
         for form in FORMULATIONS:
             for integ in INTEGRATORS:
                 pts = [r for r in sweep if r["formulation"] == form and r["integrator"] == integ]
@@ -85,7 +89,7 @@ def plot_scene(scene, rows, out_png):
     answer = "analytic answer" if not ref else f"reference {sweep[0]['reference']}"
     fig.suptitle(f"{scene}: {sweep[0]['scenario']}, {float(sweep[0]['duration_s']):g} s simulated, against the {answer}\n"
                  f"steps 0.125-4 ms (labels on the RK4 curve); errors at common samples every 4 ms", fontsize=10)
-    axes[1].legend(fontsize=7, loc="best")
+    axes[-1].legend(fontsize=7, loc="best")
     if errors:
         fig.text(0.01, 0.01, "error status (not plotted): " + "; ".join(errors)[:400], fontsize=7, color="tab:red")
     fig.tight_layout(rect=(0, 0.03, 1, 0.93))
@@ -103,7 +107,8 @@ def scene_table(scene, rows):
     sweep = [r for r in rows if r["role"] == "sweep"]
     dts = sorted({float(r["dt_ms"]) for r in sweep})
     out = [f"**{scene}** ({sweep[0]['scenario']}, {float(sweep[0]['duration_s']):g} s). Cell: state error / "
-           "wrench error (relative) / CPU ms per simulated s; `err` = the run ended in an error status.", "",
+           "tip wrench error relative to the largest reference component / CPU ms per simulated s; `err` = the "
+           "run ended in an error status.", "",
            "| formulation / integrator | " + " | ".join(f"{d:g} ms" for d in dts) + " |",
            "|---|" + "---|" * len(dts)]
     for form in FORMULATIONS:
