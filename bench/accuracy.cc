@@ -484,6 +484,8 @@ int main(int argc, char** argv) {
           fm.sys = std::move(s);
       } catch (const std::exception& ex) {
         fm.skip = ex.what();
+        const std::string root = std::string(COOPDYN_SOURCE_DIR) + "/";
+        if (fm.skip.rfind(root, 0) == 0) fm.skip = fm.skip.substr(root.size());  // repository-relative
       }
       forms.push_back(std::move(fm));
     }

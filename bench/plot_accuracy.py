@@ -60,6 +60,7 @@ def plot_scene(scene, rows, out_png):
     fig, axes = plt.subplots(1, len(panels), figsize=(6 * len(panels), 5))
     errors = []
     for ax, (key, label) in zip(axes, panels):
+        labeled = False  # step labels on the first RK4 curve only
         for form in FORMULATIONS:
             for integ in INTEGRATORS:
                 pts = [r for r in sweep if r["formulation"] == form and r["integrator"] == integ]
@@ -75,7 +76,8 @@ def plot_scene(scene, rows, out_png):
                 ys = [max(float(r[key]), FLOOR) for r in ok]
                 ls, mk = STYLE[form]
                 ax.plot(xs, ys, linestyle=ls, marker=mk, color=COLOR[integ], markersize=4, label=f"{form} / {integ}")
-                if form == ok[0]["formulation"] and (form == "mobile_platform" or form == "classic") and integ == "rk4":
+                if integ == "rk4" and not labeled:
+                    labeled = True
                     for r, x, y in zip(ok, xs, ys):
                         ax.annotate(f"{float(r['dt_ms']):g} ms", (x, y), textcoords="offset points", xytext=(4, 4),
                                     fontsize=7, color=COLOR[integ])
