@@ -3,24 +3,23 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
-#include "service/dynamics/jacobi.h"
+#include <utility>
 
 namespace coopdyn {
 
 namespace {
 
-// Unblocked Cholesky Q = L L^T into the lower triangle of L (the small sizes here make Eigen's
-// blocked LLT slower). Returns false on a non-positive pivot.
-bool small_cholesky(const Eigen::MatrixXd& Q, Eigen::MatrixXd& L, int m) {
-  for (int j = 0; j < m; ++j) {
+// Unblocked Cholesky Q = L L^T of the leading n x n block into the lower triangle of L (the small
+// sizes here make Eigen's blocked LLT slower). Returns false on a non-positive pivot.
+bool small_cholesky(const Eigen::MatrixXd& Q, Eigen::MatrixXd& L, int n) {
+  for (int j = 0; j < n; ++j) {
     double d = Q(j, j);
     for (int k = 0; k < j; ++k) d -= L(j, k) * L(j, k);
     if (!(d > 0.0)) return false;
     const double ljj = std::sqrt(d);
     L(j, j) = ljj;
     const double inv = 1.0 / ljj;
-    for (int i = j + 1; i < m; ++i) {
+    for (int i = j + 1; i < n; ++i) {
       double sum = Q(i, j);
       for (int k = 0; k < j; ++k) sum -= L(i, k) * L(j, k);
       L(i, j) = sum * inv;
@@ -29,16 +28,39 @@ bool small_cholesky(const Eigen::MatrixXd& Q, Eigen::MatrixXd& L, int m) {
   return true;
 }
 
+// x(0:n) <- L^-1 x then L^-T x, L the lower triangle of the leading n x n block.
+void cholesky_solve_in_place(const Eigen::MatrixXd& L, int n, Eigen::VectorXd& x) {
+  for (int i = 0; i < n; ++i) {
+    double s = x[i];
+    for (int k = 0; k < i; ++k) s -= L(i, k) * x[k];
+    x[i] = s / L(i, i);
+  }
+  for (int i = n - 1; i >= 0; --i) {
+    double s = x[i];
+    for (int k = i + 1; k < n; ++k) s -= L(k, i) * x[k];
+    x[i] = s / L(i, i);
+  }
+}
+
+// x <- x - N N^T x over the first k columns of N (orthonormal).
+void remove_null_component(const Eigen::MatrixXd& N, int m, int k, Eigen::VectorXd& x) {
+  for (int a = 0; a < k; ++a) {
+    double s = 0.0;
+    for (int i = 0; i < m; ++i) s += N(i, a) * x[i];
+    for (int i = 0; i < m; ++i) x[i] -= s * N(i, a);
+  }
+}
+
 }  // namespace
 
-QSolver::QSolver(int rows) : m(rows), ntcn_ldlt(rows) {
+QSolver::QSolver(int rows) : m(rows) {
   row_indeterminate.assign(m, 0);
+  perm.assign(m, 0);
   Lq.setZero(m, m);
-  eig_A.setZero(m, m);
-  eig_V.setZero(m, m);
-  eig_w.setZero(m);
-  ev_inv.setZero(m);
-  NtCN.setZero(m, m);
+  Lp.setZero(m, m);
+  dpiv.setZero(m);
+  Nq.setZero(m, m);
+  Lc.setZero(m, m);
   tmp_m.setZero(m);
   tmp_m2.setZero(m);
   compliance.setZero(m);
@@ -48,9 +70,18 @@ QFactorInfo QSolver::factor(const Eigen::MatrixXd& Q, const SolverOptions& opt, 
   QFactorInfo info;
   fast_path = false;
   use_compliance = false;
+  if (m == 0) {
+    fast_path = true;
+    rank = 0;
+    info.rank = 0;
+    return info;
+  }
   if (small_cholesky(Q, Lq, m)) {
-    const auto d = Lq.diagonal();
-    const double dmax = d.maxCoeff(), dmin = d.minCoeff();
+    double dmax = Lq(0, 0), dmin = Lq(0, 0);
+    for (int i = 1; i < m; ++i) {
+      dmax = std::max(dmax, Lq(i, i));
+      dmin = std::min(dmin, Lq(i, i));
+    }
     const double ratio = dmin * dmin / (dmax * dmax);
     if (ratio >= opt.fast_tol) {
       fast_path = true;
@@ -61,46 +92,90 @@ QFactorInfo QSolver::factor(const Eigen::MatrixXd& Q, const SolverOptions& opt, 
       return info;
     }
   }
-  eig_A = Q;
-  jacobi_eigen(eig_A, eig_w, eig_V);
-  const auto& ev = eig_w;  // ascending
-  const double emax = std::max(ev[m - 1], 0.0);
-  const double tol = opt.rank_tol * emax;
-  int r = 0;
-  double emin_kept = emax;
+
+  // rank path: pivoted Cholesky on a copy (lower triangle and diagonal are read, both are swapped)
+  Lp = Q;
+  double qmax = 0.0;
   for (int i = 0; i < m; ++i) {
-    if (ev[i] > tol && emax > 0.0) {
-      ev_inv[i] = 1.0 / ev[i];
-      ++r;
-      emin_kept = std::min(emin_kept, ev[i]);
-    } else {
-      ev_inv[i] = 0.0;
+    perm[i] = i;
+    dpiv[i] = Q(i, i);
+    if (Q(i, i) > qmax) qmax = Q(i, i);  // a NaN diagonal is skipped here and stops the loop below
+  }
+  const double tol = opt.rank_tol * qmax;
+  int r = 0;
+  for (int j = 0; j < m; ++j) {
+    int p = j;
+    for (int i = j + 1; i < m; ++i)
+      if (dpiv[i] > dpiv[p]) p = i;
+    const double d = dpiv[p];
+    if (!(d > tol) || !(qmax > 0.0) || !std::isfinite(d)) break;
+    if (p != j) {  // symmetric swap of rows/columns j and p (the computed columns of L follow the rows)
+      Lp.row(j).swap(Lp.row(p));
+      Lp.col(j).swap(Lp.col(p));
+      std::swap(perm[j], perm[p]);
+      std::swap(dpiv[j], dpiv[p]);
     }
+    const double ljj = std::sqrt(d);
+    Lp(j, j) = ljj;
+    const double inv = 1.0 / ljj;
+    for (int i = j + 1; i < m; ++i) {
+      double s = Lp(i, j);
+      for (int k = 0; k < j; ++k) s -= Lp(i, k) * Lp(j, k);
+      const double lij = s * inv;
+      Lp(i, j) = lij;
+      dpiv[i] -= lij * lij;
+    }
+    r = j + 1;
   }
   rank = r;
   info.rank = r;
-  info.condition = r > 0 ? emax / emin_kept : std::numeric_limits<double>::infinity();
-  const int k = m - r;  // null-space eigenvectors are the first k columns
-  const auto& V = eig_V;
+  info.condition = r > 0 ? (Lp(0, 0) / Lp(r - 1, r - 1)) * (Lp(0, 0) / Lp(r - 1, r - 1))
+                         : std::numeric_limits<double>::infinity();
+
+  // null space: column a of N is P^T [-L11^-T L21(a, :)^T; e_a]
+  const int k = m - r;
+  for (int a = 0; a < k; ++a) {
+    for (int i = 0; i < r; ++i) tmp_m[i] = -Lp(r + a, i);
+    for (int i = r - 1; i >= 0; --i) {  // L11^T t = -L21(a, :)^T
+      double s = tmp_m[i];
+      for (int l = i + 1; l < r; ++l) s -= Lp(l, i) * tmp_m[l];
+      tmp_m[i] = s / Lp(i, i);
+    }
+    for (int i = 0; i < r; ++i) Nq(perm[i], a) = tmp_m[i];
+    for (int i = r; i < m; ++i) Nq(perm[i], a) = i == r + a ? 1.0 : 0.0;
+  }
+  // modified Gram-Schmidt, twice ("twice is enough": orthonormal to round-off)
+  for (int pass = 0; pass < 2; ++pass)
+    for (int a = 0; a < k; ++a) {
+      for (int c = 0; c < a; ++c) {
+        double s = 0.0;
+        for (int i = 0; i < m; ++i) s += Nq(i, c) * Nq(i, a);
+        for (int i = 0; i < m; ++i) Nq(i, a) -= s * Nq(i, c);
+      }
+      double nn = 0.0;
+      for (int i = 0; i < m; ++i) nn += Nq(i, a) * Nq(i, a);
+      const double inv = nn > 0.0 && std::isfinite(nn) ? 1.0 / std::sqrt(nn) : 0.0;
+      for (int i = 0; i < m; ++i) Nq(i, a) *= inv;
+    }
   for (int i = 0; i < m; ++i) {
     double s = 0.0;
-    for (int j = 0; j < k; ++j) s += V(i, j) * V(i, j);
+    for (int a = 0; a < k; ++a) s += Nq(i, a) * Nq(i, a);
     row_indeterminate[i] = s > 1e-12 ? 1 : 0;
   }
+
   if (k > 0 && opt.redundancy == Redundancy::kCompliance && row_compliance.size() == m &&
       row_compliance.maxCoeff() > 0.0) {
-    // NtCN (k x k) padded with the identity to m x m, so that the LDLT keeps its size
-    use_compliance = true;
+    // N^T C N (k x k), regularized so that a null direction without compliance stays solvable
     compliance = row_compliance;
     const double cmax = compliance.maxCoeff();
-    NtCN.setIdentity();
     for (int a = 0; a < k; ++a)
-      for (int bb = 0; bb < k; ++bb) {
+      for (int c = 0; c <= a; ++c) {
         double s = 0.0;
-        for (int i = 0; i < m; ++i) s += V(i, a) * compliance[i] * V(i, bb);
-        NtCN(a, bb) = s + (a == bb ? 1e-12 * cmax : 0.0);
+        for (int i = 0; i < m; ++i) s += Nq(i, a) * compliance[i] * Nq(i, c);
+        Lc(a, c) = s + (a == c ? 1e-12 * cmax : 0.0);
+        Lc(c, a) = Lc(a, c);
       }
-    ntcn_ldlt.compute(NtCN);
+    use_compliance = small_cholesky(Lc, Lc, k);  // in place: reads (i, j) before writing it
   }
   return info;
 }
@@ -108,25 +183,31 @@ QFactorInfo QSolver::factor(const Eigen::MatrixXd& Q, const SolverOptions& opt, 
 void QSolver::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
   if (fast_path) {
     x = b;
-    Lq.triangularView<Eigen::Lower>().solveInPlace(x);
-    Lq.triangularView<Eigen::Lower>().transpose().solveInPlace(x);
+    cholesky_solve_in_place(Lq, m, x);
     return;
   }
-  const auto& V = eig_V;
-  tmp_m.noalias() = V.transpose() * b;
-  tmp_m.array() *= ev_inv.array();
-  x.noalias() = V * tmp_m;
-  const int k = m - rank;
+  x.resize(m);  // no-op (no allocation) at the right size
+  const int r = rank, k = m - rank;
+  // b_r = b - N N^T b: the part of b in the range of Q (least squares when b is inconsistent)
+  tmp_m2 = b;
+  remove_null_component(Nq, m, k, tmp_m2);
+  // basic solution x_b = P^T [L11^-T L11^-1 (P b_r)_1; 0]
+  for (int i = 0; i < r; ++i) tmp_m[i] = tmp_m2[perm[i]];
+  cholesky_solve_in_place(Lp, r, tmp_m);
+  for (int i = 0; i < r; ++i) x[perm[i]] = tmp_m[i];
+  for (int i = r; i < m; ++i) x[perm[i]] = 0.0;
+  // minimum norm
+  remove_null_component(Nq, m, k, x);
   if (k > 0 && use_compliance) {
     // z = -(N^T C N)^-1 N^T C x ; x += N z
-    tmp_m2.setZero();
     for (int a = 0; a < k; ++a) {
       double s = 0.0;
-      for (int i = 0; i < m; ++i) s += V(i, a) * compliance[i] * x[i];
-      tmp_m2[a] = -s;
+      for (int i = 0; i < m; ++i) s += Nq(i, a) * compliance[i] * x[i];
+      tmp_m[a] = -s;
     }
-    ntcn_ldlt.solveInPlace(tmp_m2);
-    for (int a = 0; a < k; ++a) x += tmp_m2[a] * V.col(a);
+    cholesky_solve_in_place(Lc, k, tmp_m);
+    for (int a = 0; a < k; ++a)
+      for (int i = 0; i < m; ++i) x[i] += tmp_m[a] * Nq(i, a);
   }
 }
 

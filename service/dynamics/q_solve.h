@@ -4,11 +4,34 @@
 // otherwise it reveals the rank, flags the rows of lambda the physics leaves free and prepares the
 // scene's redundancy rule (minimum norm or compliance-weighted). solve() may then be called for any
 // number of right-hand sides. Sized once from the number of rows; allocation-free afterwards.
+//
+// Rank path: Cholesky with symmetric (diagonal) pivoting (Higham, "Accuracy and Stability of
+// Numerical Algorithms", 2nd ed., s.10.3; LAPACK dpstrf), unblocked:
+//   P Q P^T = [L11; L21] [L11^T L21^T] + S,   L11 (r x r) lower, L21 ((m-r) x r),
+// where step j takes the largest remaining diagonal of the Schur complement as its pivot and the
+// factorization stops at the first step whose largest remaining pivot is
+//   <= rank_tol * max_i Q(i, i)                                          (rank_tol = 1e-10 default)
+// so that rank = r and the neglected Schur complement S has every diagonal entry <= that
+// tolerance. Since max_i Q(i, i) lies in [lambda_max / m, lambda_max] and the eigenvalues of Q
+// beyond the r-th are <= trace(S), this is the former eigenvalue test (eigenvalue <= rank_tol *
+// lambda_max, a singular value of G M^-1/2 below sqrt(rank_tol) = 1e-5 relative) up to a factor
+// of m in the threshold, without the eigen-decomposition.
+//   Null space of Q: N = P^T [-L11^-T L21^T; I] (m x k, k = m - r), orthonormalized by modified
+//   Gram-Schmidt applied twice.
+//   Minimum-norm solution (= Q^+ b, also for a b with a component outside the range of Q, which
+//   is removed first): b_r = b - N N^T b, x_b = P^T [L11^-T L11^-1 (P b_r)_1; 0], x = x_b - N N^T x_b.
+//   Indeterminate rows: the rows i with |N(i, :)|^2 > 1e-12 (components that the null space moves).
+//   Redundancy::kCompliance: x += N z, z minimizing (x + N z)^T C (x + N z), C = diag(compliance),
+//   i.e. (N^T C N) z = -N^T C x (regularized by 1e-12 max C on its diagonal).
+//   Condition: (L11(0,0) / L11(r-1,r-1))^2, the ratio of the largest to the smallest kept pivot.
+//   It is an ESTIMATE of lambda_max / lambda_min of Q on its range: the pivots of a pivoted
+//   Cholesky usually track the eigenvalues to within a small factor, and the estimate never
+//   exceeds m times the true value, but it can underestimate it on contrived (Kahan-type)
+//   matrices. The fast path reports the same ratio for its unpivoted factor.
 #pragma once
 
 #include <vector>
 
-#include <Eigen/Cholesky>
 #include <Eigen/Core>
 
 #include "service/dynamics/system.h"
@@ -17,7 +40,7 @@ namespace coopdyn {
 
 struct QFactorInfo {
   int rank = 0;
-  double condition = 1.0;  // estimate of the condition of Q on its range
+  double condition = 1.0;  // estimate of the condition of Q on its range (see above)
 };
 
 struct QSolver {
@@ -36,12 +59,12 @@ struct QSolver {
   bool use_compliance = false;
 
   // buffers
-  Eigen::MatrixXd Lq;            // (rows x rows) Cholesky factor on the fast path (lower)
-  Eigen::MatrixXd eig_A, eig_V;  // (rows x rows) Jacobi eigen-decomposition (rank path)
-  Eigen::VectorXd eig_w;         // (rows) eigenvalues, ascending
-  Eigen::VectorXd ev_inv;        // (rows) 1/eigenvalue on the range, 0 on the null space
-  Eigen::MatrixXd NtCN;          // (rows x rows) compliance split
-  Eigen::LDLT<Eigen::MatrixXd> ntcn_ldlt;
+  Eigen::MatrixXd Lq;     // (rows x rows) Cholesky factor on the fast path (lower)
+  Eigen::MatrixXd Lp;     // (rows x rows) pivoted factor: L11, L21 in the first rank columns
+  std::vector<int> perm;  // (rows) (P Q P^T)(i, j) = Q(perm[i], perm[j])
+  Eigen::VectorXd dpiv;   // (rows) remaining diagonal of the Schur complement
+  Eigen::MatrixXd Nq;     // (rows x rows) orthonormal null-space basis in the first rows - rank columns
+  Eigen::MatrixXd Lc;     // (rows x rows) Cholesky factor of N^T C N (top-left k x k)
   Eigen::VectorXd tmp_m, tmp_m2, compliance;  // (rows)
 };
 
