@@ -101,3 +101,32 @@ TEST(Integrators, ImplicitEulerConvergesAtFirstOrderAndTamesStiffStabilization) 
   EXPECT_LT(r.max_err, 1e-3);
   std::printf("implicit Euler, Baumgarte 1e4/1e8 at 2 ms, 1 s: max constraint error %.3g\n", r.max_err);
 }
+
+TEST(Integrators, EveryIntegratorStopsADivergedStepAndKeepsTheStartState) {
+  // The wheel spinning at 200 rad/s under a scene bound of 150 rad/s: whatever the integrator, the
+  // first step's end state breaks the bound on the spin DOF, so step() answers kError / kDiverged,
+  // names that DOF and leaves q, v bit-for-bit at the start; with the default bound (1e4) the same
+  // step is legal and changes the state.
+  const std::string t = replace_once(scene_text("unicycle"), "v: [0, 8, 0, 2, 0, 0]", "v: [0, 200, 0, 50, 0, 0]");
+  const System tight = load_scene_string(t + "solver: {max_speed: 150}\n", "tight.yaml");
+  const System normal = load_scene_string(t, "normal.yaml");
+  const Eigen::VectorXd tau = Eigen::VectorXd::Zero(tight.model.nv());
+  int spin = -1;
+  tight.v0.cwiseAbs().maxCoeff(&spin);
+  for (Integrator integ : {Integrator::kSemiImplicitEuler, Integrator::kRk4, Integrator::kImplicitEuler}) {
+    SCOPED_TRACE(integrator_name(integ));
+    Stepper st(tight);
+    Eigen::VectorXd q = tight.q0, v = tight.v0;
+    const Diagnostics& d = step(tight, st, integ, 1e-3, tau, q, v);
+    EXPECT_EQ(d.status, Status::kError);
+    EXPECT_EQ(d.reason, Reason::kDiverged);
+    EXPECT_EQ(d.bad_index, spin);
+    EXPECT_GT(st.diverged_speed, 150.0);
+    EXPECT_EQ(q, tight.q0);
+    EXPECT_EQ(v, tight.v0);
+    Stepper sn(normal);
+    Eigen::VectorXd qn = normal.q0, vn = normal.v0;
+    EXPECT_NE(step(normal, sn, integ, 1e-3, tau, qn, vn).status, Status::kError);
+    EXPECT_GT((qn - normal.q0).norm(), 0.1);  // the wheel turned 0.2 rad
+  }
+}
