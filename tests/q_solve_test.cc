@@ -35,7 +35,12 @@ Case random_case(std::mt19937& rng, int m, int k, double scale, double cond, boo
       for (int i = 2 * k; i < m; ++i) A(i, j) = 0.0;
   }
   Eigen::HouseholderQR<Eigen::MatrixXd> qr(A);
-  const Eigen::MatrixXd O = qr.householderQ() * Eigen::MatrixXd::Identity(m, m);
+  Eigen::MatrixXd O = qr.householderQ() * Eigen::MatrixXd::Identity(m, m);
+  // rows in random order, so that the null space does not sit in the last rows
+  Eigen::PermutationMatrix<Eigen::Dynamic> P(m);
+  P.setIdentity();
+  std::shuffle(P.indices().data(), P.indices().data() + m, rng);
+  O = (P * O).eval();
   Case c;
   c.N = O.leftCols(k);
   c.U = O.rightCols(m - k);
@@ -111,6 +116,153 @@ TEST(QSolve, RankAndMinimumNormSolutionOfRandomPsdMatrices) {
   std::printf("worst over %d cases: |x - Q^+ b| / (cond eps |x|) %.3g, |Q x - b| / (|Q| |x| + |b|) %.3g, "
               "|N^T x| / (cond eps |x|) %.3g\n",
               n_cases, worst_sol, worst_res, worst_null);
+}
+
+TEST(QSolve, IndeterminateRowsAreExactlyThoseTheNullSpaceMoves) {
+  // The null space touches only some rows (the sparse cases: as a rigid axle touches only the
+  // lateral rows); those and only those are flagged.
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int> Um(2, 24);
+  const SolverOptions opt;
+  int n_partial = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    const int m = Um(rng);
+    const int k = 1 + trial % std::min(4, m - 1);
+    const double scale = std::pow(10.0, -6.0 + 12.0 * (trial % 7) / 6.0);
+    const double cond = std::pow(10.0, (trial / 7) % 9);
+    const Case c = random_case(rng, m, k, scale, cond, true);
+    QSolver qs(m);
+    ASSERT_EQ(qs.factor(c.Q, opt, Eigen::VectorXd::Zero(m)).rank, m - k);
+    int flagged = 0;
+    for (int i = 0; i < m; ++i) {
+      const bool moved = c.N.row(i).squaredNorm() > 1e-12;
+      EXPECT_EQ(qs.row_indeterminate[i] != 0, moved) << "m " << m << " k " << k << " row " << i;
+      flagged += moved;
+    }
+    n_partial += flagged < m;
+  }
+  EXPECT_GT(n_partial, 100);  // most cases flag a proper subset of the rows
+}
+
+TEST(QSolve, InconsistentRightHandSideGivesTheLeastSquaresMinimumNormSolution) {
+  // b = Q y + N w has a part outside the range of Q (a stabilization term on dependent rows can):
+  // the solution is still Q^+ b, i.e. the part along N is ignored.
+  std::mt19937 rng(13);
+  std::normal_distribution<double> Nd;
+  const SolverOptions opt;
+  double worst = 0.0;
+  for (int trial = 0; trial < 100; ++trial) {
+    const int m = 2 + trial % 23, k = 1 + trial % std::min(4, m - 1);
+    const double cond = std::pow(10.0, trial % 7);
+    const Case c = random_case(rng, m, k, 1.0, cond, trial % 2 == 0);
+    QSolver qs(m);
+    qs.factor(c.Q, opt, Eigen::VectorXd::Zero(m));
+    Eigen::VectorXd y(m), w(k);
+    for (int i = 0; i < m; ++i) y[i] = Nd(rng);
+    for (int i = 0; i < k; ++i) w[i] = Nd(rng);
+    const Eigen::VectorXd b = c.Q * y + c.N * w;
+    Eigen::VectorXd x(m);
+    qs.solve(b, x);
+    const Eigen::VectorXd xp = pinv_solve(c.Q, b, m - k);
+    // least-squares perturbation bound (Wedin): cond eps |x| + cond^2 eps |r| / |Q|, |Q| = 1 here,
+    // r = N w the residual of the least-squares solution
+    const double eps = std::numeric_limits<double>::epsilon();
+    const double e = (x - xp).norm() / (cond * eps * xp.norm() + cond * cond * eps * w.norm());
+    worst = std::max(worst, e);
+    EXPECT_LE(e, 100.0) << "m " << m << " k " << k << " cond " << cond;
+  }
+}
+
+TEST(QSolve, ComplianceRuleMinimizesTheElasticEnergyAmongAllSolutions) {
+  // Redundancy::kCompliance: x solves Q x = b and minimizes x^T C x over x + N z: no perturbation
+  // along the null space lowers it, its gradient C x is orthogonal to N, and it equals the closed
+  // form x+ - N (N^T C N)^-1 N^T C x+ built from the test's own null space and pseudo-inverse.
+  std::mt19937 rng(17);
+  std::normal_distribution<double> Nd;
+  std::uniform_real_distribution<double> U01(0.0, 1.0);
+  SolverOptions opt;
+  opt.redundancy = Redundancy::kCompliance;
+  double worst = 0.0;
+  for (int trial = 0; trial < 150; ++trial) {
+    const int m = 2 + trial % 23, k = 1 + trial % std::min(4, m - 1);
+    const double cond = std::pow(10.0, trial % 7);
+    const double scale = std::pow(10.0, -6.0 + 12.0 * (trial % 5) / 4.0);
+    const Case c = random_case(rng, m, k, scale, cond, trial % 2 == 0);
+    Eigen::VectorXd C(m);  // per-row compliances over three decades
+    for (int i = 0; i < m; ++i) C[i] = 1e-9 * std::pow(1e3, U01(rng));
+    QSolver qs(m);
+    ASSERT_EQ(qs.factor(c.Q, opt, C).rank, m - k);
+    Eigen::VectorXd y(m);
+    for (int i = 0; i < m; ++i) y[i] = Nd(rng);
+    const Eigen::VectorXd b = c.Q * y;
+    Eigen::VectorXd x(m);
+    qs.solve(b, x);
+    const double eps = std::numeric_limits<double>::epsilon();
+    EXPECT_LE((c.Q * x - b).norm(), 1e-13 * (c.Q.norm() * x.norm() + b.norm()));
+    const Eigen::VectorXd xp = pinv_solve(c.Q, b, m - k);
+    const Eigen::MatrixXd NtCN = c.N.transpose() * C.asDiagonal() * c.N;
+    const Eigen::VectorXd xc = xp - c.N * NtCN.ldlt().solve(c.N.transpose() * (C.asDiagonal() * xp));
+    // errors: cond eps from Q, and the 1e-12 max C regularization of N^T C N, both amplified by
+    // the spread of the compliances
+    const double spread = C.maxCoeff() / C.minCoeff();
+    const double e = (x - xc).norm() / ((cond * eps + 1e-12) * spread * xc.norm());
+    worst = std::max(worst, e);
+    EXPECT_LE(e, 100.0) << "m " << m << " k " << k << " cond " << cond;
+    const Eigen::VectorXd grad = c.N.transpose() * (C.asDiagonal() * x);
+    EXPECT_LE(grad.norm(), 100.0 * (cond * eps + 1e-12) * spread * C.maxCoeff() * x.norm());
+    const double e0 = x.dot(C.asDiagonal() * x);
+    for (int p = 0; p < 5; ++p) {
+      Eigen::VectorXd z(k);
+      for (int a = 0; a < k; ++a) z[a] = Nd(rng);
+      const Eigen::VectorXd xz = x + 1e-3 * x.norm() / z.norm() * (c.N * z);
+      EXPECT_LE((c.Q * xz - b).norm(), 1e-12 * (c.Q.norm() * xz.norm() + b.norm()));  // still a solution
+      EXPECT_GT(xz.dot(C.asDiagonal() * xz), e0);
+    }
+  }
+  std::printf("compliance rule: worst |x - x_C| / ((cond eps + 1e-12) max C / min C |x_C|) %.3g\n", worst);
+}
+
+TEST(QSolve, RankToleranceIsRelativeToTheLargestDiagonal) {
+  // One direction with eigenvalue delta * scale next to eigenvalues in [scale / 10, scale], any
+  // scale, rank path forced (fast_tol > 1). What the pivot test guarantees (q_solve.h):
+  // - a direction is dropped only if small: with rank r, eigenvalue r+1 <= (m - r) rank_tol max Q(i, i);
+  // - pivot r >= eigenvalue r / (m - r + 1), so delta = 1e-7 (> m rank_tol) is always kept;
+  // - a direction far below the threshold (delta = 1e-14, as the round-off null space of an exact
+  //   dependency) is dropped.
+  std::mt19937 rng(19);
+  SolverOptions opt;
+  opt.fast_tol = 2.0;
+  for (int m : {3, 6, 12, 24})
+    for (double scale : {1e-6, 1.0, 1e6})
+      for (double delta : {1e-14, 1e-7})
+        for (int rep = 0; rep < 5; ++rep) {
+          Case c = random_case(rng, m, 1, scale, 10.0, rep % 2 == 1);
+          c.Q += delta * scale * c.N * c.N.transpose();
+          QSolver qs(m);
+          const QFactorInfo fi = qs.factor(c.Q, opt, Eigen::VectorXd::Zero(m));
+          EXPECT_FALSE(qs.fast_path);
+          EXPECT_EQ(fi.rank, delta < opt.rank_tol ? m - 1 : m) << "m " << m << " scale " << scale << " delta " << delta;
+          Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(c.Q);  // ascending
+          const Eigen::VectorXd& ev = es.eigenvalues();
+          if (fi.rank < m) {
+            EXPECT_LE(ev[m - 1 - fi.rank], (m - fi.rank) * opt.rank_tol * c.Q.diagonal().maxCoeff());
+          }
+          // the condition estimate never exceeds m times the condition on the range
+          EXPECT_LE(fi.condition, m * ev[m - 1] / ev[m - fi.rank]);
+          EXPECT_GE(fi.condition, 1.0);
+        }
+}
+
+TEST(QSolve, ZeroMatrixLeavesEveryRowIndeterminateAndTheSolutionZero) {
+  const int m = 6;
+  QSolver qs(m);
+  const QFactorInfo fi = qs.factor(Eigen::MatrixXd::Zero(m, m), SolverOptions{}, Eigen::VectorXd::Zero(m));
+  EXPECT_EQ(fi.rank, 0);
+  EXPECT_TRUE(std::isinf(fi.condition));
+  for (int i = 0; i < m; ++i) EXPECT_EQ(qs.row_indeterminate[i], 1);
+  Eigen::VectorXd x(m);
+  qs.solve(Eigen::VectorXd::Ones(m), x);
+  EXPECT_EQ(x, Eigen::VectorXd::Zero(m));
 }
 
 }  // namespace

@@ -12,10 +12,16 @@
 // factorization stops at the first step whose largest remaining pivot is
 //   <= rank_tol * max_i Q(i, i)                                          (rank_tol = 1e-10 default)
 // so that rank = r and the neglected Schur complement S has every diagonal entry <= that
-// tolerance. Since max_i Q(i, i) lies in [lambda_max / m, lambda_max] and the eigenvalues of Q
-// beyond the r-th are <= trace(S), this is the former eigenvalue test (eigenvalue <= rank_tol *
-// lambda_max, a singular value of G M^-1/2 below sqrt(rank_tol) = 1e-5 relative) up to a factor
-// of m in the threshold, without the eigen-decomposition.
+// tolerance. What this guarantees (Weyl's inequality on P Q P^T = L L^T + S):
+//   - a dropped direction is small: eigenvalue r+1 of Q <= trace(S) <= (m - r) rank_tol max Q(i, i);
+//   - a direction is kept when its eigenvalue > (m - r + 1) rank_tol max Q(i, i) (the r-th pivot is
+//     >= eigenvalue r / (m - r + 1)).
+// In between the pivot test and the former eigenvalue test (eigenvalue <= rank_tol * lambda_max,
+// a singular value of G M^-1/2 below sqrt(rank_tol) = 1e-5 relative) may disagree: the last pivot
+// is about lambda / v_p^2 (v_p the component of that eigenvector on the last pivot row), so an
+// eigenvalue a few decades below the threshold can be kept. Exact dependencies (the rigid axle,
+// the planar arms) leave round-off eigenvalues ~1e-16 relative, far below it. max_i Q(i, i) lies
+// in [lambda_max / m, lambda_max].
 //   Null space of Q: N = P^T [-L11^-T L21^T; I] (m x k, k = m - r), orthonormalized by modified
 //   Gram-Schmidt applied twice.
 //   Minimum-norm solution (= Q^+ b, also for a b with a component outside the range of Q, which
@@ -23,11 +29,11 @@
 //   Indeterminate rows: the rows i with |N(i, :)|^2 > 1e-12 (components that the null space moves).
 //   Redundancy::kCompliance: x += N z, z minimizing (x + N z)^T C (x + N z), C = diag(compliance),
 //   i.e. (N^T C N) z = -N^T C x (regularized by 1e-12 max C on its diagonal).
-//   Condition: (L11(0,0) / L11(r-1,r-1))^2, the ratio of the largest to the smallest kept pivot.
-//   It is an ESTIMATE of lambda_max / lambda_min of Q on its range: the pivots of a pivoted
-//   Cholesky usually track the eigenvalues to within a small factor, and the estimate never
-//   exceeds m times the true value, but it can underestimate it on contrived (Kahan-type)
-//   matrices. The fast path reports the same ratio for its unpivoted factor.
+//   Condition: (L11(0,0) / L11(r-1,r-1))^2, the ratio of the largest to the smallest kept pivot of
+//   Q. It is an ESTIMATE of lambda_max / lambda_r of Q on its range: it never exceeds m times the
+//   true value, but it can underestimate it (by the 1 / v_p^2 above, a factor ~m for a random
+//   orientation, more when the small direction barely touches the last pivot row). The fast path
+//   reports the same ratio for its unpivoted factor.
 #pragma once
 
 #include <vector>
