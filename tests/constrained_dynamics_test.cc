@@ -352,7 +352,8 @@ TEST(PseudoJoints, StaticStressesBalanceTheStructure) {
   rnea(m, ws.data, ws.vdot, &fext, tr);
   const int cb = m.body_index("crank_b"), c1 = m.body_index("coupler_a1");
   // force on crank_b from coupler_a1 (in crank_b frame): minus what crank_b transmits to it
-  const Vec6 F_tip = -ws.data.X_PB[c1].act_force(ws.data.f[c1]);
+  const Transform X_PB = ws.data.X_WB[m.bodies[c1].parent].inverse() * ws.data.X_WB[c1];
+  const Vec6 F_tip = -X_PB.act_force(ws.data.f[c1]);
   const Vec3 g_b = ws.data.X_WB[cb].R.transpose() * m.gravity_W * m.bodies[cb].inertia.m;
   const double moment = F_tip[2] + m.bodies[cb].inertia.c.cross(g_b).z();
   // the lock at the crank_bend joint supplies the rest: stress + moment = 0

@@ -101,7 +101,7 @@ inline Vec6 total_momentum(const Model& m, const Eigen::VectorXd& q, const Eigen
   Data d(m);
   forward_kinematics(m, d, q, v);
   Vec6 h = Vec6::Zero();
-  for (int i = 0; i < m.nbodies(); ++i) h += d.X_WB[i].act_force(m.bodies[i].inertia * d.V[i]);
+  for (int i = 0; i < m.nbodies(); ++i) h += d.X_WB[i].act_force(m.bodies[i].inertia * d.X_WB[i].inv_act(d.V_W[i]));
   return h;
 }
 

@@ -3,31 +3,42 @@
 namespace coopdyn {
 
 void crba(const Model& model, Data& data) {
+  // With world-coordinate inertias the composites are plain sums and every entry of M is one dot
+  // product: M(i, j) = S_j . (Ic_i S_i) for DOF j an ancestor of (or equal to) DOF i (RBDA s.6.2
+  // with all quantities in the world frame).
   const int nb = model.nbodies();
-  for (int i = 0; i < nb; ++i) data.Ic[i] = data.I[i];
+  for (int i = 0; i < nb; ++i) data.Ic_W[i] = data.I_W[i];
   for (int i = nb - 1; i >= 0; --i) {
     const int p = model.bodies[i].parent;
-    if (p >= 0) data.Ic[p] += data.Ic[i].transformed(data.X_PB[i]);
+    if (p >= 0) data.Ic_W[p] += data.Ic_W[i];
   }
+  const double* __restrict S = data.S_W.data();
+  double* __restrict mc = data.Mc.data();
   for (int i = 0; i < nb; ++i) {
     const Joint& ji = model.bodies[i].joint;
     for (int k = 0; k < ji.nv; ++k) {
-      Vec6 F = data.Ic[i] * data.S[i].col(k);  // in B_i
       const int col = ji.idx_v + k;
-      for (int l = 0; l < ji.nv; ++l) data.M(ji.idx_v + l, col) = data.S[i].col(l).dot(F);
-      data.M(col, col) += ji.armature;
-      int j = i;
-      while (model.bodies[j].parent >= 0) {
-        F = data.X_PB[j].act_force(F);
-        j = model.bodies[j].parent;
-        const Joint& jj = model.bodies[j].joint;
-        for (int l = 0; l < jj.nv; ++l) {
-          const double m = data.S[j].col(l).dot(F);
-          data.M(jj.idx_v + l, col) = m;
-          data.M(col, jj.idx_v + l) = m;
-        }
+      const Vec6 F = data.Ic_W[i] * data.S_W.col(col);
+      const int* path = model.dof_path.data() + model.dof_path_offset[col];
+      const int depth = model.dof_depth[col];
+      double* __restrict row = mc + model.dof_path_offset[col] + col;
+      for (int p = 0; p < depth; ++p) {
+        const double* s = S + 6 * path[p];
+        row[p] = s[0] * F[0] + s[1] * F[1] + s[2] * F[2] + s[3] * F[3] + s[4] * F[4] + s[5] * F[5];
       }
+      row[depth] = data.S_W.col(col).dot(F) + ji.armature;
     }
+  }
+  // the dense matrix (both triangles) for callers that want it
+  Eigen::MatrixXd& M = data.M;
+  for (int col = 0; col < model.nv(); ++col) {
+    const int* path = model.dof_path.data() + model.dof_path_offset[col];
+    const double* row = mc + model.dof_path_offset[col] + col;
+    for (int p = 0; p < model.dof_depth[col]; ++p) {
+      M(path[p], col) = row[p];
+      M(col, path[p]) = row[p];
+    }
+    M(col, col) = row[model.dof_depth[col]];
   }
 }
 

@@ -5,7 +5,7 @@
 
 namespace coopdyn {
 
-// Fills data.M (nv x nv, both triangles) and data.Ic. Requires forward_kinematics.
+// Fills data.M (nv x nv, both triangles), its path-compact copy data.Mc and data.Ic_W. Requires forward_kinematics.
 // Joint armature (rotor inertia reflected through the gear, kg*m^2) is added on the diagonal.
 void crba(const Model& model, Data& data);
 

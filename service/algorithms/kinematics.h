@@ -7,9 +7,9 @@
 
 namespace coopdyn {
 
-// Fills data.X_PB, X_WB, S, S_W, V, cJ, A0 for configuration q (nq) and velocity v (nv).
-// A0 is each body's spatial acceleration (in its own frame) with vdot = 0 and no gravity: the
-// velocity-product term from which every Jdot*v is read.
+// Fills data.X_WB, S_W, V_W, A0_W and the world-coordinate body inertias I_W for configuration q (nq) and velocity v (nv), all in world
+// coordinates at the world origin (see Data). A0_W is each body's spatial acceleration with
+// vdot = 0 and no gravity: the velocity-product term from which every Jdot*v is read.
 void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q, const Eigen::VectorXd& v);
 
 // Pose of an operational frame in the world, after forward_kinematics.

@@ -1,30 +1,54 @@
 #include "service/algorithms/tree_cholesky.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace coopdyn {
 
 bool tree_cholesky_factor(const Model& model, Data& data, double rel_tol, int* bad_dof) {
   const int n = model.nv();
-  Eigen::MatrixXd& H = data.L;
-  H = data.M;  // same size: no allocation
-  const double scale = n > 0 ? H.diagonal().cwiseAbs().maxCoeff() : 1.0;
+  data.Lc = data.Mc;  // same size: no allocation
+  double* lc = data.Lc.data();
+  const int* path = model.dof_path.data();
+  double scale = 0.0;
+  for (int k = 0; k < n; ++k) scale = std::max(scale, std::abs(lc[model.dof_path_offset[k] + k + model.dof_depth[k]]));
   data.L_ok = false;
   for (int k = n - 1; k >= 0; --k) {
-    const double hkk = H(k, k);
+    double* __restrict rk = lc + model.dof_path_offset[k] + k;
+    const int* pk = path + model.dof_path_offset[k];
+    const int d = model.dof_depth[k];
+    const double hkk = rk[d];
     if (!(hkk > rel_tol * scale) || !std::isfinite(hkk)) {
       if (bad_dof) *bad_dof = k;
       return false;
     }
-    H(k, k) = std::sqrt(hkk);
-    for (int i = model.dof_parent[k]; i >= 0; i = model.dof_parent[i]) H(k, i) /= H(k, k);
-    for (int i = model.dof_parent[k]; i >= 0; i = model.dof_parent[i])
-      for (int j = i; j >= 0; j = model.dof_parent[j]) H(i, j) -= H(k, i) * H(k, j);
+    const double lkk = std::sqrt(hkk);
+    rk[d] = lkk;
+    const double inv = 1.0 / lkk;
+    for (int p = 0; p < d; ++p) rk[p] *= inv;
+    // H(i, j) -= L(k, i) L(k, j) for the ancestors j <= i of k; with i = path[p], those are the
+    // first p + 1 entries of k's path, and row i is stored over exactly that prefix
+    for (int p = 0; p < d; ++p) {
+      const int i = pk[p];
+      double* __restrict ri = lc + model.dof_path_offset[i] + i;
+      const double lki = rk[p];
+      for (int q = 0; q <= p; ++q) ri[q] -= lki * rk[q];
+    }
   }
-  // clear the strict upper triangle so that L is a plain lower-triangular matrix
-  for (int j = 1; j < n; ++j) H.col(j).head(j).setZero();
   data.L_ok = true;
   return true;
+}
+
+Eigen::MatrixXd tree_factor_dense(const Model& model, const Data& data) {
+  const int n = model.nv();
+  Eigen::MatrixXd L = Eigen::MatrixXd::Zero(n, n);
+  for (int k = 0; k < n; ++k) {
+    const double* r = tree_factor_row(model, data, k);
+    const int d = model.dof_depth[k];
+    for (int p = 0; p < d; ++p) L(k, model.dof_path[model.dof_path_offset[k] + p]) = r[p];
+    L(k, k) = r[d];
+  }
+  return L;
 }
 
 }  // namespace coopdyn

@@ -158,8 +158,8 @@ void constraint_rows(const Model& model, const Data& data, const ConstraintSet& 
       //   d/dt (C^T u) = Cdot^T u + C^T (a_O + alpha x p_WP + w x pdot_WP)
       // with [alpha; a_O] the body's spatial acceleration at vdot = 0 (A0) at the world origin.
       const Transform& X_WB = data.X_WB[c.body];
-      const Vec6 V_W = X_WB.act(data.V[c.body]);
-      const Vec6 A_W = X_WB.act(data.A0[c.body]);
+      const Vec6& V_W = data.V_W[c.body];
+      const Vec6& A_W = data.A0_W[c.body];
       const Vec3 w = V_W.head<3>();
       RollingGeometry g;
       rolling_geometry(X_WB.R, X_WB.p, c.axle, c.radius, w, V_W.tail<3>() + w.cross(X_WB.p), g);

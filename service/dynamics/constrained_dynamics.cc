@@ -143,7 +143,6 @@ void solve_q(const System& sys, Workspace& ws, const Eigen::VectorXd& b, Eigen::
 void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G) {
   const Model& model = sys.model;
   const ConstraintSet& cs = sys.constraints;
-  const Eigen::MatrixXd& L = ws.data.L;
   const int ns = static_cast<int>(cs.specs.size());
   // L^-T solve of each spec's rows at once: one 6-wide row operation per (DOF, ancestor) pair
   for (int s = 0; s < ns; ++s) {
@@ -154,8 +153,11 @@ void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G) {
       for (int k = 0; k < nk; ++k) Y(d, k) = G(r0 + k, d);
     for (auto it = sup.rbegin(); it != sup.rend(); ++it) {
       const int i = *it;
-      Y.row(i) *= 1.0 / L(i, i);
-      for (int j = model.dof_parent[i]; j >= 0; j = model.dof_parent[j]) Y.row(j) -= L(i, j) * Y.row(i);
+      const double* r = tree_factor_row(model, ws.data, i);
+      const int d = model.dof_depth[i];
+      const int* pi = model.dof_path.data() + model.dof_path_offset[i];
+      Y.row(i) *= 1.0 / r[d];
+      for (int p = 0; p < d; ++p) Y.row(pi[p]) -= r[p] * Y.row(i);
     }
     for (int d : sup)
       for (int k = 0; k < nk; ++k) ws.Yt(d, r0 + k) = Y(d, k);
@@ -177,13 +179,13 @@ void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G) {
 void schur_solve(const System& sys, Workspace& ws, bool factor) {
   const Model& model = sys.model;
   ws.u = ws.tau_c;
-  tree_solve_Lt(model, ws.data.L, ws.u);
+  tree_solve_Lt(model, ws.data, ws.u);
   ws.rhs = ws.cd.gamma;
   ws.rhs.noalias() -= ws.Yt.transpose() * ws.u;
   solve_q(sys, ws, ws.rhs, ws.lambda, factor);
   ws.vdot = ws.u;
   ws.vdot.noalias() += ws.Yt * ws.lambda;
-  tree_solve_L(model, ws.data.L, ws.vdot);
+  tree_solve_L(model, ws.data, ws.vdot);
 }
 
 bool pseudo_schur(const System& sys, Workspace& ws) {
@@ -193,9 +195,9 @@ bool pseudo_schur(const System& sys, Workspace& ws) {
   const std::vector<int>& pd = model.pseudo_dofs;
   const int p = static_cast<int>(pd.size());
   ws.Minv.setIdentity();
-  for (int j = 0; j < n; ++j) tree_solve_M(model, ws.data.L, ws.Minv.col(j));
+  for (int j = 0; j < n; ++j) tree_solve_M(model, ws.data, ws.Minv.col(j));
   ws.P = ws.Yt;  // M^-1 G^T = L^-1 Y^T
-  for (int r = 0; r < m; ++r) tree_solve_L(model, ws.data.L, ws.P.col(r));
+  for (int r = 0; r < m; ++r) tree_solve_L(model, ws.data, ws.P.col(r));
   // Q^-1 P^T, column by column through the same rank-revealing solve
   for (int j = 0; j < n; ++j) {
     ws.tmp_m2 = ws.P.row(j).transpose();
@@ -231,7 +233,7 @@ bool pseudo_schur(const System& sys, Workspace& ws) {
   ws.vdot.noalias() += ws.D * ws.tau_c;
   // lambda for the real constraints with the locking torques applied
   ws.u = ws.tau_c;
-  tree_solve_Lt(model, ws.data.L, ws.u);
+  tree_solve_Lt(model, ws.data, ws.u);
   ws.rhs = ws.cd.gamma;
   ws.rhs.noalias() -= ws.Yt.transpose() * ws.u;
   solve_q(sys, ws, ws.rhs, ws.lambda, false);
@@ -263,12 +265,12 @@ void svd_baseline(const System& sys, Workspace& ws) {
   ws.Gr.topRows(mr).noalias() = ws.R.topRows(mr) * ws.cd.G;
   for (int r = 0; r < mr; ++r) {
     ws.Yt.col(r) = ws.Gr.row(r).transpose();
-    tree_solve_Lt(model, ws.data.L, ws.Yt.col(r));
+    tree_solve_Lt(model, ws.data, ws.Yt.col(r));
   }
   for (int r = mr; r < m; ++r) ws.Yt.col(r).setZero();
   ws.Q.noalias() = ws.Yt.transpose() * ws.Yt;  // reduced rows first, zero padding after
   ws.u = ws.tau_c;
-  tree_solve_Lt(model, ws.data.L, ws.u);
+  tree_solve_Lt(model, ws.data, ws.u);
   ws.rhs.setZero();
   ws.rhs.head(mr).noalias() = ws.R.topRows(mr) * ws.cd.gamma;
   ws.rhs.noalias() -= ws.Yt.transpose() * ws.u;
@@ -308,7 +310,7 @@ void svd_baseline(const System& sys, Workspace& ws) {
   }
   ws.vdot = ws.u;
   ws.vdot.noalias() += ws.Yt * ws.tmp_m2;
-  tree_solve_L(model, ws.data.L, ws.vdot);
+  tree_solve_L(model, ws.data, ws.vdot);
   (void)n;
 }
 

@@ -53,6 +53,8 @@ int Model::add_body(const std::string& name, int parent, const Transform& X_PJ, 
       joint.axis2.normalize();
     }
   }
+  if (joint.type == JointType::kRevolute && joint.axis.x() == 0.0 && joint.axis.y() == 0.0)
+    joint.axis_z = joint.axis.z() > 0.0 ? 1 : -1;
   joint.nq = joint_nq(joint.type);
   joint.nv = joint_nv(joint.type);
   joint.idx_q = nq_;
@@ -68,7 +70,16 @@ int Model::add_body(const std::string& name, int parent, const Transform& X_PJ, 
   }
   const int body_id = nbodies();
   for (int k = 0; k < joint.nv; ++k) {
-    dof_parent.push_back(k == 0 ? anc_dof : nv_ + k - 1);
+    const int par = k == 0 ? anc_dof : nv_ + k - 1;
+    std::vector<int> path;
+    if (par >= 0) {
+      path.assign(dof_path.begin() + dof_path_offset[par], dof_path.begin() + dof_path_offset[par] + dof_depth[par]);
+      path.push_back(par);
+    }
+    dof_path_offset.push_back(static_cast<int>(dof_path.size()));
+    dof_depth.push_back(static_cast<int>(path.size()));
+    dof_path.insert(dof_path.end(), path.begin(), path.end());
+    dof_parent.push_back(par);
     dof_body.push_back(body_id);
     if (joint.pseudo) pseudo_dofs.push_back(nv_ + k);
   }
@@ -146,20 +157,20 @@ Eigen::VectorXd Model::neutral() const {
 
 Data::Data(const Model& model) {
   const int nb = model.nbodies(), nv = model.nv();
-  X_PB.resize(nb);
   X_WB.resize(nb);
-  S.assign(nb, Mat6::Zero());
-  V.assign(nb, Vec6::Zero());
-  A0.assign(nb, Vec6::Zero());
-  cJ.assign(nb, Vec6::Zero());
   S_W.setZero(6, nv);
-  a.assign(nb, Vec6::Zero());
+  V_W.assign(nb, Vec6::Zero());
+  A0_W.assign(nb, Vec6::Zero());
+  for (int i = 0; i < nb; ++i) I_B.push_back(RigidInertia(model.bodies[i].inertia));
+  I_W = I_B;
+  Ic_W = I_B;
+  f_W.assign(nb, Vec6::Zero());
+  a_W.assign(nb, Vec6::Zero());
   f.assign(nb, Vec6::Zero());
-  Ic.resize(nb);
-  for (int i = 0; i < nb; ++i) I.push_back(RigidInertia(model.bodies[i].inertia));
   h.setZero(nv);
   M.setZero(nv, nv);
-  L.setZero(nv, nv);
+  Lc.setZero(static_cast<Eigen::Index>(model.dof_path.size()) + nv);
+  Mc = Lc;
   tmp_v.setZero(nv);
 }
 

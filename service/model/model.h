@@ -19,6 +19,8 @@
 
 namespace coopdyn {
 
+using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
 enum class JointType {
   kFixed,      // 0 DOF
   kRevolute,   // 1 DOF, rotation about `axis` (unit, in J)
@@ -40,6 +42,7 @@ struct Joint {
   double armature = 0.0;  // rotor inertia reflected at the joint (kg*m^2 or kg), added to M
   bool pseudo = false;  // a joint the real structure lacks; locked by computed torques (METHOD s.4)
   int nq = 0, nv = 0;
+  int axis_z = 0;  // revolute: +1 / -1 when axis is exactly +z / -z (the DH case: a cheaper kinematics step)
   int idx_q = 0, idx_v = 0;  // first coordinate in q and in v
 };
 
@@ -89,6 +92,10 @@ class Model {
   // the same joint, or the last DOF of the nearest ancestor with DOFs; -1 at a root.
   std::vector<int> dof_parent;
   std::vector<int> dof_body;  // body that owns each velocity index
+  // The ancestors of each DOF (the chain of dof_parent), ascending: DOF k's path is
+  // dof_path[dof_path_offset[k] .. + dof_depth[k]). The path of an ancestor of k is a prefix of k's
+  // path, which the tree-sparse factorization uses to make every update one contiguous loop.
+  std::vector<int> dof_depth, dof_path_offset, dof_path;
   std::vector<std::string> q_names, v_names;
   std::vector<int> pseudo_dofs;  // velocity indices of pseudo-joints, ascending
   std::vector<std::vector<int>> body_support;  // support_dofs of every body
@@ -105,27 +112,34 @@ class Model {
 struct Data {
   explicit Data(const Model& model);
 
-  // kinematics (per body)
-  std::vector<Transform> X_PB;  // body pose in its parent (world for roots)
+  // kinematics. Spatial vectors are Featherstone's, in world coordinates and taken at the world
+  // origin (RBDA s.2.2): a body's velocity V_W = [w; v_O], v_O the velocity of the body point that
+  // is at the world origin. In this form velocities and forces of different bodies add without
+  // transforms, which makes RNEA and CRBA transform-free over the tree (RBDA s.6.2, as Pinocchio).
   std::vector<Transform> X_WB;  // body pose in the world
-  std::vector<Mat6> S;          // motion subspace, in B, first nv columns used
-  std::vector<Vec6> V;          // V_WB_B: body spatial velocity in B
-  std::vector<Vec6> A0;         // body spatial acceleration in B at vdot = 0, no gravity (the
-                                // velocity-product term used for Jdot*v)
-  std::vector<Vec6> cJ;         // joint velocity-product acceleration S'qdot, in B
-  Eigen::Matrix<double, 6, Eigen::Dynamic> S_W;  // (6 x nv) motion subspace columns in world coords
+  Eigen::Matrix<double, 6, Eigen::Dynamic> S_W;  // (6 x nv) motion subspace columns, world coords
+  std::vector<Vec6> V_W;        // body spatial velocity
+  std::vector<Vec6> A0_W;       // body spatial acceleration at vdot = 0, no gravity: the velocity-
+                                // product term every Jdot*v is read from
 
   // dynamics
-  std::vector<Vec6> a;        // RNEA scratch: vdot-linear part of body accelerations, in B
-  std::vector<Vec6> f;        // RNEA body forces, in B
-  std::vector<RigidInertia> I;   // body inertias, in B (from the model, in the fast form)
-  std::vector<RigidInertia> Ic;  // composite inertias, in B
+  std::vector<RigidInertia> I_B;   // body inertias in B (constant, from the model)
+  std::vector<RigidInertia> I_W;   // body inertias in world coordinates (about the world origin)
+  std::vector<RigidInertia> Ic_W;  // composite (subtree) inertias, world coordinates
+  std::vector<Vec6> f_W;           // body forces of RNEA, world coordinates
+  std::vector<Vec6> a_W;           // rnea(): vdot-linear part of the body accelerations
+  std::vector<Vec6> f;             // rnea(): joint reactions, B coordinates at Bo (see rnea.h)
   Eigen::VectorXd h;          // (nv) bias forces: Coriolis, centrifugal, gravity
   Eigen::MatrixXd M;          // (nv x nv) joint-space inertia
-  Eigen::MatrixXd L;          // (nv x nv) tree-sparse factor, M = L^T L (lower triangular)
+  Eigen::VectorXd Mc;         // M by rows over the ancestor paths, the layout of Lc (crba fills both)
+  // Tree-sparse factor M = L^T L (L lower triangular with the sparsity of M), stored by rows over
+  // the ancestor paths: row k of L is Lc[dof_path_offset[k] + k .. + dof_depth[k]], its entries in
+  // the columns dof_path (ascending), then the diagonal L(k, k). Dense L: tree_factor_dense().
+  Eigen::VectorXd Lc;
   bool L_ok = false;
   Eigen::VectorXd tmp_v;      // (nv) scratch
 };
+
 
 // Configuration integration: q_out = q (+) v*dt on the joint manifolds (exact on SO(3) x R^3 with
 // body-frame velocity). q_out may alias q.
