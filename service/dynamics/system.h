@@ -33,11 +33,12 @@ enum class Redundancy {
 struct SolverOptions {
   Formulation formulation = Formulation::kMobilePlatform;
   Redundancy redundancy = Redundancy::kMinNorm;
-  // A direction of Q = G M^-1 G^T is dependent when its eigenvalue is <= rank_tol * the largest
-  // (equivalently a singular value of G M^-1/2 below sqrt(rank_tol) = 1e-5 of the largest).
+  // Rank path: a Cholesky with diagonal pivoting stops at the first remaining pivot <= rank_tol * the
+  // largest diagonal of Q; a dropped direction has eigenvalue <= (rows - rank) * rank_tol * max Q(i, i)
+  // (q_solve.h: what is and is not guaranteed).
   double rank_tol = 1e-10;
   // The Cholesky fast path is taken when every pivot of Q is >= fast_tol * the largest pivot;
-  // otherwise the eigen-decomposition decides the rank.
+  // otherwise the pivoted Cholesky of q_solve.h decides the rank.
   double fast_tol = 1e-8;
   // Projection onto the constraint manifold after every integrator step: Gauss-Newton iterations
   // on the position error, then the velocity projected onto the null space of G (Euclidean metric,
