@@ -301,12 +301,14 @@ TEST(ConstrainedDynamics, ComplianceRuleMovesOnlyTheIndeterminatePart) {
 }
 
 TEST(PseudoJoints, SchurFormEqualsLockMultipliersOfTheCombinedSolve) {
-  // (24)-(26) with d4^-1 vs the locks as rows of one solve: same accelerations, same stresses
+  // (24)-(26) with d4^-1 vs the locks as rows of one solve: same accelerations, same stresses; and
+  // the SVD baseline's lock multipliers are the same stresses
   std::mt19937 rng(27);
   const System comb = load("four_bar");
   const System schur = load("four_bar", Formulation::kPseudoJointSchur);
+  const System svd = load("four_bar", Formulation::kSvdBaseline);
   ASSERT_EQ(comb.model.pseudo_dofs.size(), 2u);
-  Workspace wc(comb), ws(schur);
+  Workspace wc(comb), ws(schur), wsvd(svd);
   for (int k = 0; k < 5; ++k) {
     const Eval e = consistent_state(comb, rng, 1.0, true);
     const Diagnostics& dc = evaluate(comb, wc, e.q, e.v, e.tau);
@@ -315,6 +317,9 @@ TEST(PseudoJoints, SchurFormEqualsLockMultipliersOfTheCombinedSolve) {
     ASSERT_EQ(dsch.status, Status::kOk) << reason_text(dsch.reason);
     EXPECT_LT((wc.vdot - ws.vdot).norm(), 1e-8 * (1 + wc.vdot.norm()));
     EXPECT_LT((wc.stress - ws.stress).norm(), 1e-8 * (1 + wc.stress.norm()));
+    ASSERT_NE(evaluate(svd, wsvd, e.q, e.v, e.tau).status, Status::kError);
+    EXPECT_GT(wc.stress.norm(), 1e-6);
+    EXPECT_LT((wc.stress - wsvd.stress).norm(), 1e-8 * (1 + wc.stress.norm()));
     for (int dof : comb.model.pseudo_dofs) EXPECT_NEAR(ws.vdot[dof], 0.0, 1e-9);
     EXPECT_LT((tip_wrench(comb, wc, 0) - tip_wrench(schur, ws, 0)).norm(), 1e-8 * (1 + wc.lambda.norm()));
   }

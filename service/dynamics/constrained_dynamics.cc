@@ -314,6 +314,13 @@ void svd_baseline(const System& sys, Workspace& ws) {
   (void)n;
 }
 
+// Pseudo-joint stresses are the multipliers of their lock rows (combined solves).
+void lock_stresses(const System& sys, Workspace& ws) {
+  for (size_t s = 0, a = 0; s < sys.constraints.specs.size(); ++s)
+    if (sys.constraints.specs[s].kind == ConstraintKind::kLock && a < sys.model.pseudo_dofs.size())
+      ws.stress[a++] = ws.lambda[sys.constraints.row_offset[s]];
+}
+
 }  // namespace
 
 const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
@@ -355,16 +362,16 @@ const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::Vecto
     case Formulation::kClassic:
       build_q(sys, ws, ws.cd.G);
       schur_solve(sys, ws, true);
-      // pseudo-joint stresses are the multipliers of their lock rows
-      for (size_t s = 0, a = 0; s < sys.constraints.specs.size(); ++s)
-        if (sys.constraints.specs[s].kind == ConstraintKind::kLock && a < model.pseudo_dofs.size())
-          ws.stress[a++] = ws.lambda[sys.constraints.row_offset[s]];
+      lock_stresses(sys, ws);
       break;
     case Formulation::kPseudoJointSchur:
       build_q(sys, ws, ws.cd.G);
       if (!pseudo_schur(sys, ws)) return fail(Reason::kPseudoBlockSingular);
       break;
-    case Formulation::kSvdBaseline: svd_baseline(sys, ws); break;
+    case Formulation::kSvdBaseline:
+      svd_baseline(sys, ws);
+      lock_stresses(sys, ws);
+      break;
   }
 
   dg.indeterminate = m - dg.rank;

@@ -44,7 +44,8 @@ struct Diagnostics {
   double residual = 0.0;   // max |G vdot - gamma|
   Status status = Status::kOk;
   Reason reason = Reason::kNone;
-  int bad_index = -1;      // DOF for kMassMatrixSingular
+  int bad_index = -1;      // velocity index: the DOF that moves no mass (kMassMatrixSingular) or
+                           // that broke solver.max_speed (kDiverged)
 };
 
 struct Workspace {
