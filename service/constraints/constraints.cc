@@ -183,8 +183,35 @@ void constraint_rows(const Model& model, const Data& data, const ConstraintSet& 
       cd.err[r0 + 2] = g.p.z();  // height of the contact point above the ground
       continue;
     }
-    Vec6 a_rel, V_rel, e;
     const Transform X_WA = frame_pose(model, data, c.frame_a);
+    const int body_a = model.frames[c.frame_a].body;
+    if (c.frame_b < 0 && body_a >= 0) {
+      // weld to the world (every arm base of a mobile platform, every classic tip): one pose, and
+      // each row of G is a component of X_WA^-1 applied to a motion-subspace column, written
+      // straight into G (column d of G holds the spec's rows contiguously)
+      const Mat3 Rt = X_WA.R.transpose();
+      const std::array<int, 6>& axes = set.row_axis[s];
+      for (int d : sup) {
+        const Vec3 w = data.S_W.col(d).head<3>();
+        const Vec3 vo = data.S_W.col(d).tail<3>();
+        Vec6 J;
+        J.head<3>().noalias() = Rt * w;
+        J.tail<3>().noalias() = Rt * (vo - X_WA.p.cross(w));
+        double* g = cd.G.col(d).data() + r0;
+        for (int k = 0; k < n; ++k) g[k] = J[axes[k]];
+      }
+      const Vec6 V_A = X_WA.inv_act(data.V_W[body_a]);
+      const Vec6 a_A = X_WA.inv_act(data.A0_W[body_a]);
+      const Vec6 e = pose_error(c.X_WA_target.inverse() * X_WA);
+      for (int k = 0; k < n; ++k) {
+        const int ax = axes[k], r = r0 + k;
+        cd.Gdot_v[r] = a_A[ax];
+        cd.err[r] = e[ax];
+        cd.Gv[r] = V_A[ax];
+      }
+      continue;
+    }
+    Vec6 a_rel, V_rel, e;
     const Vec6 V_A = frame_velocity(model, data, c.frame_a);
     for (int d : sup) cd.J_a.col(d).setZero();
     frame_jacobian(model, data, c.frame_a, model.frame_support(c.frame_a), cd.J_a);
