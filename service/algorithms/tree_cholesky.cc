@@ -22,9 +22,12 @@ bool tree_cholesky_factor(const Model& model, Data& data, double rel_tol, int* b
       if (bad_dof) *bad_dof = k;
       return false;
     }
+    // 1/sqrt(h) as sqrt(h) * (1/h): the square root and the division run side by side
+    const double rh = 1.0 / hkk;
     const double lkk = std::sqrt(hkk);
     rk[d] = lkk;
-    const double inv = 1.0 / lkk;
+    const double inv = lkk * rh;
+    data.Ld_inv[k] = inv;
     for (int p = 0; p < d; ++p) rk[p] *= inv;
     // H(i, j) -= L(k, i) L(k, j) for the ancestors j <= i of k; with i = path[p], those are the
     // first p + 1 entries of k's path, and row i is stored over exactly that prefix

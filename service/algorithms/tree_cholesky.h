@@ -34,7 +34,7 @@ inline void tree_solve_Lt(const Model& model, const Data& data, Vec&& x) {
   for (int i = n - 1; i >= 0; --i) {
     const double* r = tree_factor_row(model, data, i);
     const int d = model.dof_depth[i];
-    const double xi = x[i] / r[d];
+    const double xi = x[i] * data.Ld_inv[i];
     x[i] = xi;
     if (xi == 0.0) continue;
     const int* pi = path + model.dof_path_offset[i];
@@ -53,7 +53,7 @@ inline void tree_solve_L(const Model& model, const Data& data, Vec&& x) {
     const int* pi = path + model.dof_path_offset[i];
     double s = x[i];
     for (int p = 0; p < d; ++p) s -= r[p] * x[pi[p]];
-    x[i] = s / r[d];
+    x[i] = s * data.Ld_inv[i];
   }
 }
 

@@ -156,7 +156,7 @@ void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G) {
       const double* r = tree_factor_row(model, ws.data, i);
       const int d = model.dof_depth[i];
       const int* pi = model.dof_path.data() + model.dof_path_offset[i];
-      Y.row(i) *= 1.0 / r[d];
+      Y.row(i) *= ws.data.Ld_inv[i];
       for (int p = 0; p < d; ++p) Y.row(pi[p]) -= r[p] * Y.row(i);
     }
     for (int d : sup)

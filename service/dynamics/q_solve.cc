@@ -10,15 +10,19 @@ namespace coopdyn {
 namespace {
 
 // Unblocked Cholesky Q = L L^T of the leading n x n block into the lower triangle of L (the small
-// sizes here make Eigen's blocked LLT slower). Returns false on a non-positive pivot.
-bool small_cholesky(const Eigen::MatrixXd& Q, Eigen::MatrixXd& L, int n) {
+// sizes here make Eigen's blocked LLT slower), with dinv(j) = 1 / L(j, j). Returns false on a
+// non-positive pivot. 1/sqrt(d) is taken as sqrt(d) * (1/d) so that the square root and the division,
+// both on the critical path from one column to the next, run side by side.
+bool small_cholesky(const Eigen::MatrixXd& Q, Eigen::MatrixXd& L, Eigen::VectorXd& dinv, int n) {
   for (int j = 0; j < n; ++j) {
     double d = Q(j, j);
     for (int k = 0; k < j; ++k) d -= L(j, k) * L(j, k);
     if (!(d > 0.0)) return false;
+    const double rd = 1.0 / d;
     const double ljj = std::sqrt(d);
     L(j, j) = ljj;
-    const double inv = 1.0 / ljj;
+    const double inv = ljj * rd;
+    dinv[j] = inv;
     for (int i = j + 1; i < n; ++i) {
       double sum = Q(i, j);
       for (int k = 0; k < j; ++k) sum -= L(i, k) * L(j, k);
@@ -28,17 +32,61 @@ bool small_cholesky(const Eigen::MatrixXd& Q, Eigen::MatrixXd& L, int n) {
   return true;
 }
 
-// x(0:n) <- L^-1 x then L^-T x, L the lower triangle of the leading n x n block.
-void cholesky_solve_in_place(const Eigen::MatrixXd& L, int n, Eigen::VectorXd& x) {
+// x(0:n) <- L^-1 x then L^-T x, L the lower triangle of the leading n x n block, dinv its inverse diagonal.
+void cholesky_solve_in_place(const Eigen::MatrixXd& L, const Eigen::VectorXd& dinv, int n, Eigen::VectorXd& x) {
   for (int i = 0; i < n; ++i) {
     double s = x[i];
     for (int k = 0; k < i; ++k) s -= L(i, k) * x[k];
-    x[i] = s / L(i, i);
+    x[i] = s * dinv[i];
   }
   for (int i = n - 1; i >= 0; --i) {
     double s = x[i];
     for (int k = i + 1; k < n; ++k) s -= L(k, i) * x[k];
-    x[i] = s / L(i, i);
+    x[i] = s * dinv[i];
+  }
+}
+
+// The same factor stored as its transpose U = L^T in the upper triangle of U, so that every inner
+// loop of the factorization and the solves runs down a contiguous column.
+bool small_cholesky_upper(const Eigen::MatrixXd& Q, Eigen::MatrixXd& U, Eigen::VectorXd& dinv, int n) {
+  const Eigen::Index ld = U.outerStride();
+  double* __restrict u = U.data();
+  for (int j = 0; j < n; ++j) {
+    const double* __restrict uj = u + j * ld;
+    double d = Q(j, j);
+    for (int k = 0; k < j; ++k) d -= uj[k] * uj[k];
+    if (!(d > 0.0)) return false;
+    const double rd = 1.0 / d;
+    const double ujj = std::sqrt(d);
+    u[j * ld + j] = ujj;
+    const double inv = ujj * rd;
+    dinv[j] = inv;
+    for (int i = j + 1; i < n; ++i) {
+      const double* __restrict ui = u + i * ld;
+      double sum = Q(j, i);
+      for (int k = 0; k < j; ++k) sum -= ui[k] * uj[k];
+      u[i * ld + j] = sum * inv;
+    }
+  }
+  return true;
+}
+
+// x(0:n) <- U^-T x then U^-1 x (U from small_cholesky_upper).
+void cholesky_upper_solve_in_place(const Eigen::MatrixXd& U, const Eigen::VectorXd& dinv, int n, Eigen::VectorXd& x) {
+  const Eigen::Index ld = U.outerStride();
+  const double* __restrict u = U.data();
+  double* __restrict xp = x.data();
+  for (int i = 0; i < n; ++i) {
+    const double* __restrict ui = u + i * ld;
+    double s = xp[i];
+    for (int k = 0; k < i; ++k) s -= ui[k] * xp[k];
+    xp[i] = s * dinv[i];
+  }
+  for (int i = n - 1; i >= 0; --i) {
+    const double* __restrict ui = u + i * ld;
+    const double xi = xp[i] * dinv[i];
+    xp[i] = xi;
+    for (int k = 0; k < i; ++k) xp[k] -= ui[k] * xi;
   }
 }
 
@@ -61,6 +109,9 @@ QSolver::QSolver(int rows) : m(rows) {
   dpiv.setZero(m);
   Nq.setZero(m, m);
   Lc.setZero(m, m);
+  dinv_q.setZero(m);
+  dinv_p.setZero(m);
+  dinv_c.setZero(m);
   tmp_m.setZero(m);
   tmp_m2.setZero(m);
   compliance.setZero(m);
@@ -76,8 +127,8 @@ QFactorInfo QSolver::factor(const Eigen::MatrixXd& Q, const SolverOptions& opt, 
     info.rank = 0;
     return info;
   }
-  if (small_cholesky(Q, Lq, m)) {
-    double dmax = Lq(0, 0), dmin = Lq(0, 0);
+  if (small_cholesky_upper(Q, Lq, dinv_q, m)) {
+    double dmax = Lq(0, 0), dmin = Lq(0, 0);  // the diagonal of U = L^T
     for (int i = 1; i < m; ++i) {
       dmax = std::max(dmax, Lq(i, i));
       dmin = std::min(dmin, Lq(i, i));
@@ -127,6 +178,7 @@ QFactorInfo QSolver::factor(const Eigen::MatrixXd& Q, const SolverOptions& opt, 
     }
     r = j + 1;
   }
+  for (int i = 0; i < r; ++i) dinv_p[i] = 1.0 / Lp(i, i);
   rank = r;
   info.rank = r;
   info.condition = r > 0 ? (Lp(0, 0) / Lp(r - 1, r - 1)) * (Lp(0, 0) / Lp(r - 1, r - 1))
@@ -175,7 +227,7 @@ QFactorInfo QSolver::factor(const Eigen::MatrixXd& Q, const SolverOptions& opt, 
         Lc(a, c) = s + (a == c ? 1e-12 * cmax : 0.0);
         Lc(c, a) = Lc(a, c);
       }
-    use_compliance = small_cholesky(Lc, Lc, k);  // in place: reads (i, j) before writing it
+    use_compliance = small_cholesky(Lc, Lc, dinv_c, k);  // in place: reads (i, j) before writing it
   }
   return info;
 }
@@ -183,7 +235,7 @@ QFactorInfo QSolver::factor(const Eigen::MatrixXd& Q, const SolverOptions& opt, 
 void QSolver::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
   if (fast_path) {
     x = b;
-    cholesky_solve_in_place(Lq, m, x);
+    cholesky_upper_solve_in_place(Lq, dinv_q, m, x);
     return;
   }
   x.resize(m);  // no-op (no allocation) at the right size
@@ -193,7 +245,7 @@ void QSolver::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
   remove_null_component(Nq, m, k, tmp_m2);
   // basic solution x_b = P^T [L11^-T L11^-1 (P b_r)_1; 0]
   for (int i = 0; i < r; ++i) tmp_m[i] = tmp_m2[perm[i]];
-  cholesky_solve_in_place(Lp, r, tmp_m);
+  cholesky_solve_in_place(Lp, dinv_p, r, tmp_m);
   for (int i = 0; i < r; ++i) x[perm[i]] = tmp_m[i];
   for (int i = r; i < m; ++i) x[perm[i]] = 0.0;
   // minimum norm
@@ -205,7 +257,7 @@ void QSolver::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
       for (int i = 0; i < m; ++i) s += Nq(i, a) * compliance[i] * x[i];
       tmp_m[a] = -s;
     }
-    cholesky_solve_in_place(Lc, k, tmp_m);
+    cholesky_solve_in_place(Lc, dinv_c, k, tmp_m);
     for (int a = 0; a < k; ++a)
       for (int i = 0; i < m; ++i) x[i] += tmp_m[a] * Nq(i, a);
   }

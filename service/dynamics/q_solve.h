@@ -65,12 +65,13 @@ struct QSolver {
   bool use_compliance = false;
 
   // buffers
-  Eigen::MatrixXd Lq;     // (rows x rows) Cholesky factor on the fast path (lower)
+  Eigen::MatrixXd Lq;     // (rows x rows) Cholesky factor on the fast path, stored as U = L^T (upper)
   Eigen::MatrixXd Lp;     // (rows x rows) pivoted factor: L11, L21 in the first rank columns
   std::vector<int> perm;  // (rows) (P Q P^T)(i, j) = Q(perm[i], perm[j])
   Eigen::VectorXd dpiv;   // (rows) remaining diagonal of the Schur complement
   Eigen::MatrixXd Nq;     // (rows x rows) orthonormal null-space basis in the first rows - rank columns
   Eigen::MatrixXd Lc;     // (rows x rows) Cholesky factor of N^T C N (top-left k x k)
+  Eigen::VectorXd dinv_q, dinv_p, dinv_c;  // (rows) inverse diagonals of Lq, Lp, Lc
   Eigen::VectorXd tmp_m, tmp_m2, compliance;  // (rows)
 };
 

@@ -171,6 +171,7 @@ Data::Data(const Model& model) {
   M.setZero(nv, nv);
   Lc.setZero(static_cast<Eigen::Index>(model.dof_path.size()) + nv);
   Mc = Lc;
+  Ld_inv.setZero(nv);
   tmp_v.setZero(nv);
 }
 

@@ -136,6 +136,7 @@ struct Data {
   // the ancestor paths: row k of L is Lc[dof_path_offset[k] + k .. + dof_depth[k]], its entries in
   // the columns dof_path (ascending), then the diagonal L(k, k). Dense L: tree_factor_dense().
   Eigen::VectorXd Lc;
+  Eigen::VectorXd Ld_inv;     // (nv) 1 / L(k, k): the solves multiply, keeping divisions off their critical paths
   bool L_ok = false;
   Eigen::VectorXd tmp_v;      // (nv) scratch
 };

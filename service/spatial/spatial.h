@@ -217,16 +217,27 @@ struct RigidInertia {
     F.tail<3>() = m * v - h.cross(w);
     return F;
   }
-  // this inertia (given in B coordinates) in A coordinates, X = X_AB
+  // this inertia (given in B coordinates) in A coordinates, X = X_AB:
+  //   h_A = R h + m p,  Io_A = R Io R^T + 2 (g.p) I - g p^T - p g^T  with g = R h + m p / 2
+  // (the parallel-axis terms of RBDA eq. 2.66 in first-moment form); only the symmetric half is computed.
   RigidInertia transformed(const Transform& X) const {
     RigidInertia r;
-    const Vec3 hR = X.R * h;
+    const Mat3& R = X.R;
     const Vec3& p = X.p;
+    const Vec3 hR = R * h;
     r.m = m;
     r.h = hR + m * p;
-    r.Io.noalias() = X.R * Io * X.R.transpose();
-    const Mat3 S = hR * p.transpose();
-    r.Io += (2.0 * hR.dot(p) + m * p.squaredNorm()) * Mat3::Identity() - S - S.transpose() - m * p * p.transpose();
+    const Vec3 g = hR + (0.5 * m) * p;
+    const double c = 2.0 * g.dot(p);
+    Mat3 T;
+    T.noalias() = R * Io;
+    for (int i = 0; i < 3; ++i)
+      for (int j = i; j < 3; ++j) {
+        double a = T(i, 0) * R(j, 0) + T(i, 1) * R(j, 1) + T(i, 2) * R(j, 2) - g[i] * p[j] - p[i] * g[j];
+        if (i == j) a += c;
+        r.Io(i, j) = a;
+        r.Io(j, i) = a;
+      }
     return r;
   }
   RigidInertia& operator+=(const RigidInertia& o) {
