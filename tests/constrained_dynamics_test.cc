@@ -2,6 +2,7 @@
 // pseudo-joint identities, statics, momentum balance, over-constrained handling.
 #include <gtest/gtest.h>
 
+#include "service/algorithms/crba.h"
 #include "service/algorithms/kinematics.h"
 #include "service/algorithms/rnea.h"
 #include <fstream>
@@ -74,7 +75,8 @@ TEST(ConstrainedDynamics, Section9InvariantsOnEveryScene) {
       // constraint forces do no work on a consistent velocity
       const double power = ws.lambda.dot(ws.cd.G * e.v);
       EXPECT_LT(std::abs(power), 1e-9 * (1 + ws.lambda.norm() * e.v.norm()));
-      // equations of motion hold: M vdot + h = tau + G^T lambda
+      // equations of motion hold: M vdot + h = tau + G^T lambda (evaluate() leaves the dense M out)
+      crba(sys.model, ws.data);
       const Eigen::VectorXd r = ws.data.M * ws.vdot + ws.data.h - e.tau - ws.cd.G.transpose() * ws.lambda;
       EXPECT_LT(r.cwiseAbs().maxCoeff(), 1e-9 * (1 + ws.data.h.cwiseAbs().maxCoeff() + e.tau.cwiseAbs().maxCoeff()));
       EXPECT_TRUE(ws.vdot.allFinite());
@@ -93,6 +95,7 @@ TEST(ConstrainedDynamics, AgreesWithAPlainKktSolve) {
     const Diagnostics& d = evaluate(sys, ws, e.q, e.v, e.tau);
     ASSERT_NE(d.status, Status::kError);
     Eigen::VectorXd vdot, lambda;
+    crba(sys.model, ws.data);
     kkt_solve(ws.data.M, ws.cd.G, e.tau - ws.data.h, ws.cd.gamma, vdot, lambda);
     EXPECT_LT((vdot - ws.vdot).norm(), 1e-8 * (1 + vdot.norm()));
     if (d.indeterminate == 0) {

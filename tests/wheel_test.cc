@@ -233,6 +233,7 @@ TEST(Wheel, Section9InvariantsAndAgreementWithKktAndSvd) {
       const double scale = 1 + (ws.cd.G.cwiseAbs() * ws.vdot.cwiseAbs()).maxCoeff() + ws.cd.Gdot_v.cwiseAbs().maxCoeff();
       EXPECT_LT((ws.cd.G * ws.vdot + ws.cd.Gdot_v).cwiseAbs().maxCoeff(), 1e-10 * scale);
       EXPECT_LT(std::abs(ws.lambda.dot(ws.cd.G * v)), 1e-9 * (1 + ws.lambda.norm() * v.norm()));
+      crba(sys.model, ws.data);  // evaluate() leaves the dense M out
       const Eigen::VectorXd r = ws.data.M * ws.vdot + ws.data.h - tau - ws.cd.G.transpose() * ws.lambda;
       EXPECT_LT(r.cwiseAbs().maxCoeff(), 1e-10 * (1 + ws.data.h.cwiseAbs().maxCoeff()));
       Eigen::VectorXd vdot, lambda;

@@ -2,7 +2,7 @@
 
 namespace coopdyn {
 
-void crba(const Model& model, Data& data) {
+void crba_compact(const Model& model, Data& data) {
   // With world-coordinate inertias the composites are plain sums and every entry of M is one dot
   // product: M(i, j) = S_j . (Ic_i S_i) for DOF j an ancestor of (or equal to) DOF i (RBDA s.6.2
   // with all quantities in the world frame).
@@ -29,7 +29,12 @@ void crba(const Model& model, Data& data) {
       row[depth] = data.S_W.col(col).dot(F) + ji.armature;
     }
   }
+}
+
+void crba(const Model& model, Data& data) {
+  crba_compact(model, data);
   // the dense matrix (both triangles) for callers that want it
+  const double* mc = data.Mc.data();
   Eigen::MatrixXd& M = data.M;
   for (int col = 0; col < model.nv(); ++col) {
     const int* path = model.dof_path.data() + model.dof_path_offset[col];

@@ -9,4 +9,8 @@ namespace coopdyn {
 // Joint armature (rotor inertia reflected through the gear, kg*m^2) is added on the diagonal.
 void crba(const Model& model, Data& data);
 
+// The same without the dense data.M: only data.Mc and data.Ic_W, all the tree factorization reads.
+// evaluate() calls this; read data.M after it only by calling crba() yourself.
+void crba_compact(const Model& model, Data& data);
+
 }  // namespace coopdyn

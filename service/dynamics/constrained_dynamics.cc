@@ -348,7 +348,7 @@ const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::Vecto
 
   forward_kinematics(model, ws.data, q, v);
   rnea_bias(model, ws.data);
-  crba(model, ws.data);
+  crba_compact(model, ws.data);
   int bad = -1;
   if (!tree_cholesky_factor(model, ws.data, 1e-13, &bad)) {
     dg.bad_index = bad;
