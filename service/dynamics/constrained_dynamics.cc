@@ -139,8 +139,8 @@ void solve_q(const System& sys, Workspace& ws, const Eigen::VectorXd& b, Eigen::
 
 // Y^T = (G L^-1)^T and Q = Y Y^T from the rows of G, touching only the DOFs each row reaches: the
 // arms of a mobile platform share only the platform's DOFs, so their off-diagonal blocks of Q are
-// sums over 6 entries.
-void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G) {
+// sums over 6 entries. With dense_yt, also the dense Y^T (the pseudo-joint Schur form reads it).
+void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G, bool dense_yt) {
   const Model& model = sys.model;
   const ConstraintSet& cs = sys.constraints;
   const int ns = static_cast<int>(cs.specs.size());
@@ -151,16 +151,19 @@ void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G) {
     const int r0 = cs.row_offset[s], nk = cs.row_count[s];
     for (int d : sup)
       for (int k = 0; k < nk; ++k) Y(d, k) = G(r0 + k, d);
+    double* y = Y.data();  // row-major: DOF i's 6 entries at y + 6 i
     for (auto it = sup.rbegin(); it != sup.rend(); ++it) {
       const int i = *it;
       const double* r = tree_factor_row(model, ws.data, i);
       const int d = model.dof_depth[i];
       const int* pi = model.dof_path.data() + model.dof_path_offset[i];
-      Y.row(i) *= ws.data.Ld_inv[i];
-      for (int p = 0; p < d; ++p) Y.row(pi[p]) -= r[p] * Y.row(i);
+      const Vec6 yi = Eigen::Map<const Vec6>(y + 6 * i) * ws.data.Ld_inv[i];
+      Eigen::Map<Vec6>(y + 6 * i) = yi;
+      for (int p = 0; p < d; ++p) Eigen::Map<Vec6>(y + 6 * pi[p]) -= r[p] * yi;
     }
-    for (int d : sup)
-      for (int k = 0; k < nk; ++k) ws.Yt(d, r0 + k) = Y(d, k);
+    if (dense_yt)
+      for (int d : sup)
+        for (int k = 0; k < nk; ++k) ws.Yt(d, r0 + k) = Y(d, k);
   }
   // Q_st = sum over the DOFs both specs reach of outer products of 6-vectors
   for (int s = 0; s < ns; ++s)
@@ -175,16 +178,31 @@ void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G) {
     }
 }
 
-// lambda from Q lambda = gamma - Y u with u = L^-T tau_c, then vdot = L^-1 (u + Y^T lambda).
+// lambda from Q lambda = gamma - Y u with u = L^-T tau_c, then vdot = L^-1 (u + Y^T lambda); the
+// products with Y run per spec over the DOFs its rows reach.
 void schur_solve(const System& sys, Workspace& ws, bool factor) {
   const Model& model = sys.model;
+  const ConstraintSet& cs = sys.constraints;
+  const int ns = static_cast<int>(cs.specs.size());
   ws.u = ws.tau_c;
   tree_solve_Lt(model, ws.data, ws.u);
   ws.rhs = ws.cd.gamma;
-  ws.rhs.noalias() -= ws.Yt.transpose() * ws.u;
+  for (int s = 0; s < ns; ++s) {
+    const double* y = ws.Yb[s].data();
+    Vec6 acc = Vec6::Zero();
+    for (int d : ws.y_support[s]) acc += ws.u[d] * Eigen::Map<const Vec6>(y + 6 * d);
+    const int r0 = cs.row_offset[s];
+    for (int k = 0; k < cs.row_count[s]; ++k) ws.rhs[r0 + k] -= acc[k];
+  }
   solve_q(sys, ws, ws.rhs, ws.lambda, factor);
   ws.vdot = ws.u;
-  ws.vdot.noalias() += ws.Yt * ws.lambda;
+  for (int s = 0; s < ns; ++s) {
+    const double* y = ws.Yb[s].data();
+    Vec6 lam = Vec6::Zero();  // Y's unused columns (specs of fewer than 6 rows) are zero
+    const int r0 = cs.row_offset[s];
+    for (int k = 0; k < cs.row_count[s]; ++k) lam[k] = ws.lambda[r0 + k];
+    for (int d : ws.y_support[s]) ws.vdot[d] += Eigen::Map<const Vec6>(y + 6 * d).dot(lam);
+  }
   tree_solve_L(model, ws.data, ws.vdot);
 }
 
@@ -360,12 +378,12 @@ const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::Vecto
   switch (sys.options.formulation) {
     case Formulation::kMobilePlatform:
     case Formulation::kClassic:
-      build_q(sys, ws, ws.cd.G);
+      build_q(sys, ws, ws.cd.G, false);
       schur_solve(sys, ws, true);
       lock_stresses(sys, ws);
       break;
     case Formulation::kPseudoJointSchur:
-      build_q(sys, ws, ws.cd.G);
+      build_q(sys, ws, ws.cd.G, true);
       if (!pseudo_schur(sys, ws)) return fail(Reason::kPseudoBlockSingular);
       break;
     case Formulation::kSvdBaseline:
