@@ -95,8 +95,8 @@ TEST(StiffExtreme, RodOfNearZeroAxialInertia) {
   // so one 1 ms step takes it to about 1e6 rad/s, two decades beyond solver.max_speed (1e4). The
   // divergence detector stops that first step: kError / kDiverged, the DOF named, q and v left
   // exactly at the start state, the outputs those of the (finite) start evaluation. Without the
-  // detector (max_speed off) the same run integrates the runaway (~1e15 rad/s by step 2 when
-  // measured) until the state is meaningless and some other check trips.
+  // detector (max_speed off) the same run integrates the runaway (1e6 rad/s and beyond) until the
+  // state is meaningless and some other check trips.
   tau[velocity_index_of(sys, "left_spin")] = 1.0;
   Stepper st(sys);
   Eigen::VectorXd q = sys.q0, v = sys.v0;
@@ -146,7 +146,11 @@ TEST(StiffExtreme, RodOfNearZeroAxialInertia) {
       vmax = std::max(vmax, v2.cwiseAbs().maxCoeff());
     }
     std::printf("same rod, max_speed off: %s after %d steps, largest speed integrated %.3g\n", reason_text(r2), k, vmax);
-    EXPECT_GT(vmax, 1e3 * sys.options.max_speed);  // what the detector prevents
+    // what the detector prevents: a runaway integrated far beyond the bound. Which check trips next
+    // depends on rounding: by then an RK4 stage has flung the rod over 1 km, where the world-frame
+    // inertias (about the world origin) carry an absolute error of about eps m |p|^2 = 3e-9 and the
+    // rod's 1e-9 axial inertia is lost in it (M stops being positive definite).
+    EXPECT_GT(vmax, 1e2 * sys.options.max_speed);
     EXPECT_NE(r2, Reason::kDiverged);
     EXPECT_TRUE(q2.allFinite() && v2.allFinite());
   }
