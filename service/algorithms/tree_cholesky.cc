@@ -22,21 +22,22 @@ bool tree_cholesky_factor(const Model& model, Data& data, double rel_tol, int* b
       if (bad_dof) *bad_dof = k;
       return false;
     }
-    // 1/sqrt(h) as sqrt(h) * (1/h): the square root and the division run side by side
+    // H(i, j) -= L(k, i) L(k, j) = H(k, i) H(k, j) / H(k, k) for the ancestors j <= i of k; with
+    // i = path[p], those are the first p + 1 entries of k's path, and row i is stored over exactly
+    // that prefix. The update uses row k before it is scaled, so that the critical path from one
+    // pivot to the next is one division; the square root and the scaling of row k run beside it.
     const double rh = 1.0 / hkk;
-    const double lkk = std::sqrt(hkk);
-    rk[d] = lkk;
-    const double inv = lkk * rh;
-    data.Ld_inv[k] = inv;
-    for (int p = 0; p < d; ++p) rk[p] *= inv;
-    // H(i, j) -= L(k, i) L(k, j) for the ancestors j <= i of k; with i = path[p], those are the
-    // first p + 1 entries of k's path, and row i is stored over exactly that prefix
     for (int p = 0; p < d; ++p) {
       const int i = pk[p];
       double* __restrict ri = lc + model.dof_path_offset[i] + i;
-      const double lki = rk[p];
-      for (int q = 0; q <= p; ++q) ri[q] -= lki * rk[q];
+      const double c = rk[p] * rh;
+      for (int q = 0; q <= p; ++q) ri[q] -= c * rk[q];
     }
+    const double lkk = std::sqrt(hkk);
+    rk[d] = lkk;
+    const double inv = lkk * rh;  // 1/sqrt(h) = sqrt(h) * (1/h)
+    data.Ld_inv[k] = inv;
+    for (int p = 0; p < d; ++p) rk[p] *= inv;
   }
   data.L_ok = true;
   return true;
