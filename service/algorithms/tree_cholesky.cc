@@ -13,7 +13,8 @@ bool tree_cholesky_factor(const Model& model, Data& data, double rel_tol, int* b
   double scale = 0.0;
   for (int k = 0; k < n; ++k) scale = std::max(scale, std::abs(lc[model.dof_path_offset[k] + k + model.dof_depth[k]]));
   data.L_ok = false;
-  for (int k = n - 1; k >= 0; --k) {
+  for (int e = 0; e < n; ++e) {
+    const int k = model.dof_elim_order[e];
     double* __restrict rk = lc + model.dof_path_offset[k] + k;
     const int* pk = path + model.dof_path_offset[k];
     const int d = model.dof_depth[k];

@@ -31,7 +31,8 @@ template <typename Vec>
 inline void tree_solve_Lt(const Model& model, const Data& data, Vec&& x) {
   const int n = model.nv();
   const int* path = model.dof_path.data();
-  for (int i = n - 1; i >= 0; --i) {
+  for (int e = 0; e < n; ++e) {  // leaves to root, branches interleaved
+    const int i = model.dof_elim_order[e];
     const double* r = tree_factor_row(model, data, i);
     const int d = model.dof_depth[i];
     const double xi = x[i] * data.Ld_inv[i];
@@ -47,7 +48,8 @@ template <typename Vec>
 inline void tree_solve_L(const Model& model, const Data& data, Vec&& x) {
   const int n = model.nv();
   const int* path = model.dof_path.data();
-  for (int i = 0; i < n; ++i) {
+  for (int e = n - 1; e >= 0; --e) {  // root to leaves, branches interleaved
+    const int i = model.dof_elim_order[e];
     const double* r = tree_factor_row(model, data, i);
     const int d = model.dof_depth[i];
     const int* pi = path + model.dof_path_offset[i];

@@ -1,5 +1,7 @@
 #include "service/model/model.h"
 
+#include <algorithm>
+
 #include <stdexcept>
 
 namespace coopdyn {
@@ -83,6 +85,13 @@ int Model::add_body(const std::string& name, int parent, const Transform& X_PJ, 
     dof_body.push_back(body_id);
     if (joint.pseudo) pseudo_dofs.push_back(nv_ + k);
   }
+  // deepest DOFs first; DOFs of equal depth lie in different branches, so consecutive steps of a
+  // leaves-to-root sweep in this order are independent and overlap in the processor
+  dof_elim_order.resize(dof_depth.size());
+  for (size_t k = 0; k < dof_elim_order.size(); ++k) dof_elim_order[k] = static_cast<int>(k);
+  std::stable_sort(dof_elim_order.begin(), dof_elim_order.end(), [this](int a, int b) {
+    return dof_depth[a] != dof_depth[b] ? dof_depth[a] > dof_depth[b] : a > b;
+  });
   const std::string& jn = joint.name;
   switch (joint.type) {
     case JointType::kFixed: break;

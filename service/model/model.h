@@ -96,6 +96,10 @@ class Model {
   // dof_path[dof_path_offset[k] .. + dof_depth[k]). The path of an ancestor of k is a prefix of k's
   // path, which the tree-sparse factorization uses to make every update one contiguous loop.
   std::vector<int> dof_depth, dof_path_offset, dof_path;
+  // A leaves-to-root order of the DOFs (every DOF after all its descendants) that interleaves the
+  // branches: by depth, deepest first. Sweeps that eliminate DOFs one by one (the factorization,
+  // L^-T solves) use it, and its reverse for root-to-leaves sweeps.
+  std::vector<int> dof_elim_order;
   std::vector<std::string> q_names, v_names;
   std::vector<int> pseudo_dofs;  // velocity indices of pseudo-joints, ascending
   std::vector<std::vector<int>> body_support;  // support_dofs of every body
