@@ -4,40 +4,45 @@
 
 namespace coopdyn {
 
-namespace {
-
-// [w; p x w]: a rotation about the axis w (world) through the point p, at the world origin.
-inline Vec6 line(const Vec3& w, const Vec3& p) {
-  Vec6 s;
-  s.head<3>() = w;
-  s.tail<3>() = p.cross(w);
-  return s;
-}
-
-}  // namespace
-
+// Spatial vectors are handled here as pairs of 3-vectors, [angular; linear], and stored and reloaded
+// as such: assembling a 6-vector from two 3-vector halves and reading it back in 2-element packets
+// defeats the processor's store-to-load forwarding, which cost more than the arithmetic.
 void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
   const int nb = model.nbodies();
   for (int i = 0; i < nb; ++i) {
     const Body& b = model.bodies[i];
     const Joint& j = b.joint;
     Transform& X_WB = data.X_WB[i];
-    // X_WJ: the joint frame in the world
+    // X_WJ: the joint frame in the world; V, A0 start from the parent's
     Transform X_WJ;
+    Vec3 Vw, Vv, Aw, Av;
     if (b.parent >= 0) {
       const Transform& X_WP = data.X_WB[b.parent];
       X_WJ.R.noalias() = X_WP.R * b.X_PJ.R;
       X_WJ.p.noalias() = X_WP.R * b.X_PJ.p;
       X_WJ.p += X_WP.p;
-      data.V_W[i] = data.V_W[b.parent];
-      data.A0_W[i] = data.A0_W[b.parent];
+      Vw = data.V_W[b.parent].head<3>();
+      Vv = data.V_W[b.parent].tail<3>();
+      Aw = data.A0_W[b.parent].head<3>();
+      Av = data.A0_W[b.parent].tail<3>();
     } else {
       X_WJ = b.X_PJ;
-      data.V_W[i].setZero();
-      data.A0_W[i].setZero();
+      Vw.setZero();
+      Vv.setZero();
+      Aw.setZero();
+      Av.setZero();
     }
-    Vec6& V = data.V_W[i];
-    Vec6& A0 = data.A0_W[i];
+    // adds a joint velocity [jw; jv] (world, at the origin) and its velocity-product term V x vJ
+    auto add_joint_motion = [&](const Vec3& jw, const Vec3& jv) {
+      Vw += jw;
+      Vv += jv;
+      Aw += Vw.cross(jw);
+      Av += Vw.cross(jv) + Vv.cross(jw);
+    };
+    auto set_column = [&](int col, const Vec3& sw, const Vec3& sv) {
+      data.S_W.col(col).head<3>() = sw;
+      data.S_W.col(col).tail<3>() = sv;
+    };
     switch (j.type) {
       case JointType::kFixed: X_WB = X_WJ; break;
       case JointType::kRevolute: {
@@ -62,23 +67,18 @@ void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q
           X_WB.R.noalias() = X_WJ.R * R_JB;
           w.noalias() = X_WJ.R * a;
         }
-        const Vec6 s = line(w, X_WB.p);
-        data.S_W.col(j.idx_v) = s;
-        const Vec6 vJ = s * v[j.idx_v];
-        V += vJ;
-        A0 += cross_motion(V, vJ);
+        const Vec3 sv = X_WB.p.cross(w);  // the line [w; p x w] through the joint
+        set_column(j.idx_v, w, sv);
+        const double qd = v[j.idx_v];
+        add_joint_motion(w * qd, sv * qd);
         break;
       }
       case JointType::kPrismatic: {
         const Vec3 a_W = X_WJ.R * j.axis;
         X_WB.R = X_WJ.R;
         X_WB.p = X_WJ.p + a_W * q[j.idx_q];
-        Vec6 s;
-        s << Vec3::Zero(), a_W;
-        data.S_W.col(j.idx_v) = s;
-        const Vec6 vJ = s * v[j.idx_v];
-        V += vJ;
-        A0 += cross_motion(V, vJ);
+        set_column(j.idx_v, Vec3::Zero(), a_W);
+        add_joint_motion(Vec3::Zero(), a_W * v[j.idx_v]);
         break;
       }
       case JointType::kRevolute2: {
@@ -88,14 +88,15 @@ void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q
         X_WB.R.noalias() = R_W1 * R2;
         X_WB.p = X_WJ.p;
         const Vec3 a1 = X_WJ.R * j.axis, a2 = R_W1 * j.axis2;  // the second axis turns with the first
-        const Vec6 s0 = line(a1, X_WB.p), s1 = line(a2, X_WB.p);
-        data.S_W.col(j.idx_v) = s0;
-        data.S_W.col(j.idx_v + 1) = s1;
+        const Vec3 l1 = X_WB.p.cross(a1), l2 = X_WB.p.cross(a2);
+        set_column(j.idx_v, a1, l1);
+        set_column(j.idx_v + 1, a2, l2);
         const double qd0 = v[j.idx_v], qd1 = v[j.idx_v + 1];
-        const Vec6 vJ = s0 * qd0 + s1 * qd1;
-        V += vJ;
+        add_joint_motion(a1 * qd0 + a2 * qd1, l1 * qd0 + l2 * qd1);
         // S' qdot: the second axis is carried by the first rotation
-        A0 += cross_motion(V, vJ) + line(qd0 * qd1 * a1.cross(a2), X_WB.p);
+        const Vec3 c = qd0 * qd1 * a1.cross(a2);
+        Aw += c;
+        Av += X_WB.p.cross(c);
         break;
       }
       case JointType::kFloating: {
@@ -104,16 +105,23 @@ void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q
         X_WB.R.noalias() = X_WJ.R * R_JB;
         X_WB.p = X_WJ.p + X_WJ.R * q.segment<3>(j.idx_q);
         // v = V_B in B: columns [R e_k; p x R e_k] (rotations) and [0; R e_k] (translations)
+        Vec3 jw = Vec3::Zero(), jv = Vec3::Zero();
         for (int k = 0; k < 3; ++k) {
-          data.S_W.col(j.idx_v + k) = line(X_WB.R.col(k), X_WB.p);
-          data.S_W.col(j.idx_v + 3 + k) << Vec3::Zero(), X_WB.R.col(k);
+          const Vec3 e = X_WB.R.col(k);
+          const Vec3 l = X_WB.p.cross(e);
+          set_column(j.idx_v + k, e, l);
+          set_column(j.idx_v + 3 + k, Vec3::Zero(), e);
+          jw += e * v[j.idx_v + k];
+          jv += l * v[j.idx_v + k] + e * v[j.idx_v + 3 + k];
         }
-        const Vec6 vJ = data.S_W.middleCols<6>(j.idx_v) * v.segment<6>(j.idx_v);
-        V += vJ;
-        A0 += cross_motion(V, vJ);
+        add_joint_motion(jw, jv);
         break;
       }
     }
+    data.V_W[i].head<3>() = Vw;
+    data.V_W[i].tail<3>() = Vv;
+    data.A0_W[i].head<3>() = Aw;
+    data.A0_W[i].tail<3>() = Av;
     data.I_W[i] = data.I_B[i].transformed(X_WB);
   }
 }

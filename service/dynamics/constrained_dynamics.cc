@@ -75,6 +75,9 @@ Workspace::Workspace(const System& sys)
       if (touch[s][d]) y_support[s].push_back(d);
   }
   for (int s = 0; s < ns; ++s) Yb.push_back(YBlock::Zero(n, 6));
+  for (int e = 0; e < n; ++e)
+    for (int s = 0; s < ns; ++s)
+      if (touch[s][sys.model.dof_elim_order[e]]) y_sweep.push_back({s, sys.model.dof_elim_order[e]});
   pair_ranges.resize(static_cast<size_t>(ns) * ns);
   for (int s = 0; s < ns; ++s)
     for (int t = s; t < ns; ++t)
@@ -144,27 +147,27 @@ void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G, bool de
   const Model& model = sys.model;
   const ConstraintSet& cs = sys.constraints;
   const int ns = static_cast<int>(cs.specs.size());
-  // L^-T solve of each spec's rows at once: one 6-wide row operation per (DOF, ancestor) pair
+  // L^-T solve of each spec's rows at once: one 6-wide row operation per (DOF, ancestor) pair, the
+  // specs' sweeps interleaved (their chains are independent)
   for (int s = 0; s < ns; ++s) {
-    const std::vector<int>& sup = ws.y_support[s];
     Workspace::YBlock& Y = ws.Yb[s];
     const int r0 = cs.row_offset[s], nk = cs.row_count[s];
-    for (int d : sup)
+    for (int d : ws.y_support[s])
       for (int k = 0; k < nk; ++k) Y(d, k) = G(r0 + k, d);
-    double* y = Y.data();  // row-major: DOF i's 6 entries at y + 6 i
-    for (auto it = sup.rbegin(); it != sup.rend(); ++it) {
-      const int i = *it;
-      const double* r = tree_factor_row(model, ws.data, i);
-      const int d = model.dof_depth[i];
-      const int* pi = model.dof_path.data() + model.dof_path_offset[i];
-      const Vec6 yi = Eigen::Map<const Vec6>(y + 6 * i) * ws.data.Ld_inv[i];
-      Eigen::Map<Vec6>(y + 6 * i) = yi;
-      for (int p = 0; p < d; ++p) Eigen::Map<Vec6>(y + 6 * pi[p]) -= r[p] * yi;
-    }
-    if (dense_yt)
-      for (int d : sup)
-        for (int k = 0; k < nk; ++k) ws.Yt(d, r0 + k) = Y(d, k);
   }
+  for (const auto& [s, i] : ws.y_sweep) {
+    double* y = ws.Yb[s].data();  // row-major: DOF i's 6 entries at y + 6 i
+    const double* r = tree_factor_row(model, ws.data, i);
+    const int d = model.dof_depth[i];
+    const int* pi = model.dof_path.data() + model.dof_path_offset[i];
+    const Vec6 yi = Eigen::Map<const Vec6>(y + 6 * i) * ws.data.Ld_inv[i];
+    Eigen::Map<Vec6>(y + 6 * i) = yi;
+    for (int p = 0; p < d; ++p) Eigen::Map<Vec6>(y + 6 * pi[p]) -= r[p] * yi;
+  }
+  if (dense_yt)
+    for (int s = 0; s < ns; ++s)
+      for (int d : ws.y_support[s])
+        for (int k = 0; k < cs.row_count[s]; ++k) ws.Yt(d, cs.row_offset[s] + k) = ws.Yb[s](d, k);
   // Q_st = sum over the DOFs both specs reach of outer products of 6-vectors
   for (int s = 0; s < ns; ++s)
     for (int t = s; t < ns; ++t) {

@@ -69,6 +69,7 @@ struct Workspace {
   std::vector<std::vector<int>> y_support;
   using YBlock = Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>;
   std::vector<YBlock> Yb;  // per spec: (nv x 6) its rows of Y as columns, one DOF per row
+  std::vector<std::pair<int, int>> y_sweep;  // (spec, DOF) in model.dof_elim_order, specs interleaved
   std::vector<std::vector<std::pair<int, int>>> pair_ranges;  // index s * nspecs + t
   QSolver qs;                     // Q lambda = b: fast path, rank, indeterminate rows, rule
   Eigen::MatrixXd eig_A, eig_V;  // (rows x rows) SVD baseline's eigen-decomposition of Q_r
