@@ -18,7 +18,11 @@ void crba_compact(const Model& model, Data& data) {
     const Joint& ji = model.bodies[i].joint;
     for (int k = 0; k < ji.nv; ++k) {
       const int col = ji.idx_v + k;
-      const Vec6 F = data.Ic_W[i] * data.S_W.col(col);
+      // F = Ic S, in halves (see kinematics.cc)
+      const RigidInertia& Ic = data.Ic_W[i];
+      const Vec3 sw = data.S_W.col(col).head<3>(), sv = data.S_W.col(col).tail<3>();
+      const Vec3 Fn = Ic.Io * sw + Ic.h.cross(sv), Ff = Ic.m * sv - Ic.h.cross(sw);
+      const double F[6] = {Fn.x(), Fn.y(), Fn.z(), Ff.x(), Ff.y(), Ff.z()};
       const int* path = model.dof_path.data() + model.dof_path_offset[col];
       const int depth = model.dof_depth[col];
       double* __restrict row = mc + model.dof_path_offset[col] + col;
@@ -26,7 +30,7 @@ void crba_compact(const Model& model, Data& data) {
         const double* s = S + 6 * path[p];
         row[p] = s[0] * F[0] + s[1] * F[1] + s[2] * F[2] + s[3] * F[3] + s[4] * F[4] + s[5] * F[5];
       }
-      row[depth] = data.S_W.col(col).dot(F) + ji.armature;
+      row[depth] = sw.dot(Fn) + sv.dot(Ff) + ji.armature;
     }
   }
 }

@@ -13,15 +13,28 @@ inline Vec6 body_force(const RigidInertia& I, const Vec6& V, const Vec6& a) {
 }  // namespace
 
 void rnea_bias(const Model& model, Data& data) {
+  // in 3-vector halves throughout (see kinematics.cc: store-to-load forwarding)
   const int nb = model.nbodies();
-  Vec6 minus_g;
-  minus_g << Vec3::Zero(), -model.gravity_W;
-  for (int i = 0; i < nb; ++i) data.f_W[i] = body_force(data.I_W[i], data.V_W[i], data.A0_W[i] + minus_g);
+  const Vec3 minus_g = -model.gravity_W;
+  for (int i = 0; i < nb; ++i) {
+    const RigidInertia& I = data.I_W[i];
+    const Vec3 w = data.V_W[i].head<3>(), v = data.V_W[i].tail<3>();
+    const Vec3 aw = data.A0_W[i].head<3>(), av = data.A0_W[i].tail<3>() + minus_g;
+    // f = I a + V x* (I V)
+    const Vec3 nV = I.Io * w + I.h.cross(v), fV = I.m * v - I.h.cross(w);
+    data.f_W[i].head<3>() = I.Io * aw + I.h.cross(av) + w.cross(nV) + v.cross(fV);
+    data.f_W[i].tail<3>() = I.m * av - I.h.cross(aw) + w.cross(fV);
+  }
   for (int i = nb - 1; i >= 0; --i) {
     const Body& b = model.bodies[i];
     const Joint& j = b.joint;
-    for (int k = 0; k < j.nv; ++k) data.h[j.idx_v + k] = data.S_W.col(j.idx_v + k).dot(data.f_W[i]);
-    if (b.parent >= 0) data.f_W[b.parent] += data.f_W[i];
+    const Vec3 n = data.f_W[i].head<3>(), f = data.f_W[i].tail<3>();
+    for (int k = 0; k < j.nv; ++k)
+      data.h[j.idx_v + k] = data.S_W.col(j.idx_v + k).head<3>().dot(n) + data.S_W.col(j.idx_v + k).tail<3>().dot(f);
+    if (b.parent >= 0) {
+      data.f_W[b.parent].head<3>() += n;
+      data.f_W[b.parent].tail<3>() += f;
+    }
   }
 }
 
