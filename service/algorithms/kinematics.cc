@@ -122,7 +122,7 @@ void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q
     data.V_W[i].tail<3>() = Vv;
     data.A0_W[i].head<3>() = Aw;
     data.A0_W[i].tail<3>() = Av;
-    data.I_W[i] = data.I_B[i].transformed(X_WB);
+    if (data.has_inertia[i]) data.I_W[i] = data.I_Bm[i].transformed(X_WB);
   }
 }
 

@@ -17,6 +17,10 @@ void rnea_bias(const Model& model, Data& data) {
   const int nb = model.nbodies();
   const Vec3 minus_g = -model.gravity_W;
   for (int i = 0; i < nb; ++i) {
+    if (!data.has_inertia[i]) {  // nothing to move: a massless body, or one folded into its parent
+      data.f_W[i].setZero();
+      continue;
+    }
     const RigidInertia& I = data.I_W[i];
     const Vec3 w = data.V_W[i].head<3>(), v = data.V_W[i].tail<3>();
     const Vec3 aw = data.A0_W[i].head<3>(), av = data.A0_W[i].tail<3>() + minus_g;
@@ -50,7 +54,9 @@ void rnea(const Model& model, Data& data, const Eigen::VectorXd& vdot, const std
     Vec6 a = b.parent >= 0 ? data.a_W[b.parent] : Vec6::Zero();
     for (int k = 0; k < j.nv; ++k) a += data.S_W.col(j.idx_v + k) * vdot[j.idx_v + k];
     data.a_W[i] = a;
-    data.f_W[i] = body_force(data.I_W[i], data.V_W[i], a + data.A0_W[i] + minus_g);
+    // each body's own inertia (not I_W, where welded children are folded into their parent), so
+    // that the reactions across fixed joints come out too
+    data.f_W[i] = body_force(data.I_B[i].transformed(data.X_WB[i]), data.V_W[i], a + data.A0_W[i] + minus_g);
     if (f_ext) data.f_W[i] -= data.X_WB[i].act_force((*f_ext)[i]);
   }
   for (int i = nb - 1; i >= 0; --i) {

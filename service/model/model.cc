@@ -171,8 +171,18 @@ Data::Data(const Model& model) {
   V_W.assign(nb, Vec6::Zero());
   A0_W.assign(nb, Vec6::Zero());
   for (int i = 0; i < nb; ++i) I_B.push_back(RigidInertia(model.bodies[i].inertia));
-  I_W = I_B;
-  Ic_W = I_B;
+  I_Bm = I_B;
+  for (int i = nb - 1; i >= 0; --i) {  // children come after their parents: chains of welds fold up
+    const Body& b = model.bodies[i];
+    if (b.joint.type != JointType::kFixed || b.parent < 0) continue;
+    I_Bm[b.parent] += I_Bm[i].transformed(b.X_PJ);
+    I_Bm[i] = RigidInertia();
+  }
+  has_inertia.assign(nb, 0);
+  for (int i = 0; i < nb; ++i)
+    has_inertia[i] = I_Bm[i].m != 0.0 || !I_Bm[i].h.isZero(0.0) || !I_Bm[i].Io.isZero(0.0);
+  I_W.assign(nb, RigidInertia());  // entries of bodies without inertia stay zero
+  Ic_W = I_W;
   f_W.assign(nb, Vec6::Zero());
   a_W.assign(nb, Vec6::Zero());
   f.assign(nb, Vec6::Zero());

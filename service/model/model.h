@@ -128,7 +128,13 @@ struct Data {
 
   // dynamics
   std::vector<RigidInertia> I_B;   // body inertias in B (constant, from the model)
-  std::vector<RigidInertia> I_W;   // body inertias in world coordinates (about the world origin)
+  // The inertias the bias and mass-matrix passes use: a body welded to its parent by a fixed joint
+  // moves with it, so its inertia is folded into the parent's (in the parent's frame) and its own
+  // entry is zero; bodies whose entry is exactly zero (folded, or massless like a base link held
+  // by a constraint) are skipped by forward_kinematics' inertia transform and by rnea_bias.
+  std::vector<RigidInertia> I_Bm;
+  std::vector<char> has_inertia;   // I_Bm[i] nonzero
+  std::vector<RigidInertia> I_W;   // I_Bm in world coordinates (about the world origin)
   std::vector<RigidInertia> Ic_W;  // composite (subtree) inertias, world coordinates
   std::vector<Vec6> f_W;           // body forces of RNEA, world coordinates
   std::vector<Vec6> a_W;           // rnea(): vdot-linear part of the body accelerations
