@@ -101,7 +101,9 @@ inline Vec6 total_momentum(const Model& m, const Eigen::VectorXd& q, const Eigen
   Data d(m);
   forward_kinematics(m, d, q, v);
   Vec6 h = Vec6::Zero();
-  for (int i = 0; i < m.nbodies(); ++i) h += d.X_WB[i].act_force(m.bodies[i].inertia * d.X_WB[i].inv_act(d.V_W[i]));
+  // body velocity in B from V_W (taken at d.p_ref), momentum in B, then about the world origin
+  for (int i = 0; i < m.nbodies(); ++i)
+    h += d.X_WB[i].act_force(m.bodies[i].inertia * to_ref(d, d.X_WB[i]).inv_act(d.V_W[i]));
   return h;
 }
 

@@ -702,7 +702,7 @@ constraints:
     qu.head<3>() = X_WB.p;
     const Quat qq(X_WB.R);
     qu.segment<4>(3) << qq.w(), qq.x(), qq.y(), qq.z();
-    vu = X_WB.inv_act(wp.data.V_W[wheel]);
+    vu = to_ref(wp.data, X_WB).inv_act(wp.data.V_W[wheel]);
     ASSERT_NE(evaluate(uni, wu, qu, vu, Eigen::VectorXd::Zero(6)).status, Status::kError);
     ASSERT_LT(wu.cd.Gv.norm(), 1e-12);
     // contact frames agree, and P is where the paper's 2-DOF joint sits
@@ -719,7 +719,7 @@ constraints:
     f_ext[wheel] = X_WB.inv_act_force(X_WC.act_force(F_C));
     rnea(mp, wp.data, wp.vdot, &f_ext, tau_id);
     EXPECT_LT(tau_id.norm(), 1e-9);  // no joint torque needed: the tree's own consistency
-    const Vec6 a_tree = X_WB.inv_act(wp.data.a_W[wheel] + wp.data.A0_W[wheel]);
+    const Vec6 a_tree = to_ref(wp.data, X_WB).inv_act(wp.data.a_W[wheel] + wp.data.A0_W[wheel]);
     EXPECT_LT((a_tree - wu.vdot).norm(), 1e-9 * (1 + wu.vdot.norm()));
     // the ground's total wrench on the wheel at P in C: root joint reaction + no-slip forces
     const Vec6 W_root = wp.data.X_WB[0].act_force(wp.data.f[0]);  // world coords, world origin

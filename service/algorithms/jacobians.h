@@ -13,8 +13,8 @@ template <typename Mat>
 inline void frame_jacobian(const Model& model, const Data& data, int frame, const std::vector<int>& support, Mat&& J) {
   const Frame& F = model.frames[frame];
   if (F.body < 0) return;
-  const Transform X_WF = data.X_WB[F.body] * F.X_BF;
-  for (int d : support) J.col(d) = X_WF.inv_act(data.S_W.col(d));
+  const Transform X_RF = to_ref(data, data.X_WB[F.body] * F.X_BF);
+  for (int d : support) J.col(d) = X_RF.inv_act(data.S_W.col(d));
 }
 
 }  // namespace coopdyn

@@ -9,6 +9,7 @@ namespace coopdyn {
 // defeats the processor's store-to-load forwarding, which cost more than the arithmetic.
 void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
   const int nb = model.nbodies();
+  Vec3 p_ref = Vec3::Zero();  // kept in a register; stored in data.p_ref at the end
   for (int i = 0; i < nb; ++i) {
     const Body& b = model.bodies[i];
     const Joint& j = b.joint;
@@ -43,8 +44,13 @@ void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q
       data.S_W.col(col).head<3>() = sw;
       data.S_W.col(col).tail<3>() = sv;
     };
+    // a point relative to R; body 0 (a root) sets R at its own origin before anything uses it
+    auto rel = [&](const Vec3& p_W) -> Vec3 { return p_W - p_ref; };
     switch (j.type) {
-      case JointType::kFixed: X_WB = X_WJ; break;
+      case JointType::kFixed:
+        X_WB = X_WJ;
+        if (i == 0) p_ref = X_WB.p;
+        break;
       case JointType::kRevolute: {
         const double sn = std::sin(q[j.idx_q]), cs = std::cos(q[j.idx_q]);
         X_WB.p = X_WJ.p;
@@ -67,7 +73,8 @@ void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q
           X_WB.R.noalias() = X_WJ.R * R_JB;
           w.noalias() = X_WJ.R * a;
         }
-        const Vec3 sv = X_WB.p.cross(w);  // the line [w; p x w] through the joint
+        if (i == 0) p_ref = X_WB.p;
+        const Vec3 sv = rel(X_WB.p).cross(w);  // the line [w; p x w] through the joint
         set_column(j.idx_v, w, sv);
         const double qd = v[j.idx_v];
         add_joint_motion(w * qd, sv * qd);
@@ -77,6 +84,7 @@ void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q
         const Vec3 a_W = X_WJ.R * j.axis;
         X_WB.R = X_WJ.R;
         X_WB.p = X_WJ.p + a_W * q[j.idx_q];
+        if (i == 0) p_ref = X_WB.p;
         set_column(j.idx_v, Vec3::Zero(), a_W);
         add_joint_motion(Vec3::Zero(), a_W * v[j.idx_v]);
         break;
@@ -87,8 +95,9 @@ void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q
         const Mat3 R_W1 = X_WJ.R * R1;
         X_WB.R.noalias() = R_W1 * R2;
         X_WB.p = X_WJ.p;
+        if (i == 0) p_ref = X_WB.p;
         const Vec3 a1 = X_WJ.R * j.axis, a2 = R_W1 * j.axis2;  // the second axis turns with the first
-        const Vec3 l1 = X_WB.p.cross(a1), l2 = X_WB.p.cross(a2);
+        const Vec3 l1 = rel(X_WB.p).cross(a1), l2 = rel(X_WB.p).cross(a2);
         set_column(j.idx_v, a1, l1);
         set_column(j.idx_v + 1, a2, l2);
         const double qd0 = v[j.idx_v], qd1 = v[j.idx_v + 1];
@@ -96,7 +105,7 @@ void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q
         // S' qdot: the second axis is carried by the first rotation
         const Vec3 c = qd0 * qd1 * a1.cross(a2);
         Aw += c;
-        Av += X_WB.p.cross(c);
+        Av += rel(X_WB.p).cross(c);
         break;
       }
       case JointType::kFloating: {
@@ -104,11 +113,12 @@ void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q
         const Mat3 R_JB = quat.normalized().toRotationMatrix();
         X_WB.R.noalias() = X_WJ.R * R_JB;
         X_WB.p = X_WJ.p + X_WJ.R * q.segment<3>(j.idx_q);
+        if (i == 0) p_ref = X_WB.p;
         // v = V_B in B: columns [R e_k; p x R e_k] (rotations) and [0; R e_k] (translations)
         Vec3 jw = Vec3::Zero(), jv = Vec3::Zero();
         for (int k = 0; k < 3; ++k) {
           const Vec3 e = X_WB.R.col(k);
-          const Vec3 l = X_WB.p.cross(e);
+          const Vec3 l = rel(X_WB.p).cross(e);
           set_column(j.idx_v + k, e, l);
           set_column(j.idx_v + 3 + k, Vec3::Zero(), e);
           jw += e * v[j.idx_v + k];
@@ -122,8 +132,9 @@ void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q
     data.V_W[i].tail<3>() = Vv;
     data.A0_W[i].head<3>() = Aw;
     data.A0_W[i].tail<3>() = Av;
-    if (data.has_inertia[i]) data.I_W[i] = data.I_Bm[i].transformed(X_WB);
+    if (data.has_inertia[i]) data.I_W[i] = data.I_Bm[i].transformed(X_WB.R, rel(X_WB.p));
   }
+  data.p_ref = p_ref;
 }
 
 Transform frame_pose(const Model& model, const Data& data, int frame) {
@@ -133,12 +144,12 @@ Transform frame_pose(const Model& model, const Data& data, int frame) {
 
 Vec6 frame_velocity(const Model& model, const Data& data, int frame) {
   const Frame& F = model.frames[frame];
-  return F.body >= 0 ? frame_pose(model, data, frame).inv_act(data.V_W[F.body]) : Vec6::Zero();
+  return F.body >= 0 ? to_ref(data, frame_pose(model, data, frame)).inv_act(data.V_W[F.body]) : Vec6::Zero();
 }
 
 Vec6 frame_bias_acceleration(const Model& model, const Data& data, int frame) {
   const Frame& F = model.frames[frame];
-  return F.body >= 0 ? frame_pose(model, data, frame).inv_act(data.A0_W[F.body]) : Vec6::Zero();
+  return F.body >= 0 ? to_ref(data, frame_pose(model, data, frame)).inv_act(data.A0_W[F.body]) : Vec6::Zero();
 }
 
 }  // namespace coopdyn

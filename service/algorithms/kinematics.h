@@ -8,7 +8,7 @@
 namespace coopdyn {
 
 // Fills data.X_WB, S_W, V_W, A0_W and the world-coordinate body inertias I_W for configuration q (nq) and velocity v (nv), all in world
-// coordinates at the world origin (see Data). A0_W is each body's spatial acceleration with
+// coordinates at the reference point data.p_ref, which it sets to body 0's origin (see Data). A0_W is each body's spatial acceleration with
 // vdot = 0 and no gravity: the velocity-product term from which every Jdot*v is read.
 void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q, const Eigen::VectorXd& v);
 

@@ -56,8 +56,9 @@ void rnea(const Model& model, Data& data, const Eigen::VectorXd& vdot, const std
     data.a_W[i] = a;
     // each body's own inertia (not I_W, where welded children are folded into their parent), so
     // that the reactions across fixed joints come out too
-    data.f_W[i] = body_force(data.I_B[i].transformed(data.X_WB[i]), data.V_W[i], a + data.A0_W[i] + minus_g);
-    if (f_ext) data.f_W[i] -= data.X_WB[i].act_force((*f_ext)[i]);
+    const Transform X_RB = to_ref(data, data.X_WB[i]);
+    data.f_W[i] = body_force(data.I_B[i].transformed(X_RB), data.V_W[i], a + data.A0_W[i] + minus_g);
+    if (f_ext) data.f_W[i] -= X_RB.act_force((*f_ext)[i]);
   }
   for (int i = nb - 1; i >= 0; --i) {
     const Body& b = model.bodies[i];
@@ -66,7 +67,7 @@ void rnea(const Model& model, Data& data, const Eigen::VectorXd& vdot, const std
       tau[j.idx_v + k] = data.S_W.col(j.idx_v + k).dot(data.f_W[i]) + j.armature * vdot[j.idx_v + k];
     if (b.parent >= 0) data.f_W[b.parent] += data.f_W[i];
   }
-  for (int i = 0; i < nb; ++i) data.f[i] = data.X_WB[i].inv_act_force(data.f_W[i]);
+  for (int i = 0; i < nb; ++i) data.f[i] = to_ref(data, data.X_WB[i]).inv_act_force(data.f_W[i]);
 }
 
 }  // namespace coopdyn

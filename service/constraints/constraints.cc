@@ -153,16 +153,18 @@ void constraint_rows(const Model& model, const Data& data, const ConstraintSet& 
       continue;
     }
     if (c.kind == ConstraintKind::kRolling) {
-      // rows: C^T u, u = v_O + w x p_WP the wheel's material velocity at the contact point P, from
-      // the body twist at the world origin [w; v_O] = S_W v. Along the motion (vdot = 0)
-      //   d/dt (C^T u) = Cdot^T u + C^T (a_O + alpha x p_WP + w x pdot_WP)
-      // with [alpha; a_O] the body's spatial acceleration at vdot = 0 (A0) at the world origin.
+      // rows: C^T u, u = v_R + w x p_RP the wheel's material velocity at the contact point P, from
+      // the body twist at the reference point R [w; v_R] = S_W v. Along the motion (vdot = 0)
+      //   d/dt (C^T u) = Cdot^T u + C^T (a_R + alpha x p_RP + w x pdot_RP)
+      // with [alpha; a_R] the body's spatial acceleration at vdot = 0 (A0) at R. The geometry is
+      // computed relative to R (positions p_R*), the contact height in the world.
       const Transform& X_WB = data.X_WB[c.body];
       const Vec6& V_W = data.V_W[c.body];
       const Vec6& A_W = data.A0_W[c.body];
       const Vec3 w = V_W.head<3>();
       RollingGeometry g;
-      rolling_geometry(X_WB.R, X_WB.p, c.axle, c.radius, w, V_W.tail<3>() + w.cross(X_WB.p), g);
+      const Vec3 c_R = X_WB.p - data.p_ref;  // wheel centre relative to R
+      rolling_geometry(X_WB.R, c_R, c.axle, c.radius, w, V_W.tail<3>() + w.cross(c_R), g);
       const Vec3 u = V_W.tail<3>() + w.cross(g.p);
       const Vec3 u_dot = A_W.tail<3>() + A_W.head<3>().cross(g.p) + w.cross(g.p_dot);
       const Vec3 nz = Vec3::UnitZ();
@@ -180,7 +182,7 @@ void constraint_rows(const Model& model, const Data& data, const ConstraintSet& 
       cd.Gdot_v[r0 + 2] = nz.dot(u_dot);
       cd.err[r0] = 0.0;          // nonholonomic: no position error, so no Baumgarte beta term
       cd.err[r0 + 1] = 0.0;
-      cd.err[r0 + 2] = g.p.z();  // height of the contact point above the ground
+      cd.err[r0 + 2] = g.p.z() + data.p_ref.z();  // height of the contact point above the ground
       continue;
     }
     const Transform X_WA = frame_pose(model, data, c.frame_a);
@@ -190,18 +192,27 @@ void constraint_rows(const Model& model, const Data& data, const ConstraintSet& 
       // each row of G is a component of X_WA^-1 applied to a motion-subspace column, written
       // straight into G (column d of G holds the spec's rows contiguously)
       const Mat3 Rt = X_WA.R.transpose();
+      const Vec3 p_RA = X_WA.p - data.p_ref;
       const std::array<int, 6>& axes = set.row_axis[s];
       for (int d : sup) {
         const Vec3 w = data.S_W.col(d).head<3>();
         const Vec3 vo = data.S_W.col(d).tail<3>();
         Vec6 J;
         J.head<3>().noalias() = Rt * w;
-        J.tail<3>().noalias() = Rt * (vo - X_WA.p.cross(w));
+        J.tail<3>().noalias() = Rt * (vo - p_RA.cross(w));
         double* g = cd.G.col(d).data() + r0;
         for (int k = 0; k < n; ++k) g[k] = J[axes[k]];
       }
-      const Vec6 V_A = X_WA.inv_act(data.V_W[body_a]);
-      const Vec6 a_A = X_WA.inv_act(data.A0_W[body_a]);
+      // V and A0 of the body seen in A (inv_act of the pose relative to R, by halves)
+      Vec6 V_A, a_A;
+      {
+        const Vec3 w = data.V_W[body_a].head<3>(), vo = data.V_W[body_a].tail<3>();
+        const Vec3 aw = data.A0_W[body_a].head<3>(), ao = data.A0_W[body_a].tail<3>();
+        V_A.head<3>().noalias() = Rt * w;
+        V_A.tail<3>().noalias() = Rt * (vo - p_RA.cross(w));
+        a_A.head<3>().noalias() = Rt * aw;
+        a_A.tail<3>().noalias() = Rt * (ao - p_RA.cross(aw));
+      }
       const Vec6 e = pose_error(c.X_WA_target.inverse() * X_WA);
       for (int k = 0; k < n; ++k) {
         const int ax = axes[k], r = r0 + k;

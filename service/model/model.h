@@ -116,11 +116,17 @@ class Model {
 struct Data {
   explicit Data(const Model& model);
 
-  // kinematics. Spatial vectors are Featherstone's, in world coordinates and taken at the world
-  // origin (RBDA s.2.2): a body's velocity V_W = [w; v_O], v_O the velocity of the body point that
-  // is at the world origin. In this form velocities and forces of different bodies add without
+  // kinematics. Spatial vectors are Featherstone's, in world coordinates and taken at one common
+  // point (RBDA s.2.2): a body's velocity V_W = [w; v_R], v_R the velocity of the body point that
+  // is at the reference point R. In this form velocities and forces of different bodies add without
   // transforms, which makes RNEA and CRBA transform-free over the tree (RBDA s.6.2, as Pinocchio).
+  // R is not the world origin but p_ref, the first body's position, refreshed by every
+  // forward_kinematics: inertias about the world origin carry a rounding error of about
+  // eps m |p|^2, which grows with the square of the distance travelled (a vehicle 100 km out lost
+  // three digits of its accelerations); about R they stay as accurate anywhere as at the origin.
+  // Poses (X_WB, frame_pose) stay in the world; to_ref() gives the pose a spatial transform needs.
   std::vector<Transform> X_WB;  // body pose in the world
+  Vec3 p_ref = Vec3::Zero();    // the point R, in the world
   Eigen::Matrix<double, 6, Eigen::Dynamic> S_W;  // (6 x nv) motion subspace columns, world coords
   std::vector<Vec6> V_W;        // body spatial velocity
   std::vector<Vec6> A0_W;       // body spatial acceleration at vdot = 0, no gravity: the velocity-
@@ -134,7 +140,7 @@ struct Data {
   // by a constraint) are skipped by forward_kinematics' inertia transform and by rnea_bias.
   std::vector<RigidInertia> I_Bm;
   std::vector<char> has_inertia;   // I_Bm[i] nonzero
-  std::vector<RigidInertia> I_W;   // I_Bm in world coordinates (about the world origin)
+  std::vector<RigidInertia> I_W;   // I_Bm in world coordinates, about p_ref
   std::vector<RigidInertia> Ic_W;  // composite (subtree) inertias, world coordinates
   std::vector<Vec6> f_W;           // body forces of RNEA, world coordinates
   std::vector<Vec6> a_W;           // rnea(): vdot-linear part of the body accelerations
@@ -151,6 +157,10 @@ struct Data {
   Eigen::VectorXd tmp_v;      // (nv) scratch
 };
 
+
+// X_WF with its origin taken relative to data.p_ref: the transform that carries spatial vectors of
+// Data (taken at R) into frame F (X.inv_act, X.inv_act_force) and back.
+inline Transform to_ref(const Data& data, const Transform& X_WF) { return Transform(X_WF.R, X_WF.p - data.p_ref); }
 
 // Configuration integration: q_out = q (+) v*dt on the joint manifolds (exact on SO(3) x R^3 with
 // body-frame velocity). q_out may alias q.

@@ -220,10 +220,10 @@ struct RigidInertia {
   // this inertia (given in B coordinates) in A coordinates, X = X_AB:
   //   h_A = R h + m p,  Io_A = R Io R^T + 2 (g.p) I - g p^T - p g^T  with g = R h + m p / 2
   // (the parallel-axis terms of RBDA eq. 2.66 in first-moment form); only the symmetric half is computed.
-  RigidInertia transformed(const Transform& X) const {
+  RigidInertia transformed(const Transform& X) const { return transformed(X.R, X.p); }
+  // the same with X = (R, p) given by parts
+  RigidInertia transformed(const Mat3& R, const Vec3& p) const {
     RigidInertia r;
-    const Mat3& R = X.R;
-    const Vec3& p = X.p;
     const Vec3 hR = R * h;
     r.m = m;
     r.h = hR + m * p;
