@@ -64,6 +64,9 @@ void BM_EncodeOutput(benchmark::State& st) {
   f.v = &sys.v0;
   f.tau = &tau;
   f.ws = &ws;
+  WrenchData wd(sys);
+  compute_wrenches(sys, ws, wd);
+  f.wrenches = &wd;
   for (auto _ : st) benchmark::DoNotOptimize(enc.encode(f, buf.data(), static_cast<int>(buf.size())));
 }
 BENCHMARK(BM_EncodeOutput)->Unit(benchmark::kMicrosecond);

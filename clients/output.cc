@@ -6,6 +6,7 @@
 
 #include "clients/common.h"
 #include "service/algorithms/kinematics.h"
+#include "service/dynamics/wrenches.h"
 #include "service/scene/scene.h"
 
 namespace coopdyn::cli {
@@ -40,7 +41,7 @@ bool parse_args(int argc, char** argv, int first, Args* out) {
 
 namespace {
 void num(std::FILE* f, double x) {
-  if (std::isfinite(x)) std::fprintf(f, "%.12g", x);
+  if (std::isfinite(x)) std::fprintf(f, "%.17g", x);  // round-trips
   else std::fprintf(f, "null");
 }
 void list(std::FILE* f, const double* x, int n) {
@@ -77,17 +78,17 @@ void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const
   std::fprintf(f, ",\n  \"vdot\": ");
   list(f, ws.vdot.data(), static_cast<int>(ws.vdot.size()));
   std::fprintf(f, ",\n  \"wrenches\": [");
-  bool first = true;
-  for (size_t s = 0; s < sys.constraints.specs.size(); ++s) {
-    const ConstraintSpec& c = sys.constraints.specs[s];
-    if (c.kind == ConstraintKind::kLock) continue;
-    unsigned mask = 0;
-    const Vec6 w = tip_wrench(sys, ws, static_cast<int>(s), &mask);
-    if (c.kind == ConstraintKind::kRolling) {
+  WrenchData wd(sys);
+  compute_wrenches(sys, ws, wd);
+  for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k) {
+    const WrenchOutput& o = sys.wrenches.outputs[k];
+    std::fprintf(f, "%s\n    {\"name\": \"%s\", \"kind\": \"%s\", \"frame\": \"%s\", \"by\": \"%s\", ", k ? "," : "",
+                 o.name.c_str(), wrench_kind_name(o.kind), o.frame.c_str(), o.by.c_str());
+    if (o.spec >= 0 && sys.constraints.specs[o.spec].kind == ConstraintKind::kRolling) {
       // wheel: the ground's force on the wheel at the contact point, in the contact frame C
+      const ConstraintSpec& c = sys.constraints.specs[o.spec];
       const Transform X_WC = rolling_contact_frame(model, ws.data, c);
-      std::fprintf(f, "%s\n    {\"name\": \"%s\", \"frame\": \"%s.contact\", \"on\": \"%s\", \"by\": \"ground\", \"contact\": {\"p_W\": ",
-                   first ? "" : ",", c.name.c_str(), c.name.c_str(), model.bodies[c.body].name.c_str());
+      std::fprintf(f, "\"on\": \"%s\", \"contact\": {\"p_W\": ", model.bodies[c.body].name.c_str());
       list(f, X_WC.p.data(), 3);
       const Vec3 xc = X_WC.R.col(0), yc = X_WC.R.col(1), zc = X_WC.R.col(2);
       std::fprintf(f, ", \"x_W\": ");
@@ -96,28 +97,24 @@ void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const
       list(f, yc.data(), 3);
       std::fprintf(f, ", \"z_W\": ");
       list(f, zc.data(), 3);
-      std::fprintf(f, "}, \"moment\": ");
-    } else {
-      std::fprintf(f, "%s\n    {\"name\": \"%s\", \"frame\": \"%s\", \"on\": \"%s\", \"by\": \"%s\", \"moment\": ", first ? "" : ",",
-                   c.name.c_str(), model.frames[c.frame_a].name.c_str(), model.frames[c.frame_a].name.c_str(),
-                   c.frame_b < 0 ? "world" : model.frames[c.frame_b].name.c_str());
+      std::fprintf(f, "}, ");
     }
-    first = false;
-    list(f, w.data(), 3);
+    std::fprintf(f, "\"moment\": ");
+    list(f, wd.W[k].data(), 3);
     std::fprintf(f, ", \"force\": ");
-    list(f, w.data() + 3, 3);
-    std::fprintf(f, ", \"constrained\": [");
+    list(f, wd.W[k].data() + 3, 3);
+    std::fprintf(f, ", \"%s\": [", o.kind == WrenchKind::kJoint || o.kind == WrenchKind::kAxle ? "carried" : "constrained");
     bool fa = true;
-    for (int k = 0; k < 6; ++k)
-      if (c.axes[k]) {
-        std::fprintf(f, "%s\"%s\"", fa ? "" : ", ", ax[k]);
+    for (int c = 0; c < 6; ++c)
+      if (o.constrained & (1u << c)) {
+        std::fprintf(f, "%s\"%s\"", fa ? "" : ", ", ax[c]);
         fa = false;
       }
     std::fprintf(f, "], \"indeterminate\": [");
     fa = true;
-    for (int k = 0; k < 6; ++k)
-      if (mask & (1u << k)) {
-        std::fprintf(f, "%s\"%s\"", fa ? "" : ", ", ax[k]);
+    for (int c = 0; c < 6; ++c)
+      if (wd.indeterminate[k] & (1u << c)) {
+        std::fprintf(f, "%s\"%s\"", fa ? "" : ", ", ax[c]);
         fa = false;
       }
     std::fprintf(f, "]}");

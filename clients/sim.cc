@@ -5,6 +5,7 @@
 
 #include "clients/common.h"
 #include "service/dynamics/integrators.h"
+#include "service/dynamics/wrenches.h"
 #include "service/scene/scene.h"
 
 namespace coopdyn::cli {
@@ -44,19 +45,18 @@ int cmd_sim(const Args& a) {
     }
   }
   const Model& model = sys.model;
-  const ConstraintSet& cs = sys.constraints;
   static const char* comp[6] = {"mx", "my", "mz", "fx", "fy", "fz"};
   std::fprintf(out, "t");
   for (const auto& n : model.q_names) std::fprintf(out, ",q:%s", n.c_str());
   for (const auto& n : model.v_names) std::fprintf(out, ",v:%s", n.c_str());
   for (const auto& n : model.v_names) std::fprintf(out, ",tau:%s", n.c_str());
-  for (size_t s = 0; s < cs.specs.size(); ++s)
-    if (cs.specs[s].kind != ConstraintKind::kLock)
-      for (int k = 0; k < 6; ++k) std::fprintf(out, ",%s.%s", cs.specs[s].name.c_str(), comp[k]);
+  for (const WrenchOutput& o : sys.wrenches.outputs)
+    for (int k = 0; k < 6; ++k) std::fprintf(out, ",%s.%s", o.name.c_str(), comp[k]);
   for (int d : model.pseudo_dofs) std::fprintf(out, ",stress:%s", model.v_names[d].c_str());
   std::fprintf(out, ",status,rank,residual,position_error\n");
 
   Stepper st(sys);
+  WrenchData wd(sys);
   Eigen::VectorXd q = sys.q0, v = sys.v0, tau(model.nv());
   const long steps = std::lround(T / h);
   int rc = 0;
@@ -65,16 +65,14 @@ int cmd_sim(const Args& a) {
     prof.eval(t, tau);
     Eigen::VectorXd q_prev = q, v_prev = v;
     const Diagnostics& d = i < steps ? step(sys, st, integ, h, tau, q, v) : evaluate(sys, st.ws, q, v, tau);
-    std::fprintf(out, "%.9g", t);
-    for (int k = 0; k < q_prev.size(); ++k) std::fprintf(out, ",%.12g", q_prev[k]);
-    for (int k = 0; k < v_prev.size(); ++k) std::fprintf(out, ",%.12g", v_prev[k]);
-    for (int k = 0; k < tau.size(); ++k) std::fprintf(out, ",%.12g", tau[k]);
-    for (size_t s = 0; s < cs.specs.size(); ++s)
-      if (cs.specs[s].kind != ConstraintKind::kLock) {
-        const Vec6 w = tip_wrench(sys, st.ws, static_cast<int>(s));
-        for (int k = 0; k < 6; ++k) std::fprintf(out, ",%.12g", w[k]);
-      }
-    for (Eigen::Index k = 0; k < st.ws.stress.size(); ++k) std::fprintf(out, ",%.12g", st.ws.stress[k]);
+    std::fprintf(out, "%.17g", t);
+    for (int k = 0; k < q_prev.size(); ++k) std::fprintf(out, ",%.17g", q_prev[k]);
+    for (int k = 0; k < v_prev.size(); ++k) std::fprintf(out, ",%.17g", v_prev[k]);
+    for (int k = 0; k < tau.size(); ++k) std::fprintf(out, ",%.17g", tau[k]);
+    compute_wrenches(sys, st.ws, wd);
+    for (const Vec6& w : wd.W)
+      for (int k = 0; k < 6; ++k) std::fprintf(out, ",%.17g", w[k]);
+    for (Eigen::Index k = 0; k < st.ws.stress.size(); ++k) std::fprintf(out, ",%.17g", st.ws.stress[k]);
     std::fprintf(out, ",%s,%d,%.3g,%.3g\n", status_name(d.status), d.rank, d.residual,
                  st.ws.cd.err.size() ? st.ws.cd.err.cwiseAbs().maxCoeff() : 0.0);
     if (d.status == Status::kError) {

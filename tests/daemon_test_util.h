@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "service/dynamics/constrained_dynamics.h"
+#include "service/dynamics/wrenches.h"
 #include "service/io/bus.h"
 #include "service/io/codec.h"
 #include "service/scene/scene.h"
@@ -93,7 +94,7 @@ inline Eigen::VectorXd vec(const std::vector<double>& x) {
 inline std::vector<double> stdvec(const Eigen::VectorXd& x) { return std::vector<double>(x.data(), x.data() + x.size()); }
 
 // Asserts that a published output equals the offline evaluate() at the (q, v, tau) it carries:
-// same wrenches per tip, stresses, accelerations and diagnostics.
+// same wrenches (every output of the scene), stresses, accelerations and diagnostics.
 inline void expect_matches_offline(const System& sys, const io::DecodedOutput& o, double tol = 1e-9) {
   ASSERT_EQ(static_cast<int>(o.q.size()), sys.model.nq());
   ASSERT_EQ(static_cast<int>(o.v.size()), sys.model.nv());
@@ -103,19 +104,20 @@ inline void expect_matches_offline(const System& sys, const io::DecodedOutput& o
   EXPECT_EQ(o.reason, static_cast<int>(d.reason));
   EXPECT_EQ(o.rank, d.rank);
   EXPECT_EQ(o.rows, d.rows);
-  int t = 0;
-  for (size_t s = 0; s < sys.constraints.specs.size(); ++s) {
-    if (sys.constraints.specs[s].kind == ConstraintKind::kLock) continue;
-    ASSERT_LT(t, static_cast<int>(o.wrench.size()));
-    EXPECT_EQ(o.tip_names[t], sys.constraints.specs[s].name);
-    unsigned mask = 0;
-    const Vec6 w = tip_wrench(sys, ws, static_cast<int>(s), &mask);
+  WrenchData wd(sys);
+  compute_wrenches(sys, ws, wd);
+  const auto& outs = sys.wrenches.outputs;
+  ASSERT_EQ(o.wrench.size(), outs.size());
+  for (size_t t = 0; t < outs.size(); ++t) {
+    EXPECT_EQ(o.wrench_names[t], outs[t].name);
+    EXPECT_EQ(o.wrench_frames[t], outs[t].frame);
+    EXPECT_EQ(o.wrench_by[t], outs[t].by);
+    EXPECT_EQ(o.wrench_kind[t], static_cast<int>(outs[t].kind));
+    const Vec6& w = wd.W[t];
     const double scale = 1.0 + w.cwiseAbs().maxCoeff();
-    for (int k = 0; k < 6; ++k) EXPECT_NEAR(o.wrench[t][k], w[k], tol * scale) << o.tip_names[t] << " component " << k;
-    EXPECT_EQ(static_cast<unsigned>(o.indeterminate_mask[t]) & 0x3f, mask);
-    ++t;
+    for (int k = 0; k < 6; ++k) EXPECT_NEAR(o.wrench[t][k], w[k], tol * scale) << o.wrench_names[t] << " component " << k;
+    EXPECT_EQ(static_cast<unsigned>(o.indeterminate_mask[t]) & 0x3f, wd.indeterminate[t]);
   }
-  EXPECT_EQ(t, static_cast<int>(o.wrench.size()));
   ASSERT_EQ(static_cast<Eigen::Index>(o.stress.size()), ws.stress.size());
   for (Eigen::Index k = 0; k < ws.stress.size(); ++k)
     EXPECT_NEAR(o.stress[k], ws.stress[k], tol * (1.0 + std::abs(ws.stress[k])));

@@ -154,11 +154,11 @@ void expect_matches_coopdyn_eval(const io::DecodedOutput& o, const std::string& 
   const YAML::Node w = j["wrenches"];
   ASSERT_EQ(w.size(), o.wrench.size());
   for (size_t t = 0; t < w.size(); ++t) {
-    EXPECT_EQ(w[t]["name"].as<std::string>(), o.tip_names[t]);
-    EXPECT_EQ(w[t]["frame"].as<std::string>(), o.tip_frames[t]);
+    EXPECT_EQ(w[t]["name"].as<std::string>(), o.wrench_names[t]);
+    EXPECT_EQ(w[t]["frame"].as<std::string>(), o.wrench_frames[t]);
     for (int k = 0; k < 6; ++k) {
       const double x = k < 3 ? w[t]["moment"][k].as<double>() : w[t]["force"][k - 3].as<double>();
-      EXPECT_NEAR(o.wrench[t][k], x, 1e-9 * (1 + std::abs(x))) << o.tip_names[t] << " " << k;
+      EXPECT_NEAR(o.wrench[t][k], x, 1e-9 * (1 + std::abs(x))) << o.wrench_names[t] << " " << k;
     }
   }
   const YAML::Node vd = j["vdot"];
@@ -452,10 +452,10 @@ TEST_F(DaemonProcess, EstimateOnReplayedSimStatesReproducesSimWrenches) {
     last_seq = o.input_seq;
     auto it = rows.find(o.q);
     ASSERT_NE(it, rows.end()) << "an output at a state the simulator never visited";
-    for (size_t t = 0; t < o.tip_names.size(); ++t)
+    for (size_t t = 0; t < o.wrench_names.size(); ++t)
       for (int k = 0; k < 6; ++k) {
-        const double sim_w = it->second.at(o.tip_names[t] + "." + comp[k]);
-        EXPECT_NEAR(o.wrench[t][k], sim_w, 1e-7 * (1 + std::abs(sim_w))) << o.tip_names[t] << "." << comp[k];
+        const double sim_w = it->second.at(o.wrench_names[t] + "." + comp[k]);
+        EXPECT_NEAR(o.wrench[t][k], sim_w, 1e-7 * (1 + std::abs(sim_w))) << o.wrench_names[t] << "." << comp[k];
       }
     ++matched;
   }

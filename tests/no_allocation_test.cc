@@ -1,11 +1,12 @@
-// Nothing the loop calls allocates after start-up: evaluate() and step() of every scene and every
-// formulation, thousands of times, under a counting heap.
+// Nothing the loop calls allocates after start-up: evaluate(), compute_wrenches() and step() of every
+// scene and every formulation, thousands of times, under a counting heap.
 #define COOPDYN_COUNTING_ALLOCATOR_IMPL
 #include "tests/counting_allocator.h"
 
 #include <gtest/gtest.h>
 
 #include "service/dynamics/integrators.h"
+#include "service/dynamics/wrenches.h"
 #include "tests/test_util.h"
 
 using namespace coopdyn;
@@ -19,8 +20,9 @@ TEST(NoAllocation, EvaluateAndStepOfEveryScene) {
       if (name == "four_bar" && f == Formulation::kMobilePlatform) continue;
       if (name != "four_bar" && f == Formulation::kPseudoJointSchur) continue;
       SCOPED_TRACE(name + " " + formulation_name(f));
-      const System sys = load(name, f);
+      const System sys = load_with_reactions(name, f);  // every wrench output, joint reactions included
       Stepper st(sys);
+      WrenchData wd(sys);
       std::mt19937 rng(5);
       const int n = sys.model.nv();
       std::vector<Eigen::VectorXd> qs, vs, taus;  // inputs prepared before counting
@@ -39,6 +41,7 @@ TEST(NoAllocation, EvaluateAndStepOfEveryScene) {
         AllocationCounter c;
         for (int k = 0; k < 2000; ++k) {
           evaluate(sys, st.ws, qs[k % 16], vs[k % 16], taus[k % 16]);
+          compute_wrenches(sys, st.ws, wd);
           ++evals;
         }
         for (int k = 0; k < 500; ++k) step(sys, st, k % 2 ? Integrator::kRk4 : Integrator::kSemiImplicitEuler, 1e-3, zero, q, v);
@@ -57,8 +60,9 @@ TEST(NoAllocation, EvaluateAndStepOfTheWheelScenes) {
   for (const auto& name : wheel_scenes()) {
     for (auto f : {Formulation::kMobilePlatform, Formulation::kSvdBaseline}) {
       SCOPED_TRACE(name + " " + formulation_name(f));
-      const System sys = load(name, f);
+      const System sys = load_with_reactions(name, f);
       Stepper st(sys);
+      WrenchData wd(sys);
       std::mt19937 rng(6);
       const int n = sys.model.nv();
       std::vector<Eigen::VectorXd> qs, vs, taus;
@@ -73,7 +77,10 @@ TEST(NoAllocation, EvaluateAndStepOfTheWheelScenes) {
       if (n > 6) tau[6] = 1.0;  // the vehicle's left drive torque
       {
         AllocationCounter c;
-        for (int k = 0; k < 2000; ++k) evaluate(sys, st.ws, qs[k % 16], vs[k % 16], taus[k % 16]);
+        for (int k = 0; k < 2000; ++k) {
+          evaluate(sys, st.ws, qs[k % 16], vs[k % 16], taus[k % 16]);
+          compute_wrenches(sys, st.ws, wd);  // the vehicle: axles, and the null-space pass (rank 5 of 6)
+        }
         for (int k = 0; k < 500; ++k) step(sys, st, k % 2 ? Integrator::kRk4 : Integrator::kSemiImplicitEuler, 1e-3, tau, q, v);
         EXPECT_EQ(c.count(), 0);
       }

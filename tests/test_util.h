@@ -122,6 +122,13 @@ inline std::string replace_once(std::string text, const std::string& from, const
   return text;
 }
 
+// A shipped scene with every joint reaction asked for (`reactions: all`).
+inline System load_with_reactions(const std::string& name, std::optional<Formulation> f = std::nullopt) {
+  SceneOverrides ov;
+  ov.formulation = f;
+  return load_scene_string(scene_text(name) + "\nreactions: all\n", scene_path(name), ov);
+}
+
 // Velocity index of a coordinate name (-1 if absent).
 inline int velocity_index_of(const System& sys, const std::string& name) {
   for (int i = 0; i < sys.model.nv(); ++i)

@@ -8,6 +8,7 @@
 #include <Eigen/Core>
 
 #include "service/constraints/constraints.h"
+#include "service/dynamics/wrench_outputs.h"
 #include "service/model/model.h"
 
 namespace coopdyn {
@@ -60,6 +61,7 @@ struct System {
   SolverOptions options;
   Eigen::VectorXd q0, v0;     // initial state (satisfies the constraints)
   Eigen::VectorXd tau_limit;  // (nv) |tau| allowed per DOF (commands above are rejected); inf = none
+  WrenchSet wrenches;         // what is reported as wrenches (wrench_outputs.h); compiled
 };
 
 }  // namespace coopdyn

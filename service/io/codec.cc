@@ -25,6 +25,11 @@ static_assert(static_cast<int>(Reason::kNonFiniteResult) == coopdyn::output_t::R
 static_assert(static_cast<int>(Reason::kOverconstrained) == coopdyn::output_t::REASON_OVERCONSTRAINED, "core reasons");
 static_assert(static_cast<int>(Reason::kDiverged) == coopdyn::output_t::REASON_DIVERGED, "core reasons");
 static_assert(static_cast<int>(Status::kError) == coopdyn::output_t::STATUS_ERROR, "status codes");
+static_assert(static_cast<int>(WrenchKind::kEndEffector) == coopdyn::output_t::KIND_END_EFFECTOR, "wrench kinds");
+static_assert(static_cast<int>(WrenchKind::kBase) == coopdyn::output_t::KIND_BASE, "wrench kinds");
+static_assert(static_cast<int>(WrenchKind::kTip) == coopdyn::output_t::KIND_TIP, "wrench kinds");
+static_assert(static_cast<int>(WrenchKind::kAxle) == coopdyn::output_t::KIND_AXLE, "wrench kinds");
+static_assert(static_cast<int>(WrenchKind::kJoint) == coopdyn::output_t::KIND_JOINT, "wrench kinds");
 
 const char* reject_name(Reject r) {
   switch (r) {
@@ -177,36 +182,22 @@ Reject StateDecoder::decode(const void* data, int len, StateSlot& out) {
 // ---------------------------------------------------------------------------------------------
 struct OutputEncoder::Impl {
   const System& sys;
-  std::vector<int> weld_specs;  // spec index of each published tip
   coopdyn::output_t msg;
   int size = 0;
   explicit Impl(const System& s) : sys(s) {
     const Model& model = s.model;
-    const ConstraintSet& cs = s.constraints;
-    for (size_t k = 0; k < cs.specs.size(); ++k)
-      if (cs.specs[k].kind != ConstraintKind::kLock) weld_specs.push_back(static_cast<int>(k));
     msg = coopdyn::output_t();
-    msg.num_tips = static_cast<int32_t>(weld_specs.size());
-    for (int k : weld_specs) {
-      const ConstraintSpec& c = cs.specs[k];
-      msg.tip_names.push_back(c.name);
-      // A tip without a model frame is a wheel's ground contact: its frame is the moving contact
-      // frame C of the constraint ("<name>.contact", x heading, y lateral, z ground normal), as in
-      // `coopdyn eval`.
-      if (c.frame_a >= 0) {
-        msg.tip_frames.push_back(model.frames[c.frame_a].name);
-        msg.tip_by.push_back(c.frame_b < 0 ? "world" : model.frames[c.frame_b].name);
-      } else {
-        msg.tip_frames.push_back(c.name + ".contact");
-        msg.tip_by.push_back("ground");
-      }
-      int8_t mask = 0;
-      for (int a = 0; a < 6; ++a)
-        if (c.axes[a]) mask = static_cast<int8_t>(mask | (1 << a));
-      msg.constrained_mask.push_back(mask);
+    const auto& outs = s.wrenches.outputs;
+    msg.num_wrenches = static_cast<int32_t>(outs.size());
+    for (const WrenchOutput& o : outs) {
+      msg.wrench_names.push_back(o.name);
+      msg.wrench_frames.push_back(o.frame);
+      msg.wrench_by.push_back(o.by);
+      msg.wrench_kind.push_back(static_cast<int8_t>(o.kind));
+      msg.constrained_mask.push_back(static_cast<int8_t>(o.constrained));
     }
-    msg.wrench.assign(weld_specs.size(), std::vector<double>(6, 0.0));
-    msg.indeterminate_mask.assign(weld_specs.size(), 0);
+    msg.wrench.assign(outs.size(), std::vector<double>(6, 0.0));
+    msg.indeterminate_mask.assign(outs.size(), 0);
     msg.num_stresses = static_cast<int32_t>(model.pseudo_dofs.size());
     for (int d : model.pseudo_dofs) msg.stress_names.push_back(model.v_names[d]);
     msg.stress.assign(model.pseudo_dofs.size(), 0.0);
@@ -273,14 +264,18 @@ int OutputEncoder::encode(const OutputFrame& f, uint8_t* buf, int cap, bool* san
     o.residual = ws.diag.residual;
     bool ok = std::isfinite(o.residual);
     if (!std::isfinite(o.condition)) o.condition = -1;  // "infinite": a documented sentinel, not Inf
-    for (size_t t = 0; t < m.weld_specs.size(); ++t) {
-      unsigned mask = 0;
-      const Vec6 w = tip_wrench(m.sys, ws, m.weld_specs[t], &mask);
-      for (int k = 0; k < 6; ++k) {
-        o.wrench[t][k] = w[k];
-        ok = ok && std::isfinite(w[k]);
+    if (f.wrenches) {
+      const WrenchData& wd = *f.wrenches;
+      for (size_t t = 0; t < o.wrench.size(); ++t) {
+        for (int k = 0; k < 6; ++k) {
+          o.wrench[t][k] = wd.W[t][k];
+          ok = ok && std::isfinite(wd.W[t][k]);
+        }
+        o.indeterminate_mask[t] = static_cast<int8_t>(wd.indeterminate[t]);
       }
-      o.indeterminate_mask[t] = static_cast<int8_t>(mask);
+    } else {
+      for (auto& w : o.wrench) std::fill(w.begin(), w.end(), 0.0);
+      std::fill(o.indeterminate_mask.begin(), o.indeterminate_mask.end(), 0);
     }
     ok = copy_finite(&ws.stress, o.stress) && ok;
     ok = copy_finite(&ws.vdot, o.vdot) && ok;

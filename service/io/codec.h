@@ -16,6 +16,7 @@
 
 #include "service/dynamics/constrained_dynamics.h"
 #include "service/dynamics/system.h"
+#include "service/dynamics/wrenches.h"
 #include "service/io/messages.h"
 
 namespace coopdyn::io {
@@ -58,6 +59,7 @@ struct OutputFrame {
   const Eigen::VectorXd* v = nullptr;    // (nv)
   const Eigen::VectorXd* tau = nullptr;  // (nv) applied torque
   const Workspace* ws = nullptr;         // evaluation (vdot, lambda, stress, diag) when valid
+  const WrenchData* wrenches = nullptr;  // compute_wrenches() of that evaluation when valid
 };
 
 class OutputEncoder {

@@ -36,7 +36,7 @@ int64_t hash_of(const void* data, int len) {
 }
 void num(std::string* s, double x) {
   char b[32];
-  std::snprintf(b, sizeof b, ",%.10g", x);
+  std::snprintf(b, sizeof b, ",%.17g", x);  // round-trips
   *s += b;
 }
 void inum(std::string* s, long long x) {
@@ -94,9 +94,10 @@ bool decode_output(const void* data, int len, DecodedOutput* out) {
   out->indeterminate = m.indeterminate;
   out->condition = m.condition;
   out->residual = m.residual;
-  out->tip_names = m.tip_names;
-  out->tip_frames = m.tip_frames;
-  out->tip_by = m.tip_by;
+  out->wrench_names = m.wrench_names;
+  out->wrench_frames = m.wrench_frames;
+  out->wrench_by = m.wrench_by;
+  out->wrench_kind.assign(m.wrench_kind.begin(), m.wrench_kind.end());
   out->wrench.assign(m.wrench.size(), {});
   for (size_t t = 0; t < m.wrench.size(); ++t)
     for (int k = 0; k < 6; ++k) out->wrench[t][k] = m.wrench[t][k];
@@ -214,12 +215,12 @@ bool to_csv(MessageType t, const void* data, int len, std::string* header, std::
       inum(row, m.indeterminate);
       num(row, m.condition);
       num(row, m.residual);
-      for (int i = 0; i < m.num_tips; ++i) {
+      for (int i = 0; i < m.num_wrenches; ++i) {
         for (int k = 0; k < 6; ++k) {
-          *header += "," + m.tip_names[i] + "." + comp[k];
+          *header += "," + m.wrench_names[i] + "." + comp[k];
           num(row, m.wrench[i][k]);
         }
-        *header += "," + m.tip_names[i] + ".indeterminate_mask";
+        *header += "," + m.wrench_names[i] + ".indeterminate_mask";
         inum(row, m.indeterminate_mask[i]);
       }
       for (int i = 0; i < m.num_stresses; ++i) {

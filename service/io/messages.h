@@ -73,7 +73,8 @@ struct DecodedOutput {
   int64_t input_seq = -1, input_utime = -1;
   int rows = 0, rank = 0, indeterminate = 0;
   double condition = 0, residual = 0;
-  std::vector<std::string> tip_names, tip_frames, tip_by;
+  std::vector<std::string> wrench_names, wrench_frames, wrench_by;
+  std::vector<int> wrench_kind;  // WrenchKind codes (output_t KIND_*)
   std::vector<std::array<double, 6>> wrench;
   std::vector<int> constrained_mask, indeterminate_mask;
   std::vector<std::string> stress_names;

@@ -176,8 +176,10 @@ Data::Data(const Model& model) {
     const Body& b = model.bodies[i];
     if (b.joint.type != JointType::kFixed || b.parent < 0) continue;
     I_Bm[b.parent] += I_Bm[i].transformed(b.X_PJ);
-    I_Bm[i] = RigidInertia();
   }
+  I_Bw = I_Bm;
+  for (int i = 0; i < nb; ++i)
+    if (model.bodies[i].joint.type == JointType::kFixed && model.bodies[i].parent >= 0) I_Bm[i] = RigidInertia();
   has_inertia.assign(nb, 0);
   for (int i = 0; i < nb; ++i)
     has_inertia[i] = I_Bm[i].m != 0.0 || !I_Bm[i].h.isZero(0.0) || !I_Bm[i].Io.isZero(0.0);

@@ -139,6 +139,9 @@ struct Data {
   // entry is zero; bodies whose entry is exactly zero (folded, or massless like a base link held
   // by a constraint) are skipped by forward_kinematics' inertia transform and by rnea_bias.
   std::vector<RigidInertia> I_Bm;
+  // The inertia of each body together with every body welded below it (its rigid group), in B:
+  // I_Bm before the fold. The joint-reaction pass needs it at fixed joints (a grasp, a welded tool).
+  std::vector<RigidInertia> I_Bw;
   std::vector<char> has_inertia;   // I_Bm[i] nonzero
   std::vector<RigidInertia> I_W;   // I_Bm in world coordinates, about p_ref
   std::vector<RigidInertia> Ic_W;  // composite (subtree) inertias, world coordinates

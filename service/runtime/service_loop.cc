@@ -36,6 +36,7 @@ ServiceLoop::ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& b
               }),
       stepper_(sys),
       ws_(sys),
+      wrenches_(sys),
       q_(sys.q0),
       v_(sys.v0),
       tau_(Eigen::VectorXd::Zero(sys.model.nv())),
@@ -113,6 +114,8 @@ void ServiceLoop::tick(long long now) {
       f.ws = &stepper_.ws;
       f.valid = ok;
       if (ok) {
+        compute_wrenches(sys_, stepper_.ws, wrenches_);
+        f.wrenches = &wrenches_;
         f.status = static_cast<int8_t>(d.status);
         f.reason = static_cast<int16_t>(d.reason);
         sim_time_ += dt_;
@@ -154,6 +157,10 @@ void ServiceLoop::tick(long long now) {
       const Diagnostics& d = evaluate(sys_, ws_, s.q, s.v, s.tau);
       f.valid = d.status != Status::kError;
       f.ws = &ws_;
+      if (f.valid) {
+        compute_wrenches(sys_, ws_, wrenches_);
+        f.wrenches = &wrenches_;
+      }
       f.status = static_cast<int8_t>(d.status);
       f.reason = static_cast<int16_t>(d.reason);
       if (!f.valid) numerical_errors_.fetch_add(1, std::memory_order_relaxed);

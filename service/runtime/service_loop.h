@@ -7,6 +7,8 @@
 //             published together with that state (q, v) and tau, so any output can be reproduced
 //             offline by evaluate(q, v, tau);
 //   estimate: evaluate() at the measured state, no integration;
+// then the scene's wrench outputs of that evaluation (compute_wrenches: end-effector, base, tip,
+// axle and the joint reactions it asks for);
 // encode output_t into a preallocated buffer and publish it; every stats period publish
 // loop_stats_t. tick() does not sleep, allocate, lock, log or throw; tests call it directly.
 // run() calls tick() at absolute deadlines (clock_nanosleep TIMER_ABSTIME on CLOCK_MONOTONIC),
@@ -80,6 +82,7 @@ class ServiceLoop {
   StateInbox states_;
   Stepper stepper_;                  // simulate
   Workspace ws_;                     // estimate
+  WrenchData wrenches_;              // the published wrenches of the evaluation (either mode)
   Eigen::VectorXd q_, v_, tau_;      // (nq), (nv), (nv): simulated state, applied torque
   Eigen::VectorXd q_prev_, v_prev_;  // state at the start of the last step (what is published)
   std::vector<unsigned char> actuated_;  // (nv) finite tau_limit and not a pseudo-joint

@@ -168,6 +168,39 @@ std::array<double, 6> get_compliance(const Ctx& c, const YAML::Node& n, const st
   return cp;
 }
 
+// The components of a joint's reaction its bearings carry (WrenchOutput::constrained): all but the
+// axes its DOFs move along, when those are axes of the report frame (the child's frame).
+uint8_t bearing_mask(JointType t, const Vec3& axis, const Vec3& axis2) {
+  auto clear = [](uint8_t m, const Vec3& a, int offset) -> uint8_t {
+    for (int k = 0; k < 3; ++k)
+      if (std::abs(std::abs(a[k]) - a.norm()) <= 1e-12 * a.norm()) m = static_cast<uint8_t>(m & ~(1u << (offset + k)));
+    return m;
+  };
+  switch (t) {
+    case JointType::kRevolute: return clear(0x3f, axis, 0);
+    case JointType::kPrismatic: return clear(0x3f, axis, 3);
+    case JointType::kRevolute2: return clear(clear(0x3f, axis, 0), axis2, 0);  // exact when both stay frame axes
+    case JointType::kFloating: return 0;
+    case JointType::kFixed: break;
+  }
+  return 0x3f;
+}
+
+WrenchOutput joint_output(const std::string& name, const std::string& frame, const std::string& by, int body,
+                          bool reversed, int frame_body, const Transform& X_BF, uint8_t mask) {
+  WrenchOutput o;
+  o.name = name;
+  o.frame = frame;
+  o.by = by;
+  o.kind = WrenchKind::kJoint;
+  o.body = body;
+  o.reversed = reversed;
+  o.frame_body = frame_body;
+  o.X_BF = X_BF;
+  o.constrained = mask;
+  return o;
+}
+
 // ---- DH robots ---------------------------------------------------------------------------------
 
 // A serial robot as a chain of joints, URDF-style: joint i sits at X_origin (its frame in the
@@ -458,6 +491,7 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
     // reversed chain is link k's frame moved to joint k+1 (link_k * X_origin_{k+1}), so that joint
     // k+1 reversed is a plain motion about -axis at the origin of its parent.
     const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, std::numeric_limits<double>::infinity(), load);
+    std::vector<WrenchOutput>& outs = B.sys.wrenches.outputs;
     for (const ArmSpec& s : arms) {
       const auto& J = s.robot->joints;
       const int n = static_cast<int>(J.size());
@@ -465,8 +499,20 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
       fixed.type = JointType::kFixed;
       int parent = B.add(s.name + "." + J[n - 1].link_name, L, s.X_L_EE * s.tool.inverse() * s.robot->X_last_EE.inverse(),
                          fixed, J[n - 1].I, {}, {}, 0, s.node);
+      // the end-effector wrench is the reaction across the grasp: the load is the tree parent of the
+      // arm's last link, framed and named as the classic form's grasp weld
+      model.add_frame(s.name + ".ee", parent, s.robot->X_last_EE * s.tool);
+      model.add_frame(load_name + "." + s.name, L, s.X_L_EE);
+      {
+        WrenchOutput o = joint_output(s.name + ".ee", s.name + ".ee", load_name + "." + s.name, parent, false, parent,
+                                      s.robot->X_last_EE * s.tool, 0x3f);
+        o.kind = WrenchKind::kEndEffector;
+        outs.push_back(o);
+      }
+      std::vector<WrenchOutput> arm_joints;
       for (int i = n; i >= 1; --i) {
         const ChainJoint& cj = J[i - 1];
+        const int link_i = parent;  // the tree parent of joint i reversed is link i's side
         Joint j;
         const bool held = cj.fixed || s.fixed.count(i);
         j.type = held ? JointType::kFixed : (cj.prismatic ? JointType::kPrismatic : JointType::kRevolute);
@@ -480,7 +526,13 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
         const Inertia I = i > 1 ? J[i - 2].I.transformed(cj.X_origin.inverse()) : Inertia(0.0, Vec3::Zero(), 1e-3 * Mat3::Identity());
         const std::string body = s.name + "." + (i > 1 ? J[i - 2].link_name : s.robot->base_link);
         parent = B.add(body, parent, X_PJ, j, I, {s.q[i - 1]}, {s.v[i - 1]}, cj.tau_limit, s.node);
+        // the reaction of link i-1 on link i is the tree's reaction negated, framed in link i: the
+        // joint frame of the reversed joint (X_PJ without a held joint's motion)
+        arm_joints.push_back(joint_output(s.name + "." + cj.name, s.name + "." + cj.link_name, body, parent, true, link_i,
+                                          i == n ? Transform() : J[i].X_origin.inverse(),
+                                          held ? 0x3f : bearing_mask(j.type, cj.axis, cj.axis)));
       }
+      outs.insert(outs.end(), arm_joints.rbegin(), arm_joints.rend());  // in the robot's order, as classic
       model.add_frame(s.name + ".base", parent, J[0].X_origin.inverse());
       ConstraintSpec w;
       w.name = s.name + ".base";
@@ -490,8 +542,15 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
       w.X_WA_target = s.X_W_base;
       w.compliance = s.compliance;
       cs.specs.push_back(w);
+      WrenchOutput o;
+      o.name = o.frame = s.name + ".base";
+      o.by = "world";
+      o.kind = WrenchKind::kBase;
+      o.spec = static_cast<int>(cs.specs.size()) - 1;
+      outs.push_back(o);
     }
   } else {
+    std::vector<WrenchOutput>& outs = B.sys.wrenches.outputs;
     for (const ArmSpec& s : arms) {
       const auto& J = s.robot->joints;
       const int n = static_cast<int>(J.size());
@@ -507,6 +566,15 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
         Transform X_PJ = (i == 1 ? s.X_W_base : Transform()) * cj.X_origin;
         if (held) X_PJ = X_PJ * chain_motion(cj, s.q[i - 1]);
         parent = B.add(s.name + "." + cj.link_name, parent, X_PJ, j, cj.I, {s.q[i - 1]}, {s.v[i - 1]}, cj.tau_limit, s.node);
+        const std::string by = s.name + "." + (i > 1 ? J[i - 2].link_name : s.robot->base_link);
+        outs.push_back(joint_output(s.name + "." + cj.name, s.name + "." + cj.link_name, by, parent, false, parent,
+                                    Transform(), held ? 0x3f : bearing_mask(j.type, cj.axis, cj.axis)));
+        if (i == 1) {  // the base wrench is the reaction at joint 1, in the base frame
+          model.add_frame(s.name + ".base", -1, s.X_W_base);
+          WrenchOutput o = joint_output(s.name + ".base", s.name + ".base", "world", parent, false, -1, s.X_W_base, 0x3f);
+          o.kind = WrenchKind::kBase;
+          outs.push_back(o);
+        }
       }
       model.add_frame(s.name + ".ee", parent, s.robot->X_last_EE * s.tool);
     }
@@ -520,6 +588,12 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
       w.frame_b = model.frame_index(load_name + "." + s.name);
       w.compliance = s.compliance;
       cs.specs.push_back(w);
+      WrenchOutput o;
+      o.name = o.frame = s.name + ".ee";
+      o.by = load_name + "." + s.name;
+      o.kind = WrenchKind::kEndEffector;
+      o.spec = static_cast<int>(cs.specs.size()) - 1;
+      outs.push_back(o);
     }
   }
 }
@@ -577,7 +651,11 @@ void build_bodies(Builder& B, const YAML::Node& root) {
     }
     const double lim = (jn.IsDefined() && !jn.IsNull()) ? get_double(c, jn, "tau_limit", std::numeric_limits<double>::infinity(), "joint")
                                                        : std::numeric_limits<double>::infinity();
-    B.add(name, parent, X_PJ, j, I, jq, jv, lim, b);
+    const int id = B.add(name, parent, X_PJ, j, I, jq, jv, lim, b);
+    if (j.type != JointType::kFloating)  // a floating joint transmits nothing
+      B.sys.wrenches.outputs.push_back(joint_output(j.name.empty() ? name : j.name, name,
+                                                    parent >= 0 ? model.bodies[parent].name : "world", id, false, id,
+                                                    Transform(), bearing_mask(j.type, j.axis, j.axis2)));
   }
   if (root["frames"]) {
     for (const auto& f : root["frames"]) {
@@ -657,6 +735,83 @@ void build_bodies(Builder& B, const YAML::Node& root) {
   }
 }
 
+// Completes the wrench outputs (wrench_outputs.h): the builders listed end-effectors, bases and joint
+// reactions; here every other constraint becomes a tip, every wheel on a jointed parent an axle, and
+// `reactions: all | none | [joint, ...]` (default none) selects the joint reactions.
+void build_wrench_outputs(const Ctx& c, const YAML::Node& root, System& sys) {
+  const Model& model = sys.model;
+  const ConstraintSet& cs = sys.constraints;
+  std::vector<WrenchOutput>& outs = sys.wrenches.outputs;
+  std::vector<char> listed(cs.specs.size(), 0);
+  for (const WrenchOutput& o : outs)
+    if (o.spec >= 0) listed[o.spec] = 1;
+  for (size_t k = 0; k < cs.specs.size(); ++k) {
+    const ConstraintSpec& cp = cs.specs[k];
+    if (listed[k] || cp.kind == ConstraintKind::kLock) continue;
+    WrenchOutput o;
+    o.kind = WrenchKind::kTip;
+    o.spec = static_cast<int>(k);
+    o.name = cp.name;
+    uint8_t mask = 0;
+    for (int a = 0; a < 6; ++a)
+      if (cp.axes[a]) mask = static_cast<uint8_t>(mask | (1u << a));
+    o.constrained = mask;
+    if (cp.kind == ConstraintKind::kRolling) {
+      o.frame = cp.name + ".contact";
+      o.by = "ground";
+      outs.push_back(o);
+      const Body& wb = model.bodies[cp.body];
+      if (wb.parent >= 0 && wb.joint.type != JointType::kFloating) {
+        WrenchOutput x;
+        x.kind = WrenchKind::kAxle;
+        x.name = cp.name + ".axle";
+        x.frame = cp.name + ".centre";
+        x.by = model.bodies[wb.parent].name;
+        x.body = cp.body;
+        x.centre_of = static_cast<int>(k);
+        x.constrained = 0x3d;  // all but my: the drive torque about the lateral axis (an upright wheel)
+        outs.push_back(x);
+      }
+    } else {
+      o.frame = model.frames[cp.frame_a].name;
+      o.by = cp.frame_b < 0 ? "world" : model.frames[cp.frame_b].name;
+      outs.push_back(o);
+    }
+  }
+  // joint reactions: none unless asked for (a scene pays only for what it publishes)
+  const YAML::Node rn = root["reactions"];
+  std::set<std::string> keep;
+  bool all = false;
+  if (rn.IsDefined() && !rn.IsNull()) {
+    if (rn.IsScalar() && (rn.as<std::string>() == "all" || rn.as<std::string>() == "none")) {
+      all = rn.as<std::string>() == "all";
+    } else if (rn.IsSequence()) {
+      std::set<std::string> joints;
+      for (const WrenchOutput& o : outs)
+        if (o.kind == WrenchKind::kJoint) joints.insert(o.name);
+      for (const auto& x : rn) {
+        const std::string nm = x.IsScalar() ? x.as<std::string>() : "";
+        if (!joints.count(nm)) {
+          std::string list;
+          for (const auto& j : joints) list += (list.empty() ? "" : ", ") + j;
+          fail(c, x, "reactions: unknown joint '" + nm + "' (joints: " + list + ")");
+        }
+        if (!keep.insert(nm).second) fail(c, x, "reactions: joint '" + nm + "' listed twice");
+      }
+    } else {
+      fail(c, rn, "reactions must be all, none or a list of joint names");
+    }
+  }
+  outs.erase(std::remove_if(outs.begin(), outs.end(),
+                            [&](const WrenchOutput& o) { return o.kind == WrenchKind::kJoint && !all && !keep.count(o.name); }),
+             outs.end());
+  std::set<std::string> names;
+  for (const WrenchOutput& o : outs)
+    if (!names.insert(o.name).second)
+      fail(c, rn.IsDefined() ? rn : root, "two reported wrenches are named '" + o.name +
+                                              "' (a joint and a constraint?): rename one of them");
+}
+
 }  // namespace
 
 System load_scene_string(const std::string& text, const std::string& file, const SceneOverrides& ov) {
@@ -674,7 +829,7 @@ System load_scene_string(const std::string& text, const std::string& file, const
   if (!root.IsMap()) fail(c, root, "a scene must be a YAML mapping");
   try {
     check_keys(c, root, {"name", "description", "source", "gravity", "formulation", "redundancy", "stabilization", "solver",
-                         "robots", "load", "arms", "bodies", "frames", "constraints"},
+                         "robots", "load", "arms", "bodies", "frames", "constraints", "reactions"},
                "scene");
     System& sys = B.sys;
     sys.name = get_string(c, root, "name", std::filesystem::path(file).stem().string());
@@ -765,6 +920,7 @@ System load_scene_string(const std::string& text, const std::string& file, const
         sys.constraints.specs.push_back(s);
       }
     }
+    build_wrench_outputs(c, root, sys);
     // welds to the world without an explicit target hold the frame where q0 puts it
     Data data(model);
     forward_kinematics(model, data, sys.q0, sys.v0);
@@ -772,6 +928,7 @@ System load_scene_string(const std::string& text, const std::string& file, const
       if (s.kind == ConstraintKind::kWeld && s.frame_b < 0 && !s.X_WA_target.p.allFinite())
         s.X_WA_target = frame_pose(model, data, s.frame_a);
     sys.constraints.compile(model);
+    sys.wrenches.compile(model, sys.constraints);
 
     // the initial state must satisfy the constraints and give a positive definite M
     ConstraintData cd(model, sys.constraints);
