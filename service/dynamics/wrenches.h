@@ -17,8 +17,10 @@ struct WrenchData {
   std::vector<uint8_t> indeterminate;   // per output: bit k, component k is not determined by the
                                         // physics (it moves along a free direction of lambda)
   // per body, world coordinates at data.p_ref
-  std::vector<Vec6> f_ext, a, acc, R;
+  std::vector<Vec6> f_ext, a, acc, R;   // f_ext: the constraint forces on the bodies of the pass
   std::vector<Vec6> df_ext, dacc;       // the same for a free direction of lambda
+  std::vector<Transform> X_W_spec;      // per constraint spec of the pass: its frame (weld: A, rolling:
+                                        // the contact frame C) in the world
   Eigen::VectorXd dlam;                 // (rows) a free direction of lambda
 };
 
@@ -28,10 +30,5 @@ void compute_wrenches(const System& sys, const Workspace& ws, WrenchData& wd);
 // The pose in the world of output k's report frame (the frame its wrench is taken at and expressed
 // in), after forward_kinematics: a tip's constraint frame, a link's frame, a wheel-centre frame.
 Transform wrench_frame_pose(const System& sys, const Data& data, int k);
-
-// The constraint forces of multipliers `lambda` on the bodies of the reaction pass, world
-// coordinates at data.p_ref, into f_ext (zeroed first on those bodies).
-void constraint_body_forces(const System& sys, const Data& data, const Eigen::VectorXd& lambda,
-                            std::vector<Vec6>& f_ext);
 
 }  // namespace coopdyn
