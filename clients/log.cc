@@ -1,5 +1,5 @@
 // coopdyn log: an lcm-logger file -> one CSV per channel (coopdyn types), a per-channel summary
-// (type, count, rate), and PNG plots of the tip wrenches and the loop timing when matplotlib is
+// (type, count, rate), and PNG plots of the wrenches (joint reactions apart) and the loop timing when matplotlib is
 // available (/usr/bin/python3 with python3-matplotlib; optional: the CSVs never need it).
 #include <lcm/lcm-cpp.hpp>
 #include <sys/stat.h>
@@ -45,22 +45,32 @@ made = []
 if out_csv:
     head, c = read(out_csv)
     t = c["sim_time"]
-    tips = [h[:-3] for h in head if h.endswith(".fx")]
+    kind_names = {0: "load on the end-effector", 1: "world on the base", 2: "on the constrained tip",
+                  3: "through the axle, at the wheel centre", 4: "joint reaction, on the link after the joint"}
+    wrenches = [(h[:-5], int(c[h][0]) if c[h] else 2) for h in head if h.endswith(".kind")]
     stresses = [h for h in head if h.startswith("stress:")]
-    panels = []  # (title, unit, [(label, column)]); all-zero panels (a wheel's moments) are left out
-    for tip in tips:
-        for kind, comps, unit in (("moment", ("mx", "my", "mz"), "N*m"), ("force", ("fx", "fy", "fz"), "N")):
-            cols = [(k, tip + "." + k) for k in comps]
-            if any(x != 0 for _, col in cols for x in c[col]):
-                panels.append((f"{tip}: {kind} on the tip, in the tip frame", unit, cols))
+    def panels_of(selected):
+        panels = []  # (title, unit, [(label, column)]); all-zero panels (a wheel's moments) are left out
+        for w, kind in selected:
+            for what, comps, unit in (("moment", ("mx", "my", "mz"), "N*m"), ("force", ("fx", "fy", "fz"), "N")):
+                cols = [(k, w + "." + k) for k in comps]
+                if any(x != 0 for _, col in cols for x in c[col]):
+                    panels.append((f"{w}: {what}, {kind_names.get(kind, '')} (in frame {w if kind != 2 else 'of the tip'})", unit, cols))
+        return panels
+    def figure(panels, path):
+        fig, axes = plt.subplots(max(len(panels), 1), 1, figsize=(10, 2.6 * max(len(panels), 1)), sharex=True, squeeze=False)
+        for ax, (title, unit, cols) in zip((a[0] for a in axes), panels):
+            for label, col in cols: ax.plot(t, c[col], label=label)
+            ax.set_ylabel(unit); ax.set_title(title); ax.legend(loc="upper right"); ax.grid(True)
+        axes[-1][0].set_xlabel("simulation time [s]")
+        fig.tight_layout(); fig.savefig(path, dpi=90); made.append(path); plt.close(fig)
+    panels = panels_of([w for w in wrenches if w[1] != 4])
     if stresses:
         panels.append(("pseudo-joint stresses", "N*m or N", [(s[7:], s) for s in stresses]))
-    fig, axes = plt.subplots(max(len(panels), 1), 1, figsize=(10, 2.6 * max(len(panels), 1)), sharex=True, squeeze=False)
-    for ax, (title, unit, cols) in zip((a[0] for a in axes), panels):
-        for label, col in cols: ax.plot(t, c[col], label=label)
-        ax.set_ylabel(unit); ax.set_title(title); ax.legend(loc="upper right"); ax.grid(True)
-    axes[-1][0].set_xlabel("simulation time [s]")
-    fig.tight_layout(); fig.savefig(out + "/wrenches.png", dpi=90); made.append(out + "/wrenches.png")
+    figure(panels, out + "/wrenches.png")
+    joints = [w for w in wrenches if w[1] == 4]
+    if joints:
+        figure(panels_of(joints), out + "/reactions.png")
 if stats_csv:
     head, c = read(stats_csv)
     t = [x - c["log_time"][0] for x in c["log_time"]]

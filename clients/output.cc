@@ -99,6 +99,18 @@ void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const
       list(f, zc.data(), 3);
       std::fprintf(f, "}, ");
     }
+    {  // the report frame's pose in the world: origin, then the rotation matrix by rows
+      const Transform X = wrench_frame_pose(sys, ws.data, static_cast<int>(k));
+      std::fprintf(f, "\"frame_W\": {\"p\": ");
+      list(f, X.p.data(), 3);
+      std::fprintf(f, ", \"R\": [");
+      for (int r = 0; r < 3; ++r) {
+        const Vec3 row = X.R.row(r).transpose();
+        std::fprintf(f, "%s", r ? ", " : "");
+        list(f, row.data(), 3);
+      }
+      std::fprintf(f, "]}, ");
+    }
     std::fprintf(f, "\"moment\": ");
     list(f, wd.W[k].data(), 3);
     std::fprintf(f, ", \"force\": ");

@@ -122,11 +122,17 @@ inline std::string replace_once(std::string text, const std::string& from, const
   return text;
 }
 
+// A scene text without its `reactions:` line (the shipped scenes may ask for joint reactions).
+inline std::string without_reactions(std::string text) {
+  const auto p = text.find("\nreactions:");
+  if (p != std::string::npos) text.erase(p, text.find('\n', p + 1) - p);
+  return text;
+}
 // A shipped scene with every joint reaction asked for (`reactions: all`).
 inline System load_with_reactions(const std::string& name, std::optional<Formulation> f = std::nullopt) {
   SceneOverrides ov;
   ov.formulation = f;
-  return load_scene_string(scene_text(name) + "\nreactions: all\n", scene_path(name), ov);
+  return load_scene_string(without_reactions(scene_text(name)) + "\nreactions: all\n", scene_path(name), ov);
 }
 
 // Velocity index of a coordinate name (-1 if absent).

@@ -180,8 +180,8 @@ int main(int argc, char** argv) {
     return 1;
   }
 
-  int tips = 0;
-  for (const auto& c : sys.constraints.specs) tips += c.kind == ConstraintKind::kWeld;
+  int by_kind[5] = {0, 0, 0, 0, 0};
+  for (const WrenchOutput& o : sys.wrenches.outputs) ++by_kind[static_cast<int>(o.kind)];
   runtime::ServiceLoop loop(sys, cfg, *bus);
   if (cfg.mode == runtime::ServiceMode::kSimulate)
     bus->subscribe(cfg.command_channel,
@@ -189,9 +189,10 @@ int main(int argc, char** argv) {
   else
     bus->subscribe(cfg.state_channel, [&](const void* d, int n, long long t) { loop.states().offer(d, n, t); });
 
-  spdlog::info("scene '{}' from {}: nq {}, nv {}, {} tips, {} pseudo-joint stresses, {} constraint rows, formulation {}",
-               sys.name, scene_path, sys.model.nq(), sys.model.nv(), tips, sys.model.pseudo_dofs.size(),
-               sys.constraints.rows, formulation_name(sys.options.formulation));
+  spdlog::info("scene '{}' from {}: nq {}, nv {}, {} constraint rows, formulation {}", sys.name, scene_path,
+               sys.model.nq(), sys.model.nv(), sys.constraints.rows, formulation_name(sys.options.formulation));
+  spdlog::info("wrenches out: {} end-effector, {} base, {} tip, {} axle, {} joint reactions; {} pseudo-joint stresses",
+               by_kind[0], by_kind[1], by_kind[2], by_kind[3], by_kind[4], sys.model.pseudo_dofs.size());
   spdlog::info("mode {}, {} Hz ({} integrator), watchdog {} ms, safe torque {}, overrun policy {}",
                runtime::mode_name(cfg.mode), cfg.rate_hz, integrator_name(cfg.integrator), cfg.watchdog_ms,
                cfg.safe_torque == runtime::SafeTorque::kZero ? "zero" : "damping",

@@ -222,6 +222,8 @@ bool to_csv(MessageType t, const void* data, int len, std::string* header, std::
         }
         *header += "," + m.wrench_names[i] + ".indeterminate_mask";
         inum(row, m.indeterminate_mask[i]);
+        *header += "," + m.wrench_names[i] + ".kind";  // output_t KIND_*: 0 end-effector .. 4 joint
+        inum(row, m.wrench_kind[i]);
       }
       for (int i = 0; i < m.num_stresses; ++i) {
         *header += ",stress:" + m.stress_names[i];

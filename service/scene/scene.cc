@@ -37,9 +37,10 @@ struct Ctx {
 
 void check_keys(const Ctx& c, const YAML::Node& n, std::initializer_list<const char*> allowed, const std::string& what) {
   if (!n.IsMap()) fail(c, n, what + " must be a mapping");
-  std::set<std::string> ok(allowed.begin(), allowed.end());
+  std::set<std::string> ok(allowed.begin(), allowed.end()), seen;
   for (const auto& kv : n) {
     const std::string k = kv.first.as<std::string>();
+    if (!seen.insert(k).second) fail(c, kv.first, "duplicate key '" + k + "' in " + what + " (YAML keeps only one of them)");
     if (!ok.count(k)) {
       std::string list;
       for (const auto& a : allowed) list += std::string(list.empty() ? "" : ", ") + a;
