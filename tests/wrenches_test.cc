@@ -91,7 +91,7 @@ const std::vector<std::string> kArmScenes = {"two_puma_load", "two_5dof_arms_loa
 TEST(Wrenches, EveryFormulationReportsTheSameEndEffectorBaseAndJointWrenches) {
   // The mobile-platform form reads the end-effector wrench off the reaction across the grasp and
   // the base wrench off a multiplier; the classic form the other way round. Both, and the pseudo-joint
-  // and SVD forms, must agree at random consistent states (determinate components; planar_arms_load
+  // and SVD forms (where it drops nothing), must agree at random consistent states (determinate components; planar_arms_load
   // is over-constrained and each form's rule splits its free part differently).
   std::mt19937 rng(180);
   for (const auto& name : kArmScenes) {
@@ -111,6 +111,9 @@ TEST(Wrenches, EveryFormulationReportsTheSameEndEffectorBaseAndJointWrenches) {
                            remap(other.model.v_names, mp.model.v_names, e.v),
                            remap(other.model.v_names, mp.model.v_names, e.tau)).status,
                   Status::kError);
+        // the SVD baseline integrates other dynamics where it drops a direction (two_5dof_arms_load:
+        // one per arm; tests/svd_baseline_test.cc); elsewhere it must agree
+        if (wo.diag.dropped > 0) continue;
         WrenchData dot(other);
         compute_wrenches(other, wo, dot);
         ASSERT_EQ(other.wrenches.outputs.size(), mp.wrenches.outputs.size());

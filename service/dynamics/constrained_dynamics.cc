@@ -1,5 +1,6 @@
 #include "service/dynamics/constrained_dynamics.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -51,6 +52,8 @@ const char* reason_text(Reason r) {
     case Reason::kNonFiniteResult: return "the solve produced a non-finite value";
     case Reason::kOverconstrained: return "over-constrained: indeterminate constraint forces resolved by the scene's rule";
     case Reason::kDiverged: return "the integration diverged: the state left the scene's bounds";
+    case Reason::kSvdDropped:
+      return "SVD baseline: constraint directions an arm cannot move in were dropped; their forces are not determined";
   }
   return "?";
 }
@@ -113,6 +116,16 @@ Workspace::Workspace(const System& sys)
   if (sys.options.formulation == Formulation::kSvdBaseline) {
     for (size_t s = 0; s < sys.constraints.specs.size(); ++s) {
       const int k = sys.constraints.row_count[s];
+      const ConstraintSpec& c = sys.constraints.specs[s];
+      own_cols.emplace_back();
+      if (c.kind == ConstraintKind::kWeld && c.frame_b >= 0 && sys.model.frames[c.frame_b].body >= 0) {
+        const std::vector<int>& other = sys.model.body_support[sys.model.frames[c.frame_b].body];
+        for (int d : cs.support[s])
+          if (!std::binary_search(other.begin(), other.end(), d)) own_cols.back().push_back(d);
+      } else {
+        own_cols.back() = cs.support[s];  // a weld to the world, a wheel, a lock: every DOF it touches
+      }
+      tip_rank.push_back(0);
       tip_B.push_back(Eigen::MatrixXd::Zero(k, n));
       tip_U.push_back(Eigen::MatrixXd::Zero(k, k));
       tip_s.push_back(Eigen::VectorXd::Zero(k));
@@ -262,25 +275,34 @@ bool pseudo_schur(const System& sys, Workspace& ws) {
 }
 
 void svd_baseline(const System& sys, Workspace& ws) {
-  // (19)-(21): per tip, R_k spans the directions the tip can move in (range of G_k); rows in
-  // N(G_k^T) are identically zero and are dropped. Then Q_r = G_r M^-1 G_r^T by SVD.
+  // (19)-(21), the paper's numerical method in its classic setting: per tip k, the SVD of the
+  // manipulator's own tip Jacobian J_k (the rows of G_k over the DOFs that move the tip but not the
+  // other side: an arm's joints, not the load's) gives U = [U_r U_0], U_r spanning the directions the
+  // tip can move in, U_0 = N(J_k^T). R_k = U_r^T keeps those rows of the constraint, G_r = R G;
+  // the force components along N(J_k^T) are dropped (not determined). Then Q_r = G_r M^-1 G_r^T
+  // by an SVD (eigen-decomposition) pseudo-inverse.
   const Model& model = sys.model;
   const ConstraintSet& cs = sys.constraints;
   const int n = model.nv(), m = cs.rows;
   ws.R.setZero();
   int mr = 0;
+  ws.dropped = 0;
   for (size_t s = 0; s < cs.specs.size(); ++s) {
     const int r0 = cs.row_offset[s], nk = cs.row_count[s];
     Eigen::MatrixXd& B = ws.tip_B[s];
-    B = ws.cd.G.middleRows(r0, nk);
+    B.setZero();
+    for (int c : ws.own_cols[s]) B.col(c) = ws.cd.G.block(r0, c, nk, 1);
     jacobi_svd_rows(B, ws.tip_U[s], ws.tip_s[s]);
     const Eigen::VectorXd& sv = ws.tip_s[s];
     const double tol = std::sqrt(sys.options.rank_tol) * sv[0];
+    ws.tip_rank[s] = 0;
     for (int i = 0; i < nk; ++i)
       if (sv[i] > tol && sv[0] > 0.0) {
         ws.R.row(mr).segment(r0, nk) = ws.tip_U[s].col(i).transpose();
         ++mr;
+        ++ws.tip_rank[s];
       }
+    ws.dropped += nk - ws.tip_rank[s];
   }
   ws.mr = mr;
   ws.Gr.topRows(mr).noalias() = ws.R.topRows(mr) * ws.cd.G;
@@ -327,7 +349,7 @@ void svd_baseline(const System& sys, Workspace& ws) {
       for (int r = 0; r < mr; ++r) w += ws.R(r, i) * ws.eig_V(r, j);
       s -= w * w;
     }
-    ws.qs.row_indeterminate[i] = s < 1.0 - 1e-6 ? 1 : 0;
+    ws.qs.row_indeterminate[i] = s < 1.0 - 1e-6 ? 1 : 0;  // a row with a share along N(J^T)
   }
   ws.vdot = ws.u;
   ws.vdot.noalias() += ws.Yt * ws.tmp_m2;
@@ -357,6 +379,7 @@ const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::Vecto
   dg.status = Status::kOk;
   dg.reason = Reason::kNone;
   dg.bad_index = -1;
+  dg.dropped = 0;
   auto fail = [&](Reason r) -> const Diagnostics& {
     dg.status = Status::kError;
     dg.reason = r;
@@ -406,6 +429,11 @@ const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::Vecto
   if (dg.indeterminate > 0) {
     dg.status = Status::kIndeterminate;
     dg.reason = Reason::kOverconstrained;
+  }
+  if (sys.options.formulation == Formulation::kSvdBaseline && ws.dropped > 0) {
+    dg.dropped = ws.dropped;
+    dg.status = Status::kIndeterminate;
+    dg.reason = Reason::kSvdDropped;
   }
   return dg;
 }

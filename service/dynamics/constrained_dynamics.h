@@ -33,6 +33,8 @@ enum class Reason {
   kNonFiniteResult = 4,      // the solve produced NaN/Inf (never published)
   kOverconstrained = 5,      // not an error: rank < rows, indeterminate part resolved by the rule
   kDiverged = 6,             // the integrated state left the scene's bounds (the step diverged)
+  kSvdDropped = 7,           // not an error: the SVD baseline dropped constraint directions along
+                             // N(J^T) of a tip's own Jacobian; their forces are not determined
 };
 const char* reason_text(Reason r);
 
@@ -44,6 +46,7 @@ struct Diagnostics {
   double residual = 0.0;   // max |G vdot - gamma|
   Status status = Status::kOk;
   Reason reason = Reason::kNone;
+  int dropped = 0;         // SVD baseline: directions dropped (along N(J_k^T), summed over the tips)
   int bad_index = -1;      // velocity index: the DOF that moves no mass (kMassMatrixSingular) or
                            // that broke solver.max_speed (kDiverged)
 };
@@ -84,8 +87,12 @@ struct Workspace {
   Eigen::VectorXd tp;                  // (p)
 
   // kSvdBaseline only (empty otherwise)
-  std::vector<Eigen::MatrixXd> tip_B, tip_U;  // per spec: (rows_k x nv) rows of G_k, (rows_k x rows_k)
-  std::vector<Eigen::VectorXd> tip_s;          // per spec: singular values of G_k
+  std::vector<std::vector<int>> own_cols;      // per spec: the DOFs of the tip's own Jacobian J_k (they
+                                               // move frame A but not frame B: an arm's joints, not the load's)
+  std::vector<Eigen::MatrixXd> tip_B, tip_U;  // per spec: (rows_k x nv) J_k (G_k on own_cols), its U
+  std::vector<Eigen::VectorXd> tip_s;          // per spec: singular values of J_k, descending
+  std::vector<int> tip_rank;                   // per spec: directions kept (rank of J_k)
+  int dropped = 0;                             // directions dropped, all specs
   Eigen::MatrixXd R;         // (rows x rows) block-diagonal reduction, first mr rows used
   Eigen::MatrixXd Gr;        // (rows x nv) reduced G
   int mr = 0;

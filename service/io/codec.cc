@@ -24,6 +24,7 @@ static_assert(static_cast<int>(Reason::kPseudoBlockSingular) == coopdyn::output_
 static_assert(static_cast<int>(Reason::kNonFiniteResult) == coopdyn::output_t::REASON_NONFINITE_RESULT, "core reasons");
 static_assert(static_cast<int>(Reason::kOverconstrained) == coopdyn::output_t::REASON_OVERCONSTRAINED, "core reasons");
 static_assert(static_cast<int>(Reason::kDiverged) == coopdyn::output_t::REASON_DIVERGED, "core reasons");
+static_assert(static_cast<int>(Reason::kSvdDropped) == coopdyn::output_t::REASON_SVD_DROPPED, "core reasons");
 static_assert(static_cast<int>(Status::kError) == coopdyn::output_t::STATUS_ERROR, "status codes");
 static_assert(static_cast<int>(WrenchKind::kEndEffector) == coopdyn::output_t::KIND_END_EFFECTOR, "wrench kinds");
 static_assert(static_cast<int>(WrenchKind::kBase) == coopdyn::output_t::KIND_BASE, "wrench kinds");

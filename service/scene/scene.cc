@@ -897,7 +897,9 @@ System load_scene_string(const std::string& text, const std::string& file, const
     const bool has_arms = root["arms"].IsDefined(), has_bodies = root["bodies"].IsDefined();
     if (has_arms == has_bodies) fail(c, root, "a scene declares either 'arms' (with a 'load') or 'bodies', not both or neither");
     if (has_arms) {
-      build_arms(B, root, robots, sys.options.formulation != Formulation::kClassic);
+      // the SVD baseline is the paper's, in its classic setting (METHOD s.6): arms rooted at the world
+      build_arms(B, root, robots,
+                 sys.options.formulation != Formulation::kClassic && sys.options.formulation != Formulation::kSvdBaseline);
     } else {
       if (sys.options.formulation == Formulation::kClassic && root["formulation"].as<std::string>("") != "classic")
         fail(c, root, "formulation classic applies to scenes with arms holding a load");
