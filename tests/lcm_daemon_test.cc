@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <mutex>
@@ -296,6 +297,37 @@ TEST_F(DaemonProcess, UdpmEstimateMeasuredStateInWrenchesOut) {
   const auto outs = sink.snapshot();
   ASSERT_FALSE(outs.empty());
   if (outs.back().input == static_cast<int>(io::Input::kState)) expect_matches_coopdyn_eval(outs.back(), "est");
+}
+
+// Issue 10, item 2: at the lowest rate (1 Hz) SIGTERM right after a tick, and --duration, end the
+// daemon at once; before, the loop slept to its next deadline (1 s here, 1000 s at 0.001 Hz).
+TEST_F(DaemonProcess, LowestRateStopsAtOnceOnSigtermAndDuration) {
+  const std::string cfg_path = tmp_path("slow.yaml");
+  std::ofstream(cfg_path) << "rate_hz: 1\n";
+  OutputSink sink;
+  sink.attach(*bus_);
+  bus_->start();
+  auto d = start_daemon({"--config", cfg_path}, "slow");
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  const auto t0 = std::chrono::steady_clock::now();  // the next deadline is ~1 s away
+  d->signal(SIGTERM);
+  EXPECT_EQ(d->wait(), 0) << slurp(d->err);
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("1 Hz daemon: SIGTERM to exit %.0f ms\n", ms);
+  EXPECT_LT(ms, 500.0) << "waited for the next tick";
+  EXPECT_NE(slurp(d->out).find("coopdynd: stopped (SIGTERM)"), std::string::npos) << slurp(d->out);
+  bus_->stop();
+  // --duration 0.1 at 1 Hz: stops after 0.1 s with no tick (the summary's own clock)
+  Child c({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--lcm-url", url_, "--config", cfg_path, "--duration",
+           "0.1"},
+          "slow_duration");
+  EXPECT_EQ(c.wait(), 0) << slurp(c.err);
+  const std::string out = slurp(c.out);
+  const auto p = out.find("stopped (duration) after 0 ticks in ");
+  ASSERT_NE(p, std::string::npos) << out;
+  const double secs = std::stod(out.substr(p + std::strlen("stopped (duration) after 0 ticks in ")));
+  EXPECT_LT(secs, 0.5) << out;
+  std::remove(cfg_path.c_str());
 }
 
 TEST(DaemonStartup, BrokenSceneOrConfigStopsWithAClearMessage) {

@@ -434,3 +434,29 @@ TEST(ServiceLoop, OverrunPolicySkipDropsPeriodsCatchUpRunsThem) {
     EXPECT_TRUE(saw);
   }
 }
+
+// A stop request ends run() within one sleep slice (10 ms) even at the lowest rate (1 Hz): the
+// loop no longer waits for the next deadline (1 s here) before it sees the flag.
+TEST(ServiceLoop, StopEndsRunWithinASliceAtTheLowestRate) {
+  const System sys = load_scene(scene_path("four_bar"));
+  ServiceConfig cfg;
+  cfg.rate_hz = runtime::kMinRateHz;
+  cfg.stats_period_s = 1.0;
+  runtime::validate(cfg);
+  FakeBus bus;
+  ServiceLoop loop(sys, cfg, bus);
+  std::atomic<bool> stop{false};
+  std::chrono::steady_clock::time_point stopped_at, returned_at;
+  std::thread th([&] {
+    loop.run(stop);
+    returned_at = std::chrono::steady_clock::now();
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  stopped_at = std::chrono::steady_clock::now();
+  stop = true;
+  th.join();
+  const double ms = std::chrono::duration<double, std::milli>(returned_at - stopped_at).count();
+  std::printf("run() returned %.2f ms after the stop request at 1 Hz\n", ms);
+  EXPECT_LT(ms, 200.0) << "bounded by the 10 ms slice (wide margin for a loaded machine), not the 1 s period";
+  EXPECT_EQ(loop.ticks(), 0) << "the first deadline (1 s) was never reached";
+}

@@ -150,6 +150,9 @@ int main(int argc, char** argv) {
   } catch (const runtime::ConfigError& e) {
     std::fprintf(stderr, "coopdynd: config error: %s\n", e.what());
     return 2;
+  } catch (const std::exception& e) {  // load_config converts everything; this is the backstop
+    std::fprintf(stderr, "coopdynd: config error: %s: %s\n", config_path.c_str(), e.what());
+    return 2;
   }
   System sys;
   try {

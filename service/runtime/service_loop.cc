@@ -224,11 +224,26 @@ void ServiceLoop::run(const std::atomic<bool>& stop, long long max_ticks) {
   long long next = io::monotonic_ns() + period_ns_;
   long long n = 0;
   while (!stop.load(std::memory_order_relaxed) && (max_ticks < 0 || n < max_ticks)) {
-    timespec ts;
-    ts.tv_sec = static_cast<time_t>(next / 1000000000LL);
-    ts.tv_nsec = static_cast<long>(next % 1000000000LL);
-    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+    // Sleep to the absolute deadline in slices of at most kStopSliceNs, so a stop request (SIGINT,
+    // SIGTERM, --duration) ends run() within one slice even at the lowest rate (1 Hz); at 1 kHz
+    // the period is shorter than a slice and this is one clock_nanosleep.
+    bool stopped = false;
+    for (;;) {
+      const long long now = io::monotonic_ns();
+      if (now >= next) break;
+      if (stop.load(std::memory_order_relaxed)) {
+        stopped = true;
+        break;
+      }
+      const long long until = next - now > kStopSliceNs ? now + kStopSliceNs : next;
+      timespec ts;
+      ts.tv_sec = static_cast<time_t>(until / 1000000000LL);
+      ts.tv_nsec = static_cast<long>(until % 1000000000LL);
+      const int rc = clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
+      if (rc != 0 && rc != EINTR) break;  // cannot happen with a valid timespec; never spin
+      if (until == next && rc == 0) break;
     }
+    if (stopped) break;
     const long long wake = io::monotonic_ns();
     tick(wake);
     const long long end = io::monotonic_ns();
