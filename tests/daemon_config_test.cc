@@ -136,3 +136,46 @@ TEST(DaemonConfig, ValidateAfterOverridesAppliesTheSameLimits) {
   c.stats_period_s = 0.01;  // a tenth of a tick
   EXPECT_THROW(validate(c), ConfigError);
 }
+
+// Issue 10, item 7: deep or huge input is a clear error naming the file, and no message echoes a
+// long value (a 100 kB key gave a 100 kB line).
+TEST(DaemonConfig, DeepHugeOrLongInputIsAShortClearError) {
+  auto error_of = [](const std::string& text) -> std::string {
+    try {
+      load_config_string(text, "t.yaml");
+    } catch (const ConfigError& e) {
+      return e.what();
+    }
+    return "accepted";
+  };
+  std::string e = error_of("rate_hz: " + std::string(200000, '['));
+  // 2 for the indentation level, 1 for "rate_hz:", so the 62nd bracket passes 64
+  EXPECT_EQ(e, "t.yaml:1:" + std::to_string(9 + 62) + ": YAML nested deeper than 64 levels (the limit for a config file)");
+  e = error_of(std::string(200000, '{'));
+  EXPECT_NE(e.find("t.yaml:1:"), std::string::npos) << e;
+  EXPECT_NE(e.find("nested deeper than 64 levels"), std::string::npos) << e;
+  const std::string big = "# " + std::string(2u << 20, 'x') + "\n";
+  e = error_of(big);
+  EXPECT_EQ(e, "t.yaml: the service config is " + std::to_string(big.size()) + " bytes, more than the limit of 1048576");
+  // a key as long as YAML allows (1024 characters for an implicit key), and a 100 kB value
+  const std::string key = "HEAD" + std::string(1000, 'k') + "TAIL";
+  e = error_of(key + ": 1\n");
+  EXPECT_LT(e.size(), 400u) << e.size();
+  EXPECT_EQ(e.rfind("t.yaml:1:1: unknown key 'HEAD", 0), 0u) << e.substr(0, 100);
+  EXPECT_NE(e.find("kkkkTAIL' in the service config (allowed: "), std::string::npos) << e;
+  const std::string huge = "HEAD" + std::string(100000, 'v') + "TAIL";
+  e = error_of("channels: {command: " + huge + "}\n");
+  EXPECT_LT(e.size(), 400u) << e.size();
+  EXPECT_NE(e.find("channel 'command' must be 1..63 characters (LCM's limit), got 100008"), std::string::npos) << e;
+  // files: a device, a directory, a missing file
+  for (const char* p : {"/dev/zero", "/tmp", "/no/such/coopdynd.yaml"}) {
+    try {
+      load_config(p);
+      ADD_FAILURE() << p;
+    } catch (const ConfigError& err) {
+      const std::string m = err.what();
+      EXPECT_EQ(m.rfind(std::string(p) + ": ", 0), 0u) << m;
+      EXPECT_TRUE(m.find("is not a regular file") != std::string::npos || m.find("cannot open the service config") != std::string::npos) << m;
+    }
+  }
+}

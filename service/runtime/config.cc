@@ -1,12 +1,14 @@
 #include "service/runtime/config.h"
 
+#include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <set>
 #include <sstream>
+
+#include "service/text/input_limits.h"
 
 namespace coopdyn::runtime {
 
@@ -76,7 +78,7 @@ struct Ctx {
     s << file;
     if (n.IsDefined() && n.Mark().line >= 0) s << ":" << n.Mark().line + 1 << ":" << n.Mark().column + 1;
     s << ": " << why;
-    throw ConfigError(s.str());
+    throw ConfigError(text::cut_values(s.str()));
   }
   void check(const YAML::Node& n, const std::string& why) const {
     if (!why.empty()) fail(n, why);
@@ -181,13 +183,23 @@ std::string place(const std::string& name, const YAML::Mark& m) {
 
 }  // namespace
 
-ServiceConfig load_config_string(const std::string& text, const std::string& name) {
+ServiceConfig load_config_string(const std::string& yaml, const std::string& name) {
   Ctx c{name};
+  // bounded before yaml-cpp sees it: its parser recurses per level (and stops at 500 with the
+  // message "bad file")
+  if (yaml.size() > text::kMaxConfigBytes)
+    throw ConfigError(name + ": the service config is " + std::to_string(yaml.size()) + " bytes, more than the limit of " +
+                      std::to_string(text::kMaxConfigBytes));
+  if (const text::DepthExceeded d = text::yaml_depth_exceeds(yaml); d.exceeded)
+    throw ConfigError(name + ":" + std::to_string(d.line) + ":" + std::to_string(d.column) + ": YAML nested deeper than " +
+                      std::to_string(text::kMaxYamlDepth) + " levels (the limit for a config file)");
   YAML::Node root;
   try {
-    root = YAML::Load(text);
+    root = YAML::Load(yaml);
+  } catch (const YAML::DeepRecursion& e) {
+    throw ConfigError(name + ": YAML nested deeper than yaml-cpp's limit of " + std::to_string(e.depth()) + " levels");
   } catch (const YAML::Exception& e) {
-    throw ConfigError(place(name, e.mark) + ": " + e.msg);
+    throw ConfigError(text::cut_values(place(name, e.mark) + ": " + e.msg));
   }
   // Nothing below may escape as anything but a ConfigError naming the file.
   ServiceConfig cfg;
@@ -196,9 +208,9 @@ ServiceConfig load_config_string(const std::string& text, const std::string& nam
   } catch (const ConfigError&) {
     throw;
   } catch (const YAML::Exception& e) {
-    throw ConfigError(place(name, e.mark) + ": " + e.msg);
+    throw ConfigError(text::cut_values(place(name, e.mark) + ": " + e.msg));
   } catch (const std::exception& e) {
-    throw ConfigError(name + ": " + e.what());
+    throw ConfigError(text::cut_values(name + ": " + e.what()));
   }
   try {
     validate(cfg);
@@ -209,11 +221,9 @@ ServiceConfig load_config_string(const std::string& text, const std::string& nam
 }
 
 ServiceConfig load_config(const std::string& path) {
-  std::ifstream f(path);
-  if (!f) throw ConfigError(path + ": cannot open the service config");
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return load_config_string(ss.str(), path);
+  std::string yaml, why;
+  if (!text::read_file(path, text::kMaxConfigBytes, "the service config", &yaml, &why)) throw ConfigError(path + ": " + why);
+  return load_config_string(yaml, path);
 }
 
 void validate(const ServiceConfig& c) {
