@@ -1,5 +1,5 @@
 // Bounded user input (service/text/input_limits.h): values cut in messages, files read with a
-// size limit, and the nesting pre-scan that runs before yaml-cpp recurses.
+// size limit, and the nesting pre-scans that run before yaml-cpp and urdfdom (TinyXML) recurse.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -39,9 +39,9 @@ bool valid_utf8(const std::string& s) {
   return true;
 }
 // the smallest max_depth the pre-scan lets through
-int estimated_depth(const std::string& text) {
+int estimated_depth(const std::string& text, bool xml) {
   for (int d = 0; d < 1000; ++d)
-    if (!yaml_depth_exceeds(text, d).exceeded) return d;
+    if (!(xml ? xml_depth_exceeds(text, d) : yaml_depth_exceeds(text, d)).exceeded) return d;
   return 1000;
 }
 }  // namespace
@@ -152,24 +152,41 @@ TEST(InputLimits, YamlDepthEstimateIsNeverBelowTheRealDepth) {
     const std::string text = e.c_str();
     SCOPED_TRACE(text);
     ASSERT_TRUE(yaml_depth_exceeds(text, depth - 1).exceeded) << "estimate below the real depth " << depth;
-    worst_over = std::max(worst_over, estimated_depth(text) - depth);
+    worst_over = std::max(worst_over, estimated_depth(text, false) - depth);
   }
   std::printf("yaml depth estimate: at most %d levels above the real depth in 300 random documents\n", worst_over);
+}
+
+TEST(InputLimits, XmlNestedDeepIsCaughtBeforeTheParser) {
+  std::string x = "<?xml version=\"1.0\"?>\n<robot name=\"r\">\n<link name=\"a\">";
+  for (int i = 0; i < 50000; ++i) x += "<x>";
+  for (int i = 0; i < 50000; ++i) x += "</x>";
+  x += "</link></robot>\n";
+  const DepthExceeded d = xml_depth_exceeds(x);
+  ASSERT_TRUE(d.exceeded);
+  EXPECT_EQ(d.line, 3);
+  EXPECT_EQ(d.column, 16 + 3 * (kMaxXmlDepth - 2));  // robot and link are 2 levels: the 31st <x>
+  // comments, CDATA, self-closing tags and '>' in attribute values do not nest
+  const std::string flat = "<!-- <a><a><a> --><robot a=\"x>y\"><![CDATA[<b><b>]]><link/><link name='>'/></robot>";
+  EXPECT_EQ(estimated_depth(flat, true), 1);
 }
 
 // Every shipped file passes with a wide margin: the limits are for hostile input only.
 TEST(InputLimits, ShippedFilesNestFarBelowTheLimits) {
   const std::string root = COOPDYN_SOURCE_DIR;
-  int worst_yaml = 0;
+  int worst_yaml = 0, worst_xml = 0;
   for (const std::string& dir : {root + "/config/scenes", root + "/config/robots", root + "/config"}) {
     DIR* d = opendir(dir.c_str());
     ASSERT_NE(d, nullptr) << dir;
     while (dirent* e = readdir(d)) {
       const std::string n = e->d_name, path = dir + "/" + n;
-      if (n.size() > 5 && n.substr(n.size() - 5) == ".yaml") worst_yaml = std::max(worst_yaml, estimated_depth(read(path)));
+      if (n.size() > 5 && n.substr(n.size() - 5) == ".yaml") worst_yaml = std::max(worst_yaml, estimated_depth(read(path), false));
+      if (n.size() > 5 && n.substr(n.size() - 5) == ".urdf") worst_xml = std::max(worst_xml, estimated_depth(read(path), true));
     }
     closedir(d);
   }
-  std::printf("shipped files: YAML depth estimate at most %d (limit %d)\n", worst_yaml, kMaxYamlDepth);
+  std::printf("shipped files: YAML depth estimate at most %d (limit %d), URDF depth %d (limit %d)\n", worst_yaml,
+              kMaxYamlDepth, worst_xml, kMaxXmlDepth);
   EXPECT_LE(worst_yaml, kMaxYamlDepth / 4);
+  EXPECT_LE(worst_xml, kMaxXmlDepth / 4);
 }

@@ -165,7 +165,7 @@ TEST(Scene, UrdfRobotGivesTheSameDynamicsAsItsDhTwin) {
   }
 }
 
-// Issue 10, item 7: hostile scene and robot files fail fast with a clear error that
+// Issue 10, items 3 and 7: hostile scene, robot and URDF files fail fast with a clear error that
 // names the file, and no error echoes more than a short piece of a value.
 namespace {
 std::string tmp_file(const std::string& name, const std::string& text) {
@@ -173,6 +173,9 @@ std::string tmp_file(const std::string& name, const std::string& text) {
                         std::to_string(::getpid()) + "_" + name;
   std::ofstream(p) << text;
   return p;
+}
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 }  // namespace
 
@@ -205,6 +208,35 @@ TEST(Scene, YamlNestedDeepIsAClearErrorNamingTheFile) {
     EXPECT_EQ(std::string(err.what()),
               big + ": scene file is " + std::to_string(big_text.size()) + " bytes, more than the limit of 4194304");
   }
+  std::remove(big.c_str());
+}
+
+TEST(Scene, UrdfNested50000DeepFailsFastNamingTheFile) {
+  std::string x = "<?xml version=\"1.0\"?>\n<robot name=\"r\">\n  <link name=\"a\">";
+  for (int i = 0; i < 50000; ++i) x += "<origin>";
+  for (int i = 0; i < 50000; ++i) x += "</origin>";
+  x += "</link>\n</robot>\n";
+  const std::string urdf = tmp_file("deep.urdf", x);
+  const std::string dh = read(scene_path("planar_arms_load"));
+  const auto a = dh.find("  planar3r:\n"), b = dh.find("load:\n");
+  ASSERT_NE(a, std::string::npos);
+  const std::string scene = dh.substr(0, a) + "  planar3r: {urdf: " + urdf + "}\n" + dh.substr(b);
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::string e = error_of(scene, scene_path("deep_urdf"));
+  const double s = seconds_since(t0);
+  std::printf("50,000-deep URDF rejected in %.1f ms\n", s * 1e3);
+  EXPECT_LT(s, 1.0) << "before: TinyXML recursed until the stack overflowed";
+  EXPECT_NE(e.find("URDF '" + urdf + "' line 3 column "), std::string::npos) << e;
+  EXPECT_NE(e.find("elements nested deeper than 32 levels (the limit; URDF itself nests 5)"), std::string::npos) << e;
+  EXPECT_EQ(e.rfind(scene_path("deep_urdf") + ":", 0), 0u) << "and the scene line that names the URDF: " << e;
+  std::remove(urdf.c_str());
+  // too big
+  const std::string big_text = "<robot name=\"r\"><!-- " + std::string(5u << 20, 'x') + " --></robot>\n";
+  const std::string big = tmp_file("big.urdf", big_text);
+  const std::string e2 = error_of(dh.substr(0, a) + "  planar3r: {urdf: " + big + "}\n" + dh.substr(b), scene_path("big_urdf"));
+  EXPECT_NE(e2.find("URDF '" + big + "' is " + std::to_string(big_text.size()) + " bytes, more than the limit of 4194304"),
+            std::string::npos)
+      << e2;
   std::remove(big.c_str());
 }
 

@@ -247,11 +247,14 @@ Robot parse_robot(const Ctx& c, const YAML::Node& n, const std::string& name) {
 // its only leaf). Revolute/continuous and prismatic joints move; fixed joints stay fixed.
 Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path, const std::string& name,
                  std::string base, std::string tip) {
-  std::ifstream f(path);
-  if (!f) fail(c, where, "cannot open URDF '" + path + "'");
-  std::stringstream ss;
-  ss << f.rdbuf();
-  urdf::ModelInterfaceSharedPtr u = urdf::parseURDF(ss.str());
+  // bounded before urdfdom sees it: its TinyXML parser recurses per element without a limit
+  std::string xml, why;
+  if (!bounded::read_file(path, bounded::kMaxUrdfBytes, "URDF '" + path + "'", &xml, &why)) fail(c, where, why);
+  if (const bounded::DepthExceeded d = bounded::xml_depth_exceeds(xml); d.exceeded)
+    fail(c, where, "URDF '" + path + "' line " + std::to_string(d.line) + " column " + std::to_string(d.column) +
+                       ": elements nested deeper than " + std::to_string(bounded::kMaxXmlDepth) +
+                       " levels (the limit; URDF itself nests 5)");
+  urdf::ModelInterfaceSharedPtr u = urdf::parseURDF(xml);
   if (!u) fail(c, where, "URDF '" + path + "' could not be parsed (see the urdfdom message above)");
   if (base.empty()) base = u->getRoot()->name;
   urdf::LinkConstSharedPtr lk = u->getLink(tip.empty() ? base : tip);

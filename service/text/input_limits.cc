@@ -198,4 +198,40 @@ DepthExceeded yaml_depth_exceeds(const std::string& t, int max_depth) {
   return {};
 }
 
+DepthExceeded xml_depth_exceeds(const std::string& t, int max_depth) {
+  int depth = 0;
+  const size_t n = t.size();
+  auto skip_to = [&](size_t from, const char* end) {
+    const size_t e = t.find(end, from);
+    return e == std::string::npos ? n : e + std::strlen(end);
+  };
+  for (size_t i = t.find('<'); i < n; i = t.find('<', i)) {
+    if (t.compare(i, 4, "<!--") == 0) i = skip_to(i + 4, "-->");
+    else if (t.compare(i, 9, "<![CDATA[") == 0) i = skip_to(i + 9, "]]>");
+    else if (t.compare(i, 2, "<?") == 0) i = skip_to(i + 2, "?>");
+    else if (t.compare(i, 2, "<!") == 0) i = skip_to(i + 2, ">");
+    else if (t.compare(i, 2, "</") == 0) {
+      if (depth > 0) --depth;
+      i = skip_to(i + 2, ">");
+    } else {
+      size_t p = i + 1;
+      char q = 0;
+      for (; p < n; ++p) {
+        const char c = t[p];
+        if (q) {
+          if (c == q) q = 0;
+        } else if (c == '"' || c == '\'') {
+          q = c;
+        } else if (c == '>') {
+          break;
+        }
+      }
+      if (p >= n) break;  // unterminated tag: the parser reports it
+      if (t[p - 1] != '/' && ++depth > max_depth) return at(t, i);
+      i = p + 1;
+    }
+  }
+  return {};
+}
+
 }  // namespace coopdyn::text

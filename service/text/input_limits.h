@@ -12,7 +12,9 @@ namespace coopdyn::text {
 
 inline constexpr size_t kMaxConfigBytes = 1u << 20;  // 1 MiB: the shipped config is 2 kB
 inline constexpr size_t kMaxYamlBytes = 4u << 20;    // 4 MiB per scene or robot file (shipped: < 10 kB)
+inline constexpr size_t kMaxUrdfBytes = 4u << 20;    // 4 MiB per URDF (a 100-link robot is ~100 kB)
 inline constexpr int kMaxYamlDepth = 64;             // shipped files nest at most 6 levels
+inline constexpr int kMaxXmlDepth = 32;              // URDF nests 5 (robot/link/visual/geometry/mesh)
 inline constexpr size_t kMaxShownChars = 80;         // of one quoted value in an error message
 inline constexpr size_t kMaxMessageChars = 1000;     // of a whole error message
 
@@ -42,5 +44,9 @@ struct DepthExceeded {
 // skipped). Never below the real depth, so a text that passes cannot nest deeper than max_depth
 // levels; it can overestimate by about one level per line, never cumulatively.
 DepthExceeded yaml_depth_exceeds(const std::string& text, int max_depth = kMaxYamlDepth);
+
+// XML: element nesting depth (comments, CDATA, processing instructions, declarations and quoted
+// attribute values skipped).
+DepthExceeded xml_depth_exceeds(const std::string& text, int max_depth = kMaxXmlDepth);
 
 }  // namespace coopdyn::text
