@@ -23,6 +23,9 @@ TEST(DaemonConfig, ShippedConfigEqualsBuiltInDefaults) {
   EXPECT_EQ(f.mode, d.mode);
   EXPECT_EQ(f.integrator, d.integrator);
   EXPECT_EQ(f.watchdog_ms, d.watchdog_ms);
+  EXPECT_EQ(f.max_input_age_ms, 1000.0);
+  EXPECT_EQ(f.max_input_age_ms, d.max_input_age_ms);
+  EXPECT_EQ(f.max_input_age_us(), 1000000);
   EXPECT_EQ(f.safe_torque, d.safe_torque);
   EXPECT_EQ(f.overrun, d.overrun);
   EXPECT_EQ(f.max_catch_up, d.max_catch_up);
@@ -86,6 +89,9 @@ TEST(DaemonConfig, EveryValueBoundedWithTheLimitsInTheMessage) {
       {"realtime: {priority: 2147483648}\n", "realtime.priority must be 1..99, got 2147483648"},
       {"channels: {command: " + long_channel + "}\n", "channel 'command' must be 1..63 characters (LCM's limit), got 64"},
       {"lcm_url: ''\n", "t.yaml:1:10: lcm_url is empty"},
+      {"max_input_age_ms: 0.5\n", "t.yaml:1:19: max_input_age_ms must be off (or 0) or in [1, 3.6e+06] ms, got 0.5"},
+      {"max_input_age_ms: 1e13\n", "max_input_age_ms must be off (or 0) or in [1, 3.6e+06] ms, got 1e+13"},
+      {"max_input_age_ms: never\n", "t.yaml:1:19: 'max_input_age_ms' must be a number (ms) or off"},
       {"rate_hz: [1000]\n", "t.yaml:1:10: 'rate_hz' must be a number (Hz)"},
       // a non-scalar mapping key, at the top and inside a section
       {"? [a, b]\n: 1\n", "t.yaml:1:3: a key in the service config must be a plain name, not a list or mapping"},
@@ -118,6 +124,9 @@ TEST(DaemonConfig, TheLimitsThemselvesAreRepresentable) {
   // one tick per window exactly at the lower limit (1 / rate, despite the rounding of 1e-3 * 1000)
   EXPECT_NO_THROW(load_config_string("rate_hz: 1000\nstats_period_s: 0.001\n", "t.yaml"));
   EXPECT_NO_THROW(load_config_string("rate_hz: 3\nstats_period_s: 0.3333333333333333\n", "t.yaml"));
+  EXPECT_EQ(load_config_string("max_input_age_ms: off\n", "t.yaml").max_input_age_us(), 0);
+  EXPECT_EQ(load_config_string("max_input_age_ms: 0\n", "t.yaml").max_input_age_us(), 0);
+  EXPECT_EQ(load_config_string("max_input_age_ms: 3600000\n", "t.yaml").max_input_age_us(), 3600000000LL);
 }
 
 // Command-line overrides go through validate(): the same limits, no place to name.

@@ -240,6 +240,11 @@ TEST_F(DaemonProcess, UdpmSimulateCommandsInWrenchesOutThenSigterm) {
   bus_->publish("COOPDYN_COMMAND", bad.data(), static_cast<int>(bad.size()));
   const auto old = io::encode_torque_command(io::wall_us(), 3, {}, stdvec(-tau));
   bus_->publish("COOPDYN_COMMAND", old.data(), static_cast<int>(old.size()));
+  // a command never stamped (utime 0) and one stamped 10 s ago: rejected as stale, never applied
+  for (const int64_t utime : {int64_t{0}, static_cast<int64_t>(io::wall_us() - 10'000'000)}) {
+    const auto stale = io::encode_torque_command(utime, 40, {}, stdvec(-tau));
+    bus_->publish("COOPDYN_COMMAND", stale.data(), static_cast<int>(stale.size()));
+  }
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.input_seq == 30; }, 5s));
   std::this_thread::sleep_for(50ms);
   d->signal(SIGTERM);
@@ -247,7 +252,9 @@ TEST_F(DaemonProcess, UdpmSimulateCommandsInWrenchesOutThenSigterm) {
   bus_->stop();
   const std::string summary = slurp(d->out);
   EXPECT_NE(summary.find("coopdynd: stopped (SIGTERM)"), std::string::npos) << summary;
-  EXPECT_NE(summary.find("received 32, accepted 30, rejected 1, out-of-order 1"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("received 34, accepted 30, rejected 3, out-of-order 1, expired 0, stale utime 2"), std::string::npos)
+      << summary;
+  for (const auto& o : sink.snapshot()) ASSERT_LT(o.input_seq, 40) << "a stale command was applied";
   int checked = 0;
   for (const auto& o : sink.snapshot()) {
     if (o.input != static_cast<int>(io::Input::kCommand)) continue;

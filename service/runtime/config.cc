@@ -39,6 +39,11 @@ std::string check_watchdog(double ms) {
   return "watchdog_ms must be in [" + num(kMinWatchdogMs) + ", " + num(kMaxWatchdogMs) + "] ms (1 ms to 1 hour), got " +
          num(ms);
 }
+std::string check_input_age(double ms) {
+  if (ms == 0 || (ms >= kMinWatchdogMs && ms <= kMaxWatchdogMs)) return "";
+  return "max_input_age_ms must be off (or 0) or in [" + num(kMinWatchdogMs) + ", " + num(kMaxWatchdogMs) + "] ms, got " +
+         num(ms);
+}
 std::string check_stats_period(double s, double rate_hz) {
   // at least one tick per window (1 / rate_hz, with slack for the rounding of that quotient)
   const double lo = 1.0 / rate_hz;
@@ -114,7 +119,7 @@ ServiceConfig parse(const YAML::Node& root, const Ctx& c) {
   if (!root.IsDefined() || root.IsNull()) return cfg;
   c.keys(root,
          {"rate_hz", "lcm_url", "channels", "mode", "integrator", "watchdog_ms", "safe_torque", "overrun",
-          "stats_period_s", "realtime", "log_level"},
+          "stats_period_s", "realtime", "log_level", "max_input_age_ms"},
          "the service config");
   cfg.rate_hz = c.get<double>(root, "rate_hz", cfg.rate_hz, "a number (Hz)");
   c.check(root["rate_hz"], check_rate(cfg.rate_hz));
@@ -137,6 +142,11 @@ ServiceConfig parse(const YAML::Node& root, const Ctx& c) {
     c.fail(root["integrator"], "integrator must be rk4 or semi_implicit_euler");
   cfg.watchdog_ms = c.get<double>(root, "watchdog_ms", cfg.watchdog_ms, "a number (ms)");
   c.check(root["watchdog_ms"], check_watchdog(cfg.watchdog_ms));
+  if (const YAML::Node a = root["max_input_age_ms"]; a.IsDefined() && a.IsScalar() && a.Scalar() == "off")
+    cfg.max_input_age_ms = 0;
+  else
+    cfg.max_input_age_ms = c.get<double>(root, "max_input_age_ms", cfg.max_input_age_ms, "a number (ms) or off");
+  c.check(root["max_input_age_ms"], check_input_age(cfg.max_input_age_ms));
   if (const YAML::Node st = root["safe_torque"]; st.IsDefined()) {
     c.keys(st, {"policy", "damping"}, "safe_torque");
     const std::string p = c.get<std::string>(st, "policy", "zero", "a string");
@@ -228,7 +238,7 @@ ServiceConfig load_config(const std::string& path) {
 
 void validate(const ServiceConfig& c) {
   for (const std::string& why :
-       {check_rate(c.rate_hz), check_watchdog(c.watchdog_ms), check_stats_period(c.stats_period_s, c.rate_hz),
+       {check_rate(c.rate_hz), check_watchdog(c.watchdog_ms), check_input_age(c.max_input_age_ms), check_stats_period(c.stats_period_s, c.rate_hz),
         check_catch_up(c.max_catch_up), check_priority(c.realtime.priority), check_cpu(c.realtime.cpu),
         check_url(c.lcm_url), check_channel("command", c.command_channel), check_channel("state", c.state_channel),
         check_channel("output", c.output_channel), check_channel("stats", c.stats_channel)})

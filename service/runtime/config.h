@@ -43,6 +43,7 @@ struct RealtimeOptions {
 //   stats_period_s  [1 / rate_hz, 3600] s: at least one tick per window, at most an hour (at most
 //                   7.2e7 ticks per window, well inside the histograms' counters)
 //   max_catch_up    [0, 1000] ticks
+//   max_input_age_ms  0 (off) or [1, 3600000] ms, like watchdog_ms
 //   realtime.cpu    -1 or [0, CPU_SETSIZE - 1 = 1023]: the bit must exist in a cpu_set_t
 //   channel names   1..63 characters (LCM_MAX_CHANNEL_NAME_LENGTH); lcm_url 1..1024 characters
 inline constexpr double kMinRateHz = 1.0, kMaxRateHz = 20000.0;
@@ -63,6 +64,11 @@ struct ServiceConfig {
   ServiceMode mode = ServiceMode::kSimulate;
   Integrator integrator = Integrator::kRk4;
   double watchdog_ms = 100.0;  // a command (state) older than this expires
+  // A command (state) whose utime is <= 0 or differs from this host's wall clock by more than this
+  // is rejected on arrival; 0: off (a sender without a wall clock). On by default: coopdyn send
+  // and any LCM sender stamp utime with the wall clock, and 1 s is far above both the delivery
+  // time (< 1 ms on one host) and the offset of NTP-synchronized hosts on a LAN (~1 ms).
+  double max_input_age_ms = 1000.0;
   SafeTorque safe_torque = SafeTorque::kZero;
   double damping = 0.0;        // N*m*s/rad (or N*s/m) for kDamping
   OverrunPolicy overrun = OverrunPolicy::kCatchUp;
@@ -73,6 +79,7 @@ struct ServiceConfig {
 
   long long period_ns() const { return static_cast<long long>(1e9 / rate_hz + 0.5); }
   long long watchdog_ns() const { return static_cast<long long>(watchdog_ms * 1e6 + 0.5); }
+  long long max_input_age_us() const { return static_cast<long long>(max_input_age_ms * 1e3 + 0.5); }
 };
 
 // Reads a config file; keys absent keep the defaults above. Throws ConfigError with

@@ -27,8 +27,8 @@ ServiceLoop::ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& b
       watchdog_ns_(cfg.watchdog_ns()),
       dt_(1.0 / cfg.rate_hz),
       stats_every_(std::max<int64_t>(1, std::llround(cfg.stats_period_s * cfg.rate_hz))),
-      commands_(sys, cfg.watchdog_ns(), [&](io::CommandSlot& s) { s.tau = Eigen::VectorXd::Zero(sys.model.nv()); }),
-      states_(sys, cfg.watchdog_ns(),
+      commands_(sys, cfg.max_input_age_us(), [&](io::CommandSlot& s) { s.tau = Eigen::VectorXd::Zero(sys.model.nv()); }),
+      states_(sys, cfg.max_input_age_us(),
               [&](io::StateSlot& s) {
                 s.q = sys.q0;
                 s.v = sys.v0;
@@ -83,6 +83,7 @@ void ServiceLoop::tick(long long now) {
     if (in == io::Input::kCommandExpired && !input_expired_) {
       input_expired_ = true;
       expired_.fetch_add(1, std::memory_order_relaxed);
+      commands_.note_expired();  // counted here, then the sequence rule may follow a restart
       events_.push({EventCode::kCommandExpired, c.seq, (now - c.recv_ns) / 1000000, 0});
     } else if (in == io::Input::kCommand && input_expired_) {
       input_expired_ = false;
@@ -137,6 +138,7 @@ void ServiceLoop::tick(long long now) {
     if (in == io::Input::kStateExpired && !input_expired_) {
       input_expired_ = true;
       expired_.fetch_add(1, std::memory_order_relaxed);
+      states_.note_expired();
       events_.push({EventCode::kStateExpired, s.seq, (now - s.recv_ns) / 1000000, 0});
     } else if (in == io::Input::kState && input_expired_) {
       input_expired_ = false;
