@@ -19,7 +19,7 @@ add_library(coopdyn_runtime
   ${CMAKE_CURRENT_LIST_DIR}/runtime/realtime.cc
   ${CMAKE_CURRENT_LIST_DIR}/runtime/service_loop.cc
 )
-target_link_libraries(coopdyn_runtime PUBLIC coopdyn_io yaml-cpp Threads::Threads)
+target_link_libraries(coopdyn_runtime PUBLIC coopdyn_io coopdyn_text yaml-cpp Threads::Threads)
 
 add_executable(coopdynd ${CMAKE_CURRENT_LIST_DIR}/daemon/main.cc)
 target_link_libraries(coopdynd PRIVATE coopdyn_runtime coopdyn_scene spdlog::spdlog)

@@ -2,6 +2,9 @@
 // (so the README's two ways of starting the daemon agree); every bad value names file and line.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <typeinfo>
+
 #include "service/runtime/config.h"
 
 using namespace coopdyn::runtime;
@@ -20,6 +23,9 @@ TEST(DaemonConfig, ShippedConfigEqualsBuiltInDefaults) {
   EXPECT_EQ(f.mode, d.mode);
   EXPECT_EQ(f.integrator, d.integrator);
   EXPECT_EQ(f.watchdog_ms, d.watchdog_ms);
+  EXPECT_EQ(f.max_input_age_ms, 1000.0);
+  EXPECT_EQ(f.max_input_age_ms, d.max_input_age_ms);
+  EXPECT_EQ(f.max_input_age_us(), 1000000);
   EXPECT_EQ(f.safe_torque, d.safe_torque);
   EXPECT_EQ(f.overrun, d.overrun);
   EXPECT_EQ(f.max_catch_up, d.max_catch_up);
@@ -33,13 +39,13 @@ TEST(DaemonConfig, ShippedConfigEqualsBuiltInDefaults) {
 
 TEST(DaemonConfig, EveryBadValueNamesFileLineAndReason) {
   const std::vector<std::pair<std::string, std::string>> cases = {
-      {"rate_hz: 0\n", "t.yaml:1:10: rate_hz must be in (0, 20000]"},
+      {"rate_hz: 0\n", "t.yaml:1:10: rate_hz must be in [1, 20000] Hz, got 0"},
       {"rate_hz: fast\n", "t.yaml:1:10: 'rate_hz' must be a number (Hz)"},
-      {"mode: simulate\nwatchdog_ms: -1\n", "t.yaml:2:14: watchdog_ms must be > 0"},
+      {"mode: simulate\nwatchdog_ms: -1\n", "t.yaml:2:14: watchdog_ms must be in [1, 3.6e+06] ms"},
       {"safe_torque: {policy: gravity}\n", "t.yaml:1:23: safe_torque.policy must be zero or damping"},
       {"overrun: {policy: skip, max_catch_up: 5000}\n", "overrun.max_catch_up must be in [0, 1000]"},
       {"channels: {output: ''}\n", "channel 'output' is empty"},
-      {"realtime: {priority: 120}\n", "realtime.priority must be 1..99"},
+      {"realtime: {priority: 120}\n", "realtime.priority must be 1..99, got 120"},
       {"realtime: {sched_fifo: maybe}\n", "'sched_fifo' must be true or false"},
       {"rate: 1000\n", "t.yaml:1:1: unknown key 'rate' in the service config"},
       {"rate_hz: [1\n", "t.yaml:"},
@@ -57,4 +63,128 @@ TEST(DaemonConfig, EveryBadValueNamesFileLineAndReason) {
   const ServiceConfig c = load_config_string("mode: estimate\noverrun: {policy: skip}\n", "t.yaml");
   EXPECT_EQ(c.mode, ServiceMode::kEstimate);
   EXPECT_EQ(c.overrun, OverrunPolicy::kSkip);
+}
+
+// Issue 10, item 2: every value bounded to what the code can represent (period_ns(), watchdog_ns()
+// and the stats window in 64 bits, a CPU bit that exists), the limits and the value in the message,
+// and no exception but ConfigError (a list as a key used to escape as YAML::TypedBadConversion).
+TEST(DaemonConfig, EveryValueBoundedWithTheLimitsInTheMessage) {
+  const std::string long_channel(64, 'C');
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"rate_hz: 0.001\n", "t.yaml:1:10: rate_hz must be in [1, 20000] Hz, got 0.001"},
+      {"rate_hz: 1e-300\n", "t.yaml:1:10: rate_hz must be in [1, 20000] Hz, got 1e-300"},
+      {"rate_hz: 20001\n", "t.yaml:1:10: rate_hz must be in [1, 20000] Hz, got 20001"},
+      {"rate_hz: .nan\n", "t.yaml:1:10: rate_hz must be in [1, 20000] Hz, got nan"},
+      {"watchdog_ms: 1e13\n", "t.yaml:1:14: watchdog_ms must be in [1, 3.6e+06] ms (1 ms to 1 hour), got 1e+13"},
+      {"watchdog_ms: 0.5\n", "t.yaml:1:14: watchdog_ms must be in [1, 3.6e+06] ms (1 ms to 1 hour), got 0.5"},
+      {"watchdog_ms: .inf\n", "watchdog_ms must be in [1, 3.6e+06] ms (1 ms to 1 hour), got inf"},
+      {"stats_period_s: 1e300\n",
+       "t.yaml:1:17: stats_period_s must be in [0.001, 3600] s (at least one tick at rate_hz 1000, at most an hour), got 1e+300"},
+      {"stats_period_s: 0.0001\n", "stats_period_s must be in [0.001, 3600] s"},
+      {"rate_hz: 10\nstats_period_s: 0.05\n", "t.yaml:2:17: stats_period_s must be in [0.1, 3600] s (at least one tick at rate_hz 10"},
+      {"overrun: {max_catch_up: 5000}\n", "t.yaml:1:25: overrun.max_catch_up must be in [0, 1000] ticks, got 5000"},
+      {"overrun: {max_catch_up: -1}\n", "overrun.max_catch_up must be in [0, 1000] ticks, got -1"},
+      {"overrun: {max_catch_up: 99999999999999999999}\n", "t.yaml:1:25: 'max_catch_up' must be an integer (ticks)"},
+      {"realtime: {cpu: 5000}\n", "t.yaml:1:17: realtime.cpu must be -1 (none) or a CPU number in [0, 1023], got 5000"},
+      {"realtime: {priority: 2147483648}\n", "realtime.priority must be 1..99, got 2147483648"},
+      {"channels: {command: " + long_channel + "}\n", "channel 'command' must be 1..63 characters (LCM's limit), got 64"},
+      {"lcm_url: ''\n", "t.yaml:1:10: lcm_url is empty"},
+      {"max_input_age_ms: 0.5\n", "t.yaml:1:19: max_input_age_ms must be off (or 0) or in [1, 3.6e+06] ms, got 0.5"},
+      {"max_input_age_ms: 1e13\n", "max_input_age_ms must be off (or 0) or in [1, 3.6e+06] ms, got 1e+13"},
+      {"max_input_age_ms: never\n", "t.yaml:1:19: 'max_input_age_ms' must be a number (ms) or off"},
+      {"rate_hz: [1000]\n", "t.yaml:1:10: 'rate_hz' must be a number (Hz)"},
+      // a non-scalar mapping key, at the top and inside a section
+      {"? [a, b]\n: 1\n", "t.yaml:1:3: a key in the service config must be a plain name, not a list or mapping"},
+      {"realtime:\n  ? {x: 1}\n  : 2\n", "t.yaml:2:5: a key in realtime must be a plain name, not a list or mapping"},
+      {"channels: {? [a]\n: b}\n", "t.yaml:1:"},
+  };
+  for (const auto& [text, expect] : cases) {
+    SCOPED_TRACE(text);
+    try {
+      load_config_string(text, "t.yaml");
+      ADD_FAILURE() << "accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << "escaped as a " << typeid(e).name() << ": " << e.what();
+    }
+  }
+}
+
+TEST(DaemonConfig, TheLimitsThemselvesAreRepresentable) {
+  const ServiceConfig lo = load_config_string("rate_hz: 1\nwatchdog_ms: 1\nstats_period_s: 1\n", "t.yaml");
+  EXPECT_EQ(lo.period_ns(), 1000000000LL);
+  EXPECT_EQ(lo.watchdog_ns(), 1000000LL);
+  const ServiceConfig hi = load_config_string(
+      "rate_hz: 20000\nwatchdog_ms: 3600000\nstats_period_s: 3600\noverrun: {max_catch_up: 1000}\nrealtime: {cpu: 1023}\n",
+      "t.yaml");
+  EXPECT_EQ(hi.period_ns(), 50000LL);
+  EXPECT_EQ(hi.watchdog_ns(), 3600000000000LL);
+  EXPECT_EQ(std::llround(hi.stats_period_s * hi.rate_hz), 72000000LL);  // ticks per stats window
+  // one tick per window exactly at the lower limit (1 / rate, despite the rounding of 1e-3 * 1000)
+  EXPECT_NO_THROW(load_config_string("rate_hz: 1000\nstats_period_s: 0.001\n", "t.yaml"));
+  EXPECT_NO_THROW(load_config_string("rate_hz: 3\nstats_period_s: 0.3333333333333333\n", "t.yaml"));
+  EXPECT_EQ(load_config_string("max_input_age_ms: off\n", "t.yaml").max_input_age_us(), 0);
+  EXPECT_EQ(load_config_string("max_input_age_ms: 0\n", "t.yaml").max_input_age_us(), 0);
+  EXPECT_EQ(load_config_string("max_input_age_ms: 3600000\n", "t.yaml").max_input_age_us(), 3600000000LL);
+}
+
+// Command-line overrides go through validate(): the same limits, no place to name.
+TEST(DaemonConfig, ValidateAfterOverridesAppliesTheSameLimits) {
+  ServiceConfig c;
+  c.rate_hz = 0.001;
+  try {
+    validate(c);
+    ADD_FAILURE() << "accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(std::string(e.what()), "rate_hz must be in [1, 20000] Hz, got 0.001");
+  }
+  c = ServiceConfig();
+  c.rate_hz = 10;  // stats_period_s 1 s = 10 ticks: fine
+  EXPECT_NO_THROW(validate(c));
+  c.stats_period_s = 0.01;  // a tenth of a tick
+  EXPECT_THROW(validate(c), ConfigError);
+}
+
+// Issue 10, item 7: deep or huge input is a clear error naming the file, and no message echoes a
+// long value (a 100 kB key gave a 100 kB line).
+TEST(DaemonConfig, DeepHugeOrLongInputIsAShortClearError) {
+  auto error_of = [](const std::string& text) -> std::string {
+    try {
+      load_config_string(text, "t.yaml");
+    } catch (const ConfigError& e) {
+      return e.what();
+    }
+    return "accepted";
+  };
+  std::string e = error_of("rate_hz: " + std::string(200000, '['));
+  // 2 for the indentation level, 1 for "rate_hz:", so the 62nd bracket passes 64
+  EXPECT_EQ(e, "t.yaml:1:" + std::to_string(9 + 62) + ": YAML nested deeper than 64 levels (the limit for a config file)");
+  e = error_of(std::string(200000, '{'));
+  EXPECT_NE(e.find("t.yaml:1:"), std::string::npos) << e;
+  EXPECT_NE(e.find("nested deeper than 64 levels"), std::string::npos) << e;
+  const std::string big = "# " + std::string(2u << 20, 'x') + "\n";
+  e = error_of(big);
+  EXPECT_EQ(e, "t.yaml: the service config is " + std::to_string(big.size()) + " bytes, more than the limit of 1048576");
+  // a key as long as YAML allows (1024 characters for an implicit key), and a 100 kB value
+  const std::string key = "HEAD" + std::string(1000, 'k') + "TAIL";
+  e = error_of(key + ": 1\n");
+  EXPECT_LT(e.size(), 400u) << e.size();
+  EXPECT_EQ(e.rfind("t.yaml:1:1: unknown key 'HEAD", 0), 0u) << e.substr(0, 100);
+  EXPECT_NE(e.find("kkkkTAIL' in the service config (allowed: "), std::string::npos) << e;
+  const std::string huge = "HEAD" + std::string(100000, 'v') + "TAIL";
+  e = error_of("channels: {command: " + huge + "}\n");
+  EXPECT_LT(e.size(), 400u) << e.size();
+  EXPECT_NE(e.find("channel 'command' must be 1..63 characters (LCM's limit), got 100008"), std::string::npos) << e;
+  // files: a device, a directory, a missing file
+  for (const char* p : {"/dev/zero", "/tmp", "/no/such/coopdynd.yaml"}) {
+    try {
+      load_config(p);
+      ADD_FAILURE() << p;
+    } catch (const ConfigError& err) {
+      const std::string m = err.what();
+      EXPECT_EQ(m.rfind(std::string(p) + ": ", 0), 0u) << m;
+      EXPECT_TRUE(m.find("is not a regular file") != std::string::npos || m.find("cannot open the service config") != std::string::npos) << m;
+    }
+  }
 }

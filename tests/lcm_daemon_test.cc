@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <mutex>
@@ -239,6 +240,11 @@ TEST_F(DaemonProcess, UdpmSimulateCommandsInWrenchesOutThenSigterm) {
   bus_->publish("COOPDYN_COMMAND", bad.data(), static_cast<int>(bad.size()));
   const auto old = io::encode_torque_command(io::wall_us(), 3, {}, stdvec(-tau));
   bus_->publish("COOPDYN_COMMAND", old.data(), static_cast<int>(old.size()));
+  // a command never stamped (utime 0) and one stamped 10 s ago: rejected as stale, never applied
+  for (const int64_t utime : {int64_t{0}, static_cast<int64_t>(io::wall_us() - 10'000'000)}) {
+    const auto stale = io::encode_torque_command(utime, 40, {}, stdvec(-tau));
+    bus_->publish("COOPDYN_COMMAND", stale.data(), static_cast<int>(stale.size()));
+  }
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.input_seq == 30; }, 5s));
   std::this_thread::sleep_for(50ms);
   d->signal(SIGTERM);
@@ -246,7 +252,9 @@ TEST_F(DaemonProcess, UdpmSimulateCommandsInWrenchesOutThenSigterm) {
   bus_->stop();
   const std::string summary = slurp(d->out);
   EXPECT_NE(summary.find("coopdynd: stopped (SIGTERM)"), std::string::npos) << summary;
-  EXPECT_NE(summary.find("received 32, accepted 30, rejected 1, out-of-order 1"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("received 34, accepted 30, rejected 3, out-of-order 1, expired 0, stale utime 2"), std::string::npos)
+      << summary;
+  for (const auto& o : sink.snapshot()) ASSERT_LT(o.input_seq, 40) << "a stale command was applied";
   int checked = 0;
   for (const auto& o : sink.snapshot()) {
     if (o.input != static_cast<int>(io::Input::kCommand)) continue;
@@ -296,6 +304,37 @@ TEST_F(DaemonProcess, UdpmEstimateMeasuredStateInWrenchesOut) {
   const auto outs = sink.snapshot();
   ASSERT_FALSE(outs.empty());
   if (outs.back().input == static_cast<int>(io::Input::kState)) expect_matches_coopdyn_eval(outs.back(), "est");
+}
+
+// Issue 10, item 2: at the lowest rate (1 Hz) SIGTERM right after a tick, and --duration, end the
+// daemon at once; before, the loop slept to its next deadline (1 s here, 1000 s at 0.001 Hz).
+TEST_F(DaemonProcess, LowestRateStopsAtOnceOnSigtermAndDuration) {
+  const std::string cfg_path = tmp_path("slow.yaml");
+  std::ofstream(cfg_path) << "rate_hz: 1\n";
+  OutputSink sink;
+  sink.attach(*bus_);
+  bus_->start();
+  auto d = start_daemon({"--config", cfg_path}, "slow");
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  const auto t0 = std::chrono::steady_clock::now();  // the next deadline is ~1 s away
+  d->signal(SIGTERM);
+  EXPECT_EQ(d->wait(), 0) << slurp(d->err);
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("1 Hz daemon: SIGTERM to exit %.0f ms\n", ms);
+  EXPECT_LT(ms, 500.0) << "waited for the next tick";
+  EXPECT_NE(slurp(d->out).find("coopdynd: stopped (SIGTERM)"), std::string::npos) << slurp(d->out);
+  bus_->stop();
+  // --duration 0.1 at 1 Hz: stops after 0.1 s with no tick (the summary's own clock)
+  Child c({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--lcm-url", url_, "--config", cfg_path, "--duration",
+           "0.1"},
+          "slow_duration");
+  EXPECT_EQ(c.wait(), 0) << slurp(c.err);
+  const std::string out = slurp(c.out);
+  const auto p = out.find("stopped (duration) after 0 ticks in ");
+  ASSERT_NE(p, std::string::npos) << out;
+  const double secs = std::stod(out.substr(p + std::strlen("stopped (duration) after 0 ticks in ")));
+  EXPECT_LT(secs, 0.5) << out;
+  std::remove(cfg_path.c_str());
 }
 
 TEST(DaemonStartup, BrokenSceneOrConfigStopsWithAClearMessage) {

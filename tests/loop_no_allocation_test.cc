@@ -31,9 +31,9 @@ TEST(LoopNoAllocation, TickOfEverySceneBothModes) {
       FakeBus bus;
       runtime::ServiceLoop loop(sys, cfg, bus);
       const Eigen::VectorXd tau = some_torque(sys, 1, 0.5);
-      const auto cmd = [&](int64_t seq) { return io::encode_torque_command(0, seq, {}, stdvec(tau)); };
+      const auto cmd = [&](int64_t seq) { return io::encode_torque_command(runtime::realtime_us(), seq, {}, stdvec(tau)); };
       const auto state = [&](int64_t seq) {
-        return io::encode_measured_state(0, seq, {}, stdvec(sys.q0), {}, stdvec(sys.v0), stdvec(tau));
+        return io::encode_measured_state(runtime::realtime_us(), seq, {}, stdvec(sys.q0), {}, stdvec(sys.v0), stdvec(tau));
       };
       long allocations = 0;
       const long long ms = 1000000;

@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "service/dynamics/integrators.h"
+#include "service/io/lcm_bus.h"
 #include "service/runtime/histogram.h"
 #include "service/runtime/service_loop.h"
 #include "service/runtime/triple_buffer.h"
@@ -23,7 +24,7 @@ namespace {
 constexpr long long kMs = 1000000;
 
 std::vector<uint8_t> command(int64_t seq, const Eigen::VectorXd& tau, const std::vector<std::string>& names = {}) {
-  return io::encode_torque_command(1000 + seq, seq, names, stdvec(tau));
+  return io::encode_torque_command(runtime::realtime_us(), seq, names, stdvec(tau));  // a fresh utime
 }
 
 struct Rig {
@@ -128,7 +129,7 @@ TEST(ServiceLoop, NamedCommandMapsByName) {
   Rig r("two_puma_load");
   const auto& names = r.sys.model.v_names;
   const int a = 7, b = 15;
-  ASSERT_EQ(r.send(io::encode_torque_command(0, 1, {names[b], names[a]}, {-3.0, 2.0}), 0), Offer::kAccepted);
+  ASSERT_EQ(r.send(io::encode_torque_command(runtime::realtime_us(), 1, {names[b], names[a]}, {-3.0, 2.0}), 0), Offer::kAccepted);
   r.loop->tick(0);
   const io::DecodedOutput o = r.bus.last_output();
   for (int i = 0; i < r.sys.model.nv(); ++i) EXPECT_EQ(o.tau[i], i == a ? 2.0 : i == b ? -3.0 : 0.0) << names[i];
@@ -156,7 +157,7 @@ TEST(ServiceLoop, EstimateOutputsEqualOfflineEvaluate) {
     std::reverse(qr.begin(), qr.end());
     std::reverse(vr.begin(), vr.end());
     std::reverse(tr.begin(), tr.end());
-    const auto msg = io::encode_measured_state(5, 1, qn, qr, vn, vr, tr);
+    const auto msg = io::encode_measured_state(runtime::realtime_us(), 1, qn, qr, vn, vr, tr);
     ASSERT_EQ(r.loop->states().offer(msg.data(), static_cast<int>(msg.size()), 1 * kMs), Offer::kAccepted);
     r.loop->tick(2 * kMs);
     o = r.bus.last_output();
@@ -313,14 +314,23 @@ TEST(ServiceLoop, SequenceNumbersOutOfOrderDroppedResyncAfterExpiry) {
   EXPECT_EQ(r.send(command(8, t5), 5 * kMs), Offer::kAccepted);
   r.loop->tick(6 * kMs);
   EXPECT_EQ(r.bus.last_output().input_seq, 8);
-  // a restarted sender (seq 1) is followed once the last command has expired
+  // a restarted sender (seq 1) is followed once the loop has declared the last command expired:
+  // past the watchdog but before a tick saw it, the restart is still out of order (no expiry
+  // counted, so none may let a lower seq through)
   EXPECT_EQ(r.send(command(1, t3), 5 * kMs + wd), Offer::kOutOfOrder);
-  EXPECT_EQ(r.send(command(1, t3), 5 * kMs + wd + 1), Offer::kAccepted);
-  r.loop->tick(5 * kMs + wd + 2);
+  EXPECT_EQ(r.send(command(1, t3), 5 * kMs + wd + 1), Offer::kOutOfOrder);
+  EXPECT_EQ(r.loop->expirations(), 0);
+  r.loop->tick(5 * kMs + wd + 2);  // expired: counted, safe torque
+  EXPECT_EQ(r.loop->expirations(), 1);
+  EXPECT_EQ(r.bus.last_output().input, static_cast<int>(io::Input::kCommandExpired));
+  EXPECT_EQ(r.send(command(1, t3), 5 * kMs + wd + 3), Offer::kAccepted);
+  r.loop->tick(5 * kMs + wd + 4);
   o = r.bus.last_output();
   EXPECT_EQ(o.input_seq, 1);
   EXPECT_EQ(o.input, static_cast<int>(io::Input::kCommand));
-  EXPECT_EQ(r.loop->input_counters().out_of_order.load(), 3);
+  // one expiry lets one restart through: the next lower seq is out of order again
+  EXPECT_EQ(r.send(command(0, t3), 5 * kMs + 3 * wd), Offer::kOutOfOrder);
+  EXPECT_EQ(r.loop->input_counters().out_of_order.load(), 5);
 }
 
 // A singular mass matrix (every body massless, no armature): error status with the core's reason,
@@ -352,14 +362,14 @@ TEST(ServiceLoop, EstimateBadStateIsAnErrorForThatStateOnly) {
   Rig r("two_puma_load", runtime::ServiceMode::kEstimate);
   std::vector<double> q = stdvec(r.sys.q0);
   q[3] = 2.0;  // quaternion w of the floating load
-  auto bad = io::encode_measured_state(0, 1, {}, q, {}, stdvec(r.sys.v0), std::vector<double>(r.sys.model.nv(), 0.0));
+  auto bad = io::encode_measured_state(runtime::realtime_us(), 1, {}, q, {}, stdvec(r.sys.v0), std::vector<double>(r.sys.model.nv(), 0.0));
   ASSERT_EQ(r.loop->states().offer(bad.data(), static_cast<int>(bad.size()), 0), Offer::kAccepted);
   r.loop->tick(kMs);
   io::DecodedOutput o = r.bus.last_output();
   EXPECT_EQ(o.status, static_cast<int>(Status::kError));
   EXPECT_EQ(o.reason, static_cast<int>(Reason::kNonFiniteInput));
   for (double x : o.vdot) EXPECT_EQ(x, 0.0);
-  auto good = io::encode_measured_state(0, 2, {}, stdvec(r.sys.q0), {}, stdvec(r.sys.v0),
+  auto good = io::encode_measured_state(runtime::realtime_us(), 2, {}, stdvec(r.sys.q0), {}, stdvec(r.sys.v0),
                                         std::vector<double>(r.sys.model.nv(), 0.0));
   ASSERT_EQ(r.loop->states().offer(good.data(), static_cast<int>(good.size()), 2 * kMs), Offer::kAccepted);
   r.loop->tick(3 * kMs);
@@ -433,4 +443,139 @@ TEST(ServiceLoop, OverrunPolicySkipDropsPeriodsCatchUpRunsThem) {
     while (loop.events().pop(&e)) saw = saw || e.code == runtime::EventCode::kOverrun;
     EXPECT_TRUE(saw);
   }
+}
+
+// A stop request ends run() within one sleep slice (10 ms) even at the lowest rate (1 Hz): the
+// loop no longer waits for the next deadline (1 s here) before it sees the flag.
+TEST(ServiceLoop, StopEndsRunWithinASliceAtTheLowestRate) {
+  const System sys = load_scene(scene_path("four_bar"));
+  ServiceConfig cfg;
+  cfg.rate_hz = runtime::kMinRateHz;
+  cfg.stats_period_s = 1.0;
+  runtime::validate(cfg);
+  FakeBus bus;
+  ServiceLoop loop(sys, cfg, bus);
+  std::atomic<bool> stop{false};
+  std::chrono::steady_clock::time_point stopped_at, returned_at;
+  std::thread th([&] {
+    loop.run(stop);
+    returned_at = std::chrono::steady_clock::now();
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  stopped_at = std::chrono::steady_clock::now();
+  stop = true;
+  th.join();
+  const double ms = std::chrono::duration<double, std::milli>(returned_at - stopped_at).count();
+  std::printf("run() returned %.2f ms after the stop request at 1 Hz\n", ms);
+  EXPECT_LT(ms, 200.0) << "bounded by the 10 ms slice (wide margin for a loaded machine), not the 1 s period";
+  EXPECT_EQ(loop.ticks(), 0) << "the first deadline (1 s) was never reached";
+}
+
+// Issue 10, item 6: freshness by the sender's clock. With max_input_age_ms (default 1000) a
+// command or state with utime <= 0, older than the limit or ahead of this host's wall clock by more
+// than the limit is rejected and counted by reason, on the receive thread where it is decided.
+namespace {
+int64_t g_fake_wall_us = 0;
+int64_t fake_wall_us() { return g_fake_wall_us; }
+}  // namespace
+
+TEST(ServiceLoop, StaleOrFutureUtimeRejectedAndCountedByReason) {
+  Rig r("two_puma_load");
+  EXPECT_EQ(r.cfg.max_input_age_ms, 1000.0);
+  r.loop->commands().set_wall_clock(&fake_wall_us);
+  g_fake_wall_us = 1'800'000'000'000'000;  // 2027, in us since the epoch
+  const Eigen::VectorXd tau = some_torque(r.sys, 4);
+  const long long max_us = r.cfg.max_input_age_us();
+  ASSERT_EQ(max_us, 1000000);
+  auto at = [&](int64_t utime, int64_t seq) { return io::encode_torque_command(utime, seq, {}, stdvec(tau)); };
+  struct Case {
+    int64_t utime;
+    io::Reject why;
+  };
+  const std::vector<Case> cases = {
+      {0, io::Reject::kStale},                              // never stamped
+      {-1, io::Reject::kStale},                             // LCM's "none"
+      {std::numeric_limits<int64_t>::min(), io::Reject::kStale},
+      {g_fake_wall_us - 10'000'000, io::Reject::kStale},    // 10 s old
+      {g_fake_wall_us - max_us - 1, io::Reject::kStale},    // 1 us past the limit
+      {g_fake_wall_us + max_us + 1, io::Reject::kFuture},   // 1 us too far ahead
+      {std::numeric_limits<int64_t>::max(), io::Reject::kFuture},
+  };
+  int64_t seq = 1;
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.utime);
+    io::Reject why = io::Reject::kNone;
+    EXPECT_EQ(r.send(at(c.utime, seq++), kMs, &why), Offer::kRejected);
+    EXPECT_EQ(why, c.why) << io::reject_name(why);
+  }
+  r.loop->tick(2 * kMs);
+  EXPECT_EQ(r.bus.last_output().input, static_cast<int>(io::Input::kNoCommand)) << "none was applied";
+  const auto& n = r.loop->input_counters();
+  EXPECT_EQ(n.rejected.load(), 7);
+  EXPECT_EQ(n.by_reason[static_cast<int>(io::Reject::kStale)].load(), 5);
+  EXPECT_EQ(n.by_reason[static_cast<int>(io::Reject::kFuture)].load(), 2);
+  // exactly at the limit, either way, is fresh
+  EXPECT_EQ(r.send(at(g_fake_wall_us - max_us, seq++), 3 * kMs), Offer::kAccepted);
+  EXPECT_EQ(r.send(at(g_fake_wall_us + max_us, seq++), 3 * kMs), Offer::kAccepted);
+  r.loop->tick(4 * kMs);
+  EXPECT_EQ(r.bus.last_output().input, static_cast<int>(io::Input::kCommand));
+  EXPECT_EQ(r.bus.last_output().input_seq, seq - 1);
+  // off: any utime is taken (a sender without a wall clock)
+  r.cfg.max_input_age_ms = 0;
+  r.reset();
+  EXPECT_EQ(r.send(at(0, 1), 0), Offer::kAccepted);
+  // estimate mode: the same rule for measured states
+  Rig e("two_puma_load", runtime::ServiceMode::kEstimate);
+  e.loop->states().set_wall_clock(&fake_wall_us);
+  const auto st = io::encode_measured_state(g_fake_wall_us - 10'000'000, 1, {}, stdvec(e.sys.q0), {}, stdvec(e.sys.v0),
+                                            stdvec(tau));
+  io::Reject why = io::Reject::kNone;
+  EXPECT_EQ(e.loop->states().offer(st.data(), static_cast<int>(st.size()), 0, &why), Offer::kRejected);
+  EXPECT_EQ(why, io::Reject::kStale);
+  e.loop->tick(kMs);
+  EXPECT_EQ(e.bus.last_output().reason, io::kReasonNoState);
+}
+
+// The expiry is decided once, by the loop, and the sequence rule follows that decision: under a
+// real loop at 1 kHz and a sender that restarts its seq after silences near the watchdog (where
+// the two threads' clock readings used to disagree), every restart the inbox let through is an
+// expiry the loop counted.
+TEST(ServiceLoop, EveryRestartLetThroughIsACountedExpiry) {
+  const System sys = load_scene(scene_path("four_bar"));
+  ServiceConfig cfg;
+  cfg.watchdog_ms = 5;
+  FakeBus bus;
+  ServiceLoop loop(sys, cfg, bus);
+  std::atomic<bool> stop{false};
+  std::thread th([&] { loop.run(stop); });
+  const Eigen::VectorXd tau = some_torque(sys, 2);
+  std::mt19937 rng(4);
+  std::uniform_int_distribution<int> gap_us(4000, 6000);  // silence around the 5 ms watchdog
+  int64_t seq = 100, restarts_accepted = 0, restarts_dropped = 0, last_accepted = -1;
+  for (int burst = 0; burst < 120; ++burst) {
+    for (int k = 0; k < 3; ++k) {
+      const auto b = command(++seq, tau);
+      if (loop.commands().offer(b.data(), static_cast<int>(b.size()), io::monotonic_ns()) == Offer::kAccepted)
+        last_accepted = seq;
+      std::this_thread::sleep_for(std::chrono::microseconds(500));
+    }
+    std::this_thread::sleep_for(std::chrono::microseconds(gap_us(rng)));
+    seq = burst % 2 ? 0 : 1;  // the sender restarts
+    const auto b = command(seq, tau);
+    const Offer o = loop.commands().offer(b.data(), static_cast<int>(b.size()), io::monotonic_ns());
+    if (o == Offer::kAccepted) {
+      ++restarts_accepted;
+      last_accepted = seq;
+    } else {
+      ++restarts_dropped;
+      seq = last_accepted;  // keep counting up from what the daemon follows
+    }
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  stop = true;
+  th.join();
+  std::printf("restarts: %lld accepted, %lld dropped; expiries counted %lld\n", static_cast<long long>(restarts_accepted),
+              static_cast<long long>(restarts_dropped), static_cast<long long>(loop.expirations()));
+  EXPECT_LE(restarts_accepted, loop.expirations());
+  EXPECT_GT(restarts_accepted, 0);
 }

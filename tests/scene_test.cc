@@ -2,9 +2,14 @@
 // reason; a scene allocates only what it declares.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <chrono>
+#include <cstring>
 #include <fstream>
 #include <sstream>
+#include <tuple>
 
 #include "tests/test_util.h"
 
@@ -157,5 +162,98 @@ TEST(Scene, UrdfRobotGivesTheSameDynamicsAsItsDhTwin) {
     FAIL();
   } catch (const SceneError& e) {
     EXPECT_NE(std::string(e.what()).find("cannot open URDF"), std::string::npos) << e.what();
+  }
+}
+
+// Issue 10, items 3 and 7: hostile scene, robot and URDF files fail fast with a clear error that
+// names the file, and no error echoes more than a short piece of a value.
+namespace {
+std::string tmp_file(const std::string& name, const std::string& text) {
+  const std::string p = (::testing::TempDir().empty() ? std::string("/tmp/") : ::testing::TempDir()) + "scene_test_" +
+                        std::to_string(::getpid()) + "_" + name;
+  std::ofstream(p) << text;
+  return p;
+}
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+}  // namespace
+
+TEST(Scene, YamlNestedDeepIsAClearErrorNamingTheFile) {
+  // the scene itself: before, yaml-cpp's own guard said "bad file" at 1:1
+  std::string e = error_of("name: x\nbodies: " + std::string(200000, '[') + "\n", "deep.yaml");
+  EXPECT_EQ(e.rfind("deep.yaml:2:", 0), 0u) << e;
+  EXPECT_NE(e.find("YAML nested deeper than 64 levels (the limit for a scene or robot file)"), std::string::npos) << e;
+  std::string dashes = "bodies:\n";
+  for (int i = 0; i < 100000; ++i) dashes += "- ";
+  e = error_of(dashes + "x\n", "dash.yaml");
+  EXPECT_EQ(e.rfind("dash.yaml:2:", 0), 0u) << e;
+  // a robot file the scene includes: named, with its line
+  const std::string robot = tmp_file("deep_robot.yaml", "links:\n  " + std::string(200000, '{') + "\n");
+  const std::string puma = read(scene_path("two_puma_load"));
+  const auto a = puma.find("file: ../robots/puma560.yaml");
+  ASSERT_NE(a, std::string::npos);
+  e = error_of(puma.substr(0, a) + "file: " + robot + puma.substr(a + std::strlen("file: ../robots/puma560.yaml")),
+               scene_path("p"));
+  EXPECT_EQ(e.rfind(robot + ":2:", 0), 0u) << e;
+  EXPECT_NE(e.find("nested deeper than 64 levels"), std::string::npos) << e;
+  std::remove(robot.c_str());
+  // too big, before it is read
+  const std::string big_text = "# " + std::string(5u << 20, 'x') + "\nname: x\n";
+  const std::string big = tmp_file("big.yaml", big_text);
+  try {
+    load_scene(big);
+    ADD_FAILURE() << "accepted";
+  } catch (const SceneError& err) {
+    EXPECT_EQ(std::string(err.what()),
+              big + ": scene file is " + std::to_string(big_text.size()) + " bytes, more than the limit of 4194304");
+  }
+  std::remove(big.c_str());
+}
+
+TEST(Scene, UrdfNested50000DeepFailsFastNamingTheFile) {
+  std::string x = "<?xml version=\"1.0\"?>\n<robot name=\"r\">\n  <link name=\"a\">";
+  for (int i = 0; i < 50000; ++i) x += "<origin>";
+  for (int i = 0; i < 50000; ++i) x += "</origin>";
+  x += "</link>\n</robot>\n";
+  const std::string urdf = tmp_file("deep.urdf", x);
+  const std::string dh = read(scene_path("planar_arms_load"));
+  const auto a = dh.find("  planar3r:\n"), b = dh.find("load:\n");
+  ASSERT_NE(a, std::string::npos);
+  const std::string scene = dh.substr(0, a) + "  planar3r: {urdf: " + urdf + "}\n" + dh.substr(b);
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::string e = error_of(scene, scene_path("deep_urdf"));
+  const double s = seconds_since(t0);
+  std::printf("50,000-deep URDF rejected in %.1f ms\n", s * 1e3);
+  EXPECT_LT(s, 1.0) << "before: TinyXML recursed until the stack overflowed";
+  EXPECT_NE(e.find("URDF '" + urdf + "' line 3 column "), std::string::npos) << e;
+  EXPECT_NE(e.find("elements nested deeper than 32 levels (the limit; URDF itself nests 5)"), std::string::npos) << e;
+  EXPECT_EQ(e.rfind(scene_path("deep_urdf") + ":", 0), 0u) << "and the scene line that names the URDF: " << e;
+  std::remove(urdf.c_str());
+  // too big
+  const std::string big_text = "<robot name=\"r\"><!-- " + std::string(5u << 20, 'x') + " --></robot>\n";
+  const std::string big = tmp_file("big.urdf", big_text);
+  const std::string e2 = error_of(dh.substr(0, a) + "  planar3r: {urdf: " + big + "}\n" + dh.substr(b), scene_path("big_urdf"));
+  EXPECT_NE(e2.find("URDF '" + big + "' is " + std::to_string(big_text.size()) + " bytes, more than the limit of 4194304"),
+            std::string::npos)
+      << e2;
+  std::remove(big.c_str());
+}
+
+TEST(Scene, ErrorsCutLongValues) {
+  const std::string fb = read(scene_path("four_bar"));
+  const std::string huge = "HEAD" + std::string(100000, 'v') + "TAIL";
+  const std::string key = "HEAD" + std::string(1000, 'v') + "TAIL";  // YAML's longest implicit key
+  // an unknown key, an unknown joint type, an unknown parent
+  for (const auto& [from, to, what] :
+       {std::tuple<std::string, std::string, std::string>{"gravity:", key + ":", "unknown key 'HEAD"},
+        {"type: prismatic", "type: " + huge, "unknown joint type 'HEAD"},
+        {"parent: crank_b", "parent: " + huge, "unknown parent 'HEAD"}}) {
+    const std::string e = error_of(replaced(fb, from, to), "fb.yaml");
+    SCOPED_TRACE(e.substr(0, 200));
+    EXPECT_LT(e.size(), 400u) << "a 100 kB value gave a " << e.size() << "-character message";
+    EXPECT_NE(e.find(what), std::string::npos);
+    EXPECT_NE(e.find("...vvvvvvvvvvvvvvvvvvvvvTAIL'"), std::string::npos);
+    EXPECT_EQ(e.rfind("fb.yaml:", 0), 0u);
   }
 }

@@ -150,6 +150,9 @@ int main(int argc, char** argv) {
   } catch (const runtime::ConfigError& e) {
     std::fprintf(stderr, "coopdynd: config error: %s\n", e.what());
     return 2;
+  } catch (const std::exception& e) {  // load_config converts everything; this is the backstop
+    std::fprintf(stderr, "coopdynd: config error: %s: %s\n", config_path.c_str(), e.what());
+    return 2;
   }
   System sys;
   try {
@@ -193,8 +196,9 @@ int main(int argc, char** argv) {
                sys.model.nq(), sys.model.nv(), sys.constraints.rows, formulation_name(sys.options.formulation));
   spdlog::info("wrenches out: {} end-effector, {} base, {} tip, {} axle, {} joint reactions; {} pseudo-joint stresses",
                by_kind[0], by_kind[1], by_kind[2], by_kind[3], by_kind[4], sys.model.pseudo_dofs.size());
-  spdlog::info("mode {}, {} Hz ({} integrator), watchdog {} ms, safe torque {}, overrun policy {}",
+  spdlog::info("mode {}, {} Hz ({} integrator), watchdog {} ms, max input age {}, safe torque {}, overrun policy {}",
                runtime::mode_name(cfg.mode), cfg.rate_hz, integrator_name(cfg.integrator), cfg.watchdog_ms,
+               cfg.max_input_age_ms > 0 ? std::to_string(cfg.max_input_age_ms) + " ms by utime" : std::string("off"),
                cfg.safe_torque == runtime::SafeTorque::kZero ? "zero" : "damping",
                cfg.overrun == runtime::OverrunPolicy::kSkip ? "skip"
                                                            : "catch_up (max " + std::to_string(cfg.max_catch_up) + ")");
@@ -245,18 +249,21 @@ int main(int argc, char** argv) {
   overruns.flush(true);
 
   const io::StatsFrame s = loop.totals();
+  const runtime::InputCounters& ic = loop.input_counters();
+  const long long stale = ic.by_reason[static_cast<int>(io::Reject::kStale)].load() +
+                          ic.by_reason[static_cast<int>(io::Reject::kFuture)].load();
   const int sig = g_signal.load();
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   spdlog::shutdown();
   std::printf(
       "coopdynd: stopped (%s) after %lld ticks in %.1f s: overruns %lld, skipped %lld; %s received %lld, accepted %lld, "
-      "rejected %lld, out-of-order %lld, expired %lld; numerical errors %lld; lateness us p50 %.1f p99 %.1f p99.9 %.1f "
+      "rejected %lld, out-of-order %lld, expired %lld, stale utime %lld; numerical errors %lld; lateness us p50 %.1f p99 %.1f p99.9 %.1f "
       "max %.1f; compute us p50 %.1f p99 %.1f p99.9 %.1f max %.1f\n",
       sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "duration", static_cast<long long>(s.tick), secs,
       static_cast<long long>(s.overruns), static_cast<long long>(s.skipped_periods),
       cfg.mode == runtime::ServiceMode::kSimulate ? "commands" : "states", static_cast<long long>(s.received),
       static_cast<long long>(s.accepted), static_cast<long long>(s.rejected), static_cast<long long>(s.out_of_order),
-      static_cast<long long>(s.expired), static_cast<long long>(s.numerical_errors), s.lateness_us[0], s.lateness_us[1],
+      static_cast<long long>(s.expired), stale, static_cast<long long>(s.numerical_errors), s.lateness_us[0], s.lateness_us[1],
       s.lateness_us[2], s.lateness_us[3], s.compute_us[0], s.compute_us[1], s.compute_us[2], s.compute_us[3]);
   std::fflush(stdout);
   return 0;

@@ -41,6 +41,8 @@ const char* reject_name(Reject r) {
     case Reject::kDuplicateName: return "duplicate name";
     case Reject::kNonFinite: return "NaN/Inf";
     case Reject::kOverLimit: return "over tau_limit";
+    case Reject::kStale: return "stale utime";
+    case Reject::kFuture: return "utime in the future";
   }
   return "?";
 }

@@ -20,8 +20,10 @@ enum class Reject {
   kDuplicateName,  // the same coordinate named twice
   kNonFinite,      // NaN or Inf
   kOverLimit,      // |tau| above the scene's tau_limit
+  kStale,          // utime <= 0, or older than max_input_age_ms by the daemon's wall clock
+  kFuture,         // utime ahead of the daemon's wall clock by more than max_input_age_ms
 };
-constexpr int kRejectKinds = 7;
+constexpr int kRejectKinds = 9;
 const char* reject_name(Reject r);
 
 // A validated torque command, in the scene's velocity order. Sized once (nv).
@@ -29,6 +31,7 @@ struct CommandSlot {
   int64_t utime = -1;   // publisher's clock, us
   int64_t seq = -1;
   int64_t recv_ns = 0;  // CLOCK_MONOTONIC at receipt, ns
+  int64_t id = 0;       // acceptance number (1, 2, ...), set by the inbox
   Eigen::VectorXd tau;  // (nv) N*m or N
 };
 
@@ -37,6 +40,7 @@ struct StateSlot {
   int64_t utime = -1;
   int64_t seq = -1;
   int64_t recv_ns = 0;
+  int64_t id = 0;
   Eigen::VectorXd q, v, tau;  // (nq), (nv), (nv)
 };
 

@@ -1,11 +1,14 @@
 #include "service/runtime/config.h"
 
+#include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
-#include <fstream>
+#include <cstdio>
 #include <set>
 #include <sstream>
+
+#include "service/text/input_limits.h"
 
 namespace coopdyn::runtime {
 
@@ -18,6 +21,61 @@ bool parse_mode(const std::string& s, ServiceMode* m) {
 }
 
 namespace {
+
+std::string num(double x) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%g", x);
+  return b;
+}
+
+// The range checks shared by the file loader (which adds file:line:col) and validate(): "" if ok,
+// else the reason with the limits and the value given.
+std::string check_rate(double r) {
+  if (r >= kMinRateHz && r <= kMaxRateHz) return "";
+  return "rate_hz must be in [" + num(kMinRateHz) + ", " + num(kMaxRateHz) + "] Hz, got " + num(r);
+}
+std::string check_watchdog(double ms) {
+  if (ms >= kMinWatchdogMs && ms <= kMaxWatchdogMs) return "";
+  return "watchdog_ms must be in [" + num(kMinWatchdogMs) + ", " + num(kMaxWatchdogMs) + "] ms (1 ms to 1 hour), got " +
+         num(ms);
+}
+std::string check_input_age(double ms) {
+  if (ms == 0 || (ms >= kMinWatchdogMs && ms <= kMaxWatchdogMs)) return "";
+  return "max_input_age_ms must be off (or 0) or in [" + num(kMinWatchdogMs) + ", " + num(kMaxWatchdogMs) + "] ms, got " +
+         num(ms);
+}
+std::string check_stats_period(double s, double rate_hz) {
+  // at least one tick per window (1 / rate_hz, with slack for the rounding of that quotient)
+  const double lo = 1.0 / rate_hz;
+  if (s <= kMaxStatsPeriodS && s * rate_hz >= 1.0 - 1e-9) return "";
+  return "stats_period_s must be in [" + num(lo) + ", " + num(kMaxStatsPeriodS) + "] s (at least one tick at rate_hz " +
+         num(rate_hz) + ", at most an hour), got " + num(s);
+}
+std::string check_catch_up(long long n) {
+  if (n >= 0 && n <= kMaxCatchUp) return "";
+  return "overrun.max_catch_up must be in [0, " + std::to_string(kMaxCatchUp) + "] ticks, got " + std::to_string(n);
+}
+std::string check_cpu(long long cpu) {
+  if (cpu >= -1 && cpu <= kMaxCpu) return "";
+  return "realtime.cpu must be -1 (none) or a CPU number in [0, " + std::to_string(kMaxCpu) + "], got " +
+         std::to_string(cpu);
+}
+std::string check_priority(long long p) {
+  if (p >= 1 && p <= 99) return "";
+  return "realtime.priority must be 1..99, got " + std::to_string(p);
+}
+std::string check_channel(const char* key, const std::string& name) {
+  if (!name.empty() && name.size() <= static_cast<size_t>(kMaxChannelChars)) return "";
+  if (name.empty()) return std::string("channel '") + key + "' is empty";
+  return std::string("channel '") + key + "' must be 1.." + std::to_string(kMaxChannelChars) +
+         " characters (LCM's limit), got " + std::to_string(name.size());
+}
+std::string check_url(const std::string& url) {
+  if (!url.empty() && url.size() <= static_cast<size_t>(kMaxUrlChars)) return "";
+  if (url.empty()) return "lcm_url is empty";
+  return "lcm_url must be 1.." + std::to_string(kMaxUrlChars) + " characters, got " + std::to_string(url.size());
+}
+
 struct Ctx {
   std::string file;
   [[noreturn]] void fail(const YAML::Node& n, const std::string& why) const {
@@ -25,12 +83,17 @@ struct Ctx {
     s << file;
     if (n.IsDefined() && n.Mark().line >= 0) s << ":" << n.Mark().line + 1 << ":" << n.Mark().column + 1;
     s << ": " << why;
-    throw ConfigError(s.str());
+    throw ConfigError(text::cut_values(s.str()));
+  }
+  void check(const YAML::Node& n, const std::string& why) const {
+    if (!why.empty()) fail(n, why);
   }
   void keys(const YAML::Node& n, const std::set<std::string>& allowed, const std::string& where) const {
     if (!n.IsMap()) fail(n, where + " must be a mapping");
     for (auto it = n.begin(); it != n.end(); ++it) {
-      const std::string k = it->first.as<std::string>();
+      // `? [a, b]\n: 1` makes a key that is a list: as<std::string>() would throw
+      if (!it->first.IsScalar()) fail(it->first, "a key in " + where + " must be a plain name, not a list or mapping");
+      const std::string k = it->first.Scalar();
       if (!allowed.count(k)) {
         std::string list;
         for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
@@ -42,6 +105,7 @@ struct Ctx {
   T get(const YAML::Node& n, const char* key, T def, const char* what) const {
     const YAML::Node x = n[key];
     if (!x.IsDefined() || x.IsNull()) return def;
+    if (!x.IsScalar()) fail(x, std::string("'") + key + "' must be " + what);
     try {
       return x.as<T>();
     } catch (const YAML::Exception&) {
@@ -55,34 +119,43 @@ ServiceConfig parse(const YAML::Node& root, const Ctx& c) {
   if (!root.IsDefined() || root.IsNull()) return cfg;
   c.keys(root,
          {"rate_hz", "lcm_url", "channels", "mode", "integrator", "watchdog_ms", "safe_torque", "overrun",
-          "stats_period_s", "realtime", "log_level"},
+          "stats_period_s", "realtime", "log_level", "max_input_age_ms"},
          "the service config");
   cfg.rate_hz = c.get<double>(root, "rate_hz", cfg.rate_hz, "a number (Hz)");
-  if (!(cfg.rate_hz > 0 && cfg.rate_hz <= 20000)) c.fail(root["rate_hz"], "rate_hz must be in (0, 20000]");
+  c.check(root["rate_hz"], check_rate(cfg.rate_hz));
   cfg.lcm_url = c.get<std::string>(root, "lcm_url", cfg.lcm_url, "a string");
+  c.check(root["lcm_url"], check_url(cfg.lcm_url));
   if (const YAML::Node ch = root["channels"]; ch.IsDefined()) {
     c.keys(ch, {"command", "state", "output", "stats"}, "channels");
     cfg.command_channel = c.get<std::string>(ch, "command", cfg.command_channel, "a string");
     cfg.state_channel = c.get<std::string>(ch, "state", cfg.state_channel, "a string");
     cfg.output_channel = c.get<std::string>(ch, "output", cfg.output_channel, "a string");
     cfg.stats_channel = c.get<std::string>(ch, "stats", cfg.stats_channel, "a string");
-    for (const char* k : {"command", "state", "output", "stats"})
-      if (ch[k].IsDefined() && ch[k].as<std::string>("").empty()) c.fail(ch[k], std::string("channel '") + k + "' is empty");
+    c.check(ch["command"], check_channel("command", cfg.command_channel));
+    c.check(ch["state"], check_channel("state", cfg.state_channel));
+    c.check(ch["output"], check_channel("output", cfg.output_channel));
+    c.check(ch["stats"], check_channel("stats", cfg.stats_channel));
   }
   if (root["mode"].IsDefined() && !parse_mode(c.get<std::string>(root, "mode", "", "a string"), &cfg.mode))
     c.fail(root["mode"], "mode must be simulate or estimate");
   if (root["integrator"].IsDefined() && !parse_integrator(c.get<std::string>(root, "integrator", "", "a string"), &cfg.integrator))
     c.fail(root["integrator"], "integrator must be rk4 or semi_implicit_euler");
   cfg.watchdog_ms = c.get<double>(root, "watchdog_ms", cfg.watchdog_ms, "a number (ms)");
-  if (!(cfg.watchdog_ms > 0) || !std::isfinite(cfg.watchdog_ms)) c.fail(root["watchdog_ms"], "watchdog_ms must be > 0");
+  c.check(root["watchdog_ms"], check_watchdog(cfg.watchdog_ms));
+  if (const YAML::Node a = root["max_input_age_ms"]; a.IsDefined() && a.IsScalar() && a.Scalar() == "off")
+    cfg.max_input_age_ms = 0;
+  else
+    cfg.max_input_age_ms = c.get<double>(root, "max_input_age_ms", cfg.max_input_age_ms, "a number (ms) or off");
+  c.check(root["max_input_age_ms"], check_input_age(cfg.max_input_age_ms));
   if (const YAML::Node st = root["safe_torque"]; st.IsDefined()) {
     c.keys(st, {"policy", "damping"}, "safe_torque");
     const std::string p = c.get<std::string>(st, "policy", "zero", "a string");
     if (p == "zero") cfg.safe_torque = SafeTorque::kZero;
     else if (p == "damping") cfg.safe_torque = SafeTorque::kDamping;
     else c.fail(st["policy"], "safe_torque.policy must be zero or damping");
+    // any finite damping is representable: the safe torque is clamped to tau_limit
     cfg.damping = c.get<double>(st, "damping", 0.0, "a number (N*m*s/rad)");
-    if (!(cfg.damping >= 0) || !std::isfinite(cfg.damping)) c.fail(st["damping"], "safe_torque.damping must be >= 0");
+    if (!(cfg.damping >= 0) || !std::isfinite(cfg.damping)) c.fail(st["damping"], "safe_torque.damping must be finite and >= 0");
   }
   if (const YAML::Node ov = root["overrun"]; ov.IsDefined()) {
     c.keys(ov, {"policy", "max_catch_up"}, "overrun");
@@ -90,18 +163,21 @@ ServiceConfig parse(const YAML::Node& root, const Ctx& c) {
     if (p == "catch_up") cfg.overrun = OverrunPolicy::kCatchUp;
     else if (p == "skip") cfg.overrun = OverrunPolicy::kSkip;
     else c.fail(ov["policy"], "overrun.policy must be catch_up or skip");
-    cfg.max_catch_up = c.get<int>(ov, "max_catch_up", cfg.max_catch_up, "an integer");
-    if (cfg.max_catch_up < 0 || cfg.max_catch_up > 1000) c.fail(ov["max_catch_up"], "overrun.max_catch_up must be in [0, 1000]");
+    const long long n = c.get<long long>(ov, "max_catch_up", cfg.max_catch_up, "an integer (ticks)");
+    c.check(ov["max_catch_up"], check_catch_up(n));
+    cfg.max_catch_up = static_cast<int>(n);
   }
   cfg.stats_period_s = c.get<double>(root, "stats_period_s", cfg.stats_period_s, "a number (s)");
-  if (!(cfg.stats_period_s > 0) || !std::isfinite(cfg.stats_period_s)) c.fail(root["stats_period_s"], "stats_period_s must be > 0");
+  c.check(root["stats_period_s"], check_stats_period(cfg.stats_period_s, cfg.rate_hz));
   if (const YAML::Node rt = root["realtime"]; rt.IsDefined()) {
     c.keys(rt, {"sched_fifo", "priority", "cpu", "mlockall"}, "realtime");
     cfg.realtime.sched_fifo = c.get<bool>(rt, "sched_fifo", false, "true or false");
-    cfg.realtime.priority = c.get<int>(rt, "priority", cfg.realtime.priority, "an integer");
-    if (cfg.realtime.priority < 1 || cfg.realtime.priority > 99) c.fail(rt["priority"], "realtime.priority must be 1..99");
-    cfg.realtime.cpu = c.get<int>(rt, "cpu", -1, "an integer");
-    if (cfg.realtime.cpu < -1) c.fail(rt["cpu"], "realtime.cpu must be -1 (none) or a CPU number");
+    const long long prio = c.get<long long>(rt, "priority", cfg.realtime.priority, "an integer");
+    c.check(rt["priority"], check_priority(prio));
+    cfg.realtime.priority = static_cast<int>(prio);
+    const long long cpu = c.get<long long>(rt, "cpu", -1, "an integer");
+    c.check(rt["cpu"], check_cpu(cpu));
+    cfg.realtime.cpu = static_cast<int>(cpu);
     cfg.realtime.mlockall = c.get<bool>(rt, "mlockall", false, "true or false");
   }
   cfg.log_level = c.get<std::string>(root, "log_level", cfg.log_level, "a string");
@@ -109,35 +185,65 @@ ServiceConfig parse(const YAML::Node& root, const Ctx& c) {
   if (!levels.count(cfg.log_level)) c.fail(root["log_level"], "log_level must be trace, debug, info, warn, error or off");
   return cfg;
 }
+
+std::string place(const std::string& name, const YAML::Mark& m) {
+  if (m.line < 0) return name;
+  return name + ":" + std::to_string(m.line + 1) + ":" + std::to_string(m.column + 1);
+}
+
 }  // namespace
 
-ServiceConfig load_config_string(const std::string& text, const std::string& name) {
+ServiceConfig load_config_string(const std::string& yaml, const std::string& name) {
   Ctx c{name};
+  // bounded before yaml-cpp sees it: its parser recurses per level (and stops at 500 with the
+  // message "bad file")
+  if (yaml.size() > text::kMaxConfigBytes)
+    throw ConfigError(name + ": the service config is " + std::to_string(yaml.size()) + " bytes, more than the limit of " +
+                      std::to_string(text::kMaxConfigBytes));
+  if (const text::DepthExceeded d = text::yaml_depth_exceeds(yaml); d.exceeded)
+    throw ConfigError(name + ":" + std::to_string(d.line) + ":" + std::to_string(d.column) + ": YAML nested deeper than " +
+                      std::to_string(text::kMaxYamlDepth) + " levels (the limit for a config file)");
   YAML::Node root;
   try {
-    root = YAML::Load(text);
+    root = YAML::Load(yaml);
+  } catch (const YAML::DeepRecursion& e) {
+    throw ConfigError(name + ": YAML nested deeper than yaml-cpp's limit of " + std::to_string(e.depth()) + " levels");
   } catch (const YAML::Exception& e) {
-    throw ConfigError(name + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1) + ": " + e.msg);
+    throw ConfigError(text::cut_values(place(name, e.mark) + ": " + e.msg));
   }
-  ServiceConfig cfg = parse(root, c);
-  validate(cfg);
+  // Nothing below may escape as anything but a ConfigError naming the file.
+  ServiceConfig cfg;
+  try {
+    cfg = parse(root, c);
+  } catch (const ConfigError&) {
+    throw;
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(text::cut_values(place(name, e.mark) + ": " + e.msg));
+  } catch (const std::exception& e) {
+    throw ConfigError(text::cut_values(name + ": " + e.what()));
+  }
+  try {
+    validate(cfg);
+  } catch (const ConfigError& e) {
+    throw ConfigError(name + ": " + e.what());
+  }
   return cfg;
 }
 
 ServiceConfig load_config(const std::string& path) {
-  std::ifstream f(path);
-  if (!f) throw ConfigError(path + ": cannot open the service config");
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return load_config_string(ss.str(), path);
+  std::string yaml, why;
+  if (!text::read_file(path, text::kMaxConfigBytes, "the service config", &yaml, &why)) throw ConfigError(path + ": " + why);
+  return load_config_string(yaml, path);
 }
 
 void validate(const ServiceConfig& c) {
-  if (!(c.rate_hz > 0 && c.rate_hz <= 20000)) throw ConfigError("rate_hz must be in (0, 20000]");
-  if (!(c.watchdog_ms > 0)) throw ConfigError("watchdog_ms must be > 0");
-  if (c.lcm_url.empty()) throw ConfigError("lcm_url is empty");
-  if (c.command_channel.empty() || c.state_channel.empty() || c.output_channel.empty() || c.stats_channel.empty())
-    throw ConfigError("channel names must not be empty");
+  for (const std::string& why :
+       {check_rate(c.rate_hz), check_watchdog(c.watchdog_ms), check_input_age(c.max_input_age_ms), check_stats_period(c.stats_period_s, c.rate_hz),
+        check_catch_up(c.max_catch_up), check_priority(c.realtime.priority), check_cpu(c.realtime.cpu),
+        check_url(c.lcm_url), check_channel("command", c.command_channel), check_channel("state", c.state_channel),
+        check_channel("output", c.output_channel), check_channel("stats", c.stats_channel)})
+    if (!why.empty()) throw ConfigError(why);
+  if (!(c.damping >= 0) || !std::isfinite(c.damping)) throw ConfigError("safe_torque.damping must be finite and >= 0");
 }
 
 }  // namespace coopdyn::runtime

@@ -33,6 +33,27 @@ struct RealtimeOptions {
   bool mlockall = false;    // lock current and future pages (no page faults in the loop)
 };
 
+// What each value may be: the range the code can represent and the daemon can use. load_config and
+// validate() reject anything outside with the limits in the message.
+//   rate_hz         [1, 20000] Hz: the loop's period (1e9 / rate_hz ns) and dt = 1 / rate_hz; below
+//                   1 Hz it is no control loop (a 1 s step), above 20 kHz an RK4 step of the largest
+//                   shipped scene (11.7 us) no longer fits a period
+//   watchdog_ms     [1, 3600000] ms: watchdog_ns() stays far inside 64 bits; a command is never held
+//                   for more than an hour, and a watchdog below 1 ms is below the receive jitter
+//   stats_period_s  [1 / rate_hz, 3600] s: at least one tick per window, at most an hour (at most
+//                   7.2e7 ticks per window, well inside the histograms' counters)
+//   max_catch_up    [0, 1000] ticks
+//   max_input_age_ms  0 (off) or [1, 3600000] ms, like watchdog_ms
+//   realtime.cpu    -1 or [0, CPU_SETSIZE - 1 = 1023]: the bit must exist in a cpu_set_t
+//   channel names   1..63 characters (LCM_MAX_CHANNEL_NAME_LENGTH); lcm_url 1..1024 characters
+inline constexpr double kMinRateHz = 1.0, kMaxRateHz = 20000.0;
+inline constexpr double kMinWatchdogMs = 1.0, kMaxWatchdogMs = 3600.0e3;
+inline constexpr double kMaxStatsPeriodS = 3600.0;
+inline constexpr int kMaxCatchUp = 1000;
+inline constexpr int kMaxCpu = 1023;
+inline constexpr int kMaxChannelChars = 63;
+inline constexpr int kMaxUrlChars = 1024;
+
 struct ServiceConfig {
   double rate_hz = 1000.0;
   std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";
@@ -43,6 +64,11 @@ struct ServiceConfig {
   ServiceMode mode = ServiceMode::kSimulate;
   Integrator integrator = Integrator::kRk4;
   double watchdog_ms = 100.0;  // a command (state) older than this expires
+  // A command (state) whose utime is <= 0 or differs from this host's wall clock by more than this
+  // is rejected on arrival; 0: off (a sender without a wall clock). On by default: coopdyn send
+  // and any LCM sender stamp utime with the wall clock, and 1 s is far above both the delivery
+  // time (< 1 ms on one host) and the offset of NTP-synchronized hosts on a LAN (~1 ms).
+  double max_input_age_ms = 1000.0;
   SafeTorque safe_torque = SafeTorque::kZero;
   double damping = 0.0;        // N*m*s/rad (or N*s/m) for kDamping
   OverrunPolicy overrun = OverrunPolicy::kCatchUp;
@@ -53,6 +79,7 @@ struct ServiceConfig {
 
   long long period_ns() const { return static_cast<long long>(1e9 / rate_hz + 0.5); }
   long long watchdog_ns() const { return static_cast<long long>(watchdog_ms * 1e6 + 0.5); }
+  long long max_input_age_us() const { return static_cast<long long>(max_input_age_ms * 1e3 + 0.5); }
 };
 
 // Reads a config file; keys absent keep the defaults above. Throws ConfigError with

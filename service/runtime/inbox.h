@@ -1,10 +1,23 @@
-// The receive side of one input channel: decode and validate on the receive thread, apply the
-// sequence rule, hand the newest accepted value to the loop through a triple buffer.
+// The receive side of one input channel: decode and validate on the receive thread, check the
+// sender's clock, apply the sequence rule, hand the newest accepted value to the loop through a
+// triple buffer.
+//
+// Freshness by the sender's clock: with max_input_age_us > 0, a message whose utime is <= 0, older
+// than max_input_age_us by this host's CLOCK_REALTIME (Reject::kStale), or ahead of it by more than
+// that (Reject::kFuture: a skewed clock, or a replay stamped in the future) is rejected and counted
+// here, where the decision is made. The loop's watchdog then bounds how long an accepted message is
+// used (by receive time), so no command acts later than max_input_age + watchdog after its stamp.
 //
 // Sequence rule: a message whose seq is not above the last accepted one is dropped (out of order),
-// unless the last accepted one is older than the watchdog: then any seq is accepted, so a sender
-// that restarts (seq from 0) is followed again once its old commands have expired.
+// unless the loop has declared the last accepted one expired (note_expired(), called by the loop
+// when it counts the expiry): then any seq is accepted, so a sender that restarts (seq from 0) is
+// followed again once its old commands have expired. The expiry is decided once, by the loop, and
+// the receive thread only reads that decision: every lower seq let through corresponds to an
+// expiry the loop counted (before, each thread judged the watchdog by its own clock reading, and a
+// restart arriving between the watchdog and the next tick was accepted with no expiry counted).
 #pragma once
+
+#include <time.h>
 
 #include <atomic>
 #include <cstdint>
@@ -23,31 +36,48 @@ struct InputCounters {
 
 enum class Offer { kAccepted, kRejected, kOutOfOrder };
 
+inline int64_t realtime_us() {  // CLOCK_REALTIME in us, LCM's utime clock
+  timespec ts;
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<int64_t>(ts.tv_sec) * 1000000 + ts.tv_nsec / 1000;
+}
+
 template <class Slot, class Decoder>
 class Inbox {
  public:
+  // max_input_age_us <= 0: no check of utime.
   template <class Init>
-  Inbox(const System& sys, long long watchdog_ns, Init init) : decoder_(sys), buffer_(init), watchdog_ns_(watchdog_ns) {}
+  Inbox(const System& sys, long long max_input_age_us, Init init)
+      : decoder_(sys), buffer_(init), max_age_us_(max_input_age_us) {}
 
   // Receive thread (one writer). *why (optional) gets the reject reason.
   Offer offer(const void* data, int len, long long recv_ns, io::Reject* why = nullptr) {
     counters_.received.fetch_add(1, std::memory_order_relaxed);
     Slot& s = buffer_.write_slot();
-    const io::Reject r = decoder_.decode(data, len, s);
+    io::Reject r = decoder_.decode(data, len, s);
+    if (r == io::Reject::kNone && max_age_us_ > 0) {
+      if (s.utime <= 0) {
+        r = io::Reject::kStale;  // never stamped (0, -1): checked first, so the difference cannot overflow
+      } else {
+        const int64_t age_us = wall_us_() - s.utime;
+        if (age_us > max_age_us_) r = io::Reject::kStale;
+        else if (age_us < -max_age_us_) r = io::Reject::kFuture;
+      }
+    }
     if (why) *why = r;
     if (r != io::Reject::kNone) {
       counters_.rejected.fetch_add(1, std::memory_order_relaxed);
       counters_.by_reason[static_cast<int>(r)].fetch_add(1, std::memory_order_relaxed);
       return Offer::kRejected;
     }
-    if (have_last_ && s.seq <= last_seq_ && recv_ns - last_recv_ns_ <= watchdog_ns_) {
+    if (have_last_ && s.seq <= last_seq_ && expired_id_.load(std::memory_order_acquire) != last_id_) {
       counters_.out_of_order.fetch_add(1, std::memory_order_relaxed);
       return Offer::kOutOfOrder;
     }
     s.recv_ns = recv_ns;
+    s.id = ++last_id_;
     have_last_ = true;
     last_seq_ = s.seq;
-    last_recv_ns_ = recv_ns;
     buffer_.publish();
     counters_.accepted.fetch_add(1, std::memory_order_relaxed);
     return Offer::kAccepted;
@@ -56,16 +86,24 @@ class Inbox {
   // Loop thread (one reader): true if a newer value arrived; latest() is the newest accepted.
   bool update() { return buffer_.update(); }
   const Slot& latest() const { return buffer_.read_slot(); }
+  // Loop thread: latest() has expired (the loop counted it); the sequence rule may restart.
+  void note_expired() { expired_id_.store(latest().id, std::memory_order_release); }
 
   const InputCounters& counters() const { return counters_; }
+  // Tests: replace the wall clock that utime is checked against.
+  void set_wall_clock(int64_t (*now_us)()) { wall_us_ = now_us; }
 
  private:
   Decoder decoder_;
   TripleBuffer<Slot> buffer_;
-  long long watchdog_ns_;
+  long long max_age_us_;
+  int64_t (*wall_us_)() = &realtime_us;
+  // receive thread only
   bool have_last_ = false;
   int64_t last_seq_ = 0;
-  long long last_recv_ns_ = 0;
+  int64_t last_id_ = 0;
+  // written by the loop, read by the receive thread: id of the last slot the loop declared expired
+  std::atomic<int64_t> expired_id_{-1};
   InputCounters counters_;
 };
 

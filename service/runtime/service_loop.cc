@@ -27,8 +27,8 @@ ServiceLoop::ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& b
       watchdog_ns_(cfg.watchdog_ns()),
       dt_(1.0 / cfg.rate_hz),
       stats_every_(std::max<int64_t>(1, std::llround(cfg.stats_period_s * cfg.rate_hz))),
-      commands_(sys, cfg.watchdog_ns(), [&](io::CommandSlot& s) { s.tau = Eigen::VectorXd::Zero(sys.model.nv()); }),
-      states_(sys, cfg.watchdog_ns(),
+      commands_(sys, cfg.max_input_age_us(), [&](io::CommandSlot& s) { s.tau = Eigen::VectorXd::Zero(sys.model.nv()); }),
+      states_(sys, cfg.max_input_age_us(),
               [&](io::StateSlot& s) {
                 s.q = sys.q0;
                 s.v = sys.v0;
@@ -84,6 +84,7 @@ void ServiceLoop::tick(long long now) {
     if (in == io::Input::kCommandExpired && !input_expired_) {
       input_expired_ = true;
       expired_.fetch_add(1, std::memory_order_relaxed);
+      commands_.note_expired();  // counted here, then the sequence rule may follow a restart
       events_.push({EventCode::kCommandExpired, c.seq, (now - c.recv_ns) / 1000000, 0});
     } else if (in == io::Input::kCommand && input_expired_) {
       input_expired_ = false;
@@ -140,6 +141,7 @@ void ServiceLoop::tick(long long now) {
     if (in == io::Input::kStateExpired && !input_expired_) {
       input_expired_ = true;
       expired_.fetch_add(1, std::memory_order_relaxed);
+      states_.note_expired();
       events_.push({EventCode::kStateExpired, s.seq, (now - s.recv_ns) / 1000000, 0});
     } else if (in == io::Input::kState && input_expired_) {
       input_expired_ = false;
@@ -231,11 +233,26 @@ void ServiceLoop::run(const std::atomic<bool>& stop, long long max_ticks) {
   long long next = io::monotonic_ns() + period_ns_;
   long long n = 0;
   while (!stop.load(std::memory_order_relaxed) && (max_ticks < 0 || n < max_ticks)) {
-    timespec ts;
-    ts.tv_sec = static_cast<time_t>(next / 1000000000LL);
-    ts.tv_nsec = static_cast<long>(next % 1000000000LL);
-    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+    // Sleep to the absolute deadline in slices of at most kStopSliceNs, so a stop request (SIGINT,
+    // SIGTERM, --duration) ends run() within one slice even at the lowest rate (1 Hz); at 1 kHz
+    // the period is shorter than a slice and this is one clock_nanosleep.
+    bool stopped = false;
+    for (;;) {
+      const long long now = io::monotonic_ns();
+      if (now >= next) break;
+      if (stop.load(std::memory_order_relaxed)) {
+        stopped = true;
+        break;
+      }
+      const long long until = next - now > kStopSliceNs ? now + kStopSliceNs : next;
+      timespec ts;
+      ts.tv_sec = static_cast<time_t>(until / 1000000000LL);
+      ts.tv_nsec = static_cast<long>(until % 1000000000LL);
+      const int rc = clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
+      if (rc != 0 && rc != EINTR) break;  // cannot happen with a valid timespec; never spin
+      if (until == next && rc == 0) break;
     }
+    if (stopped) break;
     const long long wake = io::monotonic_ns();
     tick(wake);
     const long long end = io::monotonic_ns();

@@ -43,8 +43,10 @@ class ServiceLoop {
 
   // One period at monotonic time now_ns. Loop thread only.
   void tick(long long now_ns);
-  // Ticks at the configured rate until stop is set (or max_ticks ticks, if >= 0).
+  // Ticks at the configured rate until stop is set (or max_ticks ticks, if >= 0). Returns at most
+  // kStopSliceNs after stop is set, whatever the rate.
   void run(const std::atomic<bool>& stop, long long max_ticks = -1);
+  static constexpr long long kStopSliceNs = 10000000;  // 10 ms
   // Adds one tick's timing to the statistics (run() does this; tests may too).
   void record_timing(long long lateness_ns, long long compute_ns);
 

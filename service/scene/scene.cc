@@ -1,6 +1,7 @@
 #include "service/scene/scene.h"
 
 #include <urdf_parser/urdf_parser.h>
+#include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/yaml.h>
 
 #include <Eigen/Eigenvalues>
@@ -17,6 +18,9 @@
 #include "service/algorithms/crba.h"
 #include "service/algorithms/kinematics.h"
 #include "service/algorithms/tree_cholesky.h"
+#include "service/text/input_limits.h"
+
+namespace bounded = coopdyn::text;  // size and depth limits of user files
 
 namespace coopdyn {
 
@@ -277,11 +281,14 @@ Robot parse_robot(const Ctx& c, const YAML::Node& n, const std::string& name) {
 // its only leaf). Revolute/continuous and prismatic joints move; fixed joints stay fixed.
 Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path, const std::string& name,
                  std::string base, std::string tip) {
-  std::ifstream f(path);
-  if (!f) fail(c, where, "cannot open URDF '" + path + "'");
-  std::stringstream ss;
-  ss << f.rdbuf();
-  urdf::ModelInterfaceSharedPtr u = urdf::parseURDF(ss.str());
+  // bounded before urdfdom sees it: its TinyXML parser recurses per element without a limit
+  std::string xml, why;
+  if (!bounded::read_file(path, bounded::kMaxUrdfBytes, "URDF '" + path + "'", &xml, &why)) fail(c, where, why);
+  if (const bounded::DepthExceeded d = bounded::xml_depth_exceeds(xml); d.exceeded)
+    fail(c, where, "URDF '" + path + "' line " + std::to_string(d.line) + " column " + std::to_string(d.column) +
+                       ": elements nested deeper than " + std::to_string(bounded::kMaxXmlDepth) +
+                       " levels (the limit; URDF itself nests 5)");
+  urdf::ModelInterfaceSharedPtr u = urdf::parseURDF(xml);
   if (!u) fail(c, where, "URDF '" + path + "' could not be parsed (see the urdfdom message above)");
   if (base.empty()) base = u->getRoot()->name;
   urdf::LinkConstSharedPtr lk = u->getLink(tip.empty() ? base : tip);
@@ -340,11 +347,25 @@ Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path,
   return r;
 }
 
+// Bounded before yaml-cpp sees it (size, nesting pre-scan): its parser recurses per level and
+// stops at 500 with the message "bad file".
+void check_yaml_text(const std::string& text, const std::string& file) {
+  if (text.size() > bounded::kMaxYamlBytes)
+    throw SceneError(file + ": " + std::to_string(text.size()) + " bytes, more than the limit of " +
+                     std::to_string(bounded::kMaxYamlBytes) + " for a scene or robot file");
+  if (const bounded::DepthExceeded d = bounded::yaml_depth_exceeds(text); d.exceeded)
+    throw SceneError(file + ":" + std::to_string(d.line) + ":" + std::to_string(d.column) + ": YAML nested deeper than " +
+                     std::to_string(bounded::kMaxYamlDepth) + " levels (the limit for a scene or robot file)");
+}
+
 YAML::Node load_yaml_file(const Ctx& c, const std::string& path, const YAML::Node& where) {
-  std::ifstream f(path);
-  if (!f) fail(c, where, "cannot open '" + path + "'");
+  std::string text, why;
+  if (!bounded::read_file(path, bounded::kMaxYamlBytes, "'" + path + "'", &text, &why)) fail(c, where, why);
+  check_yaml_text(text, path);
   try {
-    return YAML::Load(f);
+    return YAML::Load(text);
+  } catch (const YAML::DeepRecursion& e) {
+    throw SceneError(path + ": YAML nested deeper than yaml-cpp's limit of " + std::to_string(e.depth()) + " levels");
   } catch (const YAML::ParserException& e) {
     throw SceneError(path + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1) +
                      ": YAML syntax error: " + e.msg);
@@ -820,12 +841,15 @@ System load_scene_string(const std::string& text, const std::string& file, const
   B.c.file = file;
   B.c.dir = std::filesystem::path(file).parent_path().string();
   const Ctx& c = B.c;
+  check_yaml_text(text, file);
   YAML::Node root;
   try {
     root = YAML::Load(text);
+  } catch (const YAML::DeepRecursion& e) {
+    throw SceneError(file + ": YAML nested deeper than yaml-cpp's limit of " + std::to_string(e.depth()) + " levels");
   } catch (const YAML::ParserException& e) {
-    throw SceneError(file + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1) +
-                     ": YAML syntax error: " + e.msg);
+    throw SceneError(bounded::cut_values(file + ":" + std::to_string(e.mark.line + 1) + ":" +
+                                      std::to_string(e.mark.column + 1) + ": YAML syntax error: " + e.msg));
   }
   if (!root.IsMap()) fail(c, root, "a scene must be a YAML mapping");
   try {
@@ -958,17 +982,18 @@ System load_scene_string(const std::string& text, const std::string& file, const
                         "' moves no mass (give its subtree a mass or inertia, or the joint an armature)");
     }
     return sys;
+  } catch (const SceneError& e) {
+    throw SceneError(bounded::cut_values(e.what()));  // no echoed value longer than 80 characters
   } catch (const YAML::Exception& e) {
-    throw SceneError(file + ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1) + ": " + e.msg);
+    throw SceneError(bounded::cut_values(file + ":" + std::to_string(e.mark.line + 1) + ":" +
+                                      std::to_string(e.mark.column + 1) + ": " + e.msg));
   }
 }
 
 System load_scene(const std::string& path, const SceneOverrides& ov) {
-  std::ifstream f(path);
-  if (!f) throw SceneError(path + ": cannot open scene file");
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return load_scene_string(ss.str(), path, ov);
+  std::string text, why;
+  if (!bounded::read_file(path, bounded::kMaxYamlBytes, "scene file", &text, &why)) throw SceneError(path + ": " + why);
+  return load_scene_string(text, path, ov);
 }
 
 }  // namespace coopdyn
