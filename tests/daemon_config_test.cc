@@ -16,6 +16,10 @@ TEST(DaemonConfig, ShippedConfigEqualsBuiltInDefaults) {
   EXPECT_EQ(f.rate_hz, d.rate_hz);
   EXPECT_EQ(f.lcm_url, "udpm://239.255.76.67:7667?ttl=0");
   EXPECT_EQ(f.lcm_url, d.lcm_url);
+  EXPECT_EQ(f.lcm_url_in, d.lcm_url_in);
+  EXPECT_EQ(f.input_url(), f.lcm_url);
+  EXPECT_EQ(f.receive_queue, d.receive_queue);
+  EXPECT_EQ(f.receive_max_bytes, d.receive_max_bytes);
   EXPECT_EQ(f.command_channel, d.command_channel);
   EXPECT_EQ(f.state_channel, d.state_channel);
   EXPECT_EQ(f.output_channel, d.output_channel);
@@ -93,6 +97,11 @@ TEST(DaemonConfig, EveryValueBoundedWithTheLimitsInTheMessage) {
       {"max_input_age_ms: 1e13\n", "max_input_age_ms must be off (or 0) or in [1, 3.6e+06] ms, got 1e+13"},
       {"max_input_age_ms: never\n", "t.yaml:1:19: 'max_input_age_ms' must be a number (ms) or off"},
       {"rate_hz: [1000]\n", "t.yaml:1:10: 'rate_hz' must be a number (Hz)"},
+      {"lcm_url_in: \"" + std::string(2000, 'u') + "\"\n", "t.yaml:1:13: lcm_url_in must be 1..1024 characters, got 2000"},
+      {"receive: {queue: 1}\n", "t.yaml:1:18: receive.queue must be an integer in [2, 4096] messages, got 1"},
+      {"receive: {queue: 2.5}\n", "receive.queue must be an integer in [2, 4096] messages, got 2.5"},
+      {"receive: {max_message_bytes: 1e12}\n", "t.yaml:1:30: receive.max_message_bytes must be an integer in [256, 4194304] bytes"},
+      {"receive: {bogus: 1}\n", "unknown key 'bogus' in receive"},
       // a non-scalar mapping key, at the top and inside a section
       {"? [a, b]\n: 1\n", "t.yaml:1:3: a key in the service config must be a plain name, not a list or mapping"},
       {"realtime:\n  ? {x: 1}\n  : 2\n", "t.yaml:2:5: a key in realtime must be a plain name, not a list or mapping"},

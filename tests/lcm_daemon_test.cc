@@ -2,7 +2,11 @@
 // between this test and build/bin/coopdynd as a child process (simulate and estimate mode,
 // SIGTERM shutdown, start-up errors), and lcm-logger recording a run that `coopdyn log` converts.
 #include <gtest/gtest.h>
+#include <arpa/inet.h>
+#include <dirent.h>
 #include <fcntl.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -12,6 +16,7 @@
 #include <cstring>
 #include <fstream>
 #include <map>
+#include <random>
 #include <mutex>
 #include <sstream>
 #include <thread>
@@ -500,4 +505,175 @@ TEST_F(DaemonProcess, EstimateOnReplayedSimStatesReproducesSimWrenches) {
   }
   EXPECT_GE(matched, 20);  // of 61 states; a stalled loop may skip some (latest wins)
   std::remove(sim_csv.c_str());
+}
+
+namespace {
+// Sends raw datagrams to the group and port of a udpm URL (ttl 0: this machine only).
+struct RawUdp {
+  int fd = -1;
+  sockaddr_in to{};
+  explicit RawUdp(const std::string& url) {
+    const auto colon = url.rfind(':'), q = url.find('?');
+    const int port = std::stoi(url.substr(colon + 1, q - colon - 1));
+    fd = socket(AF_INET, SOCK_DGRAM, 0);
+    unsigned char ttl = 0;
+    setsockopt(fd, IPPROTO_IP, IP_MULTICAST_TTL, &ttl, sizeof ttl);
+    to.sin_family = AF_INET;
+    to.sin_port = htons(static_cast<uint16_t>(port));
+    inet_pton(AF_INET, "239.255.76.67", &to.sin_addr);
+  }
+  ~RawUdp() { close(fd); }
+  void send(const std::vector<uint8_t>& b) { sendto(fd, b.data(), b.size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof to); }
+};
+void put32(std::vector<uint8_t>& b, uint32_t x) {
+  for (int s = 24; s >= 0; s -= 8) b.push_back(static_cast<uint8_t>(x >> s));
+}
+void put16(std::vector<uint8_t>& b, uint16_t x) {
+  b.push_back(static_cast<uint8_t>(x >> 8));
+  b.push_back(static_cast<uint8_t>(x));
+}
+// An LCM fragment (LC03): magic, seqno, message size, fragment offset, fragment number, count; the
+// channel after fragment 0's header, then payload.
+std::vector<uint8_t> lc03(uint32_t seq, uint32_t size, uint32_t offset, uint16_t no, uint16_t count,
+                          const std::string& channel, size_t total) {
+  std::vector<uint8_t> b;
+  put32(b, 0x4c433033);
+  put32(b, seq);
+  put32(b, size);
+  put32(b, offset);
+  put16(b, no);
+  put16(b, count);
+  if (no == 0) b.insert(b.end(), channel.begin(), channel.end()), b.push_back(0);
+  while (b.size() < total) b.push_back(0xab);
+  return b;
+}
+}  // namespace
+
+// Receive isolation (issue: one datagram killed the daemon). liblcm 1.3.1 writes out of bounds on a
+// crafted LC03 fragment (offset 0xFFFFFF00); only the daemon's receive process subscribes, so it
+// dies, is counted, logged and restarted, while the loop keeps publishing at its rate and the
+// commands sent afterwards are applied. Inputs on their own URL: this test's own subscriber (the
+// outputs) never sees the hostile datagrams.
+TEST_F(DaemonProcess, HostileFragmentKillsOnlyTheReceiveProcess) {
+  const std::string url_in = private_udpm_url(777);
+  const std::string cfg_path = tmp_path("isolated.yaml");
+  std::ofstream(cfg_path) << "lcm_url_in: \"" << url_in << "\"\nstats_period_s: 0.2\n";
+  OutputSink sink;
+  sink.attach(*bus_);
+  std::mutex mu;
+  io::StatsFrame last_stats;
+  bus_->subscribe("COOPDYN_STATS", [&](const void* d, int n, long long) {
+    io::StatsFrame s;
+    if (!io::decode_stats(d, n, &s)) return;
+    std::lock_guard<std::mutex> lk(mu);
+    last_stats = s;
+  });
+  bus_->start();
+  auto in = try_bus(url_in);  // publishes only: never subscribes, so the fragment cannot reach it
+  ASSERT_TRUE(in);
+  auto d = start_daemon({"--config", cfg_path}, "isolated");
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  std::this_thread::sleep_for(500ms);  // the receive process has subscribed
+  auto outputs_in = [&](std::chrono::milliseconds w) {
+    const size_t a = sink.snapshot().size();
+    std::this_thread::sleep_for(w);
+    return static_cast<double>(sink.snapshot().size() - a);
+  };
+  const double before = outputs_in(1000ms);
+  RawUdp raw(url_in);
+  raw.send(lc03(1, 100, 0xFFFFFF00u, 0, 2, "COOPDYN_COMMAND", 324));  // the crafted fragment
+  std::mt19937 rng(10);
+  std::uniform_int_distribution<uint32_t> U;
+  for (int k = 0; k < 300; ++k)  // random fragments, some on the channel
+    raw.send(lc03(U(rng), U(rng) % 100000, U(rng), static_cast<uint16_t>(U(rng) % 4), static_cast<uint16_t>(1 + U(rng) % 4),
+                  k % 2 ? "COOPDYN_COMMAND" : "X", 20 + U(rng) % 1400));
+  const double after = outputs_in(1000ms);
+  std::printf("outputs per second: %.0f before, %.0f after the hostile datagrams\n", before, after);
+  EXPECT_GT(after, 0.9 * before) << "the loop must keep publishing at its rate";
+  // the restart is counted in loop_stats_t and logged
+  const auto t_end = std::chrono::steady_clock::now() + 5s;
+  int64_t restarts = 0;
+  while (std::chrono::steady_clock::now() < t_end && restarts < 1) {
+    std::this_thread::sleep_for(50ms);
+    std::lock_guard<std::mutex> lk(mu);
+    restarts = last_stats.receiver_restarts;
+  }
+  EXPECT_GE(restarts, 1) << "the crafted fragment should have killed the receive process";
+  // valid commands afterwards are applied (the new receive process subscribes within ~1 s)
+  const Eigen::VectorXd tau = some_torque(sys_, 11);
+  std::this_thread::sleep_for(1000ms);
+  for (int seq = 1; seq <= 40; ++seq) {
+    const auto b = io::encode_torque_command(io::wall_us(), seq, {}, stdvec(tau));
+    in->publish("COOPDYN_COMMAND", b.data(), static_cast<int>(b.size()));
+    std::this_thread::sleep_for(5ms);
+  }
+  EXPECT_TRUE(sink.wait_for([](const io::DecodedOutput& o) {
+    return o.input == static_cast<int>(io::Input::kCommand) && o.input_seq == 40; }, 5s)) << slurp(d->err);
+  d->signal(SIGTERM);
+  EXPECT_EQ(d->wait(), 0) << slurp(d->err);
+  bus_->stop();
+  const std::string err = slurp(d->err), out = slurp(d->out);
+  EXPECT_NE(err.find("receive process killed by signal"), std::string::npos) << err;
+  EXPECT_NE(out.find("accepted 40"), std::string::npos) << out;
+  std::remove(cfg_path.c_str());
+}
+
+// The supervision itself, without relying on liblcm's bug: the receive process is killed from
+// outside (SIGKILL) twice; each death is counted and a new one takes over.
+TEST_F(DaemonProcess, ReceiveProcessIsRestartedWhenKilled) {
+  OutputSink sink;
+  sink.attach(*bus_);
+  bus_->start();
+  auto d = start_daemon({}, "killed_rx");
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  auto rx_pid = [&]() -> pid_t {  // the child of the daemon whose command line has --rx-child
+    for (int tries = 0; tries < 200; ++tries) {
+      DIR* dir = opendir("/proc");
+      while (dirent* e = readdir(dir)) {
+        const pid_t p = static_cast<pid_t>(std::atoi(e->d_name));
+        if (p <= 0) continue;
+        std::ifstream st("/proc/" + std::string(e->d_name) + "/stat");
+        std::string line;
+        std::getline(st, line);
+        const auto rp = line.rfind(')');
+        if (rp == std::string::npos) continue;
+        std::istringstream is(line.substr(rp + 2));
+        char state;
+        pid_t ppid = 0;
+        is >> state >> ppid;
+        if (ppid != d->pid) continue;
+        const std::string cmd = slurp("/proc/" + std::string(e->d_name) + "/cmdline");
+        if (cmd.find("--rx-child") != std::string::npos) {
+          closedir(dir);
+          return p;
+        }
+      }
+      closedir(dir);
+      std::this_thread::sleep_for(10ms);
+    }
+    return -1;
+  };
+  pid_t first = rx_pid();
+  ASSERT_GT(first, 0);
+  kill(first, SIGKILL);
+  std::this_thread::sleep_for(300ms);
+  pid_t second = rx_pid();
+  ASSERT_GT(second, 0);
+  EXPECT_NE(second, first);
+  kill(second, SIGKILL);
+  std::this_thread::sleep_for(1500ms);  // a second death within a second of the start: backoff
+  ASSERT_GT(rx_pid(), 0);
+  std::this_thread::sleep_for(500ms);
+  const Eigen::VectorXd tau = some_torque(sys_, 12);
+  for (int seq = 1; seq <= 20; ++seq) {
+    const auto b = io::encode_torque_command(io::wall_us(), seq, {}, stdvec(tau));
+    bus_->publish("COOPDYN_COMMAND", b.data(), static_cast<int>(b.size()));
+    std::this_thread::sleep_for(5ms);
+  }
+  EXPECT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.input_seq == 20; }, 5s));
+  d->signal(SIGTERM);
+  EXPECT_EQ(d->wait(), 0) << slurp(d->err);
+  bus_->stop();
+  EXPECT_NE(slurp(d->out).find("receiver restarts 2"), std::string::npos) << slurp(d->out);
+  EXPECT_NE(slurp(d->err).find("killed by signal 9"), std::string::npos) << slurp(d->err);
 }

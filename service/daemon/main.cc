@@ -3,11 +3,16 @@
 //   coopdynd --scene FILE [--config FILE] [--lcm-url URL] [--mode simulate|estimate]
 //            [--rate HZ] [--duration S]
 //
-// Threads: the loop (ServiceLoop::run, optionally SCHED_FIFO), the LCM receive thread
-// (lcm_handle_timeout -> decode -> triple buffer), spdlog's async logger thread, and this main
+// Processes and threads: the loop (ServiceLoop::run, optionally SCHED_FIFO) publishes through LCM
+// and never receives; inputs arrive in a supervised child process (coopdynd --rx-child,
+// io/rx_isolated.h) that copies raw bytes into a shared ring, drained by the receive thread here
+// (-> decode -> triple buffer), which also restarts the child when it dies; spdlog's async logger
+// thread; and this main
 // thread, which waits for SIGINT/SIGTERM (or --duration), drains the loop's event ring into the log
 // and prints the summary line at exit.
 #include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
 #include <spdlog/async.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
@@ -24,6 +29,7 @@
 
 #include "service/dynamics/constrained_dynamics.h"
 #include "service/io/lcm_bus.h"
+#include "service/io/rx_isolated.h"
 #include "service/runtime/config.h"
 #include "service/runtime/realtime.h"
 #include "service/runtime/service_loop.h"
@@ -98,6 +104,8 @@ struct OverrunReport {
 
 int main(int argc, char** argv) {
   using namespace coopdyn;
+  // the isolated receive process (io/rx_isolated.h): this binary, exec'd by the daemon itself
+  if (argc > 1 && std::strcmp(argv[1], "--rx-child") == 0) return io::rx_child_main(argc, argv);
   std::string scene_path, config_path, url_override, mode_override;
   double rate_override = 0, duration = -1;
   for (int i = 1; i < argc; ++i) {
@@ -186,11 +194,21 @@ int main(int argc, char** argv) {
   int by_kind[5] = {0, 0, 0, 0, 0};
   for (const WrenchOutput& o : sys.wrenches.outputs) ++by_kind[static_cast<int>(o.kind)];
   runtime::ServiceLoop loop(sys, cfg, *bus);
-  if (cfg.mode == runtime::ServiceMode::kSimulate)
-    bus->subscribe(cfg.command_channel,
-                   [&](const void* d, int n, long long t) { loop.commands().offer(d, n, t); });
-  else
-    bus->subscribe(cfg.state_channel, [&](const void* d, int n, long long t) { loop.states().offer(d, n, t); });
+  // inputs: received by a supervised child process, never by this one (the bus only publishes)
+  std::unique_ptr<io::IsolatedReceiver> rx;
+  try {
+    char exe[4096];
+    const ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
+    if (n <= 0) throw std::runtime_error("cannot find its own executable (/proc/self/exe)");
+    exe[n] = 0;
+    rx = std::make_unique<io::IsolatedReceiver>(
+        exe, cfg.input_url(), cfg.mode == runtime::ServiceMode::kSimulate ? cfg.command_channel : cfg.state_channel,
+        cfg.receive_queue, cfg.receive_max_bytes);
+  } catch (const std::exception& e) {
+    spdlog::shutdown();
+    std::fprintf(stderr, "coopdynd: %s\n", e.what());
+    return 1;
+  }
 
   spdlog::info("scene '{}' from {}: nq {}, nv {}, {} constraint rows, formulation {}", sys.name, scene_path,
                sys.model.nq(), sys.model.nv(), sys.constraints.rows, formulation_name(sys.options.formulation));
@@ -202,10 +220,10 @@ int main(int argc, char** argv) {
                cfg.safe_torque == runtime::SafeTorque::kZero ? "zero" : "damping",
                cfg.overrun == runtime::OverrunPolicy::kSkip ? "skip"
                                                            : "catch_up (max " + std::to_string(cfg.max_catch_up) + ")");
-  spdlog::info("LCM {}: {} {} -> {} (output), {} (stats every {} s)", cfg.lcm_url,
-               cfg.mode == runtime::ServiceMode::kSimulate ? "commands on" : "measured states on",
-               cfg.mode == runtime::ServiceMode::kSimulate ? cfg.command_channel : cfg.state_channel,
-               cfg.output_channel, cfg.stats_channel, cfg.stats_period_s);
+  spdlog::info("LCM in {}: {} {} (isolated receive process, queue {} x {} bytes); out {}: {} (output), {} (stats every {} s)",
+               cfg.input_url(), cfg.mode == runtime::ServiceMode::kSimulate ? "commands on" : "measured states on",
+               cfg.mode == runtime::ServiceMode::kSimulate ? cfg.command_channel : cfg.state_channel, cfg.receive_queue,
+               cfg.receive_max_bytes, cfg.lcm_url, cfg.output_channel, cfg.stats_channel, cfg.stats_period_s);
 
   struct sigaction sa {};
   sa.sa_handler = on_signal;
@@ -213,7 +231,25 @@ int main(int argc, char** argv) {
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
 
-  bus->start();
+  const bool simulate = cfg.mode == runtime::ServiceMode::kSimulate;
+  rx->start(
+      [&](const void* d, int n, long long t) {
+        if (simulate) loop.commands().offer(d, n, t);
+        else loop.states().offer(d, n, t);
+        loop.set_receiver_counters(rx->restarts(), rx->dropped());
+      },
+      [&](int status, long long restarts) {
+        loop.set_receiver_counters(restarts, rx->dropped());
+        if (WIFSIGNALED(status))
+          spdlog::error("receive process killed by signal {} ({}): restart {} (a hostile or malformed datagram); "
+                        "the loop keeps running, inputs resume when it is back",
+                        WTERMSIG(status), strsignal(WTERMSIG(status)), restarts);
+        else
+          spdlog::error("receive process exited with status {}: restart {}", WEXITSTATUS(status), restarts);
+      });
+  // outputs start only once inputs are received: wait (bounded) for the receive process to subscribe
+  for (int i = 0; i < 400 && !rx->child_ready(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  if (!rx->child_ready()) spdlog::warn("the receive process has not subscribed after 2 s; starting anyway");
   std::promise<std::vector<runtime::RealtimeResult>> rt_promise;
   auto rt_future = rt_promise.get_future();
   std::thread loop_thread([&] {
@@ -241,7 +277,7 @@ int main(int argc, char** argv) {
       g_stop.store(true);
   }
   loop_thread.join();
-  bus->stop();
+  rx->stop();
   while (loop.events().pop(&e)) {
     log_event(e);
     overruns.add(e);
@@ -257,13 +293,14 @@ int main(int argc, char** argv) {
   spdlog::shutdown();
   std::printf(
       "coopdynd: stopped (%s) after %lld ticks in %.1f s: overruns %lld, skipped %lld; %s received %lld, accepted %lld, "
-      "rejected %lld, out-of-order %lld, expired %lld, stale utime %lld; numerical errors %lld; lateness us p50 %.1f p99 %.1f p99.9 %.1f "
+      "rejected %lld, out-of-order %lld, expired %lld, stale utime %lld; receiver restarts %lld, inputs dropped %lld; "
+      "numerical errors %lld; lateness us p50 %.1f p99 %.1f p99.9 %.1f "
       "max %.1f; compute us p50 %.1f p99 %.1f p99.9 %.1f max %.1f\n",
       sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "duration", static_cast<long long>(s.tick), secs,
       static_cast<long long>(s.overruns), static_cast<long long>(s.skipped_periods),
       cfg.mode == runtime::ServiceMode::kSimulate ? "commands" : "states", static_cast<long long>(s.received),
       static_cast<long long>(s.accepted), static_cast<long long>(s.rejected), static_cast<long long>(s.out_of_order),
-      static_cast<long long>(s.expired), stale, static_cast<long long>(s.numerical_errors), s.lateness_us[0], s.lateness_us[1],
+      static_cast<long long>(s.expired), stale, rx->restarts(), rx->dropped(), static_cast<long long>(s.numerical_errors), s.lateness_us[0], s.lateness_us[1],
       s.lateness_us[2], s.lateness_us[3], s.compute_us[0], s.compute_us[1], s.compute_us[2], s.compute_us[3]);
   std::fflush(stdout);
   return 0;

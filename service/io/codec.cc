@@ -326,6 +326,8 @@ int StatsEncoder::encode(const StatsFrame& s, uint8_t* buf, int cap) {
   o.commands_out_of_order = s.out_of_order;
   o.commands_expired = s.expired;
   o.numerical_errors = s.numerical_errors;
+  o.receiver_restarts = s.receiver_restarts;
+  o.inputs_dropped = s.inputs_dropped;
   if (cap < o.getEncodedSize()) return -1;
   return o.encode(buf, 0, cap);
 }

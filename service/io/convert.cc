@@ -137,6 +137,8 @@ bool decode_stats(const void* data, int len, StatsFrame* s) {
   s->out_of_order = o.commands_out_of_order;
   s->expired = o.commands_expired;
   s->numerical_errors = o.numerical_errors;
+  s->receiver_restarts = o.receiver_restarts;
+  s->inputs_dropped = o.inputs_dropped;
   return true;
 }
 
@@ -248,7 +250,8 @@ bool to_csv(MessageType t, const void* data, int len, std::string* header, std::
       *header =
           "utime,tick,period_us,window_ticks,lateness_p50_us,lateness_p99_us,lateness_p999_us,lateness_max_us,"
           "compute_p50_us,compute_p99_us,compute_p999_us,compute_max_us,overruns,skipped_periods,commands_received,"
-          "commands_accepted,commands_rejected,commands_out_of_order,commands_expired,numerical_errors";
+          "commands_accepted,commands_rejected,commands_out_of_order,commands_expired,numerical_errors,receiver_restarts,"
+          "inputs_dropped";
       inum(row, s.utime);
       inum(row, s.tick);
       num(row, s.period_us);
@@ -256,7 +259,7 @@ bool to_csv(MessageType t, const void* data, int len, std::string* header, std::
       for (double x : s.lateness_us) num(row, x);
       for (double x : s.compute_us) num(row, x);
       for (long long x : {s.overruns, s.skipped_periods, s.received, s.accepted, s.rejected, s.out_of_order, s.expired,
-                          s.numerical_errors})
+                          s.numerical_errors, s.receiver_restarts, s.inputs_dropped})
         inum(row, x);
       break;
     }

@@ -70,10 +70,20 @@ std::string check_channel(const char* key, const std::string& name) {
   return std::string("channel '") + key + "' must be 1.." + std::to_string(kMaxChannelChars) +
          " characters (LCM's limit), got " + std::to_string(name.size());
 }
-std::string check_url(const std::string& url) {
+// the receive ring (io/rx_isolated.h): slots and their size, bounded so the shared memory stays
+// below 4096 x 4 MiB and a slot holds any command of a sane scene
+std::string check_receive(double queue, double bytes) {
+  if (!(queue >= 2 && queue <= 4096 && queue == std::floor(queue)))
+    return "receive.queue must be an integer in [2, 4096] messages, got " + num(queue);
+  if (!(bytes >= 256 && bytes <= 4194304 && bytes == std::floor(bytes)))
+    return "receive.max_message_bytes must be an integer in [256, 4194304] bytes, got " + num(bytes);
+  return "";
+}
+
+std::string check_url(const std::string& url, const char* key = "lcm_url") {
   if (!url.empty() && url.size() <= static_cast<size_t>(kMaxUrlChars)) return "";
-  if (url.empty()) return "lcm_url is empty";
-  return "lcm_url must be 1.." + std::to_string(kMaxUrlChars) + " characters, got " + std::to_string(url.size());
+  if (url.empty()) return std::string(key) + " is empty";
+  return std::string(key) + " must be 1.." + std::to_string(kMaxUrlChars) + " characters, got " + std::to_string(url.size());
 }
 
 struct Ctx {
@@ -118,13 +128,26 @@ ServiceConfig parse(const YAML::Node& root, const Ctx& c) {
   ServiceConfig cfg;
   if (!root.IsDefined() || root.IsNull()) return cfg;
   c.keys(root,
-         {"rate_hz", "lcm_url", "channels", "mode", "integrator", "watchdog_ms", "safe_torque", "overrun",
-          "stats_period_s", "realtime", "log_level", "max_input_age_ms"},
+         {"rate_hz", "lcm_url", "lcm_url_in", "receive", "channels", "mode", "integrator", "watchdog_ms", "safe_torque",
+          "overrun", "stats_period_s", "realtime", "log_level", "max_input_age_ms"},
          "the service config");
   cfg.rate_hz = c.get<double>(root, "rate_hz", cfg.rate_hz, "a number (Hz)");
   c.check(root["rate_hz"], check_rate(cfg.rate_hz));
   cfg.lcm_url = c.get<std::string>(root, "lcm_url", cfg.lcm_url, "a string");
   c.check(root["lcm_url"], check_url(cfg.lcm_url));
+  if (root["lcm_url_in"].IsDefined()) {  // "" or absent: the inputs come on lcm_url
+    cfg.lcm_url_in = c.get<std::string>(root, "lcm_url_in", "", "a string");
+    if (!cfg.lcm_url_in.empty()) c.check(root["lcm_url_in"], check_url(cfg.lcm_url_in, "lcm_url_in"));
+  }
+  if (const YAML::Node rc = root["receive"]; rc.IsDefined()) {
+    c.keys(rc, {"queue", "max_message_bytes"}, "receive");
+    const double qn = c.get<double>(rc, "queue", cfg.receive_queue, "a number (messages)");
+    const double mb = c.get<double>(rc, "max_message_bytes", cfg.receive_max_bytes, "a number (bytes)");
+    c.check(rc["queue"], check_receive(qn, 65536));
+    c.check(rc["max_message_bytes"], check_receive(64, mb));
+    cfg.receive_queue = static_cast<int>(qn);
+    cfg.receive_max_bytes = static_cast<int>(mb);
+  }
   if (const YAML::Node ch = root["channels"]; ch.IsDefined()) {
     c.keys(ch, {"command", "state", "output", "stats"}, "channels");
     cfg.command_channel = c.get<std::string>(ch, "command", cfg.command_channel, "a string");
@@ -240,7 +263,8 @@ void validate(const ServiceConfig& c) {
   for (const std::string& why :
        {check_rate(c.rate_hz), check_watchdog(c.watchdog_ms), check_input_age(c.max_input_age_ms), check_stats_period(c.stats_period_s, c.rate_hz),
         check_catch_up(c.max_catch_up), check_priority(c.realtime.priority), check_cpu(c.realtime.cpu),
-        check_url(c.lcm_url), check_channel("command", c.command_channel), check_channel("state", c.state_channel),
+        check_url(c.lcm_url), c.lcm_url_in.empty() ? std::string() : check_url(c.lcm_url_in, "lcm_url_in"),
+        check_receive(c.receive_queue, c.receive_max_bytes), check_channel("command", c.command_channel), check_channel("state", c.state_channel),
         check_channel("output", c.output_channel), check_channel("stats", c.stats_channel)})
     if (!why.empty()) throw ConfigError(why);
   if (!(c.damping >= 0) || !std::isfinite(c.damping)) throw ConfigError("safe_torque.damping must be finite and >= 0");

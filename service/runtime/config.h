@@ -45,6 +45,7 @@ struct RealtimeOptions {
 //   max_catch_up    [0, 1000] ticks
 //   max_input_age_ms  0 (off) or [1, 3600000] ms, like watchdog_ms
 //   realtime.cpu    -1 or [0, CPU_SETSIZE - 1 = 1023]: the bit must exist in a cpu_set_t
+//   receive.queue   [2, 4096] messages; receive.max_message_bytes [256, 4194304] bytes
 //   channel names   1..63 characters (LCM_MAX_CHANNEL_NAME_LENGTH); lcm_url 1..1024 characters
 inline constexpr double kMinRateHz = 1.0, kMaxRateHz = 20000.0;
 inline constexpr double kMinWatchdogMs = 1.0, kMaxWatchdogMs = 3600.0e3;
@@ -56,7 +57,13 @@ inline constexpr int kMaxUrlChars = 1024;
 
 struct ServiceConfig {
   double rate_hz = 1000.0;
-  std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";
+  std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";  // outputs and stats (and inputs, unless lcm_url_in)
+  // Inputs (commands or measured states), received in the isolated child process (io/rx_isolated.h).
+  // Empty: lcm_url. Give it its own port or group so that the receiver never sees the daemon's
+  // outputs and a flood on one URL cannot crowd out the other.
+  std::string lcm_url_in;
+  int receive_queue = 64;             // messages the child can queue for the daemon (ring slots)
+  int receive_max_bytes = 65536;      // largest input message accepted, bytes (larger: dropped, counted)
   std::string command_channel = "COOPDYN_COMMAND";
   std::string state_channel = "COOPDYN_STATE";
   std::string output_channel = "COOPDYN_OUTPUT";
@@ -79,6 +86,7 @@ struct ServiceConfig {
 
   long long period_ns() const { return static_cast<long long>(1e9 / rate_hz + 0.5); }
   long long watchdog_ns() const { return static_cast<long long>(watchdog_ms * 1e6 + 0.5); }
+  const std::string& input_url() const { return lcm_url_in.empty() ? lcm_url : lcm_url_in; }
   long long max_input_age_us() const { return static_cast<long long>(max_input_age_ms * 1e3 + 0.5); }
 };
 

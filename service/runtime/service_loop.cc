@@ -197,6 +197,8 @@ void ServiceLoop::fill_counters(io::StatsFrame& s) const {
   s.out_of_order = c.out_of_order.load(std::memory_order_relaxed);
   s.expired = expirations();
   s.numerical_errors = numerical_errors();
+  s.receiver_restarts = receiver_restarts_.load(std::memory_order_relaxed);
+  s.inputs_dropped = inputs_dropped_.load(std::memory_order_relaxed);
 }
 
 void ServiceLoop::publish_stats() {

@@ -58,6 +58,11 @@ class ServiceLoop {
   int64_t numerical_errors() const { return numerical_errors_.load(std::memory_order_relaxed); }
   bool faulted() const { return faulted_.load(std::memory_order_relaxed); }
   const InputCounters& input_counters() const;
+  // Fed by the daemon's receive supervision (io/rx_isolated.h), any thread; published in loop_stats_t.
+  void set_receiver_counters(int64_t restarts, int64_t dropped) {
+    receiver_restarts_.store(restarts, std::memory_order_relaxed);
+    inputs_dropped_.store(dropped, std::memory_order_relaxed);
+  }
   EventRing<256>& events() { return events_; }
   // loop thread (or after run() returned)
   const Eigen::VectorXd& q() const { return q_; }
@@ -103,6 +108,7 @@ class ServiceLoop {
   int64_t since_stats_ = 0;
 
   std::atomic<int64_t> ticks_{0}, overruns_{0}, skipped_{0}, expired_{0}, numerical_errors_{0};
+  std::atomic<int64_t> receiver_restarts_{0}, inputs_dropped_{0};
   Histogram late_win_, comp_win_, late_all_, comp_all_;
   EventRing<256> events_;
 };
