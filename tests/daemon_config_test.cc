@@ -46,7 +46,7 @@ TEST(DaemonConfig, EveryBadValueNamesFileLineAndReason) {
       {"rate_hz: 0\n", "t.yaml:1:10: rate_hz must be in [1, 20000] Hz, got 0"},
       {"rate_hz: fast\n", "t.yaml:1:10: 'rate_hz' must be a number (Hz)"},
       {"mode: simulate\nwatchdog_ms: -1\n", "t.yaml:2:14: watchdog_ms must be in [1, 3.6e+06] ms"},
-      {"safe_torque: {policy: gravity}\n", "t.yaml:1:23: safe_torque.policy must be zero or damping"},
+      {"safe_torque: {policy: gravity}\n", "t.yaml:1:23: safe_torque.policy must be hold, zero or damping"},
       {"overrun: {policy: skip, max_catch_up: 5000}\n", "overrun.max_catch_up must be in [0, 1000]"},
       {"channels: {output: ''}\n", "channel 'output' is empty"},
       {"realtime: {priority: 120}\n", "realtime.priority must be 1..99, got 120"},

@@ -187,6 +187,8 @@ TEST(ServiceLoop, EstimateOutputsEqualOfflineEvaluate) {
 
 TEST(ServiceLoop, WatchdogAppliesSafeTorqueAndSaysSo) {
   Rig r("two_puma_load");
+  r.cfg.safe_torque = runtime::SafeTorque::kZero;  // the policy `zero`: every safe torque is 0
+  r.reset();
   const long long wd = r.cfg.watchdog_ns();
   r.loop->tick(0);
   io::DecodedOutput o = r.bus.last_output();
@@ -578,4 +580,19 @@ TEST(ServiceLoop, EveryRestartLetThroughIsACountedExpiry) {
               static_cast<long long>(restarts_dropped), static_cast<long long>(loop.expirations()));
   EXPECT_LE(restarts_accepted, loop.expirations());
   EXPECT_GT(restarts_accepted, 0);
+}
+
+TEST(ServiceLoop, WithNoCommandTheDefaultSafeTorqueHoldsTheArmsStill) {
+  // the built-in (and shipped) policy is hold: started with no command, two_puma_load stays put,
+  // and every output says which input was used
+  Rig r("two_puma_load");
+  ASSERT_EQ(r.cfg.safe_torque, runtime::SafeTorque::kHold);
+  for (int k = 0; k < 3000; ++k) r.loop->tick(k * kMs);
+  const io::DecodedOutput o = r.bus.last_output();
+  EXPECT_EQ(o.input, static_cast<int>(io::Input::kNoCommand));
+  EXPECT_LT((r.loop->q() - r.sys.q0).cwiseAbs().maxCoeff(), 1e-9) << "3 s of hold";
+  for (int i = 0; i < 6; ++i) EXPECT_EQ(o.tau[i], 0.0) << "no force on the load's platform";
+  double arms = 0;
+  for (int i = 6; i < r.sys.model.nv(); ++i) arms += std::abs(o.tau[i]);
+  EXPECT_GT(arms, 10.0) << "the arms' joints carry their weight";
 }

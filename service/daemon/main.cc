@@ -217,7 +217,9 @@ int main(int argc, char** argv) {
   spdlog::info("mode {}, {} Hz ({} integrator), watchdog {} ms, max input age {}, safe torque {}, overrun policy {}",
                runtime::mode_name(cfg.mode), cfg.rate_hz, integrator_name(cfg.integrator), cfg.watchdog_ms,
                cfg.max_input_age_ms > 0 ? std::to_string(cfg.max_input_age_ms) + " ms by utime" : std::string("off"),
-               cfg.safe_torque == runtime::SafeTorque::kZero ? "zero" : "damping",
+               cfg.safe_torque == runtime::SafeTorque::kZero   ? "zero"
+               : cfg.safe_torque == runtime::SafeTorque::kHold ? "hold"
+                                                               : "damping",
                cfg.overrun == runtime::OverrunPolicy::kSkip ? "skip"
                                                            : "catch_up (max " + std::to_string(cfg.max_catch_up) + ")");
   spdlog::info("LCM in {}: {} {} (isolated receive process, queue {} x {} bytes); out {}: {} (output), {} (stats every {} s)",

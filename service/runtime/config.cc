@@ -172,10 +172,11 @@ ServiceConfig parse(const YAML::Node& root, const Ctx& c) {
   c.check(root["max_input_age_ms"], check_input_age(cfg.max_input_age_ms));
   if (const YAML::Node st = root["safe_torque"]; st.IsDefined()) {
     c.keys(st, {"policy", "damping"}, "safe_torque");
-    const std::string p = c.get<std::string>(st, "policy", "zero", "a string");
+    const std::string p = c.get<std::string>(st, "policy", "hold", "a string");
     if (p == "zero") cfg.safe_torque = SafeTorque::kZero;
     else if (p == "damping") cfg.safe_torque = SafeTorque::kDamping;
-    else c.fail(st["policy"], "safe_torque.policy must be zero or damping");
+    else if (p == "hold") cfg.safe_torque = SafeTorque::kHold;
+    else c.fail(st["policy"], "safe_torque.policy must be hold, zero or damping");
     // any finite damping is representable: the safe torque is clamped to tau_limit
     cfg.damping = c.get<double>(st, "damping", 0.0, "a number (N*m*s/rad)");
     if (!(cfg.damping >= 0) || !std::isfinite(cfg.damping)) c.fail(st["damping"], "safe_torque.damping must be finite and >= 0");

@@ -17,6 +17,9 @@ class ConfigError : public std::runtime_error {
 enum class ServiceMode { kSimulate, kEstimate };
 enum class SafeTorque {
   kZero,     // tau = 0 on every DOF
+  kHold,     // the holding torques (dynamics/holding_torque.h): the minimum-norm actuator torques
+             // that make the constrained accelerations vanish at the current state (gravity and
+             // velocity terms balanced), minus damping * v on the same DOFs, clamped to tau_limit
   kDamping,  // tau = -damping * v on the DOFs with a finite tau_limit (the actuated joints),
              // clamped to the limit; 0 elsewhere
 };
@@ -76,7 +79,7 @@ struct ServiceConfig {
   // and any LCM sender stamp utime with the wall clock, and 1 s is far above both the delivery
   // time (< 1 ms on one host) and the offset of NTP-synchronized hosts on a LAN (~1 ms).
   double max_input_age_ms = 1000.0;
-  SafeTorque safe_torque = SafeTorque::kZero;
+  SafeTorque safe_torque = SafeTorque::kHold;
   double damping = 0.0;        // N*m*s/rad (or N*s/m) for kDamping
   OverrunPolicy overrun = OverrunPolicy::kCatchUp;
   int max_catch_up = 10;       // ticks

@@ -49,6 +49,7 @@ ServiceLoop::ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& b
   const Model& m = sys.model;
   for (int i = 0; i < m.nv(); ++i) actuated_[i] = std::isfinite(sys.tau_limit[i]) ? 1 : 0;
   for (int d : m.pseudo_dofs) actuated_[d] = 0;
+  if (cfg.safe_torque == SafeTorque::kHold) hold_ = std::make_unique<HoldWorkspace>(sys, default_actuated(sys));
   last_input_ = cfg.mode == ServiceMode::kSimulate ? io::Input::kNoCommand : io::Input::kNoState;
 }
 
@@ -56,8 +57,16 @@ const InputCounters& ServiceLoop::input_counters() const {
   return cfg_.mode == ServiceMode::kSimulate ? commands_.counters() : states_.counters();
 }
 
-void ServiceLoop::safe_torque(const Eigen::VectorXd& v) {
+void ServiceLoop::safe_torque(const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
   tau_.setZero();
+  if (cfg_.safe_torque == SafeTorque::kHold) {
+    holding_torque(sys_, *hold_, q, v, tau_);
+    for (int i : hold_->act) {
+      const double lim = sys_.tau_limit[i];
+      tau_[i] = std::max(-lim, std::min(lim, tau_[i] - cfg_.damping * v[i]));
+    }
+    return;
+  }
   if (cfg_.safe_torque != SafeTorque::kDamping) return;
   for (Eigen::Index i = 0; i < tau_.size(); ++i) {
     if (!actuated_[i]) continue;
@@ -92,7 +101,7 @@ void ServiceLoop::tick(long long now) {
     }
     last_input_ = in;
     if (in == io::Input::kCommand) tau_ = c.tau;
-    else safe_torque(v_);
+    else safe_torque(q_, v_);
     f.input = in;
     f.input_seq = have_cmd_ ? c.seq : -1;
     f.input_utime = have_cmd_ ? c.utime : -1;

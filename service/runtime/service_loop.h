@@ -19,6 +19,9 @@
 #include <cstdint>
 #include <vector>
 
+#include <memory>
+
+#include "service/dynamics/holding_torque.h"
 #include "service/dynamics/integrators.h"
 #include "service/dynamics/system.h"
 #include "service/io/bus.h"
@@ -74,7 +77,7 @@ class ServiceLoop {
   io::StatsFrame totals() const;
 
  private:
-  void safe_torque(const Eigen::VectorXd& v);
+  void safe_torque(const Eigen::VectorXd& q, const Eigen::VectorXd& v);
   void publish_stats();
   void fill_counters(io::StatsFrame& s) const;
 
@@ -93,6 +96,7 @@ class ServiceLoop {
   Eigen::VectorXd q_, v_, tau_;      // (nq), (nv), (nv): simulated state, applied torque
   Eigen::VectorXd q_prev_, v_prev_;  // state at the start of the last step (what is published)
   std::vector<unsigned char> actuated_;  // (nv) finite tau_limit and not a pseudo-joint
+  std::unique_ptr<HoldWorkspace> hold_;  // safe torque `hold` only
   io::OutputEncoder out_enc_;
   io::StatsEncoder stats_enc_;
   std::vector<uint8_t> out_buf_, stats_buf_;
