@@ -127,8 +127,9 @@ TEST(ConstrainedDynamics, MobilePlatformClassicAndSvdAgreeOnArmScenes) {
       ASSERT_NE(wsv.diag.status, Status::kError);
       const Eigen::VectorXd a_cl = by_name(mp, cl, wcl.vdot);
       EXPECT_LT((a_cl - wmp.vdot).norm(), 1e-8 * (1 + wmp.vdot.norm()));
-      if (wsv.diag.dropped == 0)  // where it drops a direction it integrates other dynamics (svd_baseline_test)
+      if (wsv.diag.dropped == 0) {  // where it drops a direction it integrates other dynamics (svd_baseline_test)
         EXPECT_LT((by_name(mp, sv, wsv.vdot) - wmp.vdot).norm(), 1e-8 * (1 + wmp.vdot.norm()));
+      }
       EXPECT_EQ(wcl.diag.rank, wmp.diag.rank);
       if (wmp.diag.indeterminate == 0 && wsv.diag.dropped == 0) {  // the grasp wrenches, as the classic form's
         EXPECT_LT((wsv.lambda - wcl.lambda).norm(), 1e-7 * (1 + wcl.lambda.norm()));
