@@ -57,7 +57,12 @@ int load_cli_scene(const Args& a, const char* cmd, System* sys);
 // Adds every --torque PROFILE to *prof; prints the reason and returns 2 on a bad one, else 0.
 int load_cli_profile(const Args& a, const char* cmd, const System& sys, TorqueProfile* prof);
 
+// Reads q, v, tau (each optional) from a JSON or YAML state file in the scene's coordinate order;
+// prints the problem and returns false on a bad file.
+bool read_state(const std::string& path, const System& sys, Eigen::VectorXd& q, Eigen::VectorXd& v, Eigen::VectorXd& tau);
+
 int cmd_eval(const Args& a);
+int cmd_control(const Args& a);
 int cmd_sim(const Args& a);
 int cmd_send(const Args&);
 int cmd_log(const Args&);

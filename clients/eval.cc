@@ -8,7 +8,6 @@
 
 namespace coopdyn::cli {
 
-namespace {
 // Reads q, v, tau from a JSON (or YAML) state file; sizes must match the scene.
 bool read_state(const std::string& path, const System& sys, Eigen::VectorXd& q, Eigen::VectorXd& v, Eigen::VectorXd& tau) {
   YAML::Node n;
@@ -45,7 +44,6 @@ bool read_state(const std::string& path, const System& sys, Eigen::VectorXd& q, 
   }
   return get("q", q, sys.model.nq()) && get("v", v, sys.model.nv()) && get("tau", tau, sys.model.nv());
 }
-}  // namespace
 
 int cmd_eval(const Args& a) {
   System sys;

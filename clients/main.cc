@@ -15,6 +15,8 @@ void usage() {
                "  coopdyn send --scene FILE (--torque PROFILE... | --states SIM.csv) [--rate HZ] [--duration S]\n"
                "               [--lcm-url URL] [--channel C] [--seq N] [--measure-latency] [--output-channel C]\n"
                "  coopdyn log  --in FILE.lcmlog [--out DIR] [--no-plot]\n"
+               "  coopdyn control --action reset|reset_to_state|pause|resume|clear_fault [--scene FILE --state FILE.json]\n"
+               "               [--lcm-url URL] [--channel C] [--output-url URL] [--output-channel C] [--seq N] [--no-wait]\n"
                "PROFILE: JOINT:constant:VALUE | JOINT:step:VALUE:T0 | JOINT:pulse:VALUE:T0:T1 | FILE.csv\n");
 }
 }  // namespace
@@ -34,6 +36,7 @@ int main(int argc, char** argv) {
   if (cmd == "sim") return coopdyn::cli::cmd_sim(a);
   if (cmd == "send") return coopdyn::cli::cmd_send(a);
   if (cmd == "log") return coopdyn::cli::cmd_log(a);
+  if (cmd == "control") return coopdyn::cli::cmd_control(a);
   std::fprintf(stderr, "coopdyn: unknown command '%s'\n", cmd.c_str());
   usage();
   return 2;

@@ -512,15 +512,16 @@ namespace {
 struct RawUdp {
   int fd = -1;
   sockaddr_in to{};
-  explicit RawUdp(const std::string& url) {
+  explicit RawUdp(const std::string& url) {  // udpm://GROUP:PORT?...
     const auto colon = url.rfind(':'), q = url.find('?');
     const int port = std::stoi(url.substr(colon + 1, q - colon - 1));
+    const std::string group = url.substr(7, colon - 7);
     fd = socket(AF_INET, SOCK_DGRAM, 0);
     unsigned char ttl = 0;
     setsockopt(fd, IPPROTO_IP, IP_MULTICAST_TTL, &ttl, sizeof ttl);
     to.sin_family = AF_INET;
     to.sin_port = htons(static_cast<uint16_t>(port));
-    inet_pton(AF_INET, "239.255.76.67", &to.sin_addr);
+    inet_pton(AF_INET, group.c_str(), &to.sin_addr);
   }
   ~RawUdp() { close(fd); }
   void send(const std::vector<uint8_t>& b) { sendto(fd, b.data(), b.size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof to); }
@@ -555,7 +556,9 @@ std::vector<uint8_t> lc03(uint32_t seq, uint32_t size, uint32_t offset, uint16_t
 // commands sent afterwards are applied. Inputs on their own URL: this test's own subscriber (the
 // outputs) never sees the hostile datagrams.
 TEST_F(DaemonProcess, HostileFragmentKillsOnlyTheReceiveProcess) {
-  const std::string url_in = private_udpm_url(777);
+  // inputs on a group and port no other test uses: the hostile datagrams must not reach another
+  // test's subscribers (ctest runs tests in parallel; any liblcm subscriber there would die)
+  const std::string url_in = "udpm://239.255.76.99:" + std::to_string(50000 + getpid() % 10000) + "?ttl=0";
   const std::string cfg_path = tmp_path("isolated.yaml");
   std::ofstream(cfg_path) << "lcm_url_in: \"" << url_in << "\"\nstats_period_s: 0.2\n";
   OutputSink sink;
@@ -676,4 +679,41 @@ TEST_F(DaemonProcess, ReceiveProcessIsRestartedWhenKilled) {
   bus_->stop();
   EXPECT_NE(slurp(d->out).find("receiver restarts 2"), std::string::npos) << slurp(d->out);
   EXPECT_NE(slurp(d->err).find("killed by signal 9"), std::string::npos) << slurp(d->err);
+}
+
+// Reset, pause, resume and clear-fault over a real LCM round trip: `coopdyn control` sends a
+// control_t and waits for the daemon's acknowledgement in its output.
+TEST_F(DaemonProcess, ControlRoundTripPauseResumeResetClearFault) {
+  OutputSink sink;
+  sink.attach(*bus_);
+  bus_->start();
+  auto d = start_daemon({}, "control");
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  auto run = [&](const std::string& action) {
+    Child c({COOPDYN_PATH, "control", "--action", action, "--lcm-url", url_}, "control_" + action);
+    const int rc = c.wait();
+    return std::make_pair(rc, slurp(c.out) + slurp(c.err));
+  };
+  auto [rc1, out1] = run("pause");
+  EXPECT_EQ(rc1, 0) << out1;
+  EXPECT_NE(out1.find("pause (seq"), std::string::npos) << out1;
+  EXPECT_NE(out1.find("ok; the simulation is paused"), std::string::npos) << out1;
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.paused == 1; }, 2s));
+  const double t_paused = sink.snapshot().back().sim_time;
+  std::this_thread::sleep_for(100ms);
+  EXPECT_EQ(sink.snapshot().back().sim_time, t_paused) << "paused: simulated time stands still";
+  auto [rc2, out2] = run("resume");
+  EXPECT_EQ(rc2, 0) << out2;
+  std::this_thread::sleep_for(50ms);
+  EXPECT_GT(sink.snapshot().back().sim_time, t_paused);
+  EXPECT_EQ(sink.snapshot().back().paused, 0);
+  auto [rc3, out3] = run("reset");
+  EXPECT_EQ(rc3, 0) << out3;
+  auto [rc4, out4] = run("clear_fault");
+  EXPECT_EQ(rc4, 0) << out4;
+  d->signal(SIGTERM);
+  EXPECT_EQ(d->wait(), 0) << slurp(d->err);
+  bus_->stop();
+  const std::string err = slurp(d->err);
+  for (const char* a : {"pause: ok", "resume: ok", "reset: ok", "clear fault: ok"}) EXPECT_NE(err.find(a), std::string::npos) << a;
 }

@@ -596,3 +596,98 @@ TEST(ServiceLoop, WithNoCommandTheDefaultSafeTorqueHoldsTheArmsStill) {
   for (int i = 6; i < r.sys.model.nv(); ++i) arms += std::abs(o.tau[i]);
   EXPECT_GT(arms, 10.0) << "the arms' joints carry their weight";
 }
+
+namespace {
+Offer control(Rig& r, int64_t seq, io::ControlAction a, long long t, const Eigen::VectorXd* q = nullptr,
+              const Eigen::VectorXd* v = nullptr) {
+  const auto b = io::encode_control(runtime::realtime_us(), seq, a, q ? stdvec(*q) : std::vector<double>{},
+                                    v ? stdvec(*v) : std::vector<double>{});
+  return r.loop->controls().offer(b.data(), static_cast<int>(b.size()), t);
+}
+}  // namespace
+
+TEST(ServiceLoop, ControlPausesResumesResetsAndAcknowledges) {
+  Rig r("two_puma_load");
+  r.cfg.safe_torque = runtime::SafeTorque::kZero;  // the arms fall: the state moves
+  r.reset();
+  long long t = 0;
+  for (int k = 0; k < 50; ++k) r.loop->tick(t += kMs);
+  ASSERT_GT((r.loop->q() - r.sys.q0).norm(), 1e-3) << "falling";
+  ASSERT_EQ(control(r, 1, io::ControlAction::kPause, t), Offer::kAccepted);
+  r.loop->tick(t += kMs);
+  const Eigen::VectorXd held = r.loop->q();
+  const double st = r.loop->sim_time();
+  io::DecodedOutput o = r.bus.last_output();
+  EXPECT_EQ(o.paused, 1);
+  EXPECT_EQ(o.control_seq, 1);
+  EXPECT_EQ(o.control_action, static_cast<int>(io::ControlAction::kPause));
+  EXPECT_EQ(o.control_result, static_cast<int>(io::ControlResult::kOk));
+  for (int k = 0; k < 20; ++k) r.loop->tick(t += kMs);
+  EXPECT_EQ(r.loop->q(), held) << "paused: nothing is integrated";
+  EXPECT_EQ(r.loop->sim_time(), st);
+  o = r.bus.last_output();
+  EXPECT_EQ(o.status, static_cast<int>(Status::kOk)) << "outputs go on, evaluated at the held state";
+  EXPECT_NE(o.wrench[0][5], 0.0);
+  expect_matches_offline(r.sys, o);
+  // an old seq is out of order, never applied
+  EXPECT_EQ(control(r, 1, io::ControlAction::kResume, t), Offer::kOutOfOrder);
+  ASSERT_EQ(control(r, 2, io::ControlAction::kResume, t), Offer::kAccepted);
+  for (int k = 0; k < 5; ++k) r.loop->tick(t += kMs);
+  EXPECT_NE(r.loop->q(), held);
+  EXPECT_EQ(r.bus.last_output().paused, 0);
+  ASSERT_EQ(control(r, 3, io::ControlAction::kReset, t), Offer::kAccepted);
+  r.loop->tick(t += kMs);
+  o = r.bus.last_output();
+  EXPECT_EQ(o.control_seq, 3);
+  for (int i = 0; i < r.sys.model.nq(); ++i) EXPECT_EQ(o.q[i], r.sys.q0[i]) << "the output of the reset tick starts at q0";
+  // reset to a given state: one that closes the constraints is taken, one that does not is refused
+  Eigen::VectorXd q = r.sys.q0, v = r.sys.v0;
+  ASSERT_EQ(control(r, 4, io::ControlAction::kResetToState, t, &q, &v), Offer::kAccepted);
+  r.loop->tick(t += kMs);
+  EXPECT_EQ(r.bus.last_output().control_result, static_cast<int>(io::ControlResult::kOk));
+  q[2] += 0.1;  // the load 10 cm off its grasps
+  ASSERT_EQ(control(r, 5, io::ControlAction::kResetToState, t, &q, &v), Offer::kAccepted);
+  const Eigen::VectorXd before = r.loop->q();
+  r.loop->tick(t += kMs);
+  o = r.bus.last_output();
+  EXPECT_EQ(o.control_seq, 5);
+  EXPECT_EQ(o.control_result, static_cast<int>(io::ControlResult::kRejectedState));
+  EXPECT_NE(r.loop->q()[2], q[2]) << "the rejected state is not taken";
+  // a control with a state of the wrong size is a malformed message
+  Eigen::VectorXd shortq = r.sys.q0.head(5);
+  EXPECT_EQ(control(r, 6, io::ControlAction::kResetToState, t, &shortq, &v), Offer::kRejected);
+  (void)before;
+}
+
+TEST(ServiceLoop, ClearFaultLeavesALatchedFailureWithoutARestart) {
+  Rig r("two_puma_load");
+  r.cfg.safe_torque = runtime::SafeTorque::kZero;
+  r.sys.options.max_speed = 1e-3;  // the first falling step trips the divergence detector
+  r.reset();
+  long long t = 0;
+  for (int k = 0; k < 3; ++k) r.loop->tick(t += kMs);
+  ASSERT_TRUE(r.loop->faulted());
+  EXPECT_EQ(r.bus.last_output().reason, static_cast<int>(Reason::kDiverged));
+  r.sys.options.max_speed = 1e4;  // the cause removed (in a lab: a command withdrawn)
+  for (int k = 0; k < 3; ++k) r.loop->tick(t += kMs);
+  EXPECT_TRUE(r.loop->faulted()) << "latched until cleared";
+  ASSERT_EQ(control(r, 1, io::ControlAction::kClearFault, t), Offer::kAccepted);
+  r.loop->tick(t += kMs);
+  EXPECT_FALSE(r.loop->faulted());
+  const io::DecodedOutput o = r.bus.last_output();
+  EXPECT_EQ(o.status, static_cast<int>(Status::kOk));
+  EXPECT_EQ(o.control_result, static_cast<int>(io::ControlResult::kOk));
+  const double st = r.loop->sim_time();
+  r.loop->tick(t += kMs);
+  EXPECT_GT(r.loop->sim_time(), st) << "integrating again from the last good state";
+}
+
+TEST(ServiceLoop, ControlIsNotApplicableInEstimateMode) {
+  Rig r("two_puma_load", runtime::ServiceMode::kEstimate);
+  ASSERT_EQ(control(r, 1, io::ControlAction::kPause, 0), Offer::kAccepted);
+  r.loop->tick(kMs);
+  const io::DecodedOutput o = r.bus.last_output();
+  EXPECT_EQ(o.control_seq, 1);
+  EXPECT_EQ(o.control_result, static_cast<int>(io::ControlResult::kNotApplicable));
+  EXPECT_EQ(o.paused, 0);
+}

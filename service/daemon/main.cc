@@ -28,6 +28,7 @@
 #include <thread>
 
 #include "service/dynamics/constrained_dynamics.h"
+#include "service/io/codec.h"
 #include "service/io/lcm_bus.h"
 #include "service/io/rx_isolated.h"
 #include "service/runtime/config.h"
@@ -72,6 +73,10 @@ void log_event(const coopdyn::runtime::Event& e) {
     case EventCode::kFault:
       spdlog::error("numerical failure at tick {} (t = {:.3f} s): {}; simulation stopped, publishing error status",
                     e.b, e.x, coopdyn::reason_text(static_cast<coopdyn::Reason>(e.a)));
+      break;
+    case EventCode::kControl:
+      spdlog::info("control seq {}: {}: {}", e.a, coopdyn::io::control_action_name(static_cast<coopdyn::io::ControlAction>(e.b / 16)),
+                   coopdyn::io::control_result_name(static_cast<coopdyn::io::ControlResult>(e.b % 16 - 1)));
       break;
     case EventCode::kOverrun: break;  // aggregated by OverrunReport
   }
@@ -202,7 +207,9 @@ int main(int argc, char** argv) {
     if (n <= 0) throw std::runtime_error("cannot find its own executable (/proc/self/exe)");
     exe[n] = 0;
     rx = std::make_unique<io::IsolatedReceiver>(
-        exe, cfg.input_url(), cfg.mode == runtime::ServiceMode::kSimulate ? cfg.command_channel : cfg.state_channel,
+        exe, cfg.input_url(),
+        std::vector<std::string>{cfg.mode == runtime::ServiceMode::kSimulate ? cfg.command_channel : cfg.state_channel,
+                                 cfg.control_channel},
         cfg.receive_queue, cfg.receive_max_bytes);
   } catch (const std::exception& e) {
     spdlog::shutdown();
@@ -236,7 +243,8 @@ int main(int argc, char** argv) {
   const bool simulate = cfg.mode == runtime::ServiceMode::kSimulate;
   rx->start(
       [&](const void* d, int n, long long t) {
-        if (simulate) loop.commands().offer(d, n, t);
+        if (io::identify(d, n) == io::MessageType::kControl) loop.controls().offer(d, n, t);
+        else if (simulate) loop.commands().offer(d, n, t);
         else loop.states().offer(d, n, t);
         loop.set_receiver_counters(rx->restarts(), rx->dropped());
       },

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <unordered_map>
 
+#include "coopdyn/control_t.hpp"
 #include "coopdyn/loop_stats_t.hpp"
 #include "coopdyn/measured_state_t.hpp"
 #include "coopdyn/output_t.hpp"
@@ -43,6 +44,31 @@ const char* reject_name(Reject r) {
     case Reject::kOverLimit: return "over tau_limit";
     case Reject::kStale: return "stale utime";
     case Reject::kFuture: return "utime in the future";
+  }
+  return "?";
+}
+
+static_assert(static_cast<int>(ControlAction::kClearFault) == coopdyn::control_t::ACTION_CLEAR_FAULT, "control actions");
+static_assert(static_cast<int>(ControlAction::kResetToState) == coopdyn::control_t::ACTION_RESET_TO_STATE, "control actions");
+static_assert(static_cast<int>(ControlResult::kNotApplicable) == coopdyn::output_t::CONTROL_NOT_APPLICABLE, "control results");
+static_assert(static_cast<int>(ControlResult::kNone) == coopdyn::output_t::CONTROL_NONE, "control results");
+
+const char* control_action_name(ControlAction a) {
+  switch (a) {
+    case ControlAction::kReset: return "reset";
+    case ControlAction::kResetToState: return "reset to state";
+    case ControlAction::kPause: return "pause";
+    case ControlAction::kResume: return "resume";
+    case ControlAction::kClearFault: return "clear fault";
+  }
+  return "?";
+}
+const char* control_result_name(ControlResult r) {
+  switch (r) {
+    case ControlResult::kNone: return "none";
+    case ControlResult::kOk: return "ok";
+    case ControlResult::kRejectedState: return "rejected: the state is not valid or does not close the constraints";
+    case ControlResult::kNotApplicable: return "not applicable in estimate mode";
   }
   return "?";
 }
@@ -183,6 +209,53 @@ Reject StateDecoder::decode(const void* data, int len, StateSlot& out) {
 }
 
 // ---------------------------------------------------------------------------------------------
+struct ControlDecoder::Impl {
+  const System& sys;
+  coopdyn::control_t msg;
+  explicit Impl(const System& s) : sys(s) {
+    msg.q.reserve(s.model.nq());
+    msg.v.reserve(s.model.nv());
+  }
+};
+
+ControlDecoder::ControlDecoder(const System& sys) : impl_(new Impl(sys)) {}
+ControlDecoder::~ControlDecoder() = default;
+
+Reject ControlDecoder::decode(const void* data, int len, ControlSlot& out) {
+  Impl& m = *impl_;
+  const int nq = m.sys.model.nq(), nv = m.sys.model.nv();
+  // layout: hash, utime, seq, action (1 byte), nq, q[], nv, v[]
+  wire::Reader r(data, len);
+  int32_t cq = 0, cv = 0;
+  if (!r.hash(coopdyn::control_t::getHash()) || !r.skip(17) || !r.count(&cq) || !r.skip(8LL * cq) || !r.count(&cv) ||
+      !r.skip(8LL * cv))
+    return Reject::kDecode;
+  if (!((cq == 0 && cv == 0) || (cq == nq && cv == nv))) return Reject::kCount;
+  try {
+    if (m.msg.decode(data, 0, len) < 0) return Reject::kDecode;
+  } catch (...) {
+    return Reject::kDecode;
+  }
+  if (m.msg.action < coopdyn::control_t::ACTION_RESET || m.msg.action > coopdyn::control_t::ACTION_CLEAR_FAULT)
+    return Reject::kDecode;
+  const bool to_state = m.msg.action == coopdyn::control_t::ACTION_RESET_TO_STATE;
+  if (to_state != (cq == nq && cq > 0)) return Reject::kCount;  // a state exactly when resetting to one
+  for (int i = 0; i < cq; ++i) {
+    if (!std::isfinite(m.msg.q[i])) return Reject::kNonFinite;
+    out.q[i] = m.msg.q[i];
+  }
+  for (int i = 0; i < cv; ++i) {
+    if (!std::isfinite(m.msg.v[i])) return Reject::kNonFinite;
+    out.v[i] = m.msg.v[i];
+  }
+  out.has_state = to_state;
+  out.action = static_cast<ControlAction>(m.msg.action);
+  out.utime = m.msg.utime;
+  out.seq = m.msg.seq;
+  return Reject::kNone;
+}
+
+// ---------------------------------------------------------------------------------------------
 struct OutputEncoder::Impl {
   const System& sys;
   coopdyn::output_t msg;
@@ -213,6 +286,8 @@ struct OutputEncoder::Impl {
     msg.tau.assign(model.nv(), 0.0);
     msg.vdot.assign(model.nv(), 0.0);
     msg.input_seq = msg.input_utime = -1;
+    msg.control_seq = -1;
+    msg.control_action = msg.control_result = -1;
     size = msg.getEncodedSize();
   }
   void zero_dynamics() {
@@ -253,6 +328,10 @@ int OutputEncoder::encode(const OutputFrame& f, uint8_t* buf, int cap, bool* san
   o.input = static_cast<int8_t>(f.input);
   o.input_seq = f.input_seq;
   o.input_utime = f.input_utime;
+  o.paused = f.paused ? 1 : 0;
+  o.control_seq = f.control_seq;
+  o.control_action = f.control_seq >= 0 ? static_cast<int8_t>(f.control_action) : int8_t{-1};
+  o.control_result = static_cast<int8_t>(f.control_result);
   bool finite = std::isfinite(f.sim_time);
   finite = copy_finite(f.q, o.q) && finite;
   finite = copy_finite(f.v, o.v) && finite;

@@ -45,6 +45,17 @@ class StateDecoder {
   std::unique_ptr<Impl> impl_;
 };
 
+class ControlDecoder {
+ public:
+  explicit ControlDecoder(const System& sys);
+  ~ControlDecoder();
+  Reject decode(const void* data, int len, ControlSlot& out);  // control_t, as above
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
 // What one tick publishes. valid = false: the dynamics numbers are published as 0 (error status).
 struct OutputFrame {
   int64_t utime = 0, tick = 0;
@@ -54,6 +65,10 @@ struct OutputFrame {
   int16_t reason = 0;  // Reason of the core, or kReason* of the service
   Input input = Input::kNoCommand;
   int64_t input_seq = -1, input_utime = -1;
+  bool paused = false;
+  int64_t control_seq = -1;
+  ControlAction control_action = ControlAction::kReset;
+  ControlResult control_result = ControlResult::kNone;
   bool valid = false;
   const Eigen::VectorXd* q = nullptr;    // (nq) state the evaluation used
   const Eigen::VectorXd* v = nullptr;    // (nv)
@@ -98,11 +113,14 @@ std::vector<uint8_t> encode_torque_command(int64_t utime, int64_t seq, const std
 std::vector<uint8_t> encode_measured_state(int64_t utime, int64_t seq, const std::vector<std::string>& q_names,
                                            const std::vector<double>& q, const std::vector<std::string>& v_names,
                                            const std::vector<double>& v, const std::vector<double>& tau);
+// control_t; q, v empty unless the action is kResetToState.
+std::vector<uint8_t> encode_control(int64_t utime, int64_t seq, ControlAction action, const std::vector<double>& q = {},
+                                    const std::vector<double>& v = {});
 bool decode_output(const void* data, int len, DecodedOutput* out);
 bool decode_stats(const void* data, int len, StatsFrame* out);
 
 // Message types by their LCM fingerprint (the first 8 bytes).
-enum class MessageType { kUnknown, kTorqueCommand, kMeasuredState, kOutput, kLoopStats };
+enum class MessageType { kUnknown, kTorqueCommand, kMeasuredState, kOutput, kLoopStats, kControl };
 MessageType identify(const void* data, int len);
 const char* type_name(MessageType t);  // "coopdyn.output_t", ...
 // One CSV line per message: *header describes this message's columns (it depends on the scene's

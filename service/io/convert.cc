@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <cstring>
 
+#include "coopdyn/control_t.hpp"
 #include "coopdyn/loop_stats_t.hpp"
 #include "coopdyn/measured_state_t.hpp"
 #include "coopdyn/output_t.hpp"
@@ -77,6 +78,19 @@ std::vector<uint8_t> encode_measured_state(int64_t utime, int64_t seq, const std
   return encode_msg(m);
 }
 
+std::vector<uint8_t> encode_control(int64_t utime, int64_t seq, ControlAction action, const std::vector<double>& q,
+                                    const std::vector<double>& v) {
+  coopdyn::control_t m;
+  m.utime = utime;
+  m.seq = seq;
+  m.action = static_cast<int8_t>(action);
+  m.nq = static_cast<int32_t>(q.size());
+  m.q = q;
+  m.nv = static_cast<int32_t>(v.size());
+  m.v = v;
+  return encode_msg(m);
+}
+
 bool decode_output(const void* data, int len, DecodedOutput* out) {
   coopdyn::output_t m;
   if (!decode_msg(data, len, &m)) return false;
@@ -89,6 +103,10 @@ bool decode_output(const void* data, int len, DecodedOutput* out) {
   out->input = m.input;
   out->input_seq = m.input_seq;
   out->input_utime = m.input_utime;
+  out->paused = m.paused;
+  out->control_seq = m.control_seq;
+  out->control_action = m.control_action;
+  out->control_result = m.control_result;
   out->rows = m.rows;
   out->rank = m.rank;
   out->indeterminate = m.indeterminate;
@@ -148,6 +166,7 @@ MessageType identify(const void* data, int len) {
   if (h == coopdyn::measured_state_t::getHash()) return MessageType::kMeasuredState;
   if (h == coopdyn::output_t::getHash()) return MessageType::kOutput;
   if (h == coopdyn::loop_stats_t::getHash()) return MessageType::kLoopStats;
+  if (h == coopdyn::control_t::getHash()) return MessageType::kControl;
   return MessageType::kUnknown;
 }
 
@@ -157,6 +176,7 @@ const char* type_name(MessageType t) {
     case MessageType::kMeasuredState: return "coopdyn.measured_state_t";
     case MessageType::kOutput: return "coopdyn.output_t";
     case MessageType::kLoopStats: return "coopdyn.loop_stats_t";
+    case MessageType::kControl: return "coopdyn.control_t";
     case MessageType::kUnknown: break;
   }
   return "unknown";
@@ -202,7 +222,9 @@ bool to_csv(MessageType t, const void* data, int len, std::string* header, std::
     case MessageType::kOutput: {
       coopdyn::output_t m;
       if (!decode_msg(data, len, &m)) return false;
-      *header = "utime,tick,sim_time,mode,status,reason,input,input_seq,input_utime,rows,rank,indeterminate,condition,residual";
+      *header =
+          "utime,tick,sim_time,mode,status,reason,input,input_seq,input_utime,paused,control_seq,control_action,"
+          "control_result,rows,rank,indeterminate,condition,residual";
       inum(row, m.utime);
       inum(row, m.tick);
       num(row, m.sim_time);
@@ -212,6 +234,10 @@ bool to_csv(MessageType t, const void* data, int len, std::string* header, std::
       inum(row, m.input);
       inum(row, m.input_seq);
       inum(row, m.input_utime);
+      inum(row, m.paused);
+      inum(row, m.control_seq);
+      inum(row, m.control_action);
+      inum(row, m.control_result);
       inum(row, m.rows);
       inum(row, m.rank);
       inum(row, m.indeterminate);
@@ -261,6 +287,15 @@ bool to_csv(MessageType t, const void* data, int len, std::string* header, std::
       for (long long x : {s.overruns, s.skipped_periods, s.received, s.accepted, s.rejected, s.out_of_order, s.expired,
                           s.numerical_errors, s.receiver_restarts, s.inputs_dropped})
         inum(row, x);
+      break;
+    }
+    case MessageType::kControl: {
+      coopdyn::control_t m;
+      if (!decode_msg(data, len, &m)) return false;
+      *header = "utime,seq,action";
+      inum(row, m.utime);
+      inum(row, m.seq);
+      inum(row, m.action);
       break;
     }
     case MessageType::kUnknown: return false;

@@ -44,6 +44,21 @@ struct StateSlot {
   Eigen::VectorXd q, v, tau;  // (nq), (nv), (nv)
 };
 
+// A validated control request (control_t), sized once (nq, nv for RESET_TO_STATE).
+enum class ControlAction : int8_t { kReset = 0, kResetToState = 1, kPause = 2, kResume = 3, kClearFault = 4 };
+enum class ControlResult : int8_t { kNone = -1, kOk = 0, kRejectedState = 1, kNotApplicable = 2 };
+const char* control_action_name(ControlAction a);
+const char* control_result_name(ControlResult r);
+struct ControlSlot {
+  int64_t utime = -1;
+  int64_t seq = -1;
+  int64_t recv_ns = 0;
+  int64_t id = 0;
+  ControlAction action = ControlAction::kReset;
+  bool has_state = false;
+  Eigen::VectorXd q, v;  // (nq), (nv)
+};
+
 // Codes carried by output_t (mirrors its constants; the codec checks they agree).
 enum class Mode : int8_t { kSimulate = 0, kEstimate = 1 };
 enum class Input : int8_t {
@@ -76,6 +91,9 @@ struct DecodedOutput {
   double sim_time = 0;
   int mode = 0, status = 0, reason = 0, input = 0;
   int64_t input_seq = -1, input_utime = -1;
+  int paused = 0;
+  int64_t control_seq = -1;
+  int control_action = -1, control_result = -1;
   int rows = 0, rank = 0, indeterminate = 0;
   double condition = 0, residual = 0;
   std::vector<std::string> wrench_names, wrench_frames, wrench_by;

@@ -42,8 +42,9 @@ long long now_ns() {
 
 }  // namespace
 
-IsolatedReceiver::IsolatedReceiver(std::string exe, std::string url, std::string channel, int slots, int slot_bytes)
-    : exe_(std::move(exe)), url_(std::move(url)), channel_(std::move(channel)), slots_(slots), slot_bytes_(slot_bytes) {
+IsolatedReceiver::IsolatedReceiver(std::string exe, std::string url, std::vector<std::string> channels, int slots,
+                                   int slot_bytes)
+    : exe_(std::move(exe)), url_(std::move(url)), channels_(std::move(channels)), slots_(slots), slot_bytes_(slot_bytes) {
   shm_size_ = ring_size(slots_, slot_bytes_);
   shm_fd_ = memfd_create("coopdyn-rx", MFD_CLOEXEC);
   if (shm_fd_ < 0 || ftruncate(shm_fd_, static_cast<off_t>(shm_size_)) != 0)
@@ -74,7 +75,8 @@ void IsolatedReceiver::spawn() {
   posix_spawn_file_actions_init(&fa);
   posix_spawn_file_actions_adddup2(&fa, shm_fd_, kChildShmFd);
   posix_spawn_file_actions_adddup2(&fa, event_fd_, kChildEventFd);
-  std::vector<std::string> args = {exe_, "--rx-child", url_, channel_, std::to_string(kChildShmFd), std::to_string(kChildEventFd)};
+  std::vector<std::string> args = {exe_, "--rx-child", url_, std::to_string(kChildShmFd), std::to_string(kChildEventFd)};
+  args.insert(args.end(), channels_.begin(), channels_.end());
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -148,14 +150,13 @@ void IsolatedReceiver::run() {
 
 int rx_child_main(int argc, char** argv) {
   if (argc < 6) {
-    std::fprintf(stderr, "coopdynd --rx-child: internal mode (URL CHANNEL SHM_FD EVENT_FD)\n");
+    std::fprintf(stderr, "coopdynd --rx-child: internal mode (URL SHM_FD EVENT_FD CHANNEL...)\n");
     return 2;
   }
   prctl(PR_SET_PDEATHSIG, SIGKILL);
   const pid_t parent = getppid();
   const char* url = argv[2];
-  const std::string channel = argv[3];
-  const int shm_fd = std::atoi(argv[4]), event_fd = std::atoi(argv[5]);
+  const int shm_fd = std::atoi(argv[3]), event_fd = std::atoi(argv[4]);
   struct stat st;
   if (fstat(shm_fd, &st) != 0 || st.st_size < static_cast<off_t>(sizeof(RxRingHeader))) return 3;
   void* p = mmap(nullptr, static_cast<size_t>(st.st_size), PROT_READ | PROT_WRITE, MAP_SHARED, shm_fd, 0);
@@ -170,12 +171,16 @@ int rx_child_main(int argc, char** argv) {
   } ctx{hdr, static_cast<unsigned char*>(p) + 64 * ((sizeof(RxRingHeader) + 63) / 64), event_fd};
   lcm_t* lcm = lcm_create(url);
   if (!lcm) return 4;
-  // the channel is matched literally: LCM takes a regular expression, so escape it
+  // the channels are matched literally: LCM takes a regular expression, so escape them
   std::string re;
-  for (char c : channel) {
-    if (std::strchr(".^$|()[]{}*+?\\", c)) re += '\\';
-    re += c;
+  for (int a = 5; a < argc; ++a) {
+    if (!re.empty()) re += '|';
+    for (const char* p = argv[a]; *p; ++p) {
+      if (std::strchr(".^$|()[]{}*+?\\", *p)) re += '\\';
+      re += *p;
+    }
   }
+  re = "(" + re + ")";  // LCM anchors the expression as ^...$: group the alternatives
   lcm_subscribe(
       lcm, re.c_str(),
       [](const lcm_recv_buf_t* rb, const char*, void* user) {

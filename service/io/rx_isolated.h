@@ -5,7 +5,7 @@
 // subscribes on the multicast group dies. So the daemon never subscribes: it only publishes (LCM's
 // udpm transport opens its receive socket on the first subscribe). A child process
 // (`coopdynd --rx-child`, the same binary, exec'd, so it shares nothing but what it is given)
-// subscribes to the one input channel on the inbound URL and copies each message's raw bytes into
+// subscribes to the input channels (commands or states, and controls) on the inbound URL and copies each message's raw bytes into
 // a shared-memory ring (single producer, single consumer, fixed slots); it decodes nothing. The
 // daemon's receive thread drains the ring and hands the bytes to the same decoders as before
 // (bounds-checked, codec.h), so a hostile datagram can at worst kill the child.
@@ -26,6 +26,7 @@
 #include <functional>
 #include <string>
 #include <thread>
+#include <vector>
 
 namespace coopdyn::io {
 
@@ -50,7 +51,8 @@ class IsolatedReceiver {
 
   // exe: the coopdynd binary to exec with --rx-child (normally /proc/self/exe). Throws
   // std::runtime_error if the shared memory cannot be set up.
-  IsolatedReceiver(std::string exe, std::string url, std::string channel, int slots, int slot_bytes);
+  // channels: received literally (not as LCM regular expressions), e.g. the input and the control channel
+  IsolatedReceiver(std::string exe, std::string url, std::vector<std::string> channels, int slots, int slot_bytes);
   ~IsolatedReceiver();
   IsolatedReceiver(const IsolatedReceiver&) = delete;
   IsolatedReceiver& operator=(const IsolatedReceiver&) = delete;
@@ -69,7 +71,8 @@ class IsolatedReceiver {
  private:
   void spawn();
   void run();
-  std::string exe_, url_, channel_;
+  std::string exe_, url_;
+  std::vector<std::string> channels_;
   int slots_, slot_bytes_;
   int shm_fd_ = -1, event_fd_ = -1;
   size_t shm_size_ = 0;
@@ -83,7 +86,7 @@ class IsolatedReceiver {
   RestartHandler on_restart_;
 };
 
-// The child's main (coopdynd --rx-child URL CHANNEL SHM_FD EVENT_FD). Returns the exit status.
+// The child's main (coopdynd --rx-child URL SHM_FD EVENT_FD CHANNEL...). Returns the exit status.
 int rx_child_main(int argc, char** argv);
 
 }  // namespace coopdyn::io

@@ -149,7 +149,9 @@ ServiceConfig parse(const YAML::Node& root, const Ctx& c) {
     cfg.receive_max_bytes = static_cast<int>(mb);
   }
   if (const YAML::Node ch = root["channels"]; ch.IsDefined()) {
-    c.keys(ch, {"command", "state", "output", "stats"}, "channels");
+    c.keys(ch, {"command", "state", "output", "stats", "control"}, "channels");
+    cfg.control_channel = c.get<std::string>(ch, "control", cfg.control_channel, "a string");
+    c.check(ch["control"], check_channel("control", cfg.control_channel));
     cfg.command_channel = c.get<std::string>(ch, "command", cfg.command_channel, "a string");
     cfg.state_channel = c.get<std::string>(ch, "state", cfg.state_channel, "a string");
     cfg.output_channel = c.get<std::string>(ch, "output", cfg.output_channel, "a string");
@@ -265,7 +267,7 @@ void validate(const ServiceConfig& c) {
        {check_rate(c.rate_hz), check_watchdog(c.watchdog_ms), check_input_age(c.max_input_age_ms), check_stats_period(c.stats_period_s, c.rate_hz),
         check_catch_up(c.max_catch_up), check_priority(c.realtime.priority), check_cpu(c.realtime.cpu),
         check_url(c.lcm_url), c.lcm_url_in.empty() ? std::string() : check_url(c.lcm_url_in, "lcm_url_in"),
-        check_receive(c.receive_queue, c.receive_max_bytes), check_channel("command", c.command_channel), check_channel("state", c.state_channel),
+        check_receive(c.receive_queue, c.receive_max_bytes), check_channel("command", c.command_channel), check_channel("control", c.control_channel), check_channel("state", c.state_channel),
         check_channel("output", c.output_channel), check_channel("stats", c.stats_channel)})
     if (!why.empty()) throw ConfigError(why);
   if (!(c.damping >= 0) || !std::isfinite(c.damping)) throw ConfigError("safe_torque.damping must be finite and >= 0");

@@ -71,6 +71,7 @@ struct ServiceConfig {
   std::string state_channel = "COOPDYN_STATE";
   std::string output_channel = "COOPDYN_OUTPUT";
   std::string stats_channel = "COOPDYN_STATS";
+  std::string control_channel = "COOPDYN_CONTROL";  // control_t in (reset, pause, resume, clear fault)
   ServiceMode mode = ServiceMode::kSimulate;
   Integrator integrator = Integrator::kRk4;
   double watchdog_ms = 100.0;  // a command (state) older than this expires

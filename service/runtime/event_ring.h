@@ -15,6 +15,7 @@ enum class EventCode : int32_t {
   kStateResumed,    // a: seq
   kFault,           // a: reason code, b: tick
   kOverrun,         // a: periods behind, b: tick (first of a burst only)
+  kControl,         // a: seq of the control_t handled, b: action * 16 + (result + 1)
 };
 
 struct Event {

@@ -109,5 +109,6 @@ class Inbox {
 
 using CommandInbox = Inbox<io::CommandSlot, io::CommandDecoder>;
 using StateInbox = Inbox<io::StateSlot, io::StateDecoder>;
+using ControlInbox = Inbox<io::ControlSlot, io::ControlDecoder>;
 
 }  // namespace coopdyn::runtime

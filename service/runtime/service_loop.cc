@@ -34,6 +34,11 @@ ServiceLoop::ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& b
                 s.v = sys.v0;
                 s.tau = Eigen::VectorXd::Zero(sys.model.nv());
               }),
+      controls_(sys, cfg.max_input_age_us(),
+                [&](io::ControlSlot& s) {
+                  s.q = sys.q0;
+                  s.v = sys.v0;
+                }),
       stepper_(sys),
       ws_(sys),
       wrenches_(sys),
@@ -49,6 +54,7 @@ ServiceLoop::ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& b
   const Model& m = sys.model;
   for (int i = 0; i < m.nv(); ++i) actuated_[i] = std::isfinite(sys.tau_limit[i]) ? 1 : 0;
   for (int d : m.pseudo_dofs) actuated_[d] = 0;
+  zero_ = Eigen::VectorXd::Zero(m.nv());
   if (cfg.safe_torque == SafeTorque::kHold) hold_ = std::make_unique<HoldWorkspace>(sys, default_actuated(sys));
   last_input_ = cfg.mode == ServiceMode::kSimulate ? io::Input::kNoCommand : io::Input::kNoState;
 }
@@ -75,6 +81,52 @@ void ServiceLoop::safe_torque(const Eigen::VectorXd& q, const Eigen::VectorXd& v
   }
 }
 
+void ServiceLoop::handle_control(const io::ControlSlot& c) {
+  using io::ControlAction;
+  using io::ControlResult;
+  ctrl_seq_ = c.seq;
+  ctrl_action_ = c.action;
+  ctrl_result_ = ControlResult::kOk;
+  if (cfg_.mode != ServiceMode::kSimulate) {
+    ctrl_result_ = ControlResult::kNotApplicable;
+  } else {
+    switch (c.action) {
+      case ControlAction::kReset:
+        q_ = sys_.q0;
+        v_ = sys_.v0;
+        faulted_.store(false, std::memory_order_relaxed);
+        fault_reason_ = Reason::kNone;
+        break;
+      case ControlAction::kResetToState: {
+        // a valid configuration whose evaluation succeeds and that closes the constraints (1e-6)
+        bool ok = configuration_valid(sys_.model, c.q) && c.v.allFinite();
+        if (ok) {
+          const Diagnostics& d = evaluate(sys_, stepper_.ws, c.q, c.v, zero_);
+          const ConstraintData& cd = stepper_.ws.cd;
+          ok = d.status != Status::kError &&
+               (cd.err.size() == 0 || (cd.err.cwiseAbs().maxCoeff() <= 1e-6 && cd.Gv.cwiseAbs().maxCoeff() <= 1e-6));
+        }
+        if (ok) {
+          q_ = c.q;
+          v_ = c.v;
+          faulted_.store(false, std::memory_order_relaxed);
+          fault_reason_ = Reason::kNone;
+        } else {
+          ctrl_result_ = ControlResult::kRejectedState;
+        }
+        break;
+      }
+      case ControlAction::kPause: paused_ = true; break;
+      case ControlAction::kResume: paused_ = false; break;
+      case ControlAction::kClearFault:
+        faulted_.store(false, std::memory_order_relaxed);
+        fault_reason_ = Reason::kNone;
+        break;
+    }
+  }
+  events_.push({EventCode::kControl, c.seq, static_cast<int64_t>(c.action) * 16 + (static_cast<int64_t>(ctrl_result_) + 1), 0});
+}
+
 void ServiceLoop::tick(long long now) {
   if (!started_) {
     started_ = true;
@@ -82,6 +134,11 @@ void ServiceLoop::tick(long long now) {
   }
   io::OutputFrame f;
   f.tick = ticks_.load(std::memory_order_relaxed);
+  if (controls_.update()) handle_control(controls_.latest());
+  f.paused = paused_;
+  f.control_seq = ctrl_seq_;
+  f.control_action = ctrl_action_;
+  f.control_result = ctrl_result_;
 
   if (cfg_.mode == ServiceMode::kSimulate) {
     f.mode = io::Mode::kSimulate;
@@ -114,6 +171,19 @@ void ServiceLoop::tick(long long now) {
       f.reason = static_cast<int16_t>(fault_reason_);
       f.q = &q_;
       f.v = &v_;
+    } else if (paused_) {
+      // paused: nothing is integrated; the outputs are the evaluation at the held state
+      const Diagnostics& d = evaluate(sys_, stepper_.ws, q_, v_, tau_);
+      f.q = &q_;
+      f.v = &v_;
+      f.ws = &stepper_.ws;
+      f.valid = d.status != Status::kError;
+      f.status = static_cast<int8_t>(d.status);
+      f.reason = static_cast<int16_t>(d.reason);
+      if (f.valid) {
+        compute_wrenches(sys_, stepper_.ws, wrenches_);
+        f.wrenches = &wrenches_;
+      }
     } else {
       q_prev_ = q_;
       v_prev_ = v_;

@@ -43,6 +43,7 @@ class ServiceLoop {
   // receive side (call from the receive thread)
   CommandInbox& commands() { return commands_; }
   StateInbox& states() { return states_; }
+  ControlInbox& controls() { return controls_; }  // control_t: reset, pause, resume, clear fault
 
   // One period at monotonic time now_ns. Loop thread only.
   void tick(long long now_ns);
@@ -60,6 +61,7 @@ class ServiceLoop {
   int64_t expirations() const { return expired_.load(std::memory_order_relaxed); }
   int64_t numerical_errors() const { return numerical_errors_.load(std::memory_order_relaxed); }
   bool faulted() const { return faulted_.load(std::memory_order_relaxed); }
+  bool paused() const { return paused_; }  // loop thread
   const InputCounters& input_counters() const;
   // Fed by the daemon's receive supervision (io/rx_isolated.h), any thread; published in loop_stats_t.
   void set_receiver_counters(int64_t restarts, int64_t dropped) {
@@ -78,6 +80,7 @@ class ServiceLoop {
 
  private:
   void safe_torque(const Eigen::VectorXd& q, const Eigen::VectorXd& v);
+  void handle_control(const io::ControlSlot& c);
   void publish_stats();
   void fill_counters(io::StatsFrame& s) const;
 
@@ -90,6 +93,7 @@ class ServiceLoop {
 
   CommandInbox commands_;
   StateInbox states_;
+  ControlInbox controls_;
   Stepper stepper_;                  // simulate
   Workspace ws_;                     // estimate
   WrenchData wrenches_;              // the published wrenches of the evaluation (either mode)
@@ -109,6 +113,11 @@ class ServiceLoop {
   std::atomic<bool> faulted_{false};
   Reason fault_reason_ = Reason::kNone;
   bool in_overrun_ = false;
+  bool paused_ = false;  // simulate: a control_t paused the integration
+  int64_t ctrl_seq_ = -1;
+  io::ControlAction ctrl_action_ = io::ControlAction::kReset;
+  io::ControlResult ctrl_result_ = io::ControlResult::kNone;
+  Eigen::VectorXd zero_;  // (nv)
   int64_t since_stats_ = 0;
 
   std::atomic<int64_t> ticks_{0}, overruns_{0}, skipped_{0}, expired_{0}, numerical_errors_{0};

@@ -1,0 +1,99 @@
+// coopdyn control: send one control_t (reset, reset to a state, pause, resume, clear a fault) and
+// wait for the daemon's acknowledgement in its output (control_seq, control_result).
+#include <chrono>
+#include <cstdio>
+#include <mutex>
+#include <thread>
+
+#include "clients/common.h"
+#include "service/io/codec.h"
+#include "service/io/lcm_bus.h"
+#include "service/scene/scene.h"
+
+namespace coopdyn::cli {
+
+int cmd_control(const Args& a) {
+  static const std::pair<const char*, io::ControlAction> actions[] = {
+      {"reset", io::ControlAction::kReset},   {"reset_to_state", io::ControlAction::kResetToState},
+      {"pause", io::ControlAction::kPause},   {"resume", io::ControlAction::kResume},
+      {"clear_fault", io::ControlAction::kClearFault}};
+  const std::string name = a.get("action");
+  int found = -1;
+  for (int i = 0; i < 5; ++i)
+    if (name == actions[i].first) found = i;
+  if (found < 0) {
+    std::fprintf(stderr, "coopdyn control: --action must be reset, reset_to_state, pause, resume or clear_fault\n");
+    return 2;
+  }
+  const io::ControlAction action = actions[found].second;
+  std::vector<double> q, v;
+  if (action == io::ControlAction::kResetToState) {
+    if (!a.has("scene") || !a.has("state")) {
+      std::fprintf(stderr, "coopdyn control: reset_to_state needs --scene FILE and --state FILE.json (q, v)\n");
+      return 2;
+    }
+    System sys;
+    if (const int rc = load_cli_scene(a, "control", &sys)) return rc;
+    Eigen::VectorXd qs = sys.q0, vs = sys.v0, tau = Eigen::VectorXd::Zero(sys.model.nv());
+    if (!read_state(a.get("state"), sys, qs, vs, tau)) return 1;
+    q.assign(qs.data(), qs.data() + qs.size());
+    v.assign(vs.data(), vs.data() + vs.size());
+  }
+  const std::string url = a.get("lcm-url", "udpm://239.255.76.67:7667?ttl=0");
+  const std::string out_url = a.get("output-url", url);
+  const std::string channel = a.get("channel", "COOPDYN_CONTROL");
+  const std::string out_channel = a.get("output-channel", "COOPDYN_OUTPUT");
+  // seq: the wall clock in us unless given, so that successive invocations keep increasing
+  const int64_t seq = a.has("seq") ? std::stoll(a.get("seq")) : io::wall_us();
+  try {
+    io::LcmBus bus(url);
+    std::unique_ptr<io::LcmBus> out_bus;
+    std::mutex mu;
+    int result = -2;
+    bool paused = false;
+    const bool wait = !a.has("no-wait");
+    if (wait) {
+      io::LcmBus* ob = &bus;
+      if (out_url != url) {
+        out_bus = std::make_unique<io::LcmBus>(out_url);
+        ob = out_bus.get();
+      }
+      ob->subscribe(out_channel, [&](const void* d, int n, long long) {
+        io::DecodedOutput o;
+        if (!io::decode_output(d, n, &o) || o.control_seq != seq) return;
+        std::lock_guard<std::mutex> lk(mu);
+        result = o.control_result;
+        paused = o.paused != 0;
+      });
+      ob->start();
+    }
+    const auto b = io::encode_control(io::wall_us(), seq, action, q, v);
+    bus.publish(channel.c_str(), b.data(), static_cast<int>(b.size()));
+    if (!wait) {
+      std::printf("coopdyn control: %s sent (seq %lld)\n", name.c_str(), static_cast<long long>(seq));
+      return 0;
+    }
+    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+    while (std::chrono::steady_clock::now() < end) {
+      {
+        std::lock_guard<std::mutex> lk(mu);
+        if (result != -2) break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    std::lock_guard<std::mutex> lk(mu);
+    if (result == -2) {
+      std::fprintf(stderr, "coopdyn control: %s (seq %lld): no acknowledgement on %s within 2 s (daemon running? "
+                   "same URL and channels?)\n", name.c_str(), static_cast<long long>(seq), out_channel.c_str());
+      return 1;
+    }
+    std::printf("coopdyn control: %s (seq %lld): %s%s\n", name.c_str(), static_cast<long long>(seq),
+                io::control_result_name(static_cast<io::ControlResult>(result)), paused ? "; the simulation is paused" : "");
+    return result == static_cast<int>(io::ControlResult::kOk) ? 0 : 3;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "coopdyn control: %s\n", e.what());
+    return 1;
+  }
+}
+
+}  // namespace coopdyn::cli
