@@ -155,11 +155,21 @@ int cmd_send(const Args& a) {
   std::unordered_map<long long, long long> sent_ns;
   std::vector<double> latency_us;
   long long last_seen = -1;
-  if (measure) {
+  // Read back what the daemon did (unless --no-check): the seqs its outputs used, and its counters
+  // (loop_stats_t) at the first and the last stats message.
+  const bool check = !a.has("no-check");
+  std::unordered_map<long long, char> used;
+  long long outputs = 0;
+  io::StatsFrame stats_first, stats_last;
+  long long stats_n = 0;
+  if (measure || check) {
     bus->subscribe(out_channel, [&](const void* d, int n, long long recv_ns) {
       io::DecodedOutput o;
-      if (!io::decode_output(d, n, &o) || o.input_seq < 0) return;
+      if (!io::decode_output(d, n, &o)) return;
       std::lock_guard<std::mutex> lk(mu);
+      ++outputs;
+      if (o.input_seq < 0) return;
+      used[o.input_seq] = 1;
       if (o.input_seq == last_seen) return;
       last_seen = o.input_seq;
       auto it = sent_ns.find(o.input_seq);
@@ -167,6 +177,13 @@ int cmd_send(const Args& a) {
         latency_us.push_back(static_cast<double>(recv_ns - it->second) * 1e-3);
         sent_ns.erase(it);
       }
+    });
+    bus->subscribe(a.get("stats-channel", "COOPDYN_STATS"), [&](const void* d, int n, long long) {
+      io::StatsFrame st;
+      if (!io::decode_stats(d, n, &st)) return;
+      std::lock_guard<std::mutex> lk(mu);
+      if (stats_n++ == 0) stats_first = st;
+      stats_last = st;
     });
     bus->start();
   }
@@ -211,7 +228,21 @@ int cmd_send(const Args& a) {
     ++sent;
     next += period;
   }
-  if (measure) std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the last outputs
+  if (measure || check) std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the last outputs
+  if (check) {  // and a stats message after them (loop_stats_t comes every stats_period_s, 1 s by default)
+    long long n0;
+    {
+      std::lock_guard<std::mutex> lk(mu);
+      n0 = stats_n;
+    }
+    for (int k = 0; k < 150; ++k) {
+      {
+        std::lock_guard<std::mutex> lk(mu);
+        if (stats_n > n0) break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+  }
   bus->stop();
   if (!quiet)
     std::printf("coopdyn send: %lld %s on %s at %g Hz (seq %lld..%lld)\n", sent, replay ? "measured states" : "commands",
@@ -222,6 +253,33 @@ int cmd_send(const Args& a) {
         "coopdyn send: end-to-end latency (command publish -> first output using it) over %zu commands: "
         "min %.1f us, p50 %.1f us, p99 %.1f us, p99.9 %.1f us, max %.1f us\n",
         latency_us.size(), pct(latency_us, 0.0), pct(latency_us, 0.5), pct(latency_us, 0.99), pct(latency_us, 0.999), pct(latency_us, 1.0));
+  }
+  if (!check || sent == 0) return 0;
+  std::lock_guard<std::mutex> lk(mu);
+  if (outputs == 0) {
+    std::fprintf(stderr, "coopdyn send: no output from the daemon on %s (%s): is it running, on this URL? "
+                 "(--no-check skips this)\n", out_channel.c_str(), url.c_str());
+    return 1;
+  }
+  long long n_used = 0;
+  for (long long i = 0; i < sent; ++i) n_used += used.count(seq0 + i) ? 1 : 0;
+  const long long unused = sent - n_used;
+  // the daemon applies the newest command each tick, so a command can be overtaken by the next one
+  // within a tick: a few unused ones are normal at high rates, many are not
+  if (unused > std::max(2LL, sent / 20)) {
+    std::fprintf(stderr, "coopdyn send: the daemon used %lld of %lld %s (seq %lld..%lld)", n_used, sent,
+                 replay ? "measured states" : "commands", seq0, seq0 + sent - 1);
+    if (stats_n >= 2)
+      std::fprintf(stderr, "; its counters over the run: rejected +%lld (malformed, wrong names or count, NaN, over "
+                   "tau_limit, stale or future utime), out of order +%lld (seq not above the last accepted)",
+                   static_cast<long long>(stats_last.rejected - stats_first.rejected),
+                   static_cast<long long>(stats_last.out_of_order - stats_first.out_of_order));
+    else if (stats_n == 1)
+      std::fprintf(stderr, "; its counters since it started: rejected %lld (malformed, wrong names or count, NaN, "
+                   "over tau_limit, stale or future utime), out of order %lld (seq not above the last accepted)",
+                   static_cast<long long>(stats_last.rejected), static_cast<long long>(stats_last.out_of_order));
+    std::fprintf(stderr, "; the daemon's log names each reason\n");
+    return 4;
   }
   return 0;
 }

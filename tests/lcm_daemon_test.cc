@@ -717,3 +717,40 @@ TEST_F(DaemonProcess, ControlRoundTripPauseResumeResetClearFault) {
   const std::string err = slurp(d->err);
   for (const char* a : {"pause: ok", "resume: ok", "reset: ok", "clear fault: ok"}) EXPECT_NE(err.find(a), std::string::npos) << a;
 }
+
+// Rejections are visible to the sender: `coopdyn send` reads back which commands the daemon used and
+// its counters, and exits non-zero (4) when they were rejected, saying why.
+TEST_F(DaemonProcess, SendExitsNonZeroWhenItsCommandsAreRejected) {
+  auto d = start_daemon({}, "rejecting");
+  OutputSink sink;
+  sink.attach(*bus_);
+  bus_->start();
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  // the four-bar's 6 torques sent to a daemon running two_puma_load (18 DOFs): wrong count
+  Child bad({COOPDYN_PATH, "send", "--scene", scene_path("four_bar"), "--lcm-url", url_, "--rate", "100", "--duration",
+             "0.3", "--torque", "j1:constant:0.1"},
+            "send_bad");
+  EXPECT_EQ(bad.wait(), 4) << slurp(bad.err);
+  const std::string why = slurp(bad.err);
+  EXPECT_NE(why.find("the daemon used 0 of 31 commands"), std::string::npos) << why;
+  EXPECT_NE(why.find("rejected "), std::string::npos) << why;
+  EXPECT_EQ(why.find("rejected 0"), std::string::npos) << why;
+  EXPECT_EQ(why.find("rejected +0"), std::string::npos) << why;
+  Child good({COOPDYN_PATH, "send", "--scene", scene_path("two_puma_load"), "--lcm-url", url_, "--rate", "100",
+              "--duration", "0.3", "--torque", "arm1.q1:constant:0.1"},
+             "send_good");
+  EXPECT_EQ(good.wait(), 0) << slurp(good.err);
+  d->signal(SIGTERM);
+  EXPECT_EQ(d->wait(), 0);
+  bus_->stop();
+  // and the daemon's log says why, rate-limited, with the count per reason
+  const std::string log = slurp(d->err);
+  long total = 0, lines = 0;  // the first at once, the rest at most once per second
+  for (size_t p = log.find("inputs not applied: "); p != std::string::npos; p = log.find("inputs not applied: ", p + 1)) {
+    const size_t num = p + std::strlen("inputs not applied: ");
+    if (log.compare(log.find(' ', num), 12, " wrong count") == 0) total += std::stol(log.substr(num));
+    ++lines;
+  }
+  EXPECT_EQ(total, 31) << log;
+  EXPECT_LE(lines, 4) << "rate-limited";
+}

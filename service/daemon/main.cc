@@ -241,11 +241,32 @@ int main(int argc, char** argv) {
   sigaction(SIGTERM, &sa, nullptr);
 
   const bool simulate = cfg.mode == runtime::ServiceMode::kSimulate;
+  // rejected inputs: counted per reason by the receive thread, logged by this (main) thread at most
+  // once per second with the counts since the last line
+  std::atomic<long long> rejected_by[io::kRejectKinds] = {};
+  std::atomic<long long> out_of_order{0};
+  auto last_report = std::chrono::steady_clock::now() - std::chrono::seconds(2);
+  auto report_rejections = [&](bool force) {
+    const auto now = std::chrono::steady_clock::now();
+    if (!force && now - last_report < std::chrono::seconds(1)) return;
+    std::string what;
+    for (int r = 1; r < io::kRejectKinds; ++r)
+      if (const long long k = rejected_by[r].exchange(0)) what += (what.empty() ? "" : ", ") + std::to_string(k) + " " + io::reject_name(static_cast<io::Reject>(r));
+    if (const long long k = out_of_order.exchange(0))
+      what += (what.empty() ? "" : ", ") + std::to_string(k) + " out of order (seq not above the last accepted)";
+    if (what.empty()) return;
+    spdlog::warn("inputs not applied: {}", what);
+    last_report = now;
+  };
   rx->start(
       [&](const void* d, int n, long long t) {
-        if (io::identify(d, n) == io::MessageType::kControl) loop.controls().offer(d, n, t);
-        else if (simulate) loop.commands().offer(d, n, t);
-        else loop.states().offer(d, n, t);
+        io::Reject why = io::Reject::kNone;
+        runtime::Offer r;
+        if (io::identify(d, n) == io::MessageType::kControl) r = loop.controls().offer(d, n, t, &why);
+        else if (simulate) r = loop.commands().offer(d, n, t, &why);
+        else r = loop.states().offer(d, n, t, &why);
+        if (r == runtime::Offer::kRejected) rejected_by[static_cast<int>(why) % io::kRejectKinds].fetch_add(1);
+        if (r == runtime::Offer::kOutOfOrder) out_of_order.fetch_add(1);
         loop.set_receiver_counters(rx->restarts(), rx->dropped());
       },
       [&](int status, long long restarts) {
@@ -282,12 +303,14 @@ int main(int argc, char** argv) {
       overruns.add(e);
     }
     overruns.flush(false);
+    report_rejections(false);
     if (duration >= 0 &&
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count() >= duration)
       g_stop.store(true);
   }
   loop_thread.join();
   rx->stop();
+  report_rejections(true);
   while (loop.events().pop(&e)) {
     log_event(e);
     overruns.add(e);
