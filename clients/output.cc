@@ -168,6 +168,7 @@ int load_cli_scene(const Args& a, const char* cmd, System* sys) {
     std::fprintf(stderr, "coopdyn: %s\n", e.what());
     return 1;
   }
+  for (const std::string& w : sys->warnings) std::fprintf(stderr, "coopdyn %s: warning: %s\n", cmd, w.c_str());
   return 0;
 }
 

@@ -196,6 +196,7 @@ int main(int argc, char** argv) {
     return 1;
   }
 
+  for (const std::string& w : sys.warnings) spdlog::warn("scene: {}", w);
   int by_kind[5] = {0, 0, 0, 0, 0};
   for (const WrenchOutput& o : sys.wrenches.outputs) ++by_kind[static_cast<int>(o.kind)];
   runtime::ServiceLoop loop(sys, cfg, *bus);

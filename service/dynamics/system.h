@@ -62,6 +62,8 @@ struct System {
   Eigen::VectorXd q0, v0;     // initial state (satisfies the constraints)
   Eigen::VectorXd tau_limit;  // (nv) |tau| allowed per DOF (commands above are rejected); inf = none
   WrenchSet wrenches;         // what is reported as wrenches (wrench_outputs.h); compiled
+  std::vector<std::string> warnings;  // what the loader left out or found missing (a URDF link without
+                                      // mass, links off the arm's chain); printed by every client
 };
 
 }  // namespace coopdyn

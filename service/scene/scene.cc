@@ -12,6 +12,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <regex>
 #include <set>
 #include <sstream>
 
@@ -224,6 +225,7 @@ struct ChainJoint {
 };
 struct Robot {
   std::string name;
+  std::vector<std::string> warnings;  // what the scene leaves out or finds missing (never silent)
   std::vector<ChainJoint> joints;
   Transform X_last_EE;  // the end-effector frame in the last link's frame
   std::string base_link = "link0";
@@ -279,6 +281,22 @@ Robot parse_robot(const Ctx& c, const YAML::Node& n, const std::string& name) {
 
 // A serial chain from a URDF file (urdfdom): from `base` link to `tip` link (defaults: the root and
 // its only leaf). Revolute/continuous and prismatic joints move; fixed joints stay fixed.
+// The text of the <link name="NAME" ...> element of a URDF, "" if absent (a plain scan: enough to
+// tell whether the file gave an <inertial> that urdfdom could not read).
+std::string urdf_link_text(const std::string& xml, const std::string& name) {
+  for (size_t p = xml.find("<link"); p != std::string::npos; p = xml.find("<link", p + 5)) {
+    const size_t end_tag = xml.find('>', p);
+    if (end_tag == std::string::npos) break;
+    const std::string tag = xml.substr(p, end_tag - p);
+    if (tag.find("name=\"" + name + "\"") == std::string::npos && tag.find("name='" + name + "'") == std::string::npos) continue;
+    if (xml[end_tag - 1] == '/') return tag;
+    const size_t close = xml.find("</link>", end_tag);
+    return xml.substr(p, (close == std::string::npos ? xml.size() : close) - p);
+  }
+  return "";
+}
+int line_of(const std::string& text, size_t pos) { return 1 + static_cast<int>(std::count(text.begin(), text.begin() + std::min(pos, text.size()), '\n')); }
+
 Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path, const std::string& name,
                  std::string base, std::string tip) {
   // bounded before urdfdom sees it: its TinyXML parser recurses per element without a limit
@@ -288,6 +306,9 @@ Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path,
     fail(c, where, "URDF '" + path + "' line " + std::to_string(d.line) + " column " + std::to_string(d.column) +
                        ": elements nested deeper than " + std::to_string(bounded::kMaxXmlDepth) +
                        " levels (the limit; URDF itself nests 5)");
+  if (const size_t x = xml.find("xacro:"); x != std::string::npos)
+    fail(c, where, "URDF '" + path + "' line " + std::to_string(line_of(xml, x)) +
+                       " is a xacro macro: expand the file first (xacro FILE.urdf.xacro > FILE.urdf)");
   urdf::ModelInterfaceSharedPtr u = urdf::parseURDF(xml);
   if (!u) fail(c, where, "URDF '" + path + "' could not be parsed (see the urdfdom message above)");
   if (base.empty()) base = u->getRoot()->name;
@@ -315,6 +336,52 @@ Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path,
   Robot r;
   r.name = name;
   r.base_link = base;
+  // nothing the file gives is lost silently: an <inertial> urdfdom could not read is an error, a
+  // link without one and the links off the chain base..tip are reported
+  std::set<std::string> on_chain = {base};
+  for (const auto& jt : chain) on_chain.insert(jt->child_link_name);
+  for (const auto& jt : chain) {
+    urdf::LinkConstSharedPtr child = u->getLink(jt->child_link_name);
+    const std::string text = urdf_link_text(xml, child->name);
+    const bool given = text.find("<inertial") != std::string::npos;
+    // urdfdom logs a malformed <inertial> (a misspelt attribute) and goes on with a zero mass: read
+    // the <mass value=...> ourselves and require the two to agree
+    static const std::regex mass_re("<mass\\s+value\\s*=\\s*[\"']([^\"']*)[\"']");
+    std::smatch mm;
+    const bool read = given && child->inertial && std::regex_search(text, mm, mass_re) &&
+                      std::abs(std::strtod(mm[1].str().c_str(), nullptr) - child->inertial->mass) <=
+                          1e-12 * std::max(1.0, std::abs(child->inertial->mass));
+    if (given && !read)
+      fail(c, where, "URDF '" + path + "' line " + std::to_string(line_of(xml, xml.find(text))) + ": link '" + child->name +
+                         "' has an <inertial> that urdfdom could not read (see its message above: a misspelt attribute?); "
+                         "its mass would be lost");
+    if (given) continue;
+    const bool frame_only = jt->type == urdf::Joint::FIXED;  // a flange or tool frame: massless by design
+    if (!frame_only)
+      r.warnings.push_back("URDF '" + path + "': link '" + child->name + "' (after moving joint '" + jt->name +
+                           "') has no <inertial>: it moves no mass");
+  }
+  {
+    std::string left;
+    double mass = 0;
+    std::vector<urdf::LinkConstSharedPtr> stack;
+    for (const std::string& l : on_chain)
+      for (const auto& ch : u->getLink(l)->child_links)
+        if (!on_chain.count(ch->name)) stack.push_back(ch);
+    while (!stack.empty()) {
+      urdf::LinkConstSharedPtr l = stack.back();
+      stack.pop_back();
+      left += (left.empty() ? "" : ", ") + l->name;
+      if (l->inertial) mass += l->inertial->mass;
+      for (const auto& ch : l->child_links) stack.push_back(ch);
+    }
+    if (!left.empty()) {
+      std::ostringstream os;
+      os << "URDF '" << path << "': links off the chain " << base << " .. " << tip << " are left out: " << left << " ("
+         << mass << " kg)";
+      r.warnings.push_back(os.str());
+    }
+  }
   for (const auto& jt : chain) {
     urdf::LinkConstSharedPtr child = u->getLink(jt->child_link_name);
     Inertia I;
@@ -918,6 +985,7 @@ System load_scene_string(const std::string& text, const std::string& file, const
         }
       }
     }
+    for (const auto& [rn, rb] : robots) sys.warnings.insert(sys.warnings.end(), rb.warnings.begin(), rb.warnings.end());
     const bool has_arms = root["arms"].IsDefined(), has_bodies = root["bodies"].IsDefined();
     if (has_arms == has_bodies) fail(c, root, "a scene declares either 'arms' (with a 'load') or 'bodies', not both or neither");
     if (has_arms) {
