@@ -15,3 +15,11 @@ target_compile_definitions(coopdynd_tests PRIVATE
 target_include_directories(coopdynd_tests PRIVATE ${PROJECT_SOURCE_DIR})
 add_dependencies(coopdynd_tests coopdynd coopdyn)
 gtest_discover_tests(coopdynd_tests DISCOVERY_TIMEOUT 60 PROPERTIES LABELS daemon)
+
+# Seeded mutation fuzzing of the decoders and the scene and config loaders (tests/fuzz/fuzz_test.cc),
+# a bounded number of inputs per target; the seed corpus is tests/fuzz/corpus.
+add_executable(coopdyn_fuzz_tests ${CMAKE_CURRENT_LIST_DIR}/fuzz/fuzz_test.cc)
+target_link_libraries(coopdyn_fuzz_tests PRIVATE coopdyn_runtime coopdyn_scene GTest::gtest)
+target_compile_definitions(coopdyn_fuzz_tests PRIVATE COOPDYN_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+target_include_directories(coopdyn_fuzz_tests PRIVATE ${PROJECT_SOURCE_DIR})
+gtest_discover_tests(coopdyn_fuzz_tests DISCOVERY_TIMEOUT 60 PROPERTIES LABELS fuzz TIMEOUT 300)

@@ -268,8 +268,9 @@ Robot parse_robot(const Ctx& c, const YAML::Node& n, const std::string& name) {
     j.axis = Vec3::UnitZ();
     j.I = get_inertia(c, l, w).transformed(dh_fixed(dl));
     j.armature = get_double(c, l, "armature", 0, w);
-    if (j.armature < 0) fail(c, l["armature"], w + ": armature must be >= 0");
+    if (!(j.armature >= 0)) fail(c, l["armature"], w + ": armature must be >= 0");
     j.tau_limit = get_double(c, l, "tau_limit", std::numeric_limits<double>::infinity(), w);
+    if (!(j.tau_limit >= 0)) fail(c, l["tau_limit"], w + ": tau_limit must be >= 0 (N*m or N; absent = no limit)");
     r.joints.push_back(j);
     K_prev = dh_fixed(dl);
   }
@@ -657,6 +658,7 @@ void build_bodies(Builder& B, const YAML::Node& root) {
       j.name = get_string(c, jn, "name", name);
       j.pseudo = get_bool(c, jn, "pseudo", false);
       j.armature = get_double(c, jn, "armature", 0.0, "joint");
+      if (!(j.armature >= 0)) fail(c, jn["armature"], "body '" + name + "': armature must be >= 0");
       if (j.pseudo && j.type != JointType::kRevolute && j.type != JointType::kPrismatic)
         fail(c, jn, "body '" + name + "': a pseudo-joint must be revolute or prismatic");
       if (j.type == JointType::kFloating) {
@@ -673,6 +675,7 @@ void build_bodies(Builder& B, const YAML::Node& root) {
     }
     const double lim = (jn.IsDefined() && !jn.IsNull()) ? get_double(c, jn, "tau_limit", std::numeric_limits<double>::infinity(), "joint")
                                                        : std::numeric_limits<double>::infinity();
+    if (!(lim >= 0)) fail(c, jn["tau_limit"], "body '" + name + "': tau_limit must be >= 0 (N*m or N; absent = no limit)");
     const int id = B.add(name, parent, X_PJ, j, I, jq, jv, lim, b);
     if (j.type != JointType::kFloating)  // a floating joint transmits nothing
       B.sys.wrenches.outputs.push_back(joint_output(j.name.empty() ? name : j.name, name,
@@ -715,7 +718,9 @@ void build_bodies(Builder& B, const YAML::Node& root) {
         if (s.body < 0) fail(c, k["body"].IsDefined() ? k["body"] : k, "constraint '" + s.name + "': unknown wheel body '" + bname + "'");
         if (s.name.empty()) s.name = bname;
         const Vec3 axle = as_vec3(c, require(c, k, "axle", "constraint '" + s.name + "'"), "constraint '" + s.name + "'.axle");
-        if (axle.norm() < 1e-9) fail(c, k["axle"], "constraint '" + s.name + "': axle must be a nonzero vector");
+        const double axle_norm = axle.norm();  // inf when a component is near DBL_MAX (the square overflows)
+        if (!(axle_norm >= 1e-9 && axle_norm <= 1e150))
+          fail(c, k["axle"], "constraint '" + s.name + "': axle must be a nonzero vector of norm at most 1e150");
         s.axle = axle.normalized();
         s.radius = as_double(c, require(c, k, "radius", "constraint '" + s.name + "'"), "constraint '" + s.name + "'.radius");
         if (!(s.radius > 0)) fail(c, k["radius"], "constraint '" + s.name + "': radius must be > 0");
