@@ -432,8 +432,11 @@ struct Builder {
 void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, Robot>& robots, bool mobile_platform) {
   const Ctx& c = B.c;
   const YAML::Node load = require(c, root, "load", "scene");
-  check_keys(c, load, {"name", "mass", "com", "inertia", "pose", "velocity"}, "load");
+  check_keys(c, load, {"name", "mass", "com", "inertia", "pose", "velocity", "actuated"}, "load");
   const std::string load_name = get_string(c, load, "name", "load");
+  // the platform DOFs of the load take no command force unless the scene declares a drive on it
+  // (thrusters, a positioner): tau_limit 0 = a command must be exactly 0 there (Reject::kUnactuated)
+  const double load_limit = get_bool(c, load, "actuated", false) ? std::numeric_limits<double>::infinity() : 0.0;
   const Inertia I_load = get_inertia(c, load, "load");
   const Transform X_W_L = get_pose(c, require(c, load, "pose", "load"), "load.pose");
 
@@ -513,7 +516,7 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
     // the load is the root; each arm hangs from it last link first (METHOD s.3). Body B_k of the
     // reversed chain is link k's frame moved to joint k+1 (link_k * X_origin_{k+1}), so that joint
     // k+1 reversed is a plain motion about -axis at the origin of its parent.
-    const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, std::numeric_limits<double>::infinity(), load);
+    const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, load_limit, load);
     std::vector<WrenchOutput>& outs = B.sys.wrenches.outputs;
     for (const ArmSpec& s : arms) {
       const auto& J = s.robot->joints;
@@ -601,7 +604,7 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
       }
       model.add_frame(s.name + ".ee", parent, s.robot->X_last_EE * s.tool);
     }
-    const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, std::numeric_limits<double>::infinity(), load);
+    const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, load_limit, load);
     for (const ArmSpec& s : arms) {
       model.add_frame(load_name + "." + s.name, L, s.X_L_EE);
       ConstraintSpec w;
@@ -644,7 +647,8 @@ void build_bodies(Builder& B, const YAML::Node& root) {
     if (!jn.IsDefined() || jn.IsNull()) {
       j.type = JointType::kFixed;
     } else {
-      check_keys(c, jn, {"type", "axis", "axis2", "name", "pseudo", "q", "v", "armature", "tau_limit"}, "joint of '" + name + "'");
+      check_keys(c, jn, {"type", "axis", "axis2", "name", "pseudo", "q", "v", "armature", "tau_limit", "actuated"},
+                 "joint of '" + name + "'");
       const std::string t = get_string(c, jn, "type", "");
       if (t == "fixed") j.type = JointType::kFixed;
       else if (t == "revolute") j.type = JointType::kRevolute;
@@ -673,9 +677,20 @@ void build_bodies(Builder& B, const YAML::Node& root) {
         if (static_cast<int>(jq.size()) > nq || static_cast<int>(jv.size()) > nq) fail(c, jn, "body '" + name + "': too many q/v values");
       }
     }
-    const double lim = (jn.IsDefined() && !jn.IsNull()) ? get_double(c, jn, "tau_limit", std::numeric_limits<double>::infinity(), "joint")
-                                                       : std::numeric_limits<double>::infinity();
-    if (!(lim >= 0)) fail(c, jn["tau_limit"], "body '" + name + "': tau_limit must be >= 0 (N*m or N; absent = no limit)");
+    double lim = std::numeric_limits<double>::infinity();
+    if (jn.IsDefined() && !jn.IsNull()) {
+      // a floating joint (a vehicle's body, a free wheel) and a pseudo-joint (absent from the real
+      // structure) have no drive: unactuated (tau_limit 0) unless declared; any other joint is
+      // actuated unless `actuated: false` (a passive joint)
+      const bool by_default = j.type != JointType::kFloating && !j.pseudo;
+      const bool actuated = get_bool(c, jn, "actuated", by_default);
+      if (actuated && j.pseudo) fail(c, jn["actuated"], "body '" + name + "': a pseudo-joint cannot be actuated");
+      if (!actuated && jn["tau_limit"])
+        fail(c, jn["tau_limit"], "body '" + name + "': tau_limit on an unactuated joint (" +
+                                     (j.type == JointType::kFloating ? "a floating joint needs 'actuated: true'" : "it is declared or pseudo") + ")");
+      lim = actuated ? get_double(c, jn, "tau_limit", std::numeric_limits<double>::infinity(), "joint") : 0.0;
+      if (!(lim >= 0)) fail(c, jn["tau_limit"], "body '" + name + "': tau_limit must be >= 0 (N*m or N; absent = no limit)");
+    }
     const int id = B.add(name, parent, X_PJ, j, I, jq, jv, lim, b);
     if (j.type != JointType::kFloating)  // a floating joint transmits nothing
       B.sys.wrenches.outputs.push_back(joint_output(j.name.empty() ? name : j.name, name,

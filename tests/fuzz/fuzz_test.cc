@@ -611,6 +611,10 @@ void fuzz_decoder(const char* target, const std::string& kind, bool state, long 
   EXPECT_GT(by_reason[static_cast<int>(io::Reject::kDecode)], 0);
   EXPECT_GT(by_reason[static_cast<int>(io::Reject::kCount)], 0);
   EXPECT_GT(by_reason[static_cast<int>(io::Reject::kNonFinite)], 0);
+  if (!state) {  // torques judged against the limits: the PUMA's, and 0 on unactuated DOFs
+    EXPECT_GT(by_reason[static_cast<int>(io::Reject::kOverLimit)], 0);
+    EXPECT_GT(by_reason[static_cast<int>(io::Reject::kUnactuated)], 0);
+  }
 }
 
 }  // namespace
