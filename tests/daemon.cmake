@@ -1,11 +1,13 @@
 # coopdynd tests: the loop (tick by tick through an in-memory bus), no allocation in the loop,
 # real LCM round trips (memq://, and udpm:// against build/bin/coopdynd as a child process),
-# lcm-logger + coopdyn log. Included at the end of tests/CMakeLists.txt.
+# lcm-logger + coopdyn log, a flood of junk against build/bin/coopdynd. Included at the end of
+# tests/CMakeLists.txt.
 add_executable(coopdynd_tests
   ${CMAKE_CURRENT_LIST_DIR}/loop_test.cc
   ${CMAKE_CURRENT_LIST_DIR}/loop_no_allocation_test.cc
   ${CMAKE_CURRENT_LIST_DIR}/lcm_daemon_test.cc
   ${CMAKE_CURRENT_LIST_DIR}/daemon_config_test.cc
+  ${CMAKE_CURRENT_LIST_DIR}/flood_daemon_test.cc
 )
 target_link_libraries(coopdynd_tests PRIVATE coopdyn_runtime coopdyn_scene GTest::gtest GTest::gtest_main)
 target_compile_definitions(coopdynd_tests PRIVATE
