@@ -60,11 +60,11 @@ constexpr bool kSanitized = true;
 #else
 constexpr bool kSanitized = false;
 #endif
-// Iterations per target: < 20 s for all targets together in Release on the 2-core machine; the
-// ASan+UBSan build runs about 10x slower per input, so it gets a tenth of the inputs.
-constexpr long kDecoderIters = kSanitized ? 20000 : 200000;
-constexpr long kSceneIters = kSanitized ? 800 : 8000;
-constexpr long kConfigIters = kSanitized ? 2000 : 20000;
+// Iterations per target: about 11 s for all targets together in Release on the 2-core machine;
+// the ASan+UBSan build runs 2-4x slower per input, so it gets a quarter of the inputs (about 11 s).
+constexpr long kDecoderIters = kSanitized ? 50000 : 200000;
+constexpr long kSceneIters = kSanitized ? 2000 : 8000;
+constexpr long kConfigIters = kSanitized ? 5000 : 20000;
 // An input that runs longer than this is a hang.
 constexpr long long kHangNs = (kSanitized ? 60LL : 10LL) * 1000000000LL;
 
@@ -350,7 +350,8 @@ std::string mutate_bytes(std::string s, const std::vector<std::string>& seeds, c
         const size_t at = L->i32[pick(r, L->i32.size())];
         if (at + 4 > s.size()) break;
         int32_t v = kHostileCounts[pick(r, std::size(kHostileCounts))];
-        if (pick(r, 3) == 0) v = be32(s, at) + static_cast<int32_t>(pick(r, 5)) - 2;  // off by a little
+        if (pick(r, 3) == 0)  // off by a little (wrapping, as 32 bits on the wire do)
+          v = static_cast<int32_t>(static_cast<uint32_t>(be32(s, at)) + static_cast<uint32_t>(pick(r, 5)) - 2u);
         put_be32(s, at, v);
         break;
       }
