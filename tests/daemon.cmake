@@ -1,11 +1,13 @@
 # coopdynd tests: the loop (tick by tick through an in-memory bus), no allocation in the loop,
 # real LCM round trips (memq://, and udpm:// against build/bin/coopdynd as a child process),
-# lcm-logger + coopdyn log. Included at the end of tests/CMakeLists.txt.
+# lcm-logger + coopdyn log, a flood of junk against build/bin/coopdynd. Included at the end of
+# tests/CMakeLists.txt.
 add_executable(coopdynd_tests
   ${CMAKE_CURRENT_LIST_DIR}/loop_test.cc
   ${CMAKE_CURRENT_LIST_DIR}/loop_no_allocation_test.cc
   ${CMAKE_CURRENT_LIST_DIR}/lcm_daemon_test.cc
   ${CMAKE_CURRENT_LIST_DIR}/daemon_config_test.cc
+  ${CMAKE_CURRENT_LIST_DIR}/flood_daemon_test.cc
 )
 target_link_libraries(coopdynd_tests PRIVATE coopdyn_runtime coopdyn_scene GTest::gtest GTest::gtest_main)
 target_compile_definitions(coopdynd_tests PRIVATE
@@ -15,3 +17,11 @@ target_compile_definitions(coopdynd_tests PRIVATE
 target_include_directories(coopdynd_tests PRIVATE ${PROJECT_SOURCE_DIR})
 add_dependencies(coopdynd_tests coopdynd coopdyn)
 gtest_discover_tests(coopdynd_tests DISCOVERY_TIMEOUT 60 PROPERTIES LABELS daemon)
+
+# Seeded mutation fuzzing of the decoders and the scene and config loaders (tests/fuzz/fuzz_test.cc),
+# a bounded number of inputs per target; the seed corpus is tests/fuzz/corpus.
+add_executable(coopdyn_fuzz_tests ${CMAKE_CURRENT_LIST_DIR}/fuzz/fuzz_test.cc)
+target_link_libraries(coopdyn_fuzz_tests PRIVATE coopdyn_runtime coopdyn_scene GTest::gtest)
+target_compile_definitions(coopdyn_fuzz_tests PRIVATE COOPDYN_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+target_include_directories(coopdyn_fuzz_tests PRIVATE ${PROJECT_SOURCE_DIR})
+gtest_discover_tests(coopdyn_fuzz_tests DISCOVERY_TIMEOUT 60 PROPERTIES LABELS fuzz TIMEOUT 300)

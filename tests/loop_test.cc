@@ -5,6 +5,9 @@
 
 #include <time.h>
 
+#include <algorithm>
+#include <fstream>
+#include <sstream>
 #include <thread>
 
 #include "service/dynamics/integrators.h"
@@ -690,4 +693,77 @@ TEST(ServiceLoop, ControlIsNotApplicableInEstimateMode) {
   EXPECT_EQ(o.control_seq, 1);
   EXPECT_EQ(o.control_result, static_cast<int>(io::ControlResult::kNotApplicable));
   EXPECT_EQ(o.paused, 0);
+}
+
+TEST(ServiceLoop, ForceOnTheUnactuatedLoadIsRejectedNeverAppliedAndTheLoopRuns) {
+  // The load's platform DOFs take no command force (tau_limit 0) unless the scene declares
+  // `load: {actuated: true}`. A command with force on load.vx, even 1e6 N or 1e308, is rejected as
+  // "force on an unactuated DOF", counted, never applied; the loop keeps ticking on the last good
+  // command with status ok.
+  Rig r("two_puma_load");
+  const int nv = r.sys.model.nv();
+  const auto& v_names = r.sys.model.v_names;
+  const int vx = static_cast<int>(std::find(v_names.begin(), v_names.end(), "load.vx") - v_names.begin());
+  ASSERT_LT(vx, nv);
+  const Eigen::VectorXd good = some_torque(r.sys, 5);
+  ASSERT_EQ(good[vx], 0.0);
+  ASSERT_EQ(r.send(command(1, good), 0), Offer::kAccepted);
+  r.loop->tick(0);
+  const auto& names = r.sys.model.v_names;
+  int seq = 2;
+  for (double f : {1.0, -1e-300, 1e6, 1e308}) {
+    SCOPED_TRACE(f);
+    Eigen::VectorXd t = good;
+    t[vx] = f;
+    io::Reject why = io::Reject::kNone;
+    EXPECT_EQ(r.send(command(seq++, t), kMs, &why), Offer::kRejected);
+    EXPECT_EQ(why, io::Reject::kUnactuated) << io::reject_name(why);
+    EXPECT_EQ(r.send(command(seq++, Eigen::VectorXd::Constant(1, f), {names[vx]}), kMs, &why), Offer::kRejected);
+    EXPECT_EQ(why, io::Reject::kUnactuated) << io::reject_name(why);
+  }
+  EXPECT_STREQ(io::reject_name(io::Reject::kUnactuated), "force on an unactuated DOF");
+  for (int k = 1; k <= 50; ++k) {
+    r.loop->tick(k * kMs);
+    const io::DecodedOutput o = r.bus.last_output();
+    ASSERT_EQ(o.tick, k) << "the loop keeps ticking and publishing";
+    ASSERT_EQ(o.input, static_cast<int>(io::Input::kCommand));
+    ASSERT_EQ(o.input_seq, 1) << "the last good command stays in force";
+    ASSERT_NE(o.status, static_cast<int>(Status::kError));
+    ASSERT_EQ(o.tau[vx], 0.0) << "never applied";
+    for (int i = 0; i < nv; ++i) ASSERT_EQ(o.tau[i], good[i]);
+  }
+  const auto& c = r.loop->input_counters();
+  EXPECT_EQ(c.by_reason[static_cast<int>(io::Reject::kUnactuated)].load(), 8);
+  EXPECT_EQ(c.rejected.load(), 8);
+  EXPECT_EQ(c.accepted.load(), 1);
+  // exactly 0 (either sign) on the platform is a valid command
+  Eigen::VectorXd z = good;
+  z[vx] = -0.0;
+  EXPECT_EQ(r.send(command(seq++, z), 60 * kMs), Offer::kAccepted);
+
+  // declared actuated: the same force is accepted and applied, and it is what accelerates the load
+  Rig a("two_puma_load");
+  {
+    std::ifstream f(scene_path("two_puma_load"));
+    std::stringstream ss;
+    ss << f.rdbuf();
+    std::string t = ss.str();
+    const std::string key = "load:\n  name: load\n";
+    ASSERT_NE(t.find(key), std::string::npos);
+    t.replace(t.find(key), key.size(), key + "  actuated: true\n");
+    a.sys = load_scene_string(t, scene_path("two_puma_load"));
+  }
+  a.reset();
+  Eigen::VectorXd push = good;
+  push[vx] = 20.0;
+  ASSERT_EQ(a.send(command(1, push), 0), Offer::kAccepted);
+  a.loop->tick(0);
+  const io::DecodedOutput o = a.bus.last_output();
+  EXPECT_EQ(o.input_seq, 1);
+  EXPECT_EQ(o.tau[vx], 20.0);
+  expect_matches_offline(a.sys, o);
+  Workspace ws0(a.sys), ws1(a.sys);
+  evaluate(a.sys, ws0, a.sys.q0, a.sys.v0, good);
+  evaluate(a.sys, ws1, a.sys.q0, a.sys.v0, push);
+  EXPECT_GT(std::abs(ws1.vdot[vx] - ws0.vdot[vx]), 1e-3) << "the platform force acts on the load";
 }

@@ -257,3 +257,57 @@ TEST(Scene, ErrorsCutLongValues) {
     EXPECT_EQ(e.rfind("fb.yaml:", 0), 0u);
   }
 }
+
+TEST(Scene, OnlyDeclaredDofsAreActuated) {
+  // arms scenes: the load's platform DOFs have tau_limit 0 (unactuated) in every formulation, unless
+  // `load: {actuated: true}`; the arm joints keep the PUMA's published limits (puma560.yaml)
+  const double puma[6] = {97.6, 186.4, 89.4, 24.2, 20.1, 21.3};
+  const std::string text = scene_text("two_puma_load");
+  const std::string actuated = replaced(text, "load:\n  name: load\n", "load:\n  name: load\n  actuated: true\n");
+  for (auto f : {Formulation::kMobilePlatform, Formulation::kClassic, Formulation::kPseudoJointSchur, Formulation::kSvdBaseline}) {
+    SCOPED_TRACE(formulation_name(f));
+    SceneOverrides ov;
+    ov.formulation = f;
+    const System s = load_scene_string(text, scene_path("two_puma_load"), ov);
+    const System a = load_scene_string(actuated, scene_path("two_puma_load"), ov);
+    for (const char* d : {"load.wx", "load.wy", "load.wz", "load.vx", "load.vy", "load.vz"}) {
+      EXPECT_EQ(s.tau_limit[velocity_index_of(s, d)], 0.0) << d;
+      EXPECT_EQ(a.tau_limit[velocity_index_of(a, d)], std::numeric_limits<double>::infinity()) << d;
+    }
+    for (const char* arm : {"arm1", "arm2"})
+      for (int k = 1; k <= 6; ++k) {
+        const std::string j = std::string(arm) + ".q" + std::to_string(k);
+        EXPECT_EQ(s.tau_limit[velocity_index_of(s, j)], puma[k - 1]) << j;
+      }
+  }
+  // bodies scenes: a floating root (the vehicle's rod, the unicycle's wheel) and a pseudo-joint are
+  // unactuated; the wheels' spin joints and the four-bar's real joints are actuated (no limit given)
+  const System veh = load_scene(scene_path("two_wheel_vehicle"));
+  for (const char* d : {"rod.wx", "rod.wy", "rod.wz", "rod.vx", "rod.vy", "rod.vz"}) EXPECT_EQ(veh.tau_limit[velocity_index_of(veh, d)], 0.0) << d;
+  EXPECT_EQ(veh.tau_limit[velocity_index_of(veh, "left_spin")], std::numeric_limits<double>::infinity());
+  const System uni = load_scene(scene_path("unicycle"));
+  EXPECT_EQ(uni.tau_limit.cwiseAbs().maxCoeff(), 0.0) << "the unicycle is one floating wheel: nothing is actuated";
+  const System fb = load_scene(scene_path("four_bar"));
+  EXPECT_EQ(fb.tau_limit[velocity_index_of(fb, "crank_bend")], 0.0);
+  EXPECT_EQ(fb.tau_limit[velocity_index_of(fb, "coupler_axial")], 0.0);
+  EXPECT_EQ(fb.tau_limit[velocity_index_of(fb, "j1")], std::numeric_limits<double>::infinity());
+  // declared: a driven floating root takes its tau_limit, a passive joint is unactuated
+  const std::string vt = scene_text("two_wheel_vehicle");
+  const System veh2 = load_scene_string(replaced(vt, "name: rod,", "name: rod, actuated: true, tau_limit: 3,"), scene_path("v2"));
+  EXPECT_EQ(veh2.tau_limit[velocity_index_of(veh2, "rod.vx")], 3.0);
+  const System veh3 = load_scene_string(replaced(vt, "name: left_spin}", "name: left_spin, actuated: false}"), scene_path("v3"));
+  EXPECT_EQ(veh3.tau_limit[velocity_index_of(veh3, "left_spin")], 0.0);
+  // errors name the file, line and the reason
+  std::string e = error_of(replaced(vt, "name: rod,", "name: rod, tau_limit: 3,"), "v.yaml");
+  EXPECT_NE(e.find("v.yaml:"), std::string::npos) << e;
+  EXPECT_NE(e.find("tau_limit on an unactuated joint (a floating joint needs 'actuated: true')"), std::string::npos) << e;
+  e = error_of(replaced(scene_text("four_bar"), "pseudo: true, q: 0}", "pseudo: true, actuated: true, q: 0}"), "fb.yaml");
+  EXPECT_NE(e.find("a pseudo-joint cannot be actuated"), std::string::npos) << e;
+  e = error_of(replaced(text, "load:\n  name: load\n", "load:\n  name: load\n  actuated: maybe\n"), scene_path("l"));
+  EXPECT_NE(e.find("'actuated' must be true or false"), std::string::npos) << e;
+  // a negative limit is an error (it rejected every command on the DOF; found by tests/fuzz)
+  for (const char* bad : {"-1", "-1e308"}) {
+    e = error_of(replaced(vt, "name: left_spin}", std::string("name: left_spin, tau_limit: ") + bad + "}"), "n.yaml");
+    EXPECT_NE(e.find("tau_limit must be >= 0"), std::string::npos) << bad << ": " << e;
+  }
+}

@@ -31,7 +31,7 @@ State random_consistent_state(const System& sys, std::mt19937& rng, double sprea
   std::uniform_real_distribution<double> U(-1.0, 1.0);
   e.tau = Eigen::VectorXd::Zero(s.model.nv());
   for (int i = 0; i < s.model.nv(); ++i)
-    if (std::isfinite(s.tau_limit[i])) e.tau[i] = 5.0 * U(rng);
+    if (std::isfinite(s.tau_limit[i]) && s.tau_limit[i] > 0) e.tau[i] = 5.0 * U(rng);  // actuated DOFs
   return e;
 }
 

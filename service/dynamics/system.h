@@ -60,7 +60,8 @@ struct System {
   ConstraintSet constraints;  // compiled; includes pseudo-joint locks except in kPseudoJointSchur
   SolverOptions options;
   Eigen::VectorXd q0, v0;     // initial state (satisfies the constraints)
-  Eigen::VectorXd tau_limit;  // (nv) |tau| allowed per DOF (commands above are rejected); inf = none
+  Eigen::VectorXd tau_limit;  // (nv) |tau| allowed per DOF (commands above are rejected); inf = none,
+                              // 0 = unactuated (load platform, floating root, pseudo-joint unless declared)
   WrenchSet wrenches;         // what is reported as wrenches (wrench_outputs.h); compiled
   std::vector<std::string> warnings;  // what the loader left out or found missing (a URDF link without
                                       // mass, links off the arm's chain); printed by every client

@@ -33,6 +33,8 @@ static_assert(static_cast<int>(WrenchKind::kTip) == coopdyn::output_t::KIND_TIP,
 static_assert(static_cast<int>(WrenchKind::kAxle) == coopdyn::output_t::KIND_AXLE, "wrench kinds");
 static_assert(static_cast<int>(WrenchKind::kJoint) == coopdyn::output_t::KIND_JOINT, "wrench kinds");
 
+static_assert(static_cast<int>(Reject::kUnactuated) + 1 == kRejectKinds, "kRejectKinds counts every Reject");
+
 const char* reject_name(Reject r) {
   switch (r) {
     case Reject::kNone: return "none";
@@ -44,6 +46,7 @@ const char* reject_name(Reject r) {
     case Reject::kOverLimit: return "over tau_limit";
     case Reject::kStale: return "stale utime";
     case Reject::kFuture: return "utime in the future";
+    case Reject::kUnactuated: return "force on an unactuated DOF";
   }
   return "?";
 }
@@ -154,8 +157,14 @@ Reject CommandDecoder::decode(const void* data, int len, CommandSlot& out) {
   const Reject rj = map_named(m.v_index, m.msg.names, m.msg.tau.data(), m.msg.num_torques, nv, m.seen, 0.0, out.tau,
                               false);
   if (rj != Reject::kNone) return rj;
-  for (int i = 0; i < nv; ++i)
-    if (std::abs(out.tau[i]) > m.sys.tau_limit[i]) return Reject::kOverLimit;
+  for (int i = 0; i < nv; ++i) {
+    const double lim = m.sys.tau_limit[i];
+    if (lim == 0) {  // unactuated: only an exact 0 (or -0) is allowed
+      if (out.tau[i] != 0) return Reject::kUnactuated;
+    } else if (std::abs(out.tau[i]) > lim) {
+      return Reject::kOverLimit;
+    }
+  }
   out.utime = m.msg.utime;
   out.seq = m.msg.seq;
   return Reject::kNone;

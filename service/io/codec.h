@@ -2,7 +2,8 @@
 //
 // Incoming bytes are untrusted: every count and string length is bounds-checked before the
 // generated decoder runs (it would otherwise resize to a hostile count), then names, sizes, NaN/Inf
-// and the scene's torque limits are checked. Decoders run on the receive thread and reuse one
+// and the scene's torque limits are checked (tau_limit 0: the DOF is unactuated, any nonzero force
+// there is Reject::kUnactuated). Decoders run on the receive thread and reuse one
 // message object, so after the first few messages they do not allocate either.
 // Encoders run on the loop thread: the message object is sized and named once in the constructor,
 // each tick overwrites numbers only and encodes into a caller's preallocated buffer. No allocation,

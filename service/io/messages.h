@@ -22,8 +22,10 @@ enum class Reject {
   kOverLimit,      // |tau| above the scene's tau_limit
   kStale,          // utime <= 0, or older than max_input_age_ms by the daemon's wall clock
   kFuture,         // utime ahead of the daemon's wall clock by more than max_input_age_ms
+  kUnactuated,     // a nonzero force on a DOF the scene does not actuate (tau_limit 0: the load's
+                   // platform DOFs, a floating root, a pseudo-joint, unless declared actuated)
 };
-constexpr int kRejectKinds = 9;
+constexpr int kRejectKinds = 10;
 const char* reject_name(Reject r);
 
 // A validated torque command, in the scene's velocity order. Sized once (nv).

@@ -270,8 +270,9 @@ Robot parse_robot(const Ctx& c, const YAML::Node& n, const std::string& name) {
     j.axis = Vec3::UnitZ();
     j.I = get_inertia(c, l, w).transformed(dh_fixed(dl));
     j.armature = get_double(c, l, "armature", 0, w);
-    if (j.armature < 0) fail(c, l["armature"], w + ": armature must be >= 0");
+    if (!(j.armature >= 0)) fail(c, l["armature"], w + ": armature must be >= 0");
     j.tau_limit = get_double(c, l, "tau_limit", std::numeric_limits<double>::infinity(), w);
+    if (!(j.tau_limit >= 0)) fail(c, l["tau_limit"], w + ": tau_limit must be >= 0 (N*m or N; absent = no limit)");
     r.joints.push_back(j);
     K_prev = dh_fixed(dl);
   }
@@ -498,8 +499,11 @@ struct Builder {
 void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, Robot>& robots, bool mobile_platform) {
   const Ctx& c = B.c;
   const YAML::Node load = require(c, root, "load", "scene");
-  check_keys(c, load, {"name", "mass", "com", "inertia", "pose", "velocity"}, "load");
+  check_keys(c, load, {"name", "mass", "com", "inertia", "pose", "velocity", "actuated"}, "load");
   const std::string load_name = get_string(c, load, "name", "load");
+  // the platform DOFs of the load take no command force unless the scene declares a drive on it
+  // (thrusters, a positioner): tau_limit 0 = a command must be exactly 0 there (Reject::kUnactuated)
+  const double load_limit = get_bool(c, load, "actuated", false) ? std::numeric_limits<double>::infinity() : 0.0;
   const Inertia I_load = get_inertia(c, load, "load");
   const Transform X_W_L = get_pose(c, require(c, load, "pose", "load"), "load.pose");
 
@@ -579,7 +583,7 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
     // the load is the root; each arm hangs from it last link first (METHOD s.3). Body B_k of the
     // reversed chain is link k's frame moved to joint k+1 (link_k * X_origin_{k+1}), so that joint
     // k+1 reversed is a plain motion about -axis at the origin of its parent.
-    const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, std::numeric_limits<double>::infinity(), load);
+    const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, load_limit, load);
     std::vector<WrenchOutput>& outs = B.sys.wrenches.outputs;
     for (const ArmSpec& s : arms) {
       const auto& J = s.robot->joints;
@@ -667,7 +671,7 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
       }
       model.add_frame(s.name + ".ee", parent, s.robot->X_last_EE * s.tool);
     }
-    const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, std::numeric_limits<double>::infinity(), load);
+    const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, load_limit, load);
     for (const ArmSpec& s : arms) {
       model.add_frame(load_name + "." + s.name, L, s.X_L_EE);
       ConstraintSpec w;
@@ -710,7 +714,8 @@ void build_bodies(Builder& B, const YAML::Node& root) {
     if (!jn.IsDefined() || jn.IsNull()) {
       j.type = JointType::kFixed;
     } else {
-      check_keys(c, jn, {"type", "axis", "axis2", "name", "pseudo", "q", "v", "armature", "tau_limit"}, "joint of '" + name + "'");
+      check_keys(c, jn, {"type", "axis", "axis2", "name", "pseudo", "q", "v", "armature", "tau_limit", "actuated"},
+                 "joint of '" + name + "'");
       const std::string t = get_string(c, jn, "type", "");
       if (t == "fixed") j.type = JointType::kFixed;
       else if (t == "revolute") j.type = JointType::kRevolute;
@@ -724,6 +729,7 @@ void build_bodies(Builder& B, const YAML::Node& root) {
       j.name = get_string(c, jn, "name", name);
       j.pseudo = get_bool(c, jn, "pseudo", false);
       j.armature = get_double(c, jn, "armature", 0.0, "joint");
+      if (!(j.armature >= 0)) fail(c, jn["armature"], "body '" + name + "': armature must be >= 0");
       if (j.pseudo && j.type != JointType::kRevolute && j.type != JointType::kPrismatic)
         fail(c, jn, "body '" + name + "': a pseudo-joint must be revolute or prismatic");
       if (j.type == JointType::kFloating) {
@@ -738,8 +744,20 @@ void build_bodies(Builder& B, const YAML::Node& root) {
         if (static_cast<int>(jq.size()) > nq || static_cast<int>(jv.size()) > nq) fail(c, jn, "body '" + name + "': too many q/v values");
       }
     }
-    const double lim = (jn.IsDefined() && !jn.IsNull()) ? get_double(c, jn, "tau_limit", std::numeric_limits<double>::infinity(), "joint")
-                                                       : std::numeric_limits<double>::infinity();
+    double lim = std::numeric_limits<double>::infinity();
+    if (jn.IsDefined() && !jn.IsNull()) {
+      // a floating joint (a vehicle's body, a free wheel) and a pseudo-joint (absent from the real
+      // structure) have no drive: unactuated (tau_limit 0) unless declared; any other joint is
+      // actuated unless `actuated: false` (a passive joint)
+      const bool by_default = j.type != JointType::kFloating && !j.pseudo;
+      const bool actuated = get_bool(c, jn, "actuated", by_default);
+      if (actuated && j.pseudo) fail(c, jn["actuated"], "body '" + name + "': a pseudo-joint cannot be actuated");
+      if (!actuated && jn["tau_limit"])
+        fail(c, jn["tau_limit"], "body '" + name + "': tau_limit on an unactuated joint (" +
+                                     (j.type == JointType::kFloating ? "a floating joint needs 'actuated: true'" : "it is declared or pseudo") + ")");
+      lim = actuated ? get_double(c, jn, "tau_limit", std::numeric_limits<double>::infinity(), "joint") : 0.0;
+      if (!(lim >= 0)) fail(c, jn["tau_limit"], "body '" + name + "': tau_limit must be >= 0 (N*m or N; absent = no limit)");
+    }
     const int id = B.add(name, parent, X_PJ, j, I, jq, jv, lim, b);
     if (j.type != JointType::kFloating)  // a floating joint transmits nothing
       B.sys.wrenches.outputs.push_back(joint_output(j.name.empty() ? name : j.name, name,
@@ -782,7 +800,9 @@ void build_bodies(Builder& B, const YAML::Node& root) {
         if (s.body < 0) fail(c, k["body"].IsDefined() ? k["body"] : k, "constraint '" + s.name + "': unknown wheel body '" + bname + "'");
         if (s.name.empty()) s.name = bname;
         const Vec3 axle = as_vec3(c, require(c, k, "axle", "constraint '" + s.name + "'"), "constraint '" + s.name + "'.axle");
-        if (axle.norm() < 1e-9) fail(c, k["axle"], "constraint '" + s.name + "': axle must be a nonzero vector");
+        const double axle_norm = axle.norm();  // inf when a component is near DBL_MAX (the square overflows)
+        if (!(axle_norm >= 1e-9 && axle_norm <= 1e150))
+          fail(c, k["axle"], "constraint '" + s.name + "': axle must be a nonzero vector of norm at most 1e150");
         s.axle = axle.normalized();
         s.radius = as_double(c, require(c, k, "radius", "constraint '" + s.name + "'"), "constraint '" + s.name + "'.radius");
         if (!(s.radius > 0)) fail(c, k["radius"], "constraint '" + s.name + "': radius must be > 0");
