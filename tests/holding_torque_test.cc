@@ -25,6 +25,8 @@ TEST(HoldingTorque, HoldsTwoPumasStillAndTheBasesCarryTheWeight) {
   Eigen::VectorXd tau(sys.model.nv());
   ASSERT_TRUE(holding_torque(sys, hw, sys.q0, sys.v0, tau));
   EXPECT_LT(hw.residual, 1e-9);
+  for (int i = 6; i < sys.model.nv(); ++i)
+    EXPECT_LE(std::abs(tau[i]), sys.tau_limit[i]) << sys.model.v_names[i] << ": within the PUMA's torque limit";
   for (int i = 0; i < 6; ++i) EXPECT_EQ(tau[i], 0.0);
   Workspace ws(sys);
   ASSERT_NE(evaluate(sys, ws, sys.q0, sys.v0, tau).status, Status::kError);
@@ -39,8 +41,9 @@ TEST(HoldingTorque, HoldsTwoPumasStillAndTheBasesCarryTheWeight) {
   EXPECT_NEAR(fz, total_weight(sys.model), 1e-8 * total_weight(sys.model));
 }
 
-TEST(HoldingTorque, IsTheMinimumNormBalance) {
-  // an independent solve: min |tau_a| subject to N^T (S_a^T tau_a - h) = 0, N from a QR of G^T
+TEST(HoldingTorque, IsTheLimitWeightedMinimumNormBalance) {
+  // an independent solve: min |W^-1 tau_a| (W = the joints' torque limits) subject to
+  // N^T (S_a^T tau_a - h) = 0, N from the kernel of G
   std::mt19937 rng(31);
   for (const std::string name : {"two_puma_load", "planar_arms_load", "two_5dof_arms_load"}) {
     SCOPED_TRACE(name);
@@ -58,9 +61,13 @@ TEST(HoldingTorque, IsTheMinimumNormBalance) {
     Eigen::FullPivLU<Eigen::MatrixXd> lu(ws.cd.G);
     const Eigen::MatrixXd N = lu.kernel().householderQr().householderQ() * Eigen::MatrixXd::Identity(n, lu.kernel().cols());
     Eigen::MatrixXd Sa = Eigen::MatrixXd::Zero(n, static_cast<Eigen::Index>(hw.act.size()));
-    for (size_t c = 0; c < hw.act.size(); ++c) Sa(hw.act[c], static_cast<Eigen::Index>(c)) = 1;
-    const Eigen::MatrixXd A = N.transpose() * Sa;
-    const Eigen::VectorXd ta = A.completeOrthogonalDecomposition().solve(N.transpose() * ws.data.h);
+    Eigen::VectorXd W(static_cast<Eigen::Index>(hw.act.size()));
+    for (size_t c = 0; c < hw.act.size(); ++c) {
+      Sa(hw.act[c], static_cast<Eigen::Index>(c)) = 1;
+      W[static_cast<Eigen::Index>(c)] = std::isfinite(sys.tau_limit[hw.act[c]]) ? sys.tau_limit[hw.act[c]] : 1.0;
+    }
+    const Eigen::MatrixXd A = N.transpose() * Sa * W.asDiagonal();
+    const Eigen::VectorXd ta = W.asDiagonal() * A.completeOrthogonalDecomposition().solve(N.transpose() * ws.data.h);
     EXPECT_LT((Sa * ta - tau).norm(), 1e-8 * (1 + tau.norm()));
     EXPECT_LT(hw.residual, 1e-8 * (1 + ws.data.h.norm()));
     // and it balances: with these torques the constrained accelerations vanish (v = 0 here)

@@ -27,6 +27,9 @@ HoldWorkspace::HoldWorkspace(const System& sys, const std::vector<unsigned char>
   svd_A = Eigen::JacobiSVD<Eigen::MatrixXd>(n, std::max(na, 1), Eigen::ComputeThinU | Eigen::ComputeThinV);
   b.setZero(n);
   x.setZero(std::max(na, 1));
+  w.setOnes(std::max(na, 1));
+  for (int c = 0; c < na; ++c)
+    if (std::isfinite(sys.tau_limit[act[c]])) w[c] = sys.tau_limit[act[c]];
 }
 
 bool holding_torque(const System& sys, HoldWorkspace& hw, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
@@ -54,7 +57,8 @@ bool holding_torque(const System& sys, HoldWorkspace& hw, const Eigen::VectorXd&
     double bi = 0;
     for (int k = 0; k < n; ++k) bi += (m == 0 ? (k == i ? 1.0 : 0.0) : U(k, i)) * h[k];
     hw.b[i] = free ? bi : 0.0;
-    for (int c = 0; c < na; ++c) hw.A(i, c) = free ? (m == 0 ? (hw.act[c] == i ? 1.0 : 0.0) : U(hw.act[c], i)) : 0.0;
+    for (int c = 0; c < na; ++c)
+      hw.A(i, c) = free ? hw.w[c] * (m == 0 ? (hw.act[c] == i ? 1.0 : 0.0) : U(hw.act[c], i)) : 0.0;
   }
   hw.svd_A.compute(hw.A);
   // minimum-norm least squares x = V S^+ U^T b, by hand (JacobiSVD::solve allocates a temporary)
@@ -65,7 +69,7 @@ bool holding_torque(const System& sys, HoldWorkspace& hw, const Eigen::VectorXd&
     const double c = hw.svd_A.matrixU().col(k).dot(hw.b) / sa[k];
     hw.x.noalias() += c * hw.svd_A.matrixV().col(k);
   }
-  for (int c = 0; c < na; ++c) tau[hw.act[c]] = hw.x[c];
+  for (int c = 0; c < na; ++c) tau[hw.act[c]] = hw.w[c] * hw.x[c];
   hw.b.noalias() -= hw.A * hw.x;
   hw.residual = hw.b.norm();
   return tau.allFinite();

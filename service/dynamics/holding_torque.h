@@ -6,7 +6,9 @@
 // forces h (gravity, Coriolis, centrifugal) along every motion the constraints allow:
 //     N^T (S_a^T tau_a - h) = 0,        N: an orthonormal basis of the null space of G.
 // For cooperating arms this has many solutions (an internal squeeze is free); the rule is the
-// minimum-norm tau_a (no squeeze beyond what balance needs). At rest (v = 0, gamma = 0) the system
+// least squares of the torques as fractions of each joint's limit, min sum (tau_i / limit_i)^2
+// (plain minimum norm where no limit is given): the strong joints carry more, and no squeeze is
+// added beyond what balance needs. At rest (v = 0, gamma = 0) the system
 // then stays where it is; the residual |N^T (S_a^T tau_a - h)| says how well the actuators can
 // hold it (nonzero when they cannot balance some motion, e.g. a free platform nobody reaches).
 // Both solves are SVDs of fixed-size, preallocated matrices (rank tolerance 1e-10 relative); no
@@ -27,6 +29,7 @@ struct HoldWorkspace {
   Eigen::JacobiSVD<Eigen::MatrixXd> svd_G, svd_A;
   Eigen::MatrixXd Gt, A;           // (nv x rows) G^T padded, (nv x na) V^T S_a^T with the range rows zeroed
   Eigen::VectorXd b, x;            // (nv), (na)
+  Eigen::VectorXd w;               // (na) column weights: each joint's torque limit (1 without one)
   double residual = 0;             // |N^T (S_a^T tau_a - h)| of the last solve (N*m or N)
 };
 
