@@ -592,7 +592,12 @@ TEST_F(DaemonProcess, HostileFragmentKillsOnlyTheReceiveProcess) {
                   k % 2 ? "COOPDYN_COMMAND" : "X", 20 + U(rng) % 1400));
   const double after = outputs_in(1000ms);
   std::printf("outputs per second: %.0f before, %.0f after the hostile datagrams\n", before, after);
-  EXPECT_GT(after, 0.9 * before) << "the loop must keep publishing at its rate";
+#ifdef __SANITIZE_ADDRESS__
+  const double keep = 0.6;  // an ASan daemon on 2 shared cores runs below 1 kHz and varies more
+#else
+  const double keep = 0.9;
+#endif
+  EXPECT_GT(after, keep * before) << "the loop must keep publishing at its rate";
   // the restart is counted in loop_stats_t and logged
   const auto t_end = std::chrono::steady_clock::now() + 5s;
   int64_t restarts = 0;
