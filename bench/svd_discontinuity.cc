@@ -77,7 +77,7 @@ struct Path {
   double from, to;
 };
 
-std::vector<Sample> run(const System& mp, const System& sv, const Path& p, int n, std::vector<double>* timings = nullptr) {
+std::vector<Sample> run(const System& mp, const System& sv, const Path& p, int n) {
   const Model& m = mp.model;
   const int iv = index_of(m.v_names, p.joint), iq = index_of(m.q_names, p.joint);
   Data d(m);
@@ -123,7 +123,6 @@ std::vector<Sample> run(const System& mp, const System& sv, const Path& p, int n
     S.opening = u.dot(ws.cd.G.middleRows(r0, 6) * ws.vdot - ws.cd.gamma.segment(r0, 6));
     out.push_back(S);
   }
-  (void)timings;
   return out;
 }
 

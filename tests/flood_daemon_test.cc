@@ -26,6 +26,7 @@
 #include <thread>
 
 #include "service/io/lcm_bus.h"
+#include "tests/child_process.h"
 #include "tests/daemon_test_util.h"
 
 extern char** environ;
@@ -33,69 +34,6 @@ extern char** environ;
 using namespace coopdyn;
 using namespace coopdyn::daemon_test;
 using namespace std::chrono_literals;
-
-namespace {
-
-std::string tmp_path(const std::string& what) {
-  return (::testing::TempDir().empty() ? std::string("/tmp/") : ::testing::TempDir()) + "coopdynd_flood_" +
-         std::to_string(getpid()) + "_" + what;
-}
-std::string slurp(const std::string& p) {
-  std::ifstream f(p);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
-
-// The daemon as a child process, stdout and stderr to files.
-struct Child {
-  pid_t pid = -1;
-  std::string out, err;
-  Child(const std::vector<std::string>& argv, const std::string& name) : out(tmp_path(name + ".out")), err(tmp_path(name + ".err")) {
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_addopen(&fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    std::vector<char*> args;
-    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    if (posix_spawn(&pid, args[0], &fa, nullptr, args.data(), environ) != 0) pid = -1;
-    posix_spawn_file_actions_destroy(&fa);
-  }
-  int wait(std::chrono::milliseconds limit = 20s) {  // exit code, or -signal
-    const auto end = std::chrono::steady_clock::now() + limit;
-    int st = 0;
-    while (waitpid(pid, &st, WNOHANG) != pid) {
-      if (std::chrono::steady_clock::now() > end) {
-        kill(pid, SIGKILL);
-        waitpid(pid, &st, 0);
-        ADD_FAILURE() << "child did not exit in time";
-        break;
-      }
-      std::this_thread::sleep_for(10ms);
-    }
-    pid = -1;
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -WTERMSIG(st);
-  }
-  ~Child() {
-    if (pid > 0) {
-      kill(pid, SIGKILL);
-      waitpid(pid, nullptr, 0);
-    }
-    std::remove(out.c_str());
-    std::remove(err.c_str());
-  }
-};
-
-std::unique_ptr<io::LcmBus> try_bus(const std::string& url) {
-  try {
-    return std::make_unique<io::LcmBus>(url);
-  } catch (const std::exception&) {
-    return nullptr;
-  }
-}
-
-}  // namespace
 
 namespace {
 struct FloodFigures {

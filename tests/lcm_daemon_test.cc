@@ -25,6 +25,7 @@
 
 #include "service/io/lcm_bus.h"
 #include "service/runtime/service_loop.h"
+#include "tests/child_process.h"
 #include "tests/daemon_test_util.h"
 
 extern char** environ;
@@ -34,61 +35,6 @@ using namespace coopdyn::daemon_test;
 using namespace std::chrono_literals;
 
 namespace {
-
-std::string tmp_path(const std::string& what) {
-  return (::testing::TempDir().empty() ? std::string("/tmp/") : ::testing::TempDir()) + "coopdynd_test_" +
-         std::to_string(getpid()) + "_" + what;
-}
-std::string slurp(const std::string& p) {
-  std::ifstream f(p);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
-
-// A child process with stdout and stderr to files.
-struct Child {
-  pid_t pid = -1;
-  std::string out, err;
-  Child(const std::vector<std::string>& argv, const std::string& name) : out(tmp_path(name + ".out")), err(tmp_path(name + ".err")) {
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_addopen(&fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    std::vector<char*> args;
-    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    if (posix_spawn(&pid, args[0], &fa, nullptr, args.data(), environ) != 0) pid = -1;
-    posix_spawn_file_actions_destroy(&fa);
-  }
-  // exit code, or -signal; waits at most `limit` and then kills
-  int wait(std::chrono::milliseconds limit = 20s) {
-    const auto end = std::chrono::steady_clock::now() + limit;
-    int st = 0;
-    while (true) {
-      const pid_t r = waitpid(pid, &st, WNOHANG);
-      if (r == pid) break;
-      if (std::chrono::steady_clock::now() > end) {
-        kill(pid, SIGKILL);
-        waitpid(pid, &st, 0);
-        ADD_FAILURE() << "child did not exit in time";
-        break;
-      }
-      std::this_thread::sleep_for(10ms);
-    }
-    pid = -1;
-    return WIFEXITED(st) ? WEXITSTATUS(st) : -WTERMSIG(st);
-  }
-  void signal(int s) { kill(pid, s); }
-  ~Child() {
-    if (pid > 0) {
-      kill(pid, SIGKILL);
-      waitpid(pid, nullptr, 0);
-    }
-    std::remove(out.c_str());
-    std::remove(err.c_str());
-  }
-};
 
 // A multicast URL private to this test process (ttl=0: never leaves the machine).
 std::string private_udpm_url(int offset) {
@@ -125,14 +71,6 @@ struct OutputSink {
     return outs;
   }
 };
-
-std::unique_ptr<io::LcmBus> try_bus(const std::string& url) {
-  try {
-    return std::make_unique<io::LcmBus>(url);
-  } catch (const std::exception& e) {
-    return nullptr;
-  }
-}
 
 // Runs `coopdyn eval --state` on the (q, v, tau) an output carries and compares the wrenches of
 // its JSON with the output's: the daemon and the offline command agree.

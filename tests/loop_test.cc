@@ -650,7 +650,6 @@ TEST(ServiceLoop, ControlPausesResumesResetsAndAcknowledges) {
   EXPECT_EQ(r.bus.last_output().control_result, static_cast<int>(io::ControlResult::kOk));
   q[2] += 0.1;  // the load 10 cm off its grasps
   ASSERT_EQ(control(r, 5, io::ControlAction::kResetToState, t, &q, &v), Offer::kAccepted);
-  const Eigen::VectorXd before = r.loop->q();
   r.loop->tick(t += kMs);
   o = r.bus.last_output();
   EXPECT_EQ(o.control_seq, 5);
@@ -659,7 +658,6 @@ TEST(ServiceLoop, ControlPausesResumesResetsAndAcknowledges) {
   // a control with a state of the wrong size is a malformed message
   Eigen::VectorXd shortq = r.sys.q0.head(5);
   EXPECT_EQ(control(r, 6, io::ControlAction::kResetToState, t, &shortq, &v), Offer::kRejected);
-  (void)before;
 }
 
 TEST(ServiceLoop, ClearFaultLeavesALatchedFailureWithoutARestart) {
