@@ -229,13 +229,17 @@ int cmd_send(const Args& a) {
     next += period;
   }
   if (measure || check) std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the last outputs
-  if (check) {  // and a stats message after them (loop_stats_t comes every stats_period_s, 1 s by default)
-    long long n0;
+  if (check) {
+    // and a stats message after them: loop_stats_t comes every stats_period_s of ticks (1 s by default,
+    // longer in wall time when a loaded machine runs the loop below its rate), so wait up to 5 s for
+    // one, but not at all when no daemon answered.
+    long long n0, outs;
     {
       std::lock_guard<std::mutex> lk(mu);
       n0 = stats_n;
+      outs = outputs;
     }
-    for (int k = 0; k < 150; ++k) {
+    for (int k = 0; outs > 0 && k < 500; ++k) {
       {
         std::lock_guard<std::mutex> lk(mu);
         if (stats_n > n0) break;
