@@ -10,6 +10,9 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/QR>
+
+#include "service/algorithms/kinematics.h"
 #include "service/dynamics/constrained_dynamics.h"
 #include "service/dynamics/wrenches.h"
 #include "service/io/bus.h"
@@ -92,6 +95,17 @@ inline Eigen::VectorXd vec(const std::vector<double>& x) {
   return Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<Eigen::Index>(x.size()));
 }
 inline std::vector<double> stdvec(const Eigen::VectorXd& x) { return std::vector<double>(x.data(), x.data() + x.size()); }
+
+// v projected onto the velocities that keep the constraints at q (G(q) v = 0): a measured state
+// that closes (the daemon refuses one that does not, REASON_CLOSURE).
+inline Eigen::VectorXd closing_velocity(const System& sys, const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
+  if (sys.constraints.rows == 0) return v;
+  Workspace ws(sys);
+  forward_kinematics(sys.model, ws.data, q, v);
+  constraint_rows(sys.model, ws.data, sys.constraints, q, v, ws.cd);
+  Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(ws.cd.G);
+  return v - cod.solve(ws.cd.G * v);
+}
 
 // Asserts that a published output equals the offline evaluate() at the (q, v, tau) it carries:
 // same wrenches (every output of the scene), stresses, accelerations and diagnostics.

@@ -222,6 +222,7 @@ TEST_F(DaemonProcess, UdpmEstimateMeasuredStateInWrenchesOut) {
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
   Eigen::VectorXd v = sys_.v0;
   for (int i = 0; i < v.size(); ++i) v[i] = 0.05 * std::sin(i + 1.0);
+  v = closing_velocity(sys_, sys_.q0, v);
   const Eigen::VectorXd tau = some_torque(sys_, 4);
   for (int seq = 1; seq <= 10; ++seq) {
     const auto b = io::encode_measured_state(io::wall_us(), seq, sys_.model.q_names, stdvec(sys_.q0),

@@ -32,7 +32,29 @@ TEST(LoopNoAllocation, TickOfEverySceneBothModes) {
       runtime::ServiceLoop loop(sys, cfg, bus);
       const Eigen::VectorXd tau = some_torque(sys, 1, 0.5);
       const auto cmd = [&](int64_t seq) { return io::encode_torque_command(runtime::realtime_us(), seq, {}, stdvec(tau)); };
+      // full states, joints-only states (the load's pose and twist fitted: state_fit.h) and states
+      // that do not close (refused with REASON_CLOSURE), in turn
+      const StateFitPlan plan = plan_state_fit(sys);
+      std::vector<std::string> jq, jv;
+      std::vector<double> jqv, jvv, jtau;
+      for (int i = 0; i < sys.model.nq(); ++i)
+        if (std::find(plan.fit_q.begin(), plan.fit_q.end(), i) == plan.fit_q.end()) {
+          jq.push_back(sys.model.q_names[i]);
+          jqv.push_back(sys.q0[i]);
+        }
+      for (int i = 0; i < sys.model.nv(); ++i)
+        if (std::find(plan.fit_v.begin(), plan.fit_v.end(), i) == plan.fit_v.end()) {
+          jv.push_back(sys.model.v_names[i]);
+          jvv.push_back(sys.v0[i]);
+          jtau.push_back(tau[i]);
+        }
+      Eigen::VectorXd q_far = sys.q0;
+      if (!plan.fit_q.empty()) q_far[plan.fit_q[0]] += 1.0;
       const auto state = [&](int64_t seq) {
+        if (seq % 3 == 1 && plan.q_fittable && plan.v_fittable)
+          return io::encode_measured_state(runtime::realtime_us(), seq, jq, jqv, jv, jvv, jtau);
+        if (seq % 3 == 2)
+          return io::encode_measured_state(runtime::realtime_us(), seq, {}, stdvec(q_far), {}, stdvec(sys.v0), stdvec(tau));
         return io::encode_measured_state(runtime::realtime_us(), seq, {}, stdvec(sys.q0), {}, stdvec(sys.v0), stdvec(tau));
       };
       long allocations = 0;
@@ -53,6 +75,7 @@ TEST(LoopNoAllocation, TickOfEverySceneBothModes) {
       EXPECT_GE(loop.expirations(), 2);
       EXPECT_EQ(bus.count("COOPDYN_OUTPUT"), 3000);
       EXPECT_EQ(bus.count("COOPDYN_STATS"), 60);
+      if (mode == runtime::ServiceMode::kEstimate && !plan.fit_q.empty()) EXPECT_GT(loop.closure_rejections(), 0);
       runtime::Event e;
       while (loop.events().pop(&e)) {
       }

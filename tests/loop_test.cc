@@ -153,6 +153,7 @@ TEST(ServiceLoop, EstimateOutputsEqualOfflineEvaluate) {
     std::normal_distribution<double> n01(0, 0.3);
     Eigen::VectorXd v = s.v0;
     for (int i = 0; i < v.size(); ++i) v[i] += n01(rng);
+    v = closing_velocity(s, s.q0, v);
     const Eigen::VectorXd tau = some_torque(s, 5);
     std::vector<std::string> qn(s.model.q_names.rbegin(), s.model.q_names.rend());
     std::vector<std::string> vn(s.model.v_names.rbegin(), s.model.v_names.rend());
@@ -764,4 +765,165 @@ TEST(ServiceLoop, ForceOnTheUnactuatedLoadIsRejectedNeverAppliedAndTheLoopRuns) 
   evaluate(a.sys, ws0, a.sys.q0, a.sys.v0, good);
   evaluate(a.sys, ws1, a.sys.q0, a.sys.v0, push);
   EXPECT_GT(std::abs(ws1.vdot[vx] - ws0.vdot[vx]), 1e-3) << "the platform force acts on the load";
+}
+
+// ---------------------------------------------------------------------------------------------
+// Estimation from joint measurements alone (issue 11): a measured state with the arms' joints only.
+namespace {
+// the joint names and values of (q, v, tau) without the floating bodies' coordinates
+struct JointsOnly {
+  std::vector<std::string> qn, vn;
+  std::vector<double> q, v, tau;
+};
+JointsOnly joints_only(const System& s, const Eigen::VectorXd& q, const Eigen::VectorXd& v, const Eigen::VectorXd& tau) {
+  const StateFitPlan p = plan_state_fit(s);
+  JointsOnly j;
+  for (int i = 0; i < s.model.nq(); ++i)
+    if (std::find(p.fit_q.begin(), p.fit_q.end(), i) == p.fit_q.end()) {
+      j.qn.push_back(s.model.q_names[i]);
+      j.q.push_back(q[i]);
+    }
+  for (int i = 0; i < s.model.nv(); ++i)
+    if (std::find(p.fit_v.begin(), p.fit_v.end(), i) == p.fit_v.end()) {
+      j.vn.push_back(s.model.v_names[i]);
+      j.v.push_back(v[i]);
+      j.tau.push_back(tau[i]);
+    }
+  return j;
+}
+}  // namespace
+
+// Along a simulated trajectory (each state closed to round-off by projection), the output from the
+// arms' joints alone equals the output from the full state: the same fitted load pose and twist,
+// the same wrenches, stresses and accelerations; the residual is at round-off.
+TEST(ServiceLoop, EstimateFromJointsOnlyEqualsFullState) {
+  for (const char* scene : {"two_puma_load", "planar_arms_load"}) {
+    SCOPED_TRACE(scene);
+    Rig full(scene, runtime::ServiceMode::kEstimate), joints(scene, runtime::ServiceMode::kEstimate);
+    System proj = full.sys;
+    proj.options.projection_iterations = 20;
+    Stepper sim(full.sys), pst(proj);
+    Eigen::VectorXd q = full.sys.q0, v = full.sys.v0;
+    const Eigen::VectorXd tau = some_torque(full.sys, 7, 1.0);
+    const StateFitPlan plan = plan_state_fit(full.sys);
+    for (int k = 1; k <= 30; ++k) {
+      for (int n = 0; n < 10; ++n) step(full.sys, sim, runtime::ServiceConfig().integrator, 1e-3, tau, q, v);
+      Eigen::VectorXd qc = q, vc = v;
+      project_state(proj, pst, qc, vc);
+      const auto bf = io::encode_measured_state(runtime::realtime_us(), k, full.sys.model.q_names, stdvec(qc),
+                                                full.sys.model.v_names, stdvec(vc), stdvec(tau));
+      const JointsOnly j = joints_only(full.sys, qc, vc, tau);
+      const auto bj = io::encode_measured_state(runtime::realtime_us(), k, j.qn, j.q, j.vn, j.v, j.tau);
+      ASSERT_EQ(full.loop->states().offer(bf.data(), static_cast<int>(bf.size()), k * kMs), Offer::kAccepted);
+      io::Reject why = io::Reject::kNone;
+      ASSERT_EQ(joints.loop->states().offer(bj.data(), static_cast<int>(bj.size()), k * kMs, &why), Offer::kAccepted)
+          << io::reject_name(why);
+      full.loop->tick(k * kMs);
+      joints.loop->tick(k * kMs);
+      const io::DecodedOutput of = full.bus.last_output(), oj = joints.bus.last_output();
+      ASSERT_EQ(oj.status, of.status) << "reason " << oj.reason;
+      ASSERT_NE(oj.status, static_cast<int>(Status::kError));
+      EXPECT_EQ(of.state_fitted, 0);
+      EXPECT_EQ(oj.state_fitted, 3);
+      EXPECT_GE(oj.fit_iterations, 1);
+      for (int c = 0; c < 4; ++c) EXPECT_LT(oj.closure[c], 1e-10) << "closure kind " << c;
+      for (size_t i = 0; i < of.q.size(); ++i) ASSERT_NEAR(oj.q[i], of.q[i], 1e-11) << of.q_names[i] << " at k " << k;
+      for (size_t i = 0; i < of.v.size(); ++i) ASSERT_NEAR(oj.v[i], of.v[i], 1e-10) << of.v_names[i] << " at k " << k;
+      for (size_t t = 0; t < of.wrench.size(); ++t)
+        for (int c = 0; c < 6; ++c)
+          EXPECT_NEAR(oj.wrench[t][c], of.wrench[t][c], 1e-8 * (1 + std::abs(of.wrench[t][c]))) << of.wrench_names[t];
+      for (size_t i = 0; i < of.vdot.size(); ++i) EXPECT_NEAR(oj.vdot[i], of.vdot[i], 1e-7 * (1 + std::abs(of.vdot[i])));
+      expect_matches_offline(joints.sys, oj);
+    }
+    (void)plan;
+  }
+}
+
+// A state that does not close (the load 1 m from where the arms hold it; a joint off by 0.1 rad)
+// is an error with REASON_CLOSURE, naming the constraint and the residual; never OK with
+// meaningless wrenches. The next state that closes is OK again.
+TEST(ServiceLoop, EstimateRefusesAStateThatDoesNotClose) {
+  Rig r("two_puma_load", runtime::ServiceMode::kEstimate);
+  const System& s = r.sys;
+  const StateFitPlan plan = plan_state_fit(s);
+  const Eigen::VectorXd tau = Eigen::VectorXd::Zero(s.model.nv());
+  Eigen::VectorXd q = s.q0;
+  q[plan.fit_q[0]] += 1.0;  // load.x one metre off
+  auto b = io::encode_measured_state(runtime::realtime_us(), 1, s.model.q_names, stdvec(q), s.model.v_names, stdvec(s.v0), stdvec(tau));
+  ASSERT_EQ(r.loop->states().offer(b.data(), static_cast<int>(b.size()), kMs), Offer::kAccepted);
+  r.loop->tick(kMs);
+  io::DecodedOutput o = r.bus.last_output();
+  EXPECT_EQ(o.status, static_cast<int>(Status::kError));
+  EXPECT_EQ(o.reason, io::kReasonClosure);
+  EXPECT_NEAR(o.closure[kClosurePosition], 1.0, 0.5) << "about a metre (in a tip frame's axes)";
+  ASSERT_GE(o.closure_constraint[kClosurePosition], 0);
+  EXPECT_NE(o.constraint_names[o.closure_constraint[kClosurePosition]].find("base"), std::string::npos)
+      << o.constraint_names[o.closure_constraint[kClosurePosition]];
+  for (const auto& w : o.wrench)
+    for (double x : w) EXPECT_EQ(x, 0.0) << "no wrenches from a state that does not close";
+  EXPECT_EQ(r.loop->closure_rejections(), 1);
+  // joints only with one joint 0.1 rad off: the fit cannot close both arms
+  JointsOnly j = joints_only(s, s.q0, s.v0, tau);
+  j.q[0] += 0.1;
+  b = io::encode_measured_state(runtime::realtime_us(), 2, j.qn, j.q, j.vn, j.v, j.tau);
+  ASSERT_EQ(r.loop->states().offer(b.data(), static_cast<int>(b.size()), 2 * kMs), Offer::kAccepted);
+  r.loop->tick(2 * kMs);
+  o = r.bus.last_output();
+  EXPECT_EQ(o.reason, io::kReasonClosure);
+  EXPECT_EQ(o.state_fitted, 3);
+  EXPECT_GT(std::max(o.closure[kClosurePosition] / r.cfg.closure_tolerance[0], o.closure[kClosureOrientation] / r.cfg.closure_tolerance[1]), 1.0);
+  // the true joints: OK again
+  j = joints_only(s, s.q0, s.v0, tau);
+  b = io::encode_measured_state(runtime::realtime_us(), 3, j.qn, j.q, j.vn, j.v, j.tau);
+  ASSERT_EQ(r.loop->states().offer(b.data(), static_cast<int>(b.size()), 3 * kMs), Offer::kAccepted);
+  r.loop->tick(3 * kMs);
+  o = r.bus.last_output();
+  EXPECT_NE(o.status, static_cast<int>(Status::kError)) << o.reason;
+  EXPECT_LT(o.closure[kClosurePosition], 1e-9);
+  // the log events: one when it opened, one when it closed again
+  int open = 0, back = 0;
+  runtime::Event e;
+  while (r.loop->events().pop(&e)) {
+    open += e.code == runtime::EventCode::kClosureOpen;
+    back += e.code == runtime::EventCode::kClosureBack;
+  }
+  EXPECT_EQ(open, 1);
+  EXPECT_EQ(back, 1);
+}
+
+// What a state may omit: all of the floating bodies' coordinates (where the constraints fix them)
+// or none; pseudo-joints. Anything else is refused as incomplete, and counted.
+TEST(ServiceLoop, IncompleteStatesAreRefusedWithTheirReason) {
+  auto offer = [](Rig& r, std::vector<std::string> qn, std::vector<double> q, std::vector<std::string> vn, std::vector<double> v) {
+    const std::vector<double> tau(v.size(), 0.0);
+    const auto b = io::encode_measured_state(runtime::realtime_us(), 1, qn, q, vn, v, tau);
+    io::Reject why = io::Reject::kNone;
+    r.loop->states().offer(b.data(), static_cast<int>(b.size()), kMs, &why);
+    return why;
+  };
+  {
+    Rig r("two_puma_load", runtime::ServiceMode::kEstimate);
+    const System& s = r.sys;
+    const JointsOnly j = joints_only(s, s.q0, s.v0, Eigen::VectorXd::Zero(s.model.nv()));
+    // the load's x given, the rest of its pose omitted: refused
+    std::vector<std::string> qn = j.qn;
+    std::vector<double> q = j.q;
+    qn.push_back("load.x");
+    q.push_back(s.q0[0]);
+    EXPECT_EQ(offer(r, qn, q, j.vn, j.v), io::Reject::kIncomplete);
+    // an arm joint missing: refused
+    EXPECT_EQ(offer(r, std::vector<std::string>(j.qn.begin() + 1, j.qn.end()), std::vector<double>(j.q.begin() + 1, j.q.end()), j.vn, j.v),
+              io::Reject::kIncomplete);
+    EXPECT_EQ(r.loop->states().counters().by_reason[static_cast<int>(io::Reject::kIncomplete)].load(), 2);
+    EXPECT_STREQ(io::reject_name(io::Reject::kIncomplete), "incomplete state");
+    // positions fitted, velocities given in full: accepted
+    EXPECT_EQ(offer(r, j.qn, j.q, s.model.v_names, stdvec(s.v0)), io::Reject::kNone);
+  }
+  {
+    // a vehicle cannot omit its chassis pose (the wheels do not fix it)
+    Rig r("two_wheel_vehicle", runtime::ServiceMode::kEstimate);
+    const System& s = r.sys;
+    const JointsOnly j = joints_only(s, s.q0, s.v0, Eigen::VectorXd::Zero(s.model.nv()));
+    EXPECT_EQ(offer(r, j.qn, j.q, s.model.v_names, stdvec(s.v0)), io::Reject::kIncomplete);
+  }
 }

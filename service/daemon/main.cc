@@ -59,7 +59,7 @@ bool parse_double(const char* s, double* out) {
   return end && *end == 0 && end != s && std::isfinite(*out);
 }
 
-void log_event(const coopdyn::runtime::Event& e) {
+void log_event(const coopdyn::System& sys, const coopdyn::runtime::Event& e) {
   using coopdyn::runtime::EventCode;
   switch (e.code) {
     case EventCode::kCommandExpired:
@@ -78,6 +78,18 @@ void log_event(const coopdyn::runtime::Event& e) {
       spdlog::info("control seq {}: {}: {}", e.a, coopdyn::io::control_action_name(static_cast<coopdyn::io::ControlAction>(e.b / 16)),
                    coopdyn::io::control_result_name(static_cast<coopdyn::io::ControlResult>(e.b % 16 - 1)));
       break;
+    case EventCode::kClosureOpen: {
+      static const char* const kinds[4] = {"position", "orientation", "linear velocity", "angular velocity"};
+      static const char* const units[4] = {"m", "rad", "m/s", "rad/s"};
+      const int kind = static_cast<int>(e.b / 65536), spec = static_cast<int>(e.b % 65536) - 1;
+      const auto& specs = sys.constraints.specs;
+      spdlog::warn("measured state seq {} does not close the constraints: {} residual {:.3g} {} at '{}' (above "
+                   "closure_tolerance); publishing error status (REASON_CLOSURE) until a state closes",
+                   e.a, kinds[kind & 3], e.x, units[kind & 3],
+                   spec >= 0 && spec < static_cast<int>(specs.size()) ? specs[spec].name : std::string("?"));
+      break;
+    }
+    case EventCode::kClosureBack: spdlog::info("measured states close the constraints again (seq {})", e.a); break;
     case EventCode::kOverrun: break;  // aggregated by OverrunReport
   }
 }
@@ -300,7 +312,7 @@ int main(int argc, char** argv) {
   while (!g_stop.load()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     while (loop.events().pop(&e)) {
-      log_event(e);
+      log_event(sys, e);
       overruns.add(e);
     }
     overruns.flush(false);
@@ -313,7 +325,7 @@ int main(int argc, char** argv) {
   rx->stop();
   report_rejections(true);
   while (loop.events().pop(&e)) {
-    log_event(e);
+    log_event(sys, e);
     overruns.add(e);
   }
   overruns.flush(true);

@@ -10,6 +10,7 @@
 #include "coopdyn/measured_state_t.hpp"
 #include "coopdyn/output_t.hpp"
 #include "coopdyn/torque_command_t.hpp"
+#include "service/dynamics/state_fit.h"
 #include "service/io/wire.h"
 
 namespace coopdyn::io {
@@ -33,7 +34,7 @@ static_assert(static_cast<int>(WrenchKind::kTip) == coopdyn::output_t::KIND_TIP,
 static_assert(static_cast<int>(WrenchKind::kAxle) == coopdyn::output_t::KIND_AXLE, "wrench kinds");
 static_assert(static_cast<int>(WrenchKind::kJoint) == coopdyn::output_t::KIND_JOINT, "wrench kinds");
 
-static_assert(static_cast<int>(Reject::kUnactuated) + 1 == kRejectKinds, "kRejectKinds counts every Reject");
+static_assert(static_cast<int>(Reject::kIncomplete) + 1 == kRejectKinds, "kRejectKinds counts every Reject");
 
 const char* reject_name(Reject r) {
   switch (r) {
@@ -47,6 +48,7 @@ const char* reject_name(Reject r) {
     case Reject::kStale: return "stale utime";
     case Reject::kFuture: return "utime in the future";
     case Reject::kUnactuated: return "force on an unactuated DOF";
+    case Reject::kIncomplete: return "incomplete state";
   }
   return "?";
 }
@@ -55,6 +57,8 @@ static_assert(static_cast<int>(ControlAction::kClearFault) == coopdyn::control_t
 static_assert(static_cast<int>(ControlAction::kResetToState) == coopdyn::control_t::ACTION_RESET_TO_STATE, "control actions");
 static_assert(static_cast<int>(ControlResult::kNotApplicable) == coopdyn::output_t::CONTROL_NOT_APPLICABLE, "control results");
 static_assert(static_cast<int>(ControlResult::kNone) == coopdyn::output_t::CONTROL_NONE, "control results");
+static_assert(kReasonClosure == coopdyn::output_t::REASON_CLOSURE, "reason codes");
+static_assert(kClosureAngularVelocity == coopdyn::output_t::CLOSURE_ANGULAR_VELOCITY, "closure kinds");
 
 const char* control_action_name(ControlAction a) {
   switch (a) {
@@ -173,21 +177,53 @@ Reject CommandDecoder::decode(const void* data, int len, CommandSlot& out) {
 // ---------------------------------------------------------------------------------------------
 struct StateDecoder::Impl {
   const System& sys;
+  StateFitPlan plan;
   NameMap q_index, v_index;
   std::vector<unsigned char> seen_q, seen_v;
+  std::vector<unsigned char> fit_q_mask, fit_v_mask, pseudo_q_mask, pseudo_v_mask;
   Eigen::VectorXd tmp_tau;
   coopdyn::measured_state_t msg;
   explicit Impl(const System& s)
       : sys(s),
+        plan(plan_state_fit(s)),
         q_index(index_of(s.model.q_names)),
         v_index(index_of(s.model.v_names)),
         seen_q(s.model.nq()),
         seen_v(s.model.nv()),
-        tmp_tau(s.model.nv()) {}
+        fit_q_mask(s.model.nq(), 0),
+        fit_v_mask(s.model.nv(), 0),
+        pseudo_q_mask(s.model.nq(), 0),
+        pseudo_v_mask(s.model.nv(), 0),
+        tmp_tau(s.model.nv()) {
+    for (int i : plan.fit_q) fit_q_mask[i] = 1;
+    for (int i : plan.fit_v) fit_v_mask[i] = 1;
+    for (int i : plan.pseudo_q) pseudo_q_mask[i] = 1;
+    for (int i : plan.pseudo_v) pseudo_v_mask[i] = 1;
+  }
+  // After map_named with require_all = false: the coordinates not seen must be pseudo-joints or all
+  // of the floating bodies' (and fittable). *fit says whether the floating ones were omitted.
+  Reject check_omitted(const std::vector<unsigned char>& seen, const std::vector<unsigned char>& fit_mask,
+                       const std::vector<unsigned char>& pseudo_mask, bool fittable, const std::vector<int>& fit_idx,
+                       bool* fit) const {
+    int missing_fit = 0;
+    for (size_t i = 0; i < seen.size(); ++i) {
+      if (seen[i]) continue;
+      if (fit_mask[i]) ++missing_fit;
+      else if (!pseudo_mask[i]) return Reject::kIncomplete;
+    }
+    if (missing_fit == 0) {
+      *fit = false;
+      return Reject::kNone;
+    }
+    if (missing_fit != static_cast<int>(fit_idx.size()) || !fittable) return Reject::kIncomplete;
+    *fit = true;
+    return Reject::kNone;
+  }
 };
 
 StateDecoder::StateDecoder(const System& sys) : impl_(new Impl(sys)) {}
 StateDecoder::~StateDecoder() = default;
+const StateFitPlan& StateDecoder::plan() const { return impl_->plan; }
 
 Reject StateDecoder::decode(const void* data, int len, StateSlot& out) {
   Impl& m = *impl_;
@@ -205,13 +241,27 @@ Reject StateDecoder::decode(const void* data, int len, StateSlot& out) {
   } catch (...) {
     return Reject::kDecode;
   }
-  // a state must be complete: every coordinate given
-  Reject rj = map_named(m.q_index, m.msg.q_names, m.msg.q.data(), m.msg.num_q, nq, m.seen_q, 0.0, out.q, true);
+  // Without names a state is complete (the scene's order); with names it may omit what the daemon
+  // can fit (the floating bodies' coordinates) or knows (pseudo-joints, locked at q0).
+  Reject rj = map_named(m.q_index, m.msg.q_names, m.msg.q.data(), m.msg.num_q, nq, m.seen_q, 0.0, out.q, false);
   if (rj != Reject::kNone) return rj;
-  rj = map_named(m.v_index, m.msg.v_names, m.msg.v.data(), m.msg.num_v, nv, m.seen_v, 0.0, out.v, true);
+  rj = map_named(m.v_index, m.msg.v_names, m.msg.v.data(), m.msg.num_v, nv, m.seen_v, 0.0, out.v, false);
   if (rj != Reject::kNone) return rj;
-  rj = map_named(m.v_index, m.msg.v_names, m.msg.tau.data(), m.msg.num_v, nv, m.seen_v, 0.0, out.tau, true);
+  rj = map_named(m.v_index, m.msg.v_names, m.msg.tau.data(), m.msg.num_v, nv, m.seen_v, 0.0, out.tau, false);
   if (rj != Reject::kNone) return rj;
+  out.fit_q = out.fit_v = false;
+  if (!m.msg.q_names.empty()) {
+    rj = m.check_omitted(m.seen_q, m.fit_q_mask, m.pseudo_q_mask, m.plan.q_fittable, m.plan.fit_q, &out.fit_q);
+    if (rj != Reject::kNone) return rj;
+    for (int i : m.plan.pseudo_q)
+      if (!m.seen_q[i]) out.q[i] = m.sys.q0[i];
+  }
+  if (!m.msg.v_names.empty()) {
+    rj = m.check_omitted(m.seen_v, m.fit_v_mask, m.pseudo_v_mask, m.plan.v_fittable, m.plan.fit_v, &out.fit_v);
+    if (rj != Reject::kNone) return rj;
+    for (int i : m.plan.pseudo_v)
+      if (!m.seen_v[i]) out.v[i] = out.tau[i] = 0.0;
+  }
   out.utime = m.msg.utime;
   out.seq = m.msg.seq;
   return Reject::kNone;
@@ -297,6 +347,9 @@ struct OutputEncoder::Impl {
     msg.input_seq = msg.input_utime = -1;
     msg.control_seq = -1;
     msg.control_action = msg.control_result = -1;
+    msg.num_constraints = static_cast<int32_t>(s.constraints.specs.size());
+    for (const ConstraintSpec& c : s.constraints.specs) msg.constraint_names.push_back(c.name);
+    for (int k = 0; k < 4; ++k) msg.closure_constraint[k] = -1;
     size = msg.getEncodedSize();
   }
   void zero_dynamics() {
@@ -341,6 +394,14 @@ int OutputEncoder::encode(const OutputFrame& f, uint8_t* buf, int cap, bool* san
   o.control_seq = f.control_seq;
   o.control_action = f.control_seq >= 0 ? static_cast<int8_t>(f.control_action) : int8_t{-1};
   o.control_result = static_cast<int8_t>(f.control_result);
+  o.state_fitted = static_cast<int8_t>(f.state_fitted);
+  o.fit_iterations = f.fit_iterations;
+  for (int k = 0; k < 4; ++k) {
+    // a NaN residual (a NaN state) is published as -1: "not available", never as NaN
+    const double c = f.closure ? f.closure->value[k] : 0.0;
+    o.closure[k] = std::isfinite(c) ? c : -1.0;
+    o.closure_constraint[k] = static_cast<int16_t>(f.closure ? f.closure->spec[k] : -1);
+  }
   bool finite = std::isfinite(f.sim_time);
   finite = copy_finite(f.q, o.q) && finite;
   finite = copy_finite(f.v, o.v) && finite;

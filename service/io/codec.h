@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "service/dynamics/constrained_dynamics.h"
+#include "service/dynamics/state_fit.h"
 #include "service/dynamics/system.h"
 #include "service/dynamics/wrenches.h"
 #include "service/io/messages.h"
@@ -40,6 +41,7 @@ class StateDecoder {
   explicit StateDecoder(const System& sys);
   ~StateDecoder();
   Reject decode(const void* data, int len, StateSlot& out);  // measured_state_t, as above
+  const StateFitPlan& plan() const;  // what a state may omit (state_fit.h)
 
  private:
   struct Impl;
@@ -70,6 +72,9 @@ struct OutputFrame {
   int64_t control_seq = -1;
   ControlAction control_action = ControlAction::kReset;
   ControlResult control_result = ControlResult::kNone;
+  uint8_t state_fitted = 0;           // bit 0 positions, bit 1 velocities fitted (state_fit.h)
+  int fit_iterations = 0;
+  const Closure* closure = nullptr;  // closure residual of the state (published whatever the status)
   bool valid = false;
   const Eigen::VectorXd* q = nullptr;    // (nq) state the evaluation used
   const Eigen::VectorXd* v = nullptr;    // (nv)

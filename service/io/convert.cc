@@ -107,6 +107,13 @@ bool decode_output(const void* data, int len, DecodedOutput* out) {
   out->control_seq = m.control_seq;
   out->control_action = m.control_action;
   out->control_result = m.control_result;
+  out->state_fitted = m.state_fitted;
+  out->fit_iterations = m.fit_iterations;
+  for (int k = 0; k < 4; ++k) {
+    out->closure[k] = m.closure[k];
+    out->closure_constraint[k] = m.closure_constraint[k];
+  }
+  out->constraint_names = m.constraint_names;
   out->rows = m.rows;
   out->rank = m.rank;
   out->indeterminate = m.indeterminate;
@@ -224,7 +231,9 @@ bool to_csv(MessageType t, const void* data, int len, std::string* header, std::
       if (!decode_msg(data, len, &m)) return false;
       *header =
           "utime,tick,sim_time,mode,status,reason,input,input_seq,input_utime,paused,control_seq,control_action,"
-          "control_result,rows,rank,indeterminate,condition,residual";
+          "control_result,rows,rank,indeterminate,condition,residual,state_fitted,fit_iterations,closure_position_m,"
+          "closure_orientation_rad,closure_linear_velocity_mps,closure_angular_velocity_radps,closure_position_at,"
+          "closure_orientation_at,closure_linear_velocity_at,closure_angular_velocity_at";
       inum(row, m.utime);
       inum(row, m.tick);
       num(row, m.sim_time);
@@ -243,6 +252,14 @@ bool to_csv(MessageType t, const void* data, int len, std::string* header, std::
       inum(row, m.indeterminate);
       num(row, m.condition);
       num(row, m.residual);
+      inum(row, m.state_fitted);
+      inum(row, m.fit_iterations);
+      for (int k = 0; k < 4; ++k) num(row, m.closure[k]);
+      for (int k = 0; k < 4; ++k) {  // the constraint's name, empty if none
+        const int c = m.closure_constraint[k];
+        *row += ",";
+        if (c >= 0 && c < m.num_constraints) *row += m.constraint_names[c];
+      }
       for (int i = 0; i < m.num_wrenches; ++i) {
         for (int k = 0; k < 6; ++k) {
           *header += "," + m.wrench_names[i] + "." + comp[k];

@@ -24,8 +24,11 @@ enum class Reject {
   kFuture,         // utime ahead of the daemon's wall clock by more than max_input_age_ms
   kUnactuated,     // a nonzero force on a DOF the scene does not actuate (tau_limit 0: the load's
                    // platform DOFs, a floating root, a pseudo-joint, unless declared actuated)
+  kIncomplete,     // a measured state without coordinates the daemon cannot fit (state_fit.h: only the
+                   // floating bodies' coordinates, all together, where the constraints fix them, and
+                   // pseudo-joints may be omitted)
 };
-constexpr int kRejectKinds = 10;
+constexpr int kRejectKinds = 11;
 const char* reject_name(Reject r);
 
 // A validated torque command, in the scene's velocity order. Sized once (nv).
@@ -44,6 +47,10 @@ struct StateSlot {
   int64_t recv_ns = 0;
   int64_t id = 0;
   Eigen::VectorXd q, v, tau;  // (nq), (nv), (nv)
+  // the floating bodies' positions / velocities were omitted: the loop fits them (state_fit.h); their
+  // entries in q / v are meaningless until then (tau is 0 there); omitted pseudo-joints are already
+  // set to their locked value
+  bool fit_q = false, fit_v = false;
 };
 
 // A validated control request (control_t), sized once (nq, nv for RESET_TO_STATE).
@@ -74,6 +81,7 @@ enum class Input : int8_t {
 const char* input_name(Input i);
 constexpr int16_t kReasonNoState = 100;
 constexpr int16_t kReasonStateStale = 101;
+constexpr int16_t kReasonClosure = 102;  // estimate: the measured state does not close the constraints
 
 // Loop statistics (loop_stats_t).
 struct StatsFrame {
@@ -96,6 +104,10 @@ struct DecodedOutput {
   int paused = 0;
   int64_t control_seq = -1;
   int control_action = -1, control_result = -1;
+  int state_fitted = 0, fit_iterations = 0;
+  std::array<double, 4> closure{{0, 0, 0, 0}};  // position m, orientation rad, linear m/s, angular rad/s
+  std::array<int, 4> closure_constraint{{-1, -1, -1, -1}};
+  std::vector<std::string> constraint_names;
   int rows = 0, rank = 0, indeterminate = 0;
   double condition = 0, residual = 0;
   std::vector<std::string> wrench_names, wrench_frames, wrench_by;

@@ -44,6 +44,11 @@ std::string check_input_age(double ms) {
   return "max_input_age_ms must be off (or 0) or in [" + num(kMinWatchdogMs) + ", " + num(kMaxWatchdogMs) + "] ms, got " +
          num(ms);
 }
+std::string check_closure(const char* name, double x) {
+  if (x > 0 && x <= 1e6) return "";
+  return std::string("closure_tolerance.") + name + " must be in (0, 1e6], got " + num(x);
+}
+
 std::string check_stats_period(double s, double rate_hz) {
   // at least one tick per window (1 / rate_hz, with slack for the rounding of that quotient)
   const double lo = 1.0 / rate_hz;
@@ -129,7 +134,7 @@ ServiceConfig parse(const YAML::Node& root, const Ctx& c) {
   if (!root.IsDefined() || root.IsNull()) return cfg;
   c.keys(root,
          {"rate_hz", "lcm_url", "lcm_url_in", "receive", "channels", "mode", "integrator", "watchdog_ms", "safe_torque",
-          "overrun", "stats_period_s", "realtime", "log_level", "max_input_age_ms"},
+          "overrun", "stats_period_s", "realtime", "log_level", "max_input_age_ms", "closure_tolerance"},
          "the service config");
   cfg.rate_hz = c.get<double>(root, "rate_hz", cfg.rate_hz, "a number (Hz)");
   c.check(root["rate_hz"], check_rate(cfg.rate_hz));
@@ -172,6 +177,14 @@ ServiceConfig parse(const YAML::Node& root, const Ctx& c) {
   else
     cfg.max_input_age_ms = c.get<double>(root, "max_input_age_ms", cfg.max_input_age_ms, "a number (ms) or off");
   c.check(root["max_input_age_ms"], check_input_age(cfg.max_input_age_ms));
+  if (const YAML::Node ct = root["closure_tolerance"]; ct.IsDefined()) {
+    static const char* const names[4] = {"position_m", "orientation_rad", "linear_velocity_mps", "angular_velocity_radps"};
+    c.keys(ct, {names[0], names[1], names[2], names[3]}, "closure_tolerance");
+    for (int k = 0; k < 4; ++k) {
+      cfg.closure_tolerance[k] = c.get<double>(ct, names[k], cfg.closure_tolerance[k], "a number");
+      c.check(ct[names[k]], check_closure(names[k], cfg.closure_tolerance[k]));
+    }
+  }
   if (const YAML::Node st = root["safe_torque"]; st.IsDefined()) {
     c.keys(st, {"policy", "damping"}, "safe_torque");
     const std::string p = c.get<std::string>(st, "policy", "hold", "a string");
@@ -271,6 +284,9 @@ void validate(const ServiceConfig& c) {
         check_channel("output", c.output_channel), check_channel("stats", c.stats_channel)})
     if (!why.empty()) throw ConfigError(why);
   if (!(c.damping >= 0) || !std::isfinite(c.damping)) throw ConfigError("safe_torque.damping must be finite and >= 0");
+  static const char* const names[4] = {"position_m", "orientation_rad", "linear_velocity_mps", "angular_velocity_radps"};
+  for (int k = 0; k < 4; ++k)
+    if (std::string why = check_closure(names[k], c.closure_tolerance[k]); !why.empty()) throw ConfigError(why);
 }
 
 }  // namespace coopdyn::runtime

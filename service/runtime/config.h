@@ -48,6 +48,7 @@ struct RealtimeOptions {
 //   max_catch_up    [0, 1000] ticks
 //   max_input_age_ms  0 (off) or [1, 3600000] ms, like watchdog_ms
 //   realtime.cpu    -1 or [0, CPU_SETSIZE - 1 = 1023]: the bit must exist in a cpu_set_t
+//   closure_tolerance.*  (0, 1e6] in m, rad, m/s, rad/s
 //   receive.queue   [2, 4096] messages; receive.max_message_bytes [256, 4194304] bytes
 //   channel names   1..63 characters (LCM_MAX_CHANNEL_NAME_LENGTH); lcm_url 1..1024 characters
 inline constexpr double kMinRateHz = 1.0, kMaxRateHz = 20000.0;
@@ -80,6 +81,13 @@ struct ServiceConfig {
   // and any LCM sender stamp utime with the wall clock, and 1 s is far above both the delivery
   // time (< 1 ms on one host) and the offset of NTP-synchronized hosts on a LAN (~1 ms).
   double max_input_age_ms = 1000.0;
+  // Estimate mode: the largest closure residual (state_fit.h) a measured state may have for its
+  // wrenches to be published; above, the output is STATUS_ERROR with REASON_CLOSURE and says which
+  // constraint and how far. Order: position m, orientation rad, linear velocity m/s, angular
+  // velocity rad/s. The defaults are a few times what joint encoders, a robot's calibration and
+  // differentiated joint velocities give on a metre-size arm (1e-4 rad of encoder error is 0.1 mm
+  // at 1 m); they flag a wrong joint, a wrong sign, a slipped grasp or a wrong robot file.
+  double closure_tolerance[4] = {5e-3, 2e-2, 5e-2, 2e-1};
   SafeTorque safe_torque = SafeTorque::kHold;
   double damping = 0.0;        // N*m*s/rad (or N*s/m) for kDamping
   OverrunPolicy overrun = OverrunPolicy::kCatchUp;

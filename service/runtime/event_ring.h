@@ -16,6 +16,9 @@ enum class EventCode : int32_t {
   kFault,           // a: reason code, b: tick
   kOverrun,         // a: periods behind, b: tick (first of a burst only)
   kControl,         // a: seq of the control_t handled, b: action * 16 + (result + 1)
+  kClosureOpen,     // estimate: a measured state above closure_tolerance (first of a run): a: seq,
+                    // b: closure kind * 65536 + constraint index + 1 (0: none), x: the residual
+  kClosureBack,     // the first state back within tolerance: a: seq
 };
 
 struct Event {

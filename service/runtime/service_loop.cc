@@ -41,6 +41,10 @@ ServiceLoop::ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& b
                 }),
       stepper_(sys),
       ws_(sys),
+      fit_plan_(plan_state_fit(sys)),
+      fit_ws_(sys, fit_plan_),
+      q_est_(sys.q0),
+      v_est_(sys.v0),
       wrenches_(sys),
       q_(sys.q0),
       v_(sys.v0),
@@ -183,6 +187,8 @@ void ServiceLoop::tick(long long now) {
       if (f.valid) {
         compute_wrenches(sys_, stepper_.ws, wrenches_);
         f.wrenches = &wrenches_;
+        closure_residual(sys_.constraints, fit_plan_, stepper_.ws.cd, &closure_);
+        f.closure = &closure_;
       }
     } else {
       q_prev_ = q_;
@@ -196,6 +202,8 @@ void ServiceLoop::tick(long long now) {
       if (ok) {
         compute_wrenches(sys_, stepper_.ws, wrenches_);
         f.wrenches = &wrenches_;
+        closure_residual(sys_.constraints, fit_plan_, stepper_.ws.cd, &closure_);
+        f.closure = &closure_;
         f.status = static_cast<int8_t>(d.status);
         f.reason = static_cast<int16_t>(d.reason);
         sim_time_ += dt_;
@@ -235,16 +243,48 @@ void ServiceLoop::tick(long long now) {
     f.v = &s.v;
     f.tau = &s.tau;
     if (in == io::Input::kState) {
-      const Diagnostics& d = evaluate(sys_, ws_, s.q, s.v, s.tau);
-      f.valid = d.status != Status::kError;
-      f.ws = &ws_;
-      if (f.valid) {
-        compute_wrenches(sys_, ws_, wrenches_);
-        f.wrenches = &wrenches_;
+      // complete the state (the load's pose and twist from the joints, when omitted) and measure
+      // how well it closes the constraints
+      q_est_ = s.q;
+      v_est_ = s.v;
+      const Closure& cl = fit_state(sys_, fit_plan_, fit_ws_, s.fit_q, s.fit_v, q_est_, v_est_);
+      f.q = &q_est_;
+      f.v = &v_est_;
+      f.closure = &cl;
+      f.state_fitted = static_cast<uint8_t>((s.fit_q ? 1 : 0) | (s.fit_v ? 2 : 0));
+      f.fit_iterations = cl.iterations;
+      int over = -1;  // the kind furthest above its tolerance (NaN counts as above)
+      double worst = 1.0;
+      for (int k = 0; k < 4; ++k) {
+        const double ratio = cl.value[k] / cfg_.closure_tolerance[k];
+        if (!(ratio <= worst)) {
+          worst = std::isnan(ratio) ? HUGE_VAL : ratio;
+          over = k;
+        }
       }
-      f.status = static_cast<int8_t>(d.status);
-      f.reason = static_cast<int16_t>(d.reason);
-      if (!f.valid) numerical_errors_.fetch_add(1, std::memory_order_relaxed);
+      if (over >= 0) {
+        // the arms disagree (or the measurement is far from the constraints): no wrenches
+        f.valid = false;
+        f.status = static_cast<int8_t>(Status::kError);
+        f.reason = io::kReasonClosure;
+        closure_rejected_.fetch_add(1, std::memory_order_relaxed);
+        if (!closure_open_)
+          events_.push({EventCode::kClosureOpen, s.seq, static_cast<int64_t>(over) * 65536 + (cl.spec[over] + 1), cl.value[over]});
+        closure_open_ = true;
+      } else {
+        if (closure_open_) events_.push({EventCode::kClosureBack, s.seq, 0, 0});
+        closure_open_ = false;
+        const Diagnostics& d = evaluate(sys_, ws_, q_est_, v_est_, s.tau);
+        f.valid = d.status != Status::kError;
+        f.ws = &ws_;
+        if (f.valid) {
+          compute_wrenches(sys_, ws_, wrenches_);
+          f.wrenches = &wrenches_;
+        }
+        f.status = static_cast<int8_t>(d.status);
+        f.reason = static_cast<int16_t>(d.reason);
+        if (!f.valid) numerical_errors_.fetch_add(1, std::memory_order_relaxed);
+      }
     } else {
       f.valid = false;
       f.status = static_cast<int8_t>(Status::kError);

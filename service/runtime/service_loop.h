@@ -6,7 +6,9 @@
 //             published wrenches, stresses and accelerations are those of the step's start state,
 //             published together with that state (q, v) and tau, so any output can be reproduced
 //             offline by evaluate(q, v, tau);
-//   estimate: evaluate() at the measured state, no integration;
+//   estimate: the measured state completed (state_fit.h: the load's pose and twist fitted when only
+//             the joints were given), its closure residual checked against closure_tolerance,
+//             evaluate() there, no integration;
 // then the scene's wrench outputs of that evaluation (compute_wrenches: end-effector, base, tip,
 // axle and the joint reactions it asks for);
 // encode output_t into a preallocated buffer and publish it; every stats period publish
@@ -23,6 +25,7 @@
 
 #include "service/dynamics/holding_torque.h"
 #include "service/dynamics/integrators.h"
+#include "service/dynamics/state_fit.h"
 #include "service/dynamics/system.h"
 #include "service/io/bus.h"
 #include "service/io/codec.h"
@@ -61,6 +64,7 @@ class ServiceLoop {
   int64_t expirations() const { return expired_.load(std::memory_order_relaxed); }
   int64_t numerical_errors() const { return numerical_errors_.load(std::memory_order_relaxed); }
   bool faulted() const { return faulted_.load(std::memory_order_relaxed); }
+  int64_t closure_rejections() const { return closure_rejected_.load(std::memory_order_relaxed); }
   bool paused() const { return paused_; }  // loop thread
   const InputCounters& input_counters() const;
   // Fed by the daemon's receive supervision (io/rx_isolated.h), any thread; published in loop_stats_t.
@@ -96,6 +100,11 @@ class ServiceLoop {
   ControlInbox controls_;
   Stepper stepper_;                  // simulate
   Workspace ws_;                     // estimate
+  StateFitPlan fit_plan_;            // what a measured state may omit; row kinds of the closure
+  StateFitWorkspace fit_ws_;         // estimate: fitting the omitted coordinates
+  Eigen::VectorXd q_est_, v_est_;    // estimate: the state evaluated (measured, completed)
+  Closure closure_;                  // simulate: drift of the step's start state
+  bool closure_open_ = false;        // estimate: the last state was above closure_tolerance
   WrenchData wrenches_;              // the published wrenches of the evaluation (either mode)
   Eigen::VectorXd q_, v_, tau_;      // (nq), (nv), (nv): simulated state, applied torque
   Eigen::VectorXd q_prev_, v_prev_;  // state at the start of the last step (what is published)
@@ -122,6 +131,7 @@ class ServiceLoop {
 
   std::atomic<int64_t> ticks_{0}, overruns_{0}, skipped_{0}, expired_{0}, numerical_errors_{0};
   std::atomic<int64_t> receiver_restarts_{0}, inputs_dropped_{0};
+  std::atomic<int64_t> closure_rejected_{0};  // estimate: measured states above closure_tolerance
   Histogram late_win_, comp_win_, late_all_, comp_all_;
   EventRing<256> events_;
 };

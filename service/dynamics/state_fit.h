@@ -1,0 +1,92 @@
+// Completing a measured state from joint measurements alone, and the closure residual of a state.
+//
+// A real robot's drivers publish joint angles, velocities and torques; nobody measures the pose and
+// twist of the load the arms carry. The constraints fix them: every grasp (classic) or every base
+// weld (mobile platform) says where the load is, given the arm's joints. fit_state() finds them by
+// least squares over all the constraints together, and reports how far the arms disagree.
+//
+// What may be omitted (StateFitPlan, decided once from the System at its initial state q0):
+//   - the coordinates of the floating joints (the load's platform, a free load, a vehicle's chassis),
+//     all of them together, positions and velocities separately: positions when the holonomic
+//     constraint rows (welds, locks, wheel contact heights) fix them (rank of G over those rows and
+//     the floating position directions is full), velocities when all rows do (the wheels' no-slip
+//     rows included). A vehicle's chassis pose is not fixed by its wheels (it drives anywhere), so a
+//     vehicle must give the chassis pose from its own estimator; its twist then follows from the
+//     wheel spins. Omitted velocities get tau 0, so velocities of actuated floating DOFs (a scene
+//     that declares the load actuated) may not be omitted.
+//   - pseudo-joints (METHOD s.4): joints the real structure lacks, locked at their initial value;
+//     omitted, they are set to it exactly (q0, v = 0, tau = 0).
+//
+// Position fit: Gauss-Newton on the holonomic rows' position error e(q) over the omitted tangent
+// directions, dx = -(G_u^T G_u)^+ G_u^T e, q <- q (+) dx, from a start (the last fit, or q0), with
+// step halving when a step does not reduce |e|; stops when |e| stops decreasing or the step is
+// below 1e-15. Velocity fit: the omitted velocities minimizing |G v| (G's rows all, the measured
+// velocities fixed): v_u = -(G_u^T G_u)^+ G_u^T (G_m v_m). The pseudo-inverses come from an
+// allocation-free Jacobi eigen-decomposition of the small normal matrix (dimension = omitted DOFs).
+// Least squares over all arms weights the rows as they are written: a weld's rotation rows in rad,
+// its translation rows in m, in the tip frame.
+//
+// Closure residual (of any state, fitted or fully measured): the largest |e| left over the
+// position-type rows (m) and the orientation-type rows (rad), and the largest |G v| over the
+// velocity rows of linear (m/s) and angular (rad/s) type, each with the constraint it is found in.
+// The residual of a fitted state is how far the arms disagree about where the load is; of a full
+// state, how far the measurement is from closing the constraints.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "service/constraints/constraints.h"
+#include "service/dynamics/system.h"
+
+namespace coopdyn {
+
+struct StateFitPlan {
+  std::vector<int> fit_q;         // q indices of the floating joints (the coordinates fitted)
+  std::vector<int> fit_v;         // v indices of the floating joints
+  std::vector<int> pseudo_q, pseudo_v;  // pseudo-joint coordinates (set to q0, 0 when omitted)
+  bool q_fittable = false;        // the holonomic rows fix the floating joints' positions
+  bool v_fittable = false;        // all rows fix their velocities (and none of them is actuated)
+  std::vector<unsigned char> holonomic;  // (rows) the row has a position error (weld, lock, contact height)
+  std::vector<unsigned char> angular;    // (rows) rad / rad/s (weld rotation rows, revolute locks), else m, m/s
+  const char* why_not_q = "";    // when !q_fittable: a short reason (for error messages)
+  const char* why_not_v = "";
+};
+// Allocates (start-up only).
+StateFitPlan plan_state_fit(const System& sys);
+
+// position m, orientation rad, linear velocity m/s, angular velocity rad/s
+enum ClosureKind { kClosurePosition = 0, kClosureOrientation = 1, kClosureLinearVelocity = 2, kClosureAngularVelocity = 3 };
+struct Closure {
+  double value[4] = {0, 0, 0, 0};  // the largest residual of each kind
+  int spec[4] = {-1, -1, -1, -1};  // the constraint (ConstraintSet::specs index) it is in, -1 if none
+  int iterations = 0;              // Gauss-Newton iterations of the position fit (0: not fitted)
+};
+
+struct StateFitWorkspace {
+  StateFitWorkspace(const System& sys, const StateFitPlan& plan);
+  Data data;
+  ConstraintData cd;
+  Eigen::VectorXd q_start;  // (nq) start of the next position fit (the last fit, or q0)
+  bool have_start = false;
+  int n_hol = 0;            // holonomic rows
+  Eigen::MatrixXd Gu;       // (rows x n_fit) columns of the fitted DOFs (first n_hol rows: holonomic)
+  Eigen::VectorXd r;        // (rows)
+  Eigen::MatrixXd N, V;     // (n_fit x n_fit) normal matrix (destroyed by the decomposition), eigenvectors
+  Eigen::VectorXd w, b, x;  // (n_fit)
+  Eigen::VectorXd dv;       // (nv) tangent step
+  Eigen::VectorXd q_try;    // (nq)
+  Closure closure;
+};
+
+// Fills the omitted coordinates of (q, v): positions when fit_q (q's fitted entries are ignored on
+// input), velocities when fit_v; pseudo-joint coordinates are not touched (the decoder sets them).
+// Then computes the closure residual of the result. Allocation-free; q, v sized (nq), (nv).
+const Closure& fit_state(const System& sys, const StateFitPlan& plan, StateFitWorkspace& ws, bool fit_q, bool fit_v,
+                         Eigen::VectorXd& q, Eigen::VectorXd& v);
+
+// The closure residual of cd (constraint_rows at the state), rows classified by plan.
+void closure_residual(const ConstraintSet& set, const StateFitPlan& plan, const ConstraintData& cd, Closure* out);
+
+}  // namespace coopdyn
