@@ -49,7 +49,7 @@ TEST(LoopNoAllocation, TickOfEverySceneBothModes) {
           jtau.push_back(tau[i]);
         }
       Eigen::VectorXd q_far = sys.q0;
-      if (!plan.fit_q.empty()) q_far[plan.fit_q[0]] += 1.0;
+      if (!plan.fit_q.empty()) q_far[plan.fit_q[2]] += 1.0;  // z: a metre above where the constraints hold it
       const auto state = [&](int64_t seq) {
         if (seq % 3 == 1 && plan.q_fittable && plan.v_fittable)
           return io::encode_measured_state(runtime::realtime_us(), seq, jq, jqv, jv, jvv, jtau);
