@@ -287,6 +287,14 @@ int cmd_send(const Args& a) {
       std::fprintf(stderr, "; its counters since it started: rejected %lld (malformed, wrong names or count, NaN, "
                    "over tau_limit, stale or future utime), out of order %lld (seq not above the last accepted)",
                    static_cast<long long>(stats_last.rejected), static_cast<long long>(stats_last.out_of_order));
+    // by reason (loop_stats_t rejected_by_reason): over the run, or since start with one stats message
+    std::string by;
+    for (int k = 1; k < io::kRejectKinds; ++k) {
+      const long long n = stats_n >= 2 ? stats_last.rejected_by_reason[k] - stats_first.rejected_by_reason[k]
+                          : stats_n == 1 ? stats_last.rejected_by_reason[k] : 0;
+      if (n > 0) by += (by.empty() ? "" : ", ") + std::string(io::reject_name(static_cast<io::Reject>(k))) + " " + std::to_string(n);
+    }
+    if (!by.empty()) std::fprintf(stderr, "; rejected by reason: %s", by.c_str());
     std::fprintf(stderr, "; the daemon's log names each reason\n");
     return 4;
   }

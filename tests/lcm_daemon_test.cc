@@ -680,6 +680,7 @@ TEST_F(DaemonProcess, SendExitsNonZeroWhenItsCommandsAreRejected) {
   EXPECT_NE(why.find("rejected "), std::string::npos) << why;
   EXPECT_EQ(why.find("rejected 0"), std::string::npos) << why;
   EXPECT_EQ(why.find("rejected +0"), std::string::npos) << why;
+  EXPECT_NE(why.find("rejected by reason: wrong count 31"), std::string::npos) << why;
   Child good({COOPDYN_PATH, "send", "--scene", scene_path("two_puma_load"), "--lcm-url", url_, "--rate", "100",
               "--duration", "0.3", "--torque", "arm1.q1:constant:0.1"},
              "send_good");

@@ -36,6 +36,23 @@ static_assert(static_cast<int>(WrenchKind::kJoint) == coopdyn::output_t::KIND_JO
 
 static_assert(static_cast<int>(Reject::kIncomplete) + 1 == kRejectKinds, "kRejectKinds counts every Reject");
 
+const char* reject_key(Reject r) {
+  switch (r) {
+    case Reject::kNone: return "none";
+    case Reject::kDecode: return "malformed";
+    case Reject::kCount: return "wrong_count";
+    case Reject::kUnknownName: return "unknown_name";
+    case Reject::kDuplicateName: return "duplicate_name";
+    case Reject::kNonFinite: return "nonfinite";
+    case Reject::kOverLimit: return "over_tau_limit";
+    case Reject::kStale: return "stale_utime";
+    case Reject::kFuture: return "future_utime";
+    case Reject::kUnactuated: return "unactuated";
+    case Reject::kIncomplete: return "incomplete";
+  }
+  return "?";
+}
+
 const char* reject_name(Reject r) {
   switch (r) {
     case Reject::kNone: return "none";
@@ -448,6 +465,11 @@ int OutputEncoder::encode(const OutputFrame& f, uint8_t* buf, int cap, bool* san
 // ---------------------------------------------------------------------------------------------
 struct StatsEncoder::Impl {
   coopdyn::loop_stats_t msg;
+  Impl() {
+    msg.num_reject_reasons = kRejectKinds - 1;  // every Reject but kNone
+    for (int k = 1; k < kRejectKinds; ++k) msg.reject_reasons.push_back(reject_key(static_cast<Reject>(k)));
+    msg.rejected_by_reason.assign(kRejectKinds - 1, 0);
+  }
 };
 StatsEncoder::StatsEncoder() : impl_(new Impl) {}
 StatsEncoder::~StatsEncoder() = default;
@@ -477,6 +499,8 @@ int StatsEncoder::encode(const StatsFrame& s, uint8_t* buf, int cap) {
   o.numerical_errors = s.numerical_errors;
   o.receiver_restarts = s.receiver_restarts;
   o.inputs_dropped = s.inputs_dropped;
+  for (int k = 1; k < kRejectKinds; ++k) o.rejected_by_reason[k - 1] = s.rejected_by_reason[k];
+  o.closure_rejected = s.closure_rejected;
   if (cap < o.getEncodedSize()) return -1;
   return o.encode(buf, 0, cap);
 }

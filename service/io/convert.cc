@@ -164,6 +164,13 @@ bool decode_stats(const void* data, int len, StatsFrame* s) {
   s->numerical_errors = o.numerical_errors;
   s->receiver_restarts = o.receiver_restarts;
   s->inputs_dropped = o.inputs_dropped;
+  // by the reasons' keys, so that a sender built with another set of reasons still reads the ones it knows
+  for (int k = 1; k < kRejectKinds; ++k) {
+    s->rejected_by_reason[k] = 0;
+    for (int i = 0; i < o.num_reject_reasons; ++i)
+      if (o.reject_reasons[i] == reject_key(static_cast<Reject>(k))) s->rejected_by_reason[k] = o.rejected_by_reason[i];
+  }
+  s->closure_rejected = o.closure_rejected;
   return true;
 }
 
@@ -294,7 +301,8 @@ bool to_csv(MessageType t, const void* data, int len, std::string* header, std::
           "utime,tick,period_us,window_ticks,lateness_p50_us,lateness_p99_us,lateness_p999_us,lateness_max_us,"
           "compute_p50_us,compute_p99_us,compute_p999_us,compute_max_us,overruns,skipped_periods,commands_received,"
           "commands_accepted,commands_rejected,commands_out_of_order,commands_expired,numerical_errors,receiver_restarts,"
-          "inputs_dropped";
+          "inputs_dropped,closure_rejected";
+      for (int k = 1; k < kRejectKinds; ++k) *header += std::string(",rejected_") + reject_key(static_cast<Reject>(k));
       inum(row, s.utime);
       inum(row, s.tick);
       num(row, s.period_us);
@@ -302,8 +310,9 @@ bool to_csv(MessageType t, const void* data, int len, std::string* header, std::
       for (double x : s.lateness_us) num(row, x);
       for (double x : s.compute_us) num(row, x);
       for (long long x : {s.overruns, s.skipped_periods, s.received, s.accepted, s.rejected, s.out_of_order, s.expired,
-                          s.numerical_errors, s.receiver_restarts, s.inputs_dropped})
+                          s.numerical_errors, s.receiver_restarts, s.inputs_dropped, s.closure_rejected})
         inum(row, x);
+      for (int k = 1; k < kRejectKinds; ++k) inum(row, s.rejected_by_reason[k]);
       break;
     }
     case MessageType::kControl: {

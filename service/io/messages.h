@@ -30,6 +30,7 @@ enum class Reject {
 };
 constexpr int kRejectKinds = 11;
 const char* reject_name(Reject r);
+const char* reject_key(Reject r);  // the same as one word (loop_stats_t reject_reasons, CSV columns)
 
 // A validated torque command, in the scene's velocity order. Sized once (nv).
 struct CommandSlot {
@@ -93,6 +94,8 @@ struct StatsFrame {
   int64_t overruns = 0, skipped_periods = 0;
   int64_t received = 0, accepted = 0, rejected = 0, out_of_order = 0, expired = 0, numerical_errors = 0;
   int64_t receiver_restarts = 0, inputs_dropped = 0;
+  int64_t rejected_by_reason[kRejectKinds] = {};  // index: Reject (kNone stays 0)
+  int64_t closure_rejected = 0;
 };
 
 // A decoded output_t, for clients and tests (allocates; never used by the loop).
