@@ -12,7 +12,7 @@ void usage() {
                "  coopdyn eval --scene FILE [--state FILE.json] [--formulation NAME]\n"
                "  coopdyn sim  --scene FILE --duration T --dt H [--integrator semi_implicit_euler|rk4|implicit_euler]\n"
                "               [--torque PROFILE]... [--formulation NAME] [--out FILE.csv]\n"
-               "  coopdyn send --scene FILE (--torque PROFILE... | --states SIM.csv) [--rate HZ] [--duration S]\n"
+               "  coopdyn send --scene FILE (--torque PROFILE... | --states SIM.csv [--joints-only]) [--rate HZ] [--duration S]\n"
                "               [--lcm-url URL] [--channel C] [--seq N] [--measure-latency] [--output-channel C] [--no-check]\n"
                "  coopdyn log  --in FILE.lcmlog [--out DIR] [--no-plot]\n"
                "  coopdyn control --action reset|reset_to_state|pause|resume|clear_fault [--scene FILE --state FILE.json]\n"

@@ -136,6 +136,35 @@ int cmd_send(const Args& a) {
       return 2;
     }
     if (!a.has("duration")) duration = states.t.back() - states.t.front();
+    if (a.has("joints-only")) {
+      // what a robot's drivers publish: the joints only; the daemon fits the floating bodies' pose
+      // and twist (the load's) from them (state_fit.h)
+      const StateFitPlan plan = plan_state_fit(sys);
+      if (!plan.q_fittable || !plan.v_fittable) {
+        std::fprintf(stderr, "coopdyn send: --joints-only: %s\n", !plan.q_fittable ? plan.why_not_q : plan.why_not_v);
+        return 2;
+      }
+      auto is_fit = [](const std::vector<int>& idx, const std::vector<std::string>& names, const std::string& n) {
+        for (int i : idx)
+          if (names[i] == n) return true;
+        return false;
+      };
+      std::vector<size_t> keep_q, keep_v;
+      for (size_t i = 0; i < states.q_names.size(); ++i)
+        if (!is_fit(plan.fit_q, sys.model.q_names, states.q_names[i])) keep_q.push_back(i);
+      for (size_t i = 0; i < states.v_names.size(); ++i)
+        if (!is_fit(plan.fit_v, sys.model.v_names, states.v_names[i])) keep_v.push_back(i);
+      auto pick = [](const std::vector<size_t>& keep, auto& row) {
+        std::remove_reference_t<decltype(row)> out;
+        for (size_t i : keep) out.push_back(row[i]);
+        row = out;
+      };
+      pick(keep_q, states.q_names);
+      pick(keep_v, states.v_names);
+      for (auto& r : states.q) pick(keep_q, r);
+      for (auto& r : states.v) pick(keep_v, r);
+      for (auto& r : states.tau) pick(keep_v, r);
+    }
   }
   const std::string url = a.get("lcm-url", "udpm://239.255.76.67:7667?ttl=0");
   const std::string channel = a.get("channel", replay ? "COOPDYN_STATE" : "COOPDYN_COMMAND");

@@ -379,9 +379,24 @@ TEST_F(DaemonProcess, LcmLoggerRunConvertsToCsv) {
 
 // Estimate mode on simulated states: `coopdyn sim` writes a trajectory, `coopdyn send --states`
 // replays it as measured states, and the daemon's wrenches at each replayed state equal the ones
-// the simulator printed for that state (to the CSV's 12 significant digits).
-TEST_F(DaemonProcess, EstimateOnReplayedSimStatesReproducesSimWrenches) {
-  const std::string sim_csv = tmp_path("sim.csv");
+// the simulator printed for that state. With --joints-only the states carry the arms' joints only
+// (what a robot's drivers publish) and the daemon fits the load's pose and twist: the same wrenches.
+class EstimateReplay : public DaemonProcess {
+ protected:
+  void replay_and_compare(bool joints_only);
+};
+TEST_F(EstimateReplay, FullStatesReproduceSimWrenches) { replay_and_compare(false); }
+TEST_F(EstimateReplay, JointsOnlyReproduceSimWrenches) { replay_and_compare(true); }
+
+void EstimateReplay::replay_and_compare(bool joints_only) {
+  const std::string sim_csv = tmp_path(joints_only ? "sim_j.csv" : "sim.csv");
+  const StateFitPlan plan = plan_state_fit(sys_);
+  auto joints_of = [&](const std::vector<double>& q) {  // the key: q without the load's coordinates
+    std::vector<double> j;
+    for (size_t i = 0; i < q.size(); ++i)
+      if (std::find(plan.fit_q.begin(), plan.fit_q.end(), static_cast<int>(i)) == plan.fit_q.end()) j.push_back(q[i]);
+    return j;
+  };
   {
     Child sim({COOPDYN_PATH, "sim", "--scene", scene_path("two_puma_load"), "--duration", "0.3", "--dt", "0.001",
                "--torque", "arm1.q1:pulse:1.0:0.1:0.2", "--out", sim_csv},
@@ -410,7 +425,7 @@ TEST_F(DaemonProcess, EstimateOnReplayedSimStatesReproducesSimWrenches) {
       if (head[i].rfind("q:", 0) == 0) q.push_back(x);
       cols[head[i]] = x;
     }
-    rows[q] = cols;
+    rows[joints_of(q)] = cols;
   }
   ASSERT_EQ(rows.size(), 301u);
 
@@ -419,9 +434,10 @@ TEST_F(DaemonProcess, EstimateOnReplayedSimStatesReproducesSimWrenches) {
   bus_->start();
   auto d = start_daemon({"--mode", "estimate"});
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
-  Child send({COOPDYN_PATH, "send", "--scene", scene_path("two_puma_load"), "--lcm-url", url_, "--states", sim_csv,
-              "--rate", "200"},
-             "send_states");
+  std::vector<std::string> send_args = {COOPDYN_PATH, "send", "--scene", scene_path("two_puma_load"), "--lcm-url", url_,
+                                        "--states", sim_csv, "--rate", "200"};
+  if (joints_only) send_args.push_back("--joints-only");
+  Child send(send_args, "send_states");
   EXPECT_EQ(send.wait(), 0) << slurp(send.err);
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.input_seq >= 61; }, 5s));  // 0.3 s at 200 Hz
   d->signal(SIGTERM);
@@ -433,8 +449,13 @@ TEST_F(DaemonProcess, EstimateOnReplayedSimStatesReproducesSimWrenches) {
   for (const auto& o : sink.snapshot()) {
     if (o.input != static_cast<int>(io::Input::kState) || o.input_seq == last_seq) continue;
     last_seq = o.input_seq;
-    auto it = rows.find(o.q);
+    auto it = rows.find(joints_of(o.q));
     ASSERT_NE(it, rows.end()) << "an output at a state the simulator never visited";
+    EXPECT_EQ(o.state_fitted, joints_only ? 3 : 0);
+    EXPECT_NE(o.status, static_cast<int>(Status::kError)) << o.reason;
+    // the load where the simulator had it (the simulated trajectory closes the constraints to ~1e-9)
+    for (int i : plan.fit_q) EXPECT_NEAR(o.q[i], it->second.at("q:" + sys_.model.q_names[i]), 1e-8) << sys_.model.q_names[i];
+    for (double c : o.closure) EXPECT_LT(c, 1e-6);
     for (size_t t = 0; t < o.wrench_names.size(); ++t)
       for (int k = 0; k < 6; ++k) {
         const double sim_w = it->second.at(o.wrench_names[t] + "." + comp[k]);
