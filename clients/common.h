@@ -62,6 +62,7 @@ int load_cli_profile(const Args& a, const char* cmd, const System& sys, TorquePr
 bool read_state(const std::string& path, const System& sys, Eigen::VectorXd& q, Eigen::VectorXd& v, Eigen::VectorXd& tau);
 
 int cmd_eval(const Args& a);
+int cmd_track(const Args& a);
 int cmd_control(const Args& a);
 int cmd_sim(const Args& a);
 int cmd_send(const Args&);

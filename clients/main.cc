@@ -17,6 +17,8 @@ void usage() {
                "  coopdyn log  --in FILE.lcmlog [--out DIR] [--no-plot]\n"
                "  coopdyn control --action reset|reset_to_state|pause|resume|clear_fault [--scene FILE --state FILE.json]\n"
                "               [--lcm-url URL] [--channel C] [--output-url URL] [--output-channel C] [--seq N] [--no-wait]\n"
+               "  coopdyn track --scene FILE [--duration S] [--radius M] [--period S] [--squeeze N] [--out FILE.csv]\n"
+               "               [--lcm-url URL] [--channel C] [--output-url URL] [--output-channel C]\n"
                "PROFILE: JOINT:constant:VALUE | JOINT:step:VALUE:T0 | JOINT:pulse:VALUE:T0:T1 | FILE.csv\n");
 }
 }  // namespace
@@ -37,6 +39,7 @@ int main(int argc, char** argv) {
   if (cmd == "send") return coopdyn::cli::cmd_send(a);
   if (cmd == "log") return coopdyn::cli::cmd_log(a);
   if (cmd == "control") return coopdyn::cli::cmd_control(a);
+  if (cmd == "track") return coopdyn::cli::cmd_track(a);
   std::fprintf(stderr, "coopdyn: unknown command '%s'\n", cmd.c_str());
   usage();
   return 2;

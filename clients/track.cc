@@ -1,0 +1,188 @@
+// coopdyn track: the reference controller in the loop. It subscribes to the daemon's outputs, and for
+// each new one computes the torques of clients/cooperative_controller.h (the load along a circle,
+// the squeeze between the arms at its set-point) and publishes them as a torque_command_t. The
+// newest output always wins: if the controller falls behind, it skips outputs rather than acting
+// on old states. Writes one CSV row per command (--out) and prints the tracking summary.
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <csignal>
+#include <cstdio>
+#include <mutex>
+#include <thread>
+
+#include "clients/common.h"
+#include "clients/cooperative_controller.h"
+#include "service/io/codec.h"
+#include "service/io/lcm_bus.h"
+#include "service/scene/scene.h"
+
+namespace coopdyn::cli {
+
+namespace {
+std::atomic<bool> g_track_stop{false};
+void on_track_signal(int) { g_track_stop = true; }
+}  // namespace
+
+int cmd_track(const Args& a) {
+  if (!a.has("scene")) {
+    std::fprintf(stderr, "coopdyn track: --scene FILE is required (the daemon's scene)\n");
+    return 2;
+  }
+  TrackOptions opt;
+  double duration = 6.0;
+  try {
+    if (a.has("duration")) duration = std::stod(a.get("duration"));
+    if (a.has("radius")) opt.radius = std::stod(a.get("radius"));
+    if (a.has("period")) opt.period = std::stod(a.get("period"));
+    if (a.has("squeeze")) opt.squeeze = std::stod(a.get("squeeze"));
+  } catch (const std::exception&) {
+    std::fprintf(stderr, "coopdyn track: --duration, --radius, --period and --squeeze must be numbers\n");
+    return 2;
+  }
+  if (!(duration > 0 && duration < 1e6) || !(opt.radius >= 0 && opt.radius < 10) || !(opt.period > 0.1) ||
+      !std::isfinite(opt.squeeze)) {
+    std::fprintf(stderr, "coopdyn track: need 0 < duration, 0 <= radius < 10 m, period > 0.1 s, a finite squeeze\n");
+    return 2;
+  }
+  System sys;
+  if (const int rc = load_cli_scene(a, "track", &sys)) return rc;
+  std::unique_ptr<CooperativeController> ctl;
+  try {
+    ctl = std::make_unique<CooperativeController>(sys, opt);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+    return 2;
+  }
+  const std::string url = a.get("lcm-url", "udpm://239.255.76.67:7667?ttl=0");
+  const std::string out_url = a.get("output-url", url);
+  const std::string cmd_channel = a.get("channel", "COOPDYN_COMMAND");
+  const std::string out_channel = a.get("output-channel", "COOPDYN_OUTPUT");
+  std::FILE* csv = nullptr;
+  if (a.has("out")) {
+    csv = std::fopen(a.get("out").c_str(), "w");
+    if (!csv) {
+      std::fprintf(stderr, "coopdyn track: cannot write '%s'\n", a.get("out").c_str());
+      return 1;
+    }
+    std::fprintf(csv, "t,ref_x,ref_y,ref_z,x,y,z,position_error_m,orientation_error_rad,squeeze_n,squeeze_target_n,"
+                      "squeeze_set_n,saturated,status,input_seq,in_sync\n");
+  }
+  std::mutex mu;
+  std::condition_variable cv;
+  std::vector<uint8_t> latest;  // the newest output's bytes
+  bool fresh = false;
+  try {
+    io::LcmBus bus(url);
+    std::unique_ptr<io::LcmBus> out_bus;
+    io::LcmBus* ob = &bus;
+    if (out_url != url) {
+      out_bus = std::make_unique<io::LcmBus>(out_url);
+      ob = out_bus.get();
+    }
+    ob->subscribe(out_channel, [&](const void* d, int n, long long) {
+      std::lock_guard<std::mutex> lk(mu);
+      latest.assign(static_cast<const uint8_t*>(d), static_cast<const uint8_t*>(d) + n);
+      fresh = true;
+      cv.notify_one();
+    });
+    ob->start();
+    std::signal(SIGINT, on_track_signal);
+    std::signal(SIGTERM, on_track_signal);
+    const long long seq0 = io::wall_us();
+    long long seq = seq0, used = 0, skipped_errors = 0, saturated = 0, n_sync = 0;
+    double t0 = std::nan(""), t_last = std::nan(""), max_pos = 0, max_rot = 0, max_sq = 0, sum2 = 0;
+    long long n_stat = 0;
+    const double settle = opt.ramp + 0.5;  // the summary covers the run after the ramp and its transient
+    std::vector<uint8_t> bytes;
+    // waits up to 5 s for the first output, then ends when the outputs stop for 1 s (the daemon stopped)
+    auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    bool daemon_gone = false;
+    while (!g_track_stop) {
+      {
+        std::unique_lock<std::mutex> lk(mu);
+        cv.wait_for(lk, std::chrono::milliseconds(100), [&] { return fresh; });
+        if (!fresh) {
+          if (std::chrono::steady_clock::now() > give_up) {
+            daemon_gone = !std::isnan(t0);
+            break;
+          }
+          continue;
+        }
+        give_up = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+        bytes.swap(latest);
+        fresh = false;
+      }
+      io::DecodedOutput o;
+      if (!io::decode_output(bytes.data(), static_cast<int>(bytes.size()), &o)) continue;
+      if (o.q.size() != static_cast<size_t>(sys.model.nq()) || o.v.size() != static_cast<size_t>(sys.model.nv())) {
+        std::fprintf(stderr, "coopdyn track: the daemon's outputs do not match the scene (%zu q, %zu v; the scene has %d, %d)\n",
+                     o.q.size(), o.v.size(), sys.model.nq(), sys.model.nv());
+        return 1;
+      }
+      if (o.status == 2) {  // STATUS_ERROR: no wrenches to regulate from; the daemon holds
+        ++skipped_errors;
+        continue;
+      }
+      if (std::isnan(t0)) t0 = o.sim_time;
+      const double t = o.sim_time - t0;
+      if (t >= duration) break;
+      const Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(o.q.data(), sys.model.nq());
+      const Eigen::VectorXd v = Eigen::Map<const Eigen::VectorXd>(o.v.data(), sys.model.nv());
+      const double s = ctl->squeeze(q, o.wrench[ctl->ee_output(0)], o.wrench[ctl->ee_output(1)]);
+      // in sync: this output came from a step under the command computed from the previous output
+      // (a stall of either process breaks it: the daemon applied an older command, or its safe torque)
+      const bool own = o.input == 0 && o.input_seq > seq0;  // INPUT_COMMAND, one of ours
+      const bool in_sync = own && o.input_seq == seq;
+      n_sync += in_sync ? 1 : 0;
+      const double dt = std::isnan(t_last) ? 0.0 : t - t_last;
+      t_last = t;
+      const Eigen::VectorXd& tau = ctl->compute(t, q, v, own ? s : std::nan(""), dt);
+      const auto cmd = io::encode_torque_command(io::wall_us(), ++seq, {}, std::vector<double>(tau.data(), tau.data() + tau.size()));
+      bus.publish(cmd_channel.c_str(), cmd.data(), static_cast<int>(cmd.size()));
+      ++used;
+      saturated += ctl->saturated() ? 1 : 0;
+      Vec3 pr, prd, prdd;
+      ctl->reference(t, &pr, &prd, &prdd);
+      if (t >= settle) {
+        max_pos = std::max(max_pos, ctl->position_error());
+        max_rot = std::max(max_rot, ctl->orientation_error());
+        max_sq = std::max(max_sq, std::abs(s - opt.squeeze));
+        sum2 += ctl->position_error() * ctl->position_error();
+        ++n_stat;
+      }
+      if (csv) {
+        const Vec3& p = ctl->load_position();
+        std::fprintf(csv, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%d,%d,%lld,%d\n", t, pr.x(),
+                     pr.y(), pr.z(), p.x(), p.y(), p.z(), ctl->position_error(), ctl->orientation_error(), s,
+                     ctl->squeeze_target(), opt.squeeze, ctl->saturated() ? 1 : 0, o.status, static_cast<long long>(o.input_seq),
+                     in_sync ? 1 : 0);
+      }
+    }
+    ob->stop();
+    if (csv) std::fclose(csv);
+    if (used == 0) {
+      std::fprintf(stderr, "coopdyn track: no usable output from the daemon on %s (%s): is it running (simulate mode), on this URL?\n",
+                   out_channel.c_str(), out_url.c_str());
+      return 1;
+    }
+    std::printf("coopdyn track: %lld commands on %s (radius %g m, period %g s, squeeze %g N); %lld error outputs skipped, "
+                "%lld commands clamped to tau_limit; %.1f %% of the outputs in sync (stepped under the command computed "
+                "from the output before)\n",
+                used, cmd_channel.c_str(), opt.radius, opt.period, opt.squeeze, skipped_errors, saturated,
+                100.0 * static_cast<double>(n_sync) / static_cast<double>(used));
+    if (daemon_gone) std::printf("coopdyn track: the daemon's outputs stopped at t = %.3f s (before --duration)\n", t_last);
+    if (n_stat > 0)
+      std::printf("coopdyn track: after %.1f s: position error max %.3g m, rms %.3g m; orientation error max %.3g rad; "
+                  "squeeze max |s - %g| = %.3g N\n",
+                  settle, max_pos, std::sqrt(sum2 / static_cast<double>(n_stat)), max_rot, opt.squeeze, max_sq);
+  } catch (const std::exception& e) {
+    if (csv) std::fclose(csv);
+    std::fprintf(stderr, "coopdyn track: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace coopdyn::cli
