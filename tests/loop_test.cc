@@ -927,3 +927,60 @@ TEST(ServiceLoop, IncompleteStatesAreRefusedWithTheirReason) {
     EXPECT_EQ(offer(r, j.qn, j.q, s.model.v_names, stdvec(s.v0)), io::Reject::kIncomplete);
   }
 }
+
+namespace {
+int position_of(const std::vector<std::string>& v, const std::string& x) {
+  const auto it = std::find(v.begin(), v.end(), x);
+  return it == v.end() ? -1 : static_cast<int>(it - v.begin());
+}
+}  // namespace
+
+// Force/torque sensor readings with a measured state: the output carries measured - estimated for
+// each measured wrench (0 and unflagged elsewhere), so the model can be checked on the real robot.
+TEST(ServiceLoop, MeasuredWrenchesAreComparedWithTheEstimate) {
+  Rig r("two_puma_load", runtime::ServiceMode::kEstimate);
+  const System& s = r.sys;
+  const Eigen::VectorXd tau = Eigen::VectorXd::Zero(s.model.nv());
+  // the estimate first, without sensors
+  auto b = io::encode_measured_state(runtime::realtime_us(), 1, s.model.q_names, stdvec(s.q0), s.model.v_names, stdvec(s.v0), stdvec(tau));
+  ASSERT_EQ(r.loop->states().offer(b.data(), static_cast<int>(b.size()), kMs), Offer::kAccepted);
+  r.loop->tick(kMs);
+  const io::DecodedOutput o1 = r.bus.last_output();
+  ASSERT_NE(o1.status, static_cast<int>(Status::kError));
+  for (int m : o1.wrench_measured) EXPECT_EQ(m, 0);
+  // a wrist sensor on arm2 reading the estimate plus an offset, and a base sensor reading it exactly
+  const int ee2 = position_of(o1.wrench_names, "arm2.ee"), base1 = position_of(o1.wrench_names, "arm1.base");
+  ASSERT_GE(ee2, 0);
+  ASSERT_GE(base1, 0);
+  const std::array<double, 6> offset{{0.01, -0.02, 0.03, 0.5, -1.5, 2.5}};
+  std::array<double, 6> w_ee2, w_base1;
+  for (int k = 0; k < 6; ++k) {
+    w_ee2[k] = o1.wrench[ee2][k] + offset[k];
+    w_base1[k] = o1.wrench[base1][k];
+  }
+  b = io::encode_measured_state(runtime::realtime_us(), 2, s.model.q_names, stdvec(s.q0), s.model.v_names, stdvec(s.v0), stdvec(tau),
+                                {"arm2.ee", "arm1.base"}, {w_ee2, w_base1});
+  ASSERT_EQ(r.loop->states().offer(b.data(), static_cast<int>(b.size()), 2 * kMs), Offer::kAccepted);
+  r.loop->tick(2 * kMs);
+  const io::DecodedOutput o2 = r.bus.last_output();
+  for (size_t t = 0; t < o2.wrench_names.size(); ++t) {
+    const bool measured = static_cast<int>(t) == ee2 || static_cast<int>(t) == base1;
+    EXPECT_EQ(o2.wrench_measured[t], measured ? 1 : 0) << o2.wrench_names[t];
+    for (int k = 0; k < 6; ++k)
+      EXPECT_NEAR(o2.wrench_residual[t][k], static_cast<int>(t) == ee2 ? offset[k] : 0.0, 1e-9 * (1 + std::abs(o1.wrench[t][k])))
+          << o2.wrench_names[t] << " " << k;
+  }
+  // bad readings are refused like any bad input
+  io::Reject why = io::Reject::kNone;
+  auto offer = [&](const std::vector<std::string>& names, const std::vector<std::array<double, 6>>& w, int64_t seq) {
+    const auto m = io::encode_measured_state(runtime::realtime_us(), seq, s.model.q_names, stdvec(s.q0), s.model.v_names,
+                                             stdvec(s.v0), stdvec(tau), names, w);
+    r.loop->states().offer(m.data(), static_cast<int>(m.size()), 3 * kMs, &why);
+    return why;
+  };
+  EXPECT_EQ(offer({"arm9.ee"}, {w_ee2}, 3), io::Reject::kUnknownName);
+  EXPECT_EQ(offer({"arm2.ee", "arm2.ee"}, {w_ee2, w_ee2}, 4), io::Reject::kDuplicateName);
+  std::array<double, 6> nan_w = w_ee2;
+  nan_w[4] = std::nan("");
+  EXPECT_EQ(offer({"arm2.ee"}, {nan_w}, 5), io::Reject::kNonFinite);
+}

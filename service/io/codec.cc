@@ -145,6 +145,12 @@ Reject map_named(const NameMap& map, const std::vector<std::string>& names, cons
 }
 }  // namespace
 
+std::vector<std::string> wrench_names(const System& s) {
+  std::vector<std::string> n;
+  for (const WrenchOutput& o : s.wrenches.outputs) n.push_back(o.name);
+  return n;
+}
+
 // ---------------------------------------------------------------------------------------------
 struct CommandDecoder::Impl {
   const System& sys;
@@ -195,7 +201,7 @@ Reject CommandDecoder::decode(const void* data, int len, CommandSlot& out) {
 struct StateDecoder::Impl {
   const System& sys;
   StateFitPlan plan;
-  NameMap q_index, v_index;
+  NameMap q_index, v_index, wrench_index;
   std::vector<unsigned char> seen_q, seen_v;
   std::vector<unsigned char> fit_q_mask, fit_v_mask, pseudo_q_mask, pseudo_v_mask;
   Eigen::VectorXd tmp_tau;
@@ -205,6 +211,7 @@ struct StateDecoder::Impl {
         plan(plan_state_fit(s)),
         q_index(index_of(s.model.q_names)),
         v_index(index_of(s.model.v_names)),
+        wrench_index(index_of(wrench_names(s))),
         seen_q(s.model.nq()),
         seen_v(s.model.nv()),
         fit_q_mask(s.model.nq(), 0),
@@ -248,11 +255,12 @@ Reject StateDecoder::decode(const void* data, int len, StateSlot& out) {
   // layout: hash, utime, seq, num_q_names, q_names[], num_q, q[], num_v_names, v_names[], num_v, v[], tau[]
   wire::Reader r(data, len);
   if (!r.hash(coopdyn::measured_state_t::getHash()) || !r.skip(16)) return Reject::kDecode;
-  int32_t nqn = 0, nqq = 0, nvn = 0, nvv = 0;
+  int32_t nqn = 0, nqq = 0, nvn = 0, nvv = 0, nw = 0;
   if (!r.count(&nqn) || !r.strings(nqn) || !r.count(&nqq) || !r.skip(8LL * nqq) || !r.count(&nvn) || !r.strings(nvn) ||
-      !r.count(&nvv) || !r.skip(16LL * nvv))
+      !r.count(&nvv) || !r.skip(16LL * nvv) || !r.count(&nw) || !r.strings(nw) || !r.skip(48LL * nw))
     return Reject::kDecode;
-  if (nqn > 4 * nq + 16 || nqq > 4 * nq + 16 || nvn > 4 * nv + 16 || nvv > 4 * nv + 16) return Reject::kCount;
+  const int n_out = static_cast<int>(m.sys.wrenches.outputs.size());
+  if (nqn > 4 * nq + 16 || nqq > 4 * nq + 16 || nvn > 4 * nv + 16 || nvv > 4 * nv + 16 || nw > n_out) return Reject::kCount;
   try {
     if (m.msg.decode(data, 0, len) < 0) return Reject::kDecode;
   } catch (...) {
@@ -278,6 +286,24 @@ Reject StateDecoder::decode(const void* data, int len, StateSlot& out) {
     if (rj != Reject::kNone) return rj;
     for (int i : m.plan.pseudo_v)
       if (!m.seen_v[i]) out.v[i] = out.tau[i] = 0.0;
+  }
+  // force/torque sensor readings, by wrench output name (a slot not sized by its owner is sized here once)
+  if (out.has_wrench.size() != static_cast<size_t>(n_out)) {
+    out.has_wrench.assign(n_out, 0);
+    out.wrench.assign(n_out, {});
+  }
+  std::fill(out.has_wrench.begin(), out.has_wrench.end(), 0);
+  out.n_wrenches = 0;
+  for (int i = 0; i < m.msg.num_wrenches; ++i) {
+    auto it = m.wrench_index.find(m.msg.wrench_names[i]);
+    if (it == m.wrench_index.end()) return Reject::kUnknownName;
+    if (out.has_wrench[it->second]) return Reject::kDuplicateName;
+    for (int k = 0; k < 6; ++k) {
+      if (!std::isfinite(m.msg.wrench[i][k])) return Reject::kNonFinite;
+      out.wrench[it->second][k] = m.msg.wrench[i][k];
+    }
+    out.has_wrench[it->second] = 1;
+    ++out.n_wrenches;
   }
   out.utime = m.msg.utime;
   out.seq = m.msg.seq;
@@ -350,6 +376,8 @@ struct OutputEncoder::Impl {
     }
     msg.wrench.assign(outs.size(), std::vector<double>(6, 0.0));
     msg.indeterminate_mask.assign(outs.size(), 0);
+    msg.wrench_measured.assign(outs.size(), 0);
+    msg.wrench_residual.assign(outs.size(), std::vector<double>(6, 0.0));
     msg.num_stresses = static_cast<int32_t>(model.pseudo_dofs.size());
     for (int d : model.pseudo_dofs) msg.stress_names.push_back(model.v_names[d]);
     msg.stress.assign(model.pseudo_dofs.size(), 0.0);
@@ -374,6 +402,7 @@ struct OutputEncoder::Impl {
     msg.condition = msg.residual = 0;
     for (auto& w : msg.wrench) std::fill(w.begin(), w.end(), 0.0);
     std::fill(msg.indeterminate_mask.begin(), msg.indeterminate_mask.end(), 0);
+    for (auto& w : msg.wrench_residual) std::fill(w.begin(), w.end(), 0.0);
     std::fill(msg.stress.begin(), msg.stress.end(), 0.0);
     std::fill(msg.vdot.begin(), msg.vdot.end(), 0.0);
   }
@@ -411,6 +440,8 @@ int OutputEncoder::encode(const OutputFrame& f, uint8_t* buf, int cap, bool* san
   o.control_seq = f.control_seq;
   o.control_action = f.control_seq >= 0 ? static_cast<int8_t>(f.control_action) : int8_t{-1};
   o.control_result = static_cast<int8_t>(f.control_result);
+  for (size_t t = 0; t < o.wrench_measured.size(); ++t)
+    o.wrench_measured[t] = f.measured && t < f.measured->has_wrench.size() && f.measured->has_wrench[t] ? 1 : 0;
   o.state_fitted = static_cast<int8_t>(f.state_fitted);
   o.fit_iterations = f.fit_iterations;
   for (int k = 0; k < 4; ++k) {
@@ -441,6 +472,11 @@ int OutputEncoder::encode(const OutputFrame& f, uint8_t* buf, int cap, bool* san
           ok = ok && std::isfinite(wd.W[t][k]);
         }
         o.indeterminate_mask[t] = static_cast<int8_t>(wd.indeterminate[t]);
+        const bool meas = f.measured && t < f.measured->has_wrench.size() && f.measured->has_wrench[t];
+        for (int k = 0; k < 6; ++k) {
+          o.wrench_residual[t][k] = meas ? f.measured->wrench[t][k] - wd.W[t][k] : 0.0;
+          ok = ok && std::isfinite(o.wrench_residual[t][k]);
+        }
       }
     } else {
       for (auto& w : o.wrench) std::fill(w.begin(), w.end(), 0.0);

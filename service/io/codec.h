@@ -75,6 +75,7 @@ struct OutputFrame {
   uint8_t state_fitted = 0;           // bit 0 positions, bit 1 velocities fitted (state_fit.h)
   int fit_iterations = 0;
   const Closure* closure = nullptr;  // closure residual of the state (published whatever the status)
+  const StateSlot* measured = nullptr;  // estimate: the state with its force/torque sensor readings
   bool valid = false;
   const Eigen::VectorXd* q = nullptr;    // (nq) state the evaluation used
   const Eigen::VectorXd* v = nullptr;    // (nv)
@@ -118,7 +119,9 @@ std::vector<uint8_t> encode_torque_command(int64_t utime, int64_t seq, const std
 // measured_state_t; empty name lists: scene order.
 std::vector<uint8_t> encode_measured_state(int64_t utime, int64_t seq, const std::vector<std::string>& q_names,
                                            const std::vector<double>& q, const std::vector<std::string>& v_names,
-                                           const std::vector<double>& v, const std::vector<double>& tau);
+                                           const std::vector<double>& v, const std::vector<double>& tau,
+                                           const std::vector<std::string>& wrench_names = {},
+                                           const std::vector<std::array<double, 6>>& wrenches = {});
 // control_t; q, v empty unless the action is kResetToState.
 std::vector<uint8_t> encode_control(int64_t utime, int64_t seq, ControlAction action, const std::vector<double>& q = {},
                                     const std::vector<double>& v = {});

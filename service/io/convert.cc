@@ -61,7 +61,9 @@ std::vector<uint8_t> encode_torque_command(int64_t utime, int64_t seq, const std
 
 std::vector<uint8_t> encode_measured_state(int64_t utime, int64_t seq, const std::vector<std::string>& q_names,
                                            const std::vector<double>& q, const std::vector<std::string>& v_names,
-                                           const std::vector<double>& v, const std::vector<double>& tau) {
+                                           const std::vector<double>& v, const std::vector<double>& tau,
+                                           const std::vector<std::string>& wrench_names,
+                                           const std::vector<std::array<double, 6>>& wrenches) {
   coopdyn::measured_state_t m;
   m.utime = utime;
   m.seq = seq;
@@ -75,6 +77,10 @@ std::vector<uint8_t> encode_measured_state(int64_t utime, int64_t seq, const std
   m.v = v;
   m.tau = tau;
   m.tau.resize(v.size(), 0.0);
+  m.num_wrenches = static_cast<int32_t>(wrench_names.size());
+  m.wrench_names = wrench_names;
+  for (size_t i = 0; i < wrench_names.size(); ++i)
+    m.wrench.push_back(i < wrenches.size() ? std::vector<double>(wrenches[i].begin(), wrenches[i].end()) : std::vector<double>(6, 0.0));
   return encode_msg(m);
 }
 
@@ -128,6 +134,10 @@ bool decode_output(const void* data, int len, DecodedOutput* out) {
     for (int k = 0; k < 6; ++k) out->wrench[t][k] = m.wrench[t][k];
   out->constrained_mask.assign(m.constrained_mask.begin(), m.constrained_mask.end());
   out->indeterminate_mask.assign(m.indeterminate_mask.begin(), m.indeterminate_mask.end());
+  out->wrench_measured.assign(m.wrench_measured.begin(), m.wrench_measured.end());
+  out->wrench_residual.assign(m.wrench_residual.size(), {});
+  for (size_t t = 0; t < m.wrench_residual.size(); ++t)
+    for (int k = 0; k < 6; ++k) out->wrench_residual[t][k] = m.wrench_residual[t][k];
   out->stress_names = m.stress_names;
   out->stress = m.stress;
   out->q_names = m.q_names;

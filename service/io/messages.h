@@ -52,6 +52,11 @@ struct StateSlot {
   // entries in q / v are meaningless until then (tau is 0 there); omitted pseudo-joints are already
   // set to their locked value
   bool fit_q = false, fit_v = false;
+  // force/torque sensor readings by wrench output (measured_state_t wrenches): sized to the scene's
+  // wrench outputs once; has_wrench[i] says whether output i was measured in this state
+  std::vector<unsigned char> has_wrench;
+  std::vector<std::array<double, 6>> wrench;
+  int n_wrenches = 0;  // how many were measured
 };
 
 // A validated control request (control_t), sized once (nq, nv for RESET_TO_STATE).
@@ -117,6 +122,8 @@ struct DecodedOutput {
   std::vector<int> wrench_kind;  // WrenchKind codes (output_t KIND_*)
   std::vector<std::array<double, 6>> wrench;
   std::vector<int> constrained_mask, indeterminate_mask;
+  std::vector<int> wrench_measured;                  // 1: a sensor reading came with the state
+  std::vector<std::array<double, 6>> wrench_residual;  // measured - estimated
   std::vector<std::string> stress_names;
   std::vector<double> stress;
   std::vector<std::string> q_names, v_names;

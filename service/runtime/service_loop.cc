@@ -33,6 +33,8 @@ ServiceLoop::ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& b
                 s.q = sys.q0;
                 s.v = sys.v0;
                 s.tau = Eigen::VectorXd::Zero(sys.model.nv());
+                s.has_wrench.assign(sys.wrenches.outputs.size(), 0);
+                s.wrench.assign(sys.wrenches.outputs.size(), {});
               }),
       controls_(sys, cfg.max_input_age_us(),
                 [&](io::ControlSlot& s) {
@@ -251,6 +253,7 @@ void ServiceLoop::tick(long long now) {
       f.q = &q_est_;
       f.v = &v_est_;
       f.closure = &cl;
+      f.measured = &s;
       f.state_fitted = static_cast<uint8_t>((s.fit_q ? 1 : 0) | (s.fit_v ? 2 : 0));
       f.fit_iterations = cl.iterations;
       int over = -1;  // the kind furthest above its tolerance (NaN counts as above)

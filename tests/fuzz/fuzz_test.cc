@@ -518,6 +518,19 @@ int write_corpus(const std::string& dir) {
     save(dir + "/state/" + name + ".ordered.bin", io::encode_measured_state(t, 1, {}, q, {}, v, tau));
     save(dir + "/state/" + name + ".named.bin",
          io::encode_measured_state(t, 2, sys.model.q_names, q, sys.model.v_names, v, tau));
+    // the arms' joints only (the load fitted) with a wrist sensor's reading, where the scene allows it
+    const StateFitPlan plan = plan_state_fit(sys);
+    if (plan.q_fittable && plan.v_fittable && !sys.wrenches.outputs.empty()) {
+      std::vector<std::string> jq, jv;
+      std::vector<double> qj, vj, tj;
+      for (int i = 0; i < sys.model.nq(); ++i)
+        if (std::find(plan.fit_q.begin(), plan.fit_q.end(), i) == plan.fit_q.end()) jq.push_back(sys.model.q_names[i]), qj.push_back(q[i]);
+      for (int i = 0; i < nv; ++i)
+        if (std::find(plan.fit_v.begin(), plan.fit_v.end(), i) == plan.fit_v.end())
+          jv.push_back(sys.model.v_names[i]), vj.push_back(v[i]), tj.push_back(tau[i]);
+      save(dir + "/state/" + name + ".joints_sensor.bin",
+           io::encode_measured_state(t, 3, jq, qj, jv, vj, tj, {sys.wrenches.outputs[0].name}, {{0.1, -0.2, 0.3, 1.0, -2.0, 30.0}}));
+    }
   }
   return 0;
 }
