@@ -106,9 +106,15 @@ TEST(Scene, BrokenScenesNameFileLineAndReason) {
   EXPECT_NE(e.find("negative mass"), std::string::npos) << e;
   const auto line = 1 + std::count(fb.begin(), fb.begin() + static_cast<long>(fb.find("mass: 0.7")), '\n');
   EXPECT_NE(e.find("fb.yaml:" + std::to_string(line) + ":"), std::string::npos) << e;
-  // non-closing initial state: the rocker angle off by 0.01 rad
-  e = error_of(replaced(fb, "q: 1.3684540886165397", "q: 1.3784540886165397"), "fb.yaml");
-  EXPECT_NE(e.find("initial state does not close constraint 'coupler_cut'"), std::string::npos) << e;
+  // non-closing initial state (the rocker angle off by 0.01 rad) with close_initial_state off: an
+  // error at the constraint's own line, per axis
+  e = error_of("close_initial_state: false\n" + replaced(fb, "q: 1.3684540886165397", "q: 1.3784540886165397"), "fb.yaml");
+  EXPECT_NE(e.find("initial state does not close constraint 'coupler_cut': position error per axis rz "), std::string::npos) << e;
+  const auto cut_line = 2 + std::count(fb.begin(), fb.begin() + static_cast<long>(fb.find("{name: coupler_cut")), '\n');
+  EXPECT_NE(e.find("fb.yaml:" + std::to_string(cut_line) + ":"), std::string::npos) << e;
+  // a four-bar whose lengths cannot close is an error even with close_initial_state on
+  e = error_of(replaced(fb, "placement: {xyz: [1.0, 0, 0]}", "placement: {xyz: [3.0, 0, 0]}"), "fb.yaml");
+  EXPECT_NE(e.find("does not close constraint 'coupler_cut' (close_initial_state could not close it)"), std::string::npos) << e;
   // an explicit grasp that the arm does not reach
   e = error_of(replaced(puma, "    grasp: at_initial_state\n  - name: arm2",
                         "    grasp: {xyz: [0, -0.2, 0]}\n  - name: arm2"),
@@ -310,4 +316,67 @@ TEST(Scene, OnlyDeclaredDofsAreActuated) {
     e = error_of(replaced(vt, "name: left_spin}", std::string("name: left_spin, tau_limit: ") + bad + "}"), "n.yaml");
     EXPECT_NE(e.find("tau_limit must be >= 0"), std::string::npos) << bad << ": " << e;
   }
+}
+
+// Loops close themselves (issue 13): the four-bar with only its crank angle given closes at the
+// shipped (hand-computed) state, moving only the joints without a value, and says so; with every
+// angle given but the rocker 0.01 rad off, it closes by the least change of all of them.
+TEST(Scene, LoopsCloseThemselves) {
+  const std::string fb = read(scene_path("four_bar"));
+  const System ref = load_scene(scene_path("four_bar"));
+  EXPECT_TRUE(ref.warnings.empty()) << ref.warnings.front();
+  std::string open = fb;
+  for (const char* q : {", q: -0.7010155109338528", ", q: 1.3684540886165397"}) {
+    ASSERT_NE(open.find(q), std::string::npos) << q;
+    open = replaced(open, q, "");
+  }
+  // the remaining dependent angle (coupler_b's joint) is given in the file: drop every q but j1's
+  std::string only_crank;
+  {
+    std::stringstream in(open);
+    std::string line;
+    while (std::getline(in, line)) {
+      const size_t p = line.find(", q: ");
+      if (p != std::string::npos && line.find("name: j1") == std::string::npos && line.find("pseudo") == std::string::npos)
+        line = line.substr(0, p) + line.substr(line.find('}', p));
+      only_crank += line + "\n";
+    }
+  }
+  // only the crank given: it closes (on one of the four-bar's two assembly branches), the crank kept
+  const System sys = load_scene_string(only_crank, "fb_open.yaml");
+  ASSERT_EQ(sys.warnings.size(), 1u);
+  EXPECT_NE(sys.warnings[0].find("closed to"), std::string::npos) << sys.warnings[0];
+  EXPECT_NE(sys.warnings[0].find("the coordinates the scene gives no initial value"), std::string::npos) << sys.warnings[0];
+  EXPECT_EQ(sys.warnings[0].find("j1 "), std::string::npos) << "the crank, given, did not move: " << sys.warnings[0];
+  {
+    Data d(sys.model);
+    ConstraintData cd(sys.model, sys.constraints);
+    forward_kinematics(sys.model, d, sys.q0, sys.v0);
+    constraint_rows(sys.model, d, sys.constraints, sys.q0, sys.v0, cd);
+    EXPECT_LT(cd.err.cwiseAbs().maxCoeff(), 1e-12);
+  }
+  // rough values (two digits) choose the branch, `keep` holds the crank: the shipped state exactly
+  std::string rough = "close_initial_state: {keep: [j1]}\n" + fb;
+  for (const auto& [exact, approx] : std::vector<std::pair<std::string, std::string>>{
+           {"q: -0.7010155109338528", "q: -0.7"}, {"q: 1.3684540886165397", "q: 1.37"}}) {
+    ASSERT_NE(rough.find(exact), std::string::npos) << exact;
+    rough = replaced(rough, exact, approx);
+  }
+  const System sr = load_scene_string(rough, "fb_rough.yaml");
+  ASSERT_EQ(sr.warnings.size(), 1u);
+  EXPECT_NE(sr.warnings[0].find("every joint not in close_initial_state.keep"), std::string::npos) << sr.warnings[0];
+  for (int i = 0; i < sr.model.nq(); ++i) EXPECT_NEAR(sr.q0[i], ref.q0[i], 1e-9) << sr.model.q_names[i];
+  EXPECT_NE(error_of("close_initial_state: {keep: [j9]}\n" + fb, "fb.yaml").find("unknown joint 'j9'"), std::string::npos);
+  // every angle given, the rocker off: the least change over all of them closes it
+  const System s2 = load_scene_string(replaced(fb, "q: 1.3684540886165397", "q: 1.3784540886165397"), "fb_off.yaml");
+  ASSERT_EQ(s2.warnings.size(), 1u);
+  EXPECT_NE(s2.warnings[0].find("every coordinate (least change)"), std::string::npos) << s2.warnings[0];
+  Data d(s2.model);
+  ConstraintData cd(s2.model, s2.constraints);
+  forward_kinematics(s2.model, d, s2.q0, s2.v0);
+  constraint_rows(s2.model, d, s2.constraints, s2.q0, s2.v0, cd);
+  EXPECT_LT(cd.err.cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT(cd.Gv.cwiseAbs().maxCoeff(), 1e-12);
+  const int j4 = s2.model.bodies[s2.model.joint_index("j4")].joint.idx_q;
+  EXPECT_GT(std::abs(s2.q0[j4] - 1.3784540886165397), 1e-4) << "the rocker moved back towards the closing angle";
 }

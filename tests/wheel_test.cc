@@ -540,7 +540,22 @@ constraints:
   EXPECT_NE(err("  - {type: rolling, body: nowheel, axle: [0, 1, 0], radius: 0.25}").find("unknown wheel body"), std::string::npos);
   EXPECT_NE(err("  - {type: rolling, body: wheel, axle: [0, 1, 0], radius: -1}").find("radius must be > 0"), std::string::npos);
   EXPECT_NE(err("  - {type: rolling, body: wheel, axle: [0, 0, 0], radius: 0.25}").find("nonzero"), std::string::npos);
-  EXPECT_NE(err("  - {type: rolling, body: wheel, axle: [0, 1, 0], radius: 0.3}").find("does not close constraint"), std::string::npos);
+  // a wheel of radius 0.3 under a body placed for 0.25: closed by lifting the body (with a warning),
+  // an error when the scene keeps its values
+  {
+    const System s = load_scene_string(base + "  - {type: rolling, body: wheel, axle: [0, 1, 0], radius: 0.3}", "w.yaml");
+    ASSERT_EQ(s.warnings.size(), 1u);
+    EXPECT_NE(s.warnings[0].find("initial state: the constraints were open by 0.05"), std::string::npos) << s.warnings[0];
+  }
+  {
+    std::string no_close = "close_initial_state: false\n" + base;
+    try {
+      load_scene_string(no_close + "  - {type: rolling, body: wheel, axle: [0, 1, 0], radius: 0.3}", "w.yaml");
+      ADD_FAILURE() << "no error";
+    } catch (const SceneError& e) {
+      EXPECT_NE(std::string(e.what()).find("does not close constraint"), std::string::npos) << e.what();
+    }
+  }
   EXPECT_NE(err("  - {type: rolling, body: wheel, radius: 0.25}").find("missing 'axle'"), std::string::npos);
   EXPECT_EQ(err("  - {type: rolling, body: wheel, axle: [0, 2, 0], radius: 0.25}"), "no error");  // normalized
 }
