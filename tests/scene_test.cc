@@ -11,6 +11,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "service/dynamics/wrenches.h"
 #include "tests/test_util.h"
 
 using namespace coopdyn;
@@ -379,4 +380,94 @@ TEST(Scene, LoopsCloseThemselves) {
   EXPECT_LT(cd.Gv.cwiseAbs().maxCoeff(), 1e-12);
   const int j4 = s2.model.bodies[s2.model.joint_index("j4")].joint.idx_q;
   EXPECT_GT(std::abs(s2.q0[j4] - 1.3784540886165397), 1e-4) << "the rocker moved back towards the closing angle";
+}
+
+// Prismatic joints in DH robots (issue 13): a SCARA (RRPR, standard DH, joint 3 sliding along z of
+// frame 2, which points down). Its end-effector pose equals the DH product computed here, and the
+// gravity force on the sliding joint is the weight it carries, -(m3 + m4) g along its axis.
+TEST(Scene, PrismaticDhJoints) {
+  const std::string text = R"(
+name: two_scaras
+gravity: [0, 0, -9.81]
+formulation: classic
+robots:
+  scara:
+    convention: standard_dh
+    links:
+      - {a: 0.4, d: 0.35, alpha: 0, mass: 8.0, com: [-0.2, 0, 0], inertia: [0.02, 0.1, 0.1, 0, 0, 0]}
+      - {a: 0.3, d: 0.0, alpha: 3.141592653589793, mass: 5.0, com: [-0.15, 0, 0], inertia: [0.01, 0.05, 0.05, 0, 0, 0]}
+      - {type: prismatic, theta: 0.0, d: 0.05, mass: 1.5, com: [0, 0, -0.1], inertia: [0.005, 0.005, 0.001, 0, 0, 0]}
+      - {a: 0.0, d: 0.08, alpha: 0, mass: 0.5, com: [0, 0, 0.02], inertia: [0.001, 0.001, 0.001, 0, 0, 0]}
+load:
+  name: load
+  mass: 2.0
+  inertia: [0.01, 0.01, 0.01, 0, 0, 0]
+  pose: {xyz: [0.35, 0.0, 0.05]}
+arms:
+  - {name: arm1, robot: scara, base: {xyz: [0, -0.45, 0]}, q: [0.9, 1.2, 0.1, 0.0], grasp: at_initial_state}
+  - {name: arm2, robot: scara, base: {xyz: [0, 0.45, 0]}, q: [-0.9, -1.2, 0.1, 0.0], grasp: at_initial_state}
+)";
+  const System sys = load_scene_string(text, "scara.yaml");
+  const Model& m = sys.model;
+  const int q3 = m.bodies[m.joint_index("arm1.q3")].joint.idx_q, v3 = m.bodies[m.joint_index("arm1.q3")].joint.idx_v;
+  EXPECT_EQ(m.bodies[m.joint_index("arm1.q3")].joint.type, JointType::kPrismatic);
+  // the DH product T = prod Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i), theta_3 = 0 and d_3 = 0.05 + q3
+  auto dh = [](double th, double d, double a, double al) {
+    Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
+    T.block<3, 3>(0, 0) = (Eigen::AngleAxisd(th, Vec3::UnitZ()) * Eigen::AngleAxisd(al, Vec3::UnitX())).toRotationMatrix();
+    T.block<3, 1>(0, 3) = Vec3(a * std::cos(th), a * std::sin(th), d);
+    return T;
+  };
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> U(-1, 1);
+  Data d(m);
+  for (int trial = 0; trial < 5; ++trial) {
+    Eigen::VectorXd q = sys.q0;
+    const int i1 = m.bodies[m.joint_index("arm1.q1")].joint.idx_q;
+    double qa[4];
+    for (int k = 0; k < 4; ++k) q[i1 + k] = qa[k] = (k == 2 ? 0.1 : 1.0) * U(rng);
+    forward_kinematics(m, d, q, Eigen::VectorXd::Zero(m.nv()));
+    Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
+    T.block<3, 1>(0, 3) = Vec3(0, -0.45, 0);
+    T = T * dh(qa[0], 0.35, 0.4, 0) * dh(qa[1], 0.0, 0.3, M_PI) * dh(0.0, 0.05 + qa[2], 0, 0) * dh(qa[3], 0.08, 0, 0);
+    const Transform X = frame_pose(m, d, m.frame_index("arm1.ee"));
+    EXPECT_LT((X.R - T.block<3, 3>(0, 0)).cwiseAbs().maxCoeff(), 1e-14);
+    EXPECT_LT((X.p - T.block<3, 1>(0, 3)).cwiseAbs().maxCoeff(), 1e-14);
+    // gravity on the slide: h = dV/dq = -(m3 + m4) g (z3 points down); tau = h holds it
+    Eigen::VectorXd v = Eigen::VectorXd::Zero(m.nv());
+    forward_kinematics(m, d, q, v);
+    rnea_bias(m, d);
+    EXPECT_NEAR(d.h[v3], -(1.5 + 0.5) * 9.81, 1e-12);
+  }
+  (void)q3;
+  // the same robots in the mobile-platform form (the arms hang from the load, the slide reversed):
+  // the same end-effector wrenches at the same physical state, under zero torques, in every
+  // component the physics determines (two 4-DOF arms on one load leave the moments about the
+  // horizontal axes indeterminate: each form resolves them by its own minimum norm, flagged)
+  const System mp = load_scene_string(replaced(text, "formulation: classic", "formulation: mobile_platform"), "scara_mp.yaml");
+  Workspace wc(sys), wm(mp);
+  WrenchData dc(sys), dm(mp);
+  evaluate(sys, wc, sys.q0, sys.v0, Eigen::VectorXd::Zero(m.nv()));
+  evaluate(mp, wm, mp.q0, mp.v0, Eigen::VectorXd::Zero(mp.model.nv()));
+  compute_wrenches(sys, wc, dc);
+  compute_wrenches(mp, wm, dm);
+  int compared = 0;
+  for (size_t a = 0; a < sys.wrenches.outputs.size(); ++a)
+    for (size_t b = 0; b < mp.wrenches.outputs.size(); ++b)
+      if (sys.wrenches.outputs[a].name == mp.wrenches.outputs[b].name && sys.wrenches.outputs[a].kind == WrenchKind::kEndEffector) {
+        EXPECT_EQ(dc.indeterminate[a], dm.indeterminate[b]) << sys.wrenches.outputs[a].name;
+        for (int k = 0; k < 6; ++k) {
+          if ((dc.indeterminate[a] >> k) & 1) continue;
+          EXPECT_NEAR(dc.W[a][k], dm.W[b][k], 1e-9 * (1 + std::abs(dc.W[a][k]))) << sys.wrenches.outputs[a].name << " " << k;
+          ++compared;
+        }
+      }
+  EXPECT_GE(compared, 6) << "the forces at least";
+  // the key errors
+  EXPECT_NE(error_of(replaced(text, "{type: prismatic, theta: 0.0,", "{type: prismatic, offset: 0.1,"), "s.yaml").find("constant extension is 'd'"),
+            std::string::npos);
+  EXPECT_NE(error_of(replaced(text, "{type: prismatic, theta: 0.0,", "{type: helical, theta: 0.0,"), "s.yaml").find("revolute or prismatic"),
+            std::string::npos);
+  EXPECT_NE(error_of(replaced(text, "{a: 0.0, d: 0.08,", "{theta: 0.2, a: 0.0, d: 0.08,"), "s.yaml").find("theta is the variable of a revolute link"),
+            std::string::npos);
 }
