@@ -97,6 +97,7 @@ StateFitWorkspace::StateFitWorkspace(const System& sys, const StateFitPlan& plan
   r.setZero(rows);
   N.setZero(nu, nu);
   V.setZero(nu, nu);
+  llt = Eigen::LLT<Eigen::MatrixXd>(nu);
   w.setZero(nu);
   b.setZero(nu);
   x.setZero(nu);
@@ -132,6 +133,20 @@ void least_squares(StateFitWorkspace& ws, int rows) {
   const auto A = ws.Gu.topRows(rows);
   ws.N.noalias() = A.transpose() * A;
   ws.b.noalias() = A.transpose() * ws.r.head(rows);
+  // the fast path: a Cholesky of the normal matrix when it is well conditioned (its pivots within
+  // 1e-10 of each other: the fitted coordinates are well determined); else the rank-safe
+  // pseudo-inverse from a Jacobi eigen-decomposition
+  ws.llt.compute(ws.N);
+  if (ws.llt.info() == Eigen::Success) {
+    const auto d = ws.llt.matrixLLT().diagonal();
+    const double dmin = d.minCoeff(), dmax = d.maxCoeff();
+    if (dmin > 0 && dmin * dmin > 1e-10 * dmax * dmax) {
+      ws.x = ws.b;
+      ws.llt.solveInPlace(ws.x);
+      return;
+    }
+  }
+  ws.N.noalias() = A.transpose() * A;
   jacobi_eigen(ws.N, ws.w, ws.V);
   const double wmax = nu ? std::max(ws.w[nu - 1], 0.0) : 0.0;
   ws.x.noalias() = ws.V.transpose() * ws.b;
@@ -176,12 +191,15 @@ const Closure& fit_state(const System& sys, const StateFitPlan& plan, StateFitWo
     double e2 = error_norm2(plan, ws.cd);
     constexpr int kMaxIterations = 50;
     for (int it = 0; it < kMaxIterations && e2 > 0.0; ++it) {
-      holonomic_system(plan, ws);
+      // closed to round-off (1e-14 rad or m): nothing a step could improve
+      if (holonomic_system(plan, ws) < 1e-14) break;
       least_squares(ws, ws.n_hol);
-      if (!(ws.x.norm() > 1e-15)) break;  // converged (or a NaN step: stop, the residual says so)
+      // converged: the step is below 1e-13 (rad, m), round-off for a metre-size system (or a NaN
+      // step: stop, the residual says so)
+      if (!(ws.x.cwiseAbs().maxCoeff() > 1e-13)) break;
       ws.dv.setZero();
       bool improved = false;
-      for (double step = 1.0; step > 1e-6; step *= 0.5) {
+      for (double step = 1.0; step > 1e-2; step *= 0.5) {
         for (int k = 0; k < nu; ++k) ws.dv[plan.fit_v[k]] = -step * ws.x[k];
         integrate(m, q, ws.dv, 1.0, ws.q_try);
         normalize_configuration(m, ws.q_try);

@@ -19,10 +19,11 @@
 //
 // Position fit: Gauss-Newton on the holonomic rows' position error e(q) over the omitted tangent
 // directions, dx = -(G_u^T G_u)^+ G_u^T e, q <- q (+) dx, from a start (the last fit, or q0), with
-// step halving when a step does not reduce |e|; stops when |e| stops decreasing or the step is
-// below 1e-15. Velocity fit: the omitted velocities minimizing |G v| (G's rows all, the measured
-// velocities fixed): v_u = -(G_u^T G_u)^+ G_u^T (G_m v_m). The pseudo-inverses come from an
-// allocation-free Jacobi eigen-decomposition of the small normal matrix (dimension = omitted DOFs).
+// step halving when a step does not reduce |e|; stops when |e| is below 1e-14, stops decreasing,
+// or the step is below 1e-13 (rad, m). Velocity fit: the omitted velocities minimizing |G v| (G's rows all, the measured
+// velocities fixed): v_u = -(G_u^T G_u)^+ G_u^T (G_m v_m). The normal matrix (dimension = omitted
+// DOFs) is solved by Cholesky when well conditioned, else by the pseudo-inverse of an
+// allocation-free Jacobi eigen-decomposition; no allocation.
 // Least squares over all arms weights the rows as they are written: a weld's rotation rows in rad,
 // its translation rows in m, in the tip frame.
 //
@@ -35,6 +36,7 @@
 
 #include <vector>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
 
 #include "service/constraints/constraints.h"
@@ -74,6 +76,7 @@ struct StateFitWorkspace {
   Eigen::MatrixXd Gu;       // (rows x n_fit) columns of the fitted DOFs (first n_hol rows: holonomic)
   Eigen::VectorXd r;        // (rows)
   Eigen::MatrixXd N, V;     // (n_fit x n_fit) normal matrix (destroyed by the decomposition), eigenvectors
+  Eigen::LLT<Eigen::MatrixXd> llt;  // of N, when N is well conditioned
   Eigen::VectorXd w, b, x;  // (n_fit)
   Eigen::VectorXd dv;       // (nv) tangent step
   Eigen::VectorXd q_try;    // (nq)
