@@ -416,6 +416,8 @@ int StatsEncoder::encode(const StatsFrame& s, uint8_t* buf, int cap) {
   o.numerical_errors = s.numerical_errors;
   o.receiver_restarts = s.receiver_restarts;
   o.inputs_dropped = s.inputs_dropped;
+  o.commands_missed = s.missed;
+  o.inputs_filtered = s.inputs_filtered;
   if (cap < o.getEncodedSize()) return -1;
   return o.encode(buf, 0, cap);
 }

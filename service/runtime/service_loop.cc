@@ -278,6 +278,8 @@ void ServiceLoop::fill_counters(io::StatsFrame& s) const {
   s.numerical_errors = numerical_errors();
   s.receiver_restarts = receiver_restarts_.load(std::memory_order_relaxed);
   s.inputs_dropped = inputs_dropped_.load(std::memory_order_relaxed);
+  s.missed = c.missed.load(std::memory_order_relaxed);
+  s.inputs_filtered = inputs_filtered_.load(std::memory_order_relaxed);
 }
 
 void ServiceLoop::publish_stats() {
