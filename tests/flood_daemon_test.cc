@@ -248,3 +248,78 @@ TEST(DaemonFlood, ValidCommandLossBelowOnePercentAndCounted) {
   FloodFigures g;
   run_flood(Junk::kFingerprinted, &g);
 }
+
+// The socket filter itself: datagrams that are not a coopdyn message of an input channel (the
+// command fingerprint on another channel, another type's fingerprint on the command channel, a
+// truncated one, a non-LCM datagram) are dropped by the kernel and never reach the receive process;
+// a valid command after them is applied.
+TEST(DaemonFlood, SocketFilterLetsOnlyCoopdynMessagesOfItsChannelsThrough) {
+  const int port = 51000 + (getpid() + 4500) % 9000;
+  const std::string url = "udpm://239.255.76.67:" + std::to_string(port) + "?ttl=0";
+  const std::string url_in = "udpm://239.255.76.68:" + std::to_string(60000 + (getpid() + 2500) % 5000) + "?ttl=0";
+  auto rx = try_bus(url), tx = try_bus(url_in);
+  if (!rx || !tx) GTEST_SKIP() << "LCM udpm unavailable (no multicast route? 'ip route add 224.0.0.0/4 dev lo')";
+  const System sys = load_scene(scene_path("two_puma_load"));
+  const std::string config = tmp_path("filter.yaml");
+  {
+    std::ofstream(config) << "lcm_url_in: \"" << url_in << "\"\n";
+  }
+  std::mutex mu;
+  int64_t outputs = 0, max_seq_applied = -1;
+  rx->subscribe("COOPDYN_OUTPUT", [&](const void* d, int n, long long) {
+    io::DecodedOutput o;
+    if (!io::decode_output(d, n, &o)) return;
+    std::lock_guard<std::mutex> lk(mu);
+    ++outputs;
+    if (o.input == static_cast<int>(io::Input::kCommand)) max_seq_applied = std::max<int64_t>(max_seq_applied, o.input_seq);
+  });
+  rx->start();
+  Child d({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", config, "--lcm-url", url, "--duration", "20"},
+          "filter");
+  for (int i = 0; i < 2000; ++i) {
+    {
+      std::lock_guard<std::mutex> lk(mu);
+      if (outputs > 0) break;
+    }
+    std::this_thread::sleep_for(5ms);
+  }
+  const auto cmd = io::encode_torque_command(io::wall_us(), 7, {}, stdvec(some_torque(sys, 3)));
+  const auto ctl = io::encode_control(io::wall_us(), 1, io::ControlAction::kPause);
+  std::vector<uint8_t> output_hash(64, 0);
+  for (int k = 0; k < 8; ++k)
+    output_hash[k] = static_cast<uint8_t>(static_cast<uint64_t>(io::fingerprint(io::MessageType::kOutput)) >> (56 - 8 * k));
+  const int kEach = 50;
+  int sent = 0;
+  for (int i = 0; i < kEach; ++i) {
+    ASSERT_EQ(tx->publish("COOPDYN_COMMANDX", cmd.data(), static_cast<int>(cmd.size())), 0);  // another channel
+    ASSERT_EQ(tx->publish("COOPDYN_COMMAN", cmd.data(), static_cast<int>(cmd.size())), 0);   // a prefix of it
+    ASSERT_EQ(tx->publish("COOPDYN_COMMAND", ctl.data(), static_cast<int>(ctl.size())), 0);  // control_t on the command channel
+    ASSERT_EQ(tx->publish("COOPDYN_CONTROL", cmd.data(), static_cast<int>(cmd.size())), 0);  // a command on the control channel
+    ASSERT_EQ(tx->publish("COOPDYN_COMMAND", output_hash.data(), 64), 0);                     // another coopdyn type
+    ASSERT_EQ(tx->publish("COOPDYN_COMMAND", cmd.data(), 7), 0);                              // the fingerprint cut short
+    sent += 6;
+  }
+  ASSERT_EQ(tx->publish("COOPDYN_COMMAND", cmd.data(), static_cast<int>(cmd.size())), 0);
+  const auto end = std::chrono::steady_clock::now() + 5s;
+  while (std::chrono::steady_clock::now() < end) {
+    {
+      std::lock_guard<std::mutex> lk(mu);
+      if (max_seq_applied == 7) break;
+    }
+    std::this_thread::sleep_for(5ms);
+  }
+  std::this_thread::sleep_for(300ms);  // the receive process reads the socket's drop count every 50 ms
+  kill(d.pid, SIGTERM);
+  ASSERT_EQ(d.wait(), 0) << slurp(d.err);
+  rx->stop();
+  std::remove(config.c_str());
+  {
+    std::lock_guard<std::mutex> lk(mu);
+    EXPECT_EQ(max_seq_applied, 7) << "the valid command after the others is applied";
+  }
+  Summary s;
+  ASSERT_TRUE(parse_summary(slurp(d.out), &s)) << slurp(d.out);
+  EXPECT_EQ(s.received, 1) << "only the valid command reached the decoders";
+  EXPECT_EQ(s.filtered, 0) << "nothing reached the receive process's own check";
+  EXPECT_EQ(s.socket_drops, sent) << "the kernel dropped every other datagram at the socket";
+}
