@@ -225,6 +225,7 @@ std::vector<sock_filter> build_filter(const std::vector<Accept>& acc) {
 
 // The UDP socket LCM bound to the URL's port (its receive socket), or -1.
 int find_receive_socket(uint16_t port) {
+  if (port == 0) return -1;  // not udpm (an unbound socket would report port 0)
   rlimit rl{};
   const int max_fd = getrlimit(RLIMIT_NOFILE, &rl) == 0 && rl.rlim_cur < 65536 ? static_cast<int>(rl.rlim_cur) : 65536;
   int found = -1;
