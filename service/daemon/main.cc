@@ -306,9 +306,12 @@ int main(int argc, char** argv) {
       spdlog::warn("receive socket buffer: asked for {} bytes, the kernel grants {} (SO_RCVBUF reports {}; "
                    "net.core.rmem_max = {} caps it: raise it with sysctl -w net.core.rmem_max={})",
                    cfg.receive_socket_buffer, got / 2, got, rmem_max, cfg.receive_socket_buffer);
+    else if (cfg.receive_socket_buffer > 0)
+      spdlog::info("receive socket buffer: {} bytes as configured (SO_RCVBUF reports {}: the kernel doubles a request "
+                   "for its bookkeeping)", cfg.receive_socket_buffer, got);
     else
-      spdlog::info("receive socket buffer: {} bytes (SO_RCVBUF reports {}; {})", got / 2, got,
-                   cfg.receive_socket_buffer > 0 ? "as configured" : "the OS default");
+      spdlog::info("receive socket buffer: SO_RCVBUF {} bytes (the OS default, net.core.rmem_default; "
+                   "receive.socket_buffer_bytes sets it)", got);
     if (rx->filter_state() == 1)
       spdlog::info("receive socket filter: only coopdyn messages on the input channels reach the receive process");
     else

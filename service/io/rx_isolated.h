@@ -55,7 +55,7 @@ struct RxRingHeader {
   std::atomic<uint64_t> alive;    // set by the child once subscribed
   std::atomic<uint64_t> filtered; // messages the child refused: not a coopdyn message of its channel
   std::atomic<uint64_t> socket_drops;  // the kernel's drop count of the receive socket (filter + overflow)
-  std::atomic<int64_t> rcvbuf;    // SO_RCVBUF as the kernel reports it (twice what it grants for data)
+  std::atomic<int64_t> rcvbuf;    // SO_RCVBUF as the kernel reports it (twice a request it granted; the OS default as is)
   std::atomic<int64_t> filter;    // 1: socket filter attached; < 0: not (-1 no socket found, -2 refused)
 };
 static_assert(std::atomic<uint64_t>::is_always_lock_free, "the ring's counters must be lock-free across processes");
