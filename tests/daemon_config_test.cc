@@ -20,6 +20,7 @@ TEST(DaemonConfig, ShippedConfigEqualsBuiltInDefaults) {
   EXPECT_EQ(f.input_url(), f.lcm_url);
   EXPECT_EQ(f.receive_queue, d.receive_queue);
   EXPECT_EQ(f.receive_max_bytes, d.receive_max_bytes);
+  EXPECT_EQ(f.receive_socket_buffer, d.receive_socket_buffer);
   EXPECT_EQ(f.command_channel, d.command_channel);
   EXPECT_EQ(f.state_channel, d.state_channel);
   EXPECT_EQ(f.output_channel, d.output_channel);
@@ -102,6 +103,10 @@ TEST(DaemonConfig, EveryValueBoundedWithTheLimitsInTheMessage) {
       {"receive: {queue: 2.5}\n", "receive.queue must be an integer in [2, 4096] messages, got 2.5"},
       {"receive: {max_message_bytes: 1e12}\n", "t.yaml:1:30: receive.max_message_bytes must be an integer in [256, 4194304] bytes"},
       {"receive: {bogus: 1}\n", "unknown key 'bogus' in receive"},
+      {"receive: {socket_buffer_bytes: 100}\n",
+       "t.yaml:1:32: receive.socket_buffer_bytes must be 0 (the OS default) or an integer in [4096, 268435456] bytes, got 100"},
+      {"receive: {socket_buffer_bytes: 1e12}\n", "receive.socket_buffer_bytes must be 0 (the OS default) or an integer in [4096, 268435456]"},
+      {"receive: {socket_buffer_bytes: -1}\n", "got -1"},
       // a non-scalar mapping key, at the top and inside a section
       {"? [a, b]\n: 1\n", "t.yaml:1:3: a key in the service config must be a plain name, not a list or mapping"},
       {"realtime:\n  ? {x: 1}\n  : 2\n", "t.yaml:2:5: a key in realtime must be a plain name, not a list or mapping"},

@@ -223,7 +223,10 @@ int main(int argc, char** argv) {
         exe, cfg.input_url(),
         std::vector<std::string>{cfg.mode == runtime::ServiceMode::kSimulate ? cfg.command_channel : cfg.state_channel,
                                  cfg.control_channel},
-        cfg.receive_queue, cfg.receive_max_bytes);
+        std::vector<int64_t>{io::fingerprint(cfg.mode == runtime::ServiceMode::kSimulate ? io::MessageType::kTorqueCommand
+                                                                                          : io::MessageType::kMeasuredState),
+                             io::fingerprint(io::MessageType::kControl)},
+        cfg.receive_queue, cfg.receive_max_bytes, cfg.receive_socket_buffer);
   } catch (const std::exception& e) {
     spdlog::shutdown();
     std::fprintf(stderr, "coopdynd: %s\n", e.what());
@@ -258,6 +261,7 @@ int main(int argc, char** argv) {
   // once per second with the counts since the last line
   std::atomic<long long> rejected_by[io::kRejectKinds] = {};
   std::atomic<long long> out_of_order{0};
+  long long missed_logged = 0, filtered_logged = 0;
   auto last_report = std::chrono::steady_clock::now() - std::chrono::seconds(2);
   auto report_rejections = [&](bool force) {
     const auto now = std::chrono::steady_clock::now();
@@ -267,6 +271,14 @@ int main(int argc, char** argv) {
       if (const long long k = rejected_by[r].exchange(0)) what += (what.empty() ? "" : ", ") + std::to_string(k) + " " + io::reject_name(static_cast<io::Reject>(r));
     if (const long long k = out_of_order.exchange(0))
       what += (what.empty() ? "" : ", ") + std::to_string(k) + " out of order (seq not above the last accepted)";
+    if (const long long m = loop.input_counters().missed.load(); m > missed_logged) {
+      what += (what.empty() ? "" : ", ") + std::to_string(m - missed_logged) + " missing from the sender's seq (lost on the way)";
+      missed_logged = m;
+    }
+    if (const long long f = rx->filtered(); f > filtered_logged) {
+      what += (what.empty() ? "" : ", ") + std::to_string(f - filtered_logged) + " not coopdyn messages (refused by the receive process)";
+      filtered_logged = f;
+    }
     if (what.empty()) return;
     spdlog::warn("inputs not applied: {}", what);
     last_report = now;
@@ -280,10 +292,10 @@ int main(int argc, char** argv) {
         else r = loop.states().offer(d, n, t, &why);
         if (r == runtime::Offer::kRejected) rejected_by[static_cast<int>(why) % io::kRejectKinds].fetch_add(1);
         if (r == runtime::Offer::kOutOfOrder) out_of_order.fetch_add(1);
-        loop.set_receiver_counters(rx->restarts(), rx->dropped());
+        loop.set_receiver_counters(rx->restarts(), rx->dropped(), rx->filtered());
       },
       [&](int status, long long restarts) {
-        loop.set_receiver_counters(restarts, rx->dropped());
+        loop.set_receiver_counters(restarts, rx->dropped(), rx->filtered());
         if (WIFSIGNALED(status))
           spdlog::error("receive process killed by signal {} ({}): restart {} (a hostile or malformed datagram); "
                         "the loop keeps running, inputs resume when it is back",
@@ -294,6 +306,31 @@ int main(int argc, char** argv) {
   // outputs start only once inputs are received: wait (bounded) for the receive process to subscribe
   for (int i = 0; i < 400 && !rx->child_ready(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
   if (!rx->child_ready()) spdlog::warn("the receive process has not subscribed after 2 s; starting anyway");
+  else {
+    // what the kernel granted (it caps SO_RCVBUF at net.core.rmem_max and reports twice the request)
+    long long rmem_max = -1;
+    if (std::FILE* f = std::fopen("/proc/sys/net/core/rmem_max", "r")) {
+      if (std::fscanf(f, "%lld", &rmem_max) != 1) rmem_max = -1;
+      std::fclose(f);
+    }
+    const long long got = rx->socket_buffer();
+    if (cfg.receive_socket_buffer > 0 && got < 2LL * cfg.receive_socket_buffer)
+      spdlog::warn("receive socket buffer: asked for {} bytes, the kernel grants {} (SO_RCVBUF reports {}; "
+                   "net.core.rmem_max = {} caps it: raise it with sysctl -w net.core.rmem_max={})",
+                   cfg.receive_socket_buffer, got / 2, got, rmem_max, cfg.receive_socket_buffer);
+    else if (cfg.receive_socket_buffer > 0)
+      spdlog::info("receive socket buffer: {} bytes as configured (SO_RCVBUF reports {}: the kernel doubles a request "
+                   "for its bookkeeping)", cfg.receive_socket_buffer, got);
+    else
+      spdlog::info("receive socket buffer: SO_RCVBUF {} bytes (the OS default, net.core.rmem_default; "
+                   "receive.socket_buffer_bytes sets it)", got);
+    if (rx->filter_state() == 1)
+      spdlog::info("receive socket filter: only coopdyn messages on the input channels reach the receive process");
+    else
+      spdlog::warn("receive socket filter not attached ({}): every datagram on the input URL reaches the receive process, "
+                   "which still refuses what is not a coopdyn message",
+                   rx->filter_state() == -1 ? "LCM's receive socket not found" : "the kernel refused it");
+  }
   std::promise<std::vector<runtime::RealtimeResult>> rt_promise;
   auto rt_future = rt_promise.get_future();
   std::thread loop_thread([&] {
@@ -339,14 +376,16 @@ int main(int argc, char** argv) {
   spdlog::shutdown();
   std::printf(
       "coopdynd: stopped (%s) after %lld ticks in %.1f s: overruns %lld, skipped %lld; %s received %lld, accepted %lld, "
-      "rejected %lld, out-of-order %lld, expired %lld, stale utime %lld; receiver restarts %lld, inputs dropped %lld; "
+      "rejected %lld, out-of-order %lld, expired %lld, stale utime %lld, missed (seq gaps) %lld; receiver restarts %lld, "
+      "inputs dropped %lld, filtered %lld, socket drops (kernel filter and overflow) %lld; "
       "numerical errors %lld; lateness us p50 %.1f p99 %.1f p99.9 %.1f "
       "max %.1f; compute us p50 %.1f p99 %.1f p99.9 %.1f max %.1f\n",
       sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "duration", static_cast<long long>(s.tick), secs,
       static_cast<long long>(s.overruns), static_cast<long long>(s.skipped_periods),
       cfg.mode == runtime::ServiceMode::kSimulate ? "commands" : "states", static_cast<long long>(s.received),
       static_cast<long long>(s.accepted), static_cast<long long>(s.rejected), static_cast<long long>(s.out_of_order),
-      static_cast<long long>(s.expired), stale, rx->restarts(), rx->dropped(), static_cast<long long>(s.numerical_errors), s.lateness_us[0], s.lateness_us[1],
+      static_cast<long long>(s.expired), stale, static_cast<long long>(ic.missed.load()), rx->restarts(), rx->dropped(),
+      rx->filtered(), rx->socket_drops(), static_cast<long long>(s.numerical_errors), s.lateness_us[0], s.lateness_us[1],
       s.lateness_us[2], s.lateness_us[3], s.compute_us[0], s.compute_us[1], s.compute_us[2], s.compute_us[3]);
   std::fflush(stdout);
   return 0;

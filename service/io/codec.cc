@@ -535,6 +535,8 @@ int StatsEncoder::encode(const StatsFrame& s, uint8_t* buf, int cap) {
   o.numerical_errors = s.numerical_errors;
   o.receiver_restarts = s.receiver_restarts;
   o.inputs_dropped = s.inputs_dropped;
+  o.commands_missed = s.missed;
+  o.inputs_filtered = s.inputs_filtered;
   for (int k = 1; k < kRejectKinds; ++k) o.rejected_by_reason[k - 1] = s.rejected_by_reason[k];
   o.closure_rejected = s.closure_rejected;
   if (cap < o.getEncodedSize()) return -1;

@@ -131,6 +131,7 @@ bool decode_stats(const void* data, int len, StatsFrame* out);
 // Message types by their LCM fingerprint (the first 8 bytes).
 enum class MessageType { kUnknown, kTorqueCommand, kMeasuredState, kOutput, kLoopStats, kControl };
 MessageType identify(const void* data, int len);
+int64_t fingerprint(MessageType t);  // the generated type's hash (the first 8 bytes of its encoding); 0: kUnknown
 const char* type_name(MessageType t);  // "coopdyn.output_t", ...
 // One CSV line per message: *header describes this message's columns (it depends on the scene's
 // names), *row its values, neither with a trailing newline. False if it does not decode.

@@ -174,6 +174,8 @@ bool decode_stats(const void* data, int len, StatsFrame* s) {
   s->numerical_errors = o.numerical_errors;
   s->receiver_restarts = o.receiver_restarts;
   s->inputs_dropped = o.inputs_dropped;
+  s->missed = o.commands_missed;
+  s->inputs_filtered = o.inputs_filtered;
   // by the reasons' keys, so that a sender built with another set of reasons still reads the ones it knows
   for (int k = 1; k < kRejectKinds; ++k) {
     s->rejected_by_reason[k] = 0;
@@ -192,6 +194,18 @@ MessageType identify(const void* data, int len) {
   if (h == coopdyn::loop_stats_t::getHash()) return MessageType::kLoopStats;
   if (h == coopdyn::control_t::getHash()) return MessageType::kControl;
   return MessageType::kUnknown;
+}
+
+int64_t fingerprint(MessageType t) {
+  switch (t) {
+    case MessageType::kTorqueCommand: return coopdyn::torque_command_t::getHash();
+    case MessageType::kMeasuredState: return coopdyn::measured_state_t::getHash();
+    case MessageType::kOutput: return coopdyn::output_t::getHash();
+    case MessageType::kLoopStats: return coopdyn::loop_stats_t::getHash();
+    case MessageType::kControl: return coopdyn::control_t::getHash();
+    case MessageType::kUnknown: break;
+  }
+  return 0;
 }
 
 const char* type_name(MessageType t) {
@@ -311,7 +325,7 @@ bool to_csv(MessageType t, const void* data, int len, std::string* header, std::
           "utime,tick,period_us,window_ticks,lateness_p50_us,lateness_p99_us,lateness_p999_us,lateness_max_us,"
           "compute_p50_us,compute_p99_us,compute_p999_us,compute_max_us,overruns,skipped_periods,commands_received,"
           "commands_accepted,commands_rejected,commands_out_of_order,commands_expired,numerical_errors,receiver_restarts,"
-          "inputs_dropped,closure_rejected";
+          "inputs_dropped,commands_missed,inputs_filtered,closure_rejected";
       for (int k = 1; k < kRejectKinds; ++k) *header += std::string(",rejected_") + reject_key(static_cast<Reject>(k));
       inum(row, s.utime);
       inum(row, s.tick);
@@ -320,7 +334,8 @@ bool to_csv(MessageType t, const void* data, int len, std::string* header, std::
       for (double x : s.lateness_us) num(row, x);
       for (double x : s.compute_us) num(row, x);
       for (long long x : {s.overruns, s.skipped_periods, s.received, s.accepted, s.rejected, s.out_of_order, s.expired,
-                          s.numerical_errors, s.receiver_restarts, s.inputs_dropped, s.closure_rejected})
+                          s.numerical_errors, s.receiver_restarts, s.inputs_dropped, s.missed, s.inputs_filtered,
+                          s.closure_rejected})
         inum(row, x);
       for (int k = 1; k < kRejectKinds; ++k) inum(row, s.rejected_by_reason[k]);
       break;

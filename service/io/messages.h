@@ -99,6 +99,7 @@ struct StatsFrame {
   int64_t overruns = 0, skipped_periods = 0;
   int64_t received = 0, accepted = 0, rejected = 0, out_of_order = 0, expired = 0, numerical_errors = 0;
   int64_t receiver_restarts = 0, inputs_dropped = 0;
+  int64_t missed = 0, inputs_filtered = 0;
   int64_t rejected_by_reason[kRejectKinds] = {};  // index: Reject (kNone stays 0)
   int64_t closure_rejected = 0;
 };

@@ -1,6 +1,10 @@
 #include "service/io/rx_isolated.h"
 
+#include <arpa/inet.h>
 #include <fcntl.h>
+#include <linux/filter.h>
+#include <linux/sock_diag.h>
+#include <netinet/in.h>
 #include <lcm/lcm.h>
 #include <poll.h>
 #include <signal.h>
@@ -8,6 +12,8 @@
 #include <sys/eventfd.h>
 #include <sys/mman.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -42,16 +48,23 @@ long long now_ns() {
 
 }  // namespace
 
-IsolatedReceiver::IsolatedReceiver(std::string exe, std::string url, std::vector<std::string> channels, int slots,
-                                   int slot_bytes)
-    : exe_(std::move(exe)), url_(std::move(url)), channels_(std::move(channels)), slots_(slots), slot_bytes_(slot_bytes) {
+IsolatedReceiver::IsolatedReceiver(std::string exe, std::string url, std::vector<std::string> channels,
+                                   std::vector<int64_t> fingerprints, int slots, int slot_bytes, int socket_buffer_bytes)
+    : exe_(std::move(exe)),
+      url_(std::move(url)),
+      channels_(std::move(channels)),
+      fingerprints_(std::move(fingerprints)),
+      slots_(slots),
+      slot_bytes_(slot_bytes),
+      socket_buffer_bytes_(socket_buffer_bytes) {
+  if (fingerprints_.size() != channels_.size()) throw std::runtime_error("receive isolation: one fingerprint per channel");
   shm_size_ = ring_size(slots_, slot_bytes_);
   shm_fd_ = memfd_create("coopdyn-rx", MFD_CLOEXEC);
   if (shm_fd_ < 0 || ftruncate(shm_fd_, static_cast<off_t>(shm_size_)) != 0)
     throw std::runtime_error(std::string("receive isolation: cannot create the shared ring: ") + std::strerror(errno));
   void* p = mmap(nullptr, shm_size_, PROT_READ | PROT_WRITE, MAP_SHARED, shm_fd_, 0);
   if (p == MAP_FAILED) throw std::runtime_error(std::string("receive isolation: mmap: ") + std::strerror(errno));
-  hdr_ = new (p) RxRingHeader{kMagic, static_cast<uint32_t>(slots_), static_cast<uint32_t>(slot_bytes_), {0}, {0}, {0}, {0}, {0}};
+  hdr_ = new (p) RxRingHeader{kMagic, static_cast<uint32_t>(slots_), static_cast<uint32_t>(slot_bytes_), {0}, {0}, {0}, {0}, {0}, {0}, {0}, {0}, {0}};
   base_ = static_cast<unsigned char*>(p) + 64 * ((sizeof(RxRingHeader) + 63) / 64);
   event_fd_ = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
   if (event_fd_ < 0) throw std::runtime_error(std::string("receive isolation: eventfd: ") + std::strerror(errno));
@@ -66,6 +79,10 @@ IsolatedReceiver::~IsolatedReceiver() {
 
 long long IsolatedReceiver::dropped() const { return static_cast<long long>(hdr_->dropped.load()); }
 long long IsolatedReceiver::child_received() const { return static_cast<long long>(hdr_->received.load()); }
+long long IsolatedReceiver::filtered() const { return static_cast<long long>(hdr_->filtered.load()); }
+long long IsolatedReceiver::socket_drops() const { return static_cast<long long>(hdr_->socket_drops.load()); }
+long long IsolatedReceiver::socket_buffer() const { return static_cast<long long>(hdr_->rcvbuf.load()); }
+int IsolatedReceiver::filter_state() const { return static_cast<int>(hdr_->filter.load()); }
 bool IsolatedReceiver::child_ready() const { return hdr_->alive.load() == static_cast<uint64_t>(pid_.load()); }
 
 void IsolatedReceiver::spawn() {
@@ -75,8 +92,14 @@ void IsolatedReceiver::spawn() {
   posix_spawn_file_actions_init(&fa);
   posix_spawn_file_actions_adddup2(&fa, shm_fd_, kChildShmFd);
   posix_spawn_file_actions_adddup2(&fa, event_fd_, kChildEventFd);
-  std::vector<std::string> args = {exe_, "--rx-child", url_, std::to_string(kChildShmFd), std::to_string(kChildEventFd)};
-  args.insert(args.end(), channels_.begin(), channels_.end());
+  std::vector<std::string> args = {exe_, "--rx-child", url_, std::to_string(kChildShmFd), std::to_string(kChildEventFd),
+                                   std::to_string(socket_buffer_bytes_)};
+  for (size_t i = 0; i < channels_.size(); ++i) {
+    char h[24];
+    std::snprintf(h, sizeof h, "%016llx", static_cast<unsigned long long>(fingerprints_[i]));
+    args.push_back(channels_[i]);
+    args.push_back(h);
+  }
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -148,15 +171,121 @@ void IsolatedReceiver::run() {
   }
 }
 
+namespace {
+
+constexpr uint32_t kLc02 = 0x4c433032, kLc03 = 0x4c433033;  // LCM's short message and fragment magic
+constexpr int kMaxAccept = 8;
+
+struct Accept {
+  std::string channel;
+  unsigned char hash[8];  // big-endian, as on the wire
+};
+
+// The classic BPF program of the receive socket. For a UDP socket the filter sees the datagram from
+// the UDP header (8 bytes) on: LCM's header at 8 (magic, seqno), the channel and its NUL at 16, the
+// payload (its 8-byte type hash first) after it. A load past the end of the datagram drops it.
+std::vector<sock_filter> build_filter(const std::vector<Accept>& acc) {
+  std::vector<sock_filter> f;
+  auto stmt = [&](uint16_t code, uint32_t k) { f.push_back(sock_filter{code, 0, 0, k}); };
+  auto jeq = [&](uint32_t k, uint8_t jt, uint8_t jf) { f.push_back(sock_filter{BPF_JMP | BPF_JEQ | BPF_K, jt, jf, k}); };
+  stmt(BPF_LD | BPF_W | BPF_ABS, 8);
+  jeq(kLc03, 0, 1);
+  stmt(BPF_RET | BPF_K, 0xffffffffu);  // a fragment: accepted (the handler checks complete messages)
+  jeq(kLc02, 1, 0);
+  stmt(BPF_RET | BPF_K, 0);
+  for (const Accept& a : acc) {
+    // the bytes to match at offset 16: channel, NUL, hash
+    std::vector<unsigned char> m(a.channel.begin(), a.channel.end());
+    m.push_back(0);
+    m.insert(m.end(), a.hash, a.hash + 8);
+    // count the instructions of this entry (2 per compare, then the accept) to jump past it on a mismatch
+    int compares = 0;
+    for (size_t k = 0; k < m.size();) {
+      const size_t n = m.size() - k >= 4 ? 4 : m.size() - k >= 2 ? 2 : 1;
+      k += n;
+      ++compares;
+    }
+    int left = 2 * compares + 1;  // instructions of this entry from the current one on
+    for (size_t k = 0; k < m.size();) {
+      const size_t n = m.size() - k >= 4 ? 4 : m.size() - k >= 2 ? 2 : 1;
+      uint32_t v = 0;
+      for (size_t b = 0; b < n; ++b) v = (v << 8) | m[k + b];
+      stmt(BPF_LD | (n == 4 ? BPF_W : n == 2 ? BPF_H : BPF_B) | BPF_ABS, static_cast<uint32_t>(16 + k));
+      left -= 1;
+      // mismatch: to the first instruction after this entry's accept
+      jeq(v, 0, static_cast<uint8_t>(left - 1));
+      left -= 1;
+      k += n;
+    }
+    stmt(BPF_RET | BPF_K, 0xffffffffu);
+  }
+  stmt(BPF_RET | BPF_K, 0);
+  return f;
+}
+
+// The UDP socket LCM bound to the URL's port (its receive socket), or -1.
+int find_receive_socket(uint16_t port) {
+  if (port == 0) return -1;  // not udpm (an unbound socket would report port 0)
+  rlimit rl{};
+  const int max_fd = getrlimit(RLIMIT_NOFILE, &rl) == 0 && rl.rlim_cur < 65536 ? static_cast<int>(rl.rlim_cur) : 65536;
+  int found = -1;
+  for (int fd = 0; fd < max_fd; ++fd) {
+    int type = 0;
+    socklen_t tl = sizeof type;
+    if (getsockopt(fd, SOL_SOCKET, SO_TYPE, &type, &tl) != 0 || type != SOCK_DGRAM) continue;
+    sockaddr_in a{};
+    socklen_t al = sizeof a;
+    if (getsockname(fd, reinterpret_cast<sockaddr*>(&a), &al) != 0 || a.sin_family != AF_INET || ntohs(a.sin_port) != port)
+      continue;
+    if (found >= 0) return -1;  // two candidates: not the layout this code knows
+    found = fd;
+  }
+  return found;
+}
+
+// udpm://ADDR:PORT?...: the port (LCM's default 7667 when absent), 0 if not udpm
+uint16_t url_port(const std::string& url) {
+  if (url.rfind("udpm://", 0) != 0) return 0;
+  std::string rest = url.substr(7);
+  rest = rest.substr(0, rest.find('?'));
+  const size_t c = rest.find(':');
+  if (c == std::string::npos) return 7667;
+  const long p = std::strtol(rest.c_str() + c + 1, nullptr, 10);
+  return p > 0 && p < 65536 ? static_cast<uint16_t>(p) : 0;
+}
+
+uint64_t kernel_drops(int fd) {
+#ifdef SO_MEMINFO
+  uint32_t mi[SK_MEMINFO_VARS] = {};
+  socklen_t l = sizeof mi;
+  if (fd >= 0 && getsockopt(fd, SOL_SOCKET, SO_MEMINFO, mi, &l) == 0 && l > SK_MEMINFO_DROPS * sizeof(uint32_t))
+    return mi[SK_MEMINFO_DROPS];
+#else
+  (void)fd;
+#endif
+  return 0;
+}
+
+}  // namespace
+
 int rx_child_main(int argc, char** argv) {
-  if (argc < 6) {
-    std::fprintf(stderr, "coopdynd --rx-child: internal mode (URL SHM_FD EVENT_FD CHANNEL...)\n");
+  if (argc < 8 || (argc - 6) % 2 != 0 || (argc - 6) / 2 > kMaxAccept) {
+    std::fprintf(stderr, "coopdynd --rx-child: internal mode (URL SHM_FD EVENT_FD RCVBUF CHANNEL HASH...)\n");
     return 2;
   }
   prctl(PR_SET_PDEATHSIG, SIGKILL);
   const pid_t parent = getppid();
   const char* url = argv[2];
   const int shm_fd = std::atoi(argv[3]), event_fd = std::atoi(argv[4]);
+  const long rcvbuf = std::strtol(argv[5], nullptr, 10);
+  std::vector<Accept> acc;
+  for (int a = 6; a + 1 < argc; a += 2) {
+    Accept x;
+    x.channel = argv[a];
+    const unsigned long long h = std::strtoull(argv[a + 1], nullptr, 16);
+    for (int b = 0; b < 8; ++b) x.hash[b] = static_cast<unsigned char>(h >> (56 - 8 * b));
+    acc.push_back(x);
+  }
   struct stat st;
   if (fstat(shm_fd, &st) != 0 || st.st_size < static_cast<off_t>(sizeof(RxRingHeader))) return 3;
   void* p = mmap(nullptr, static_cast<size_t>(st.st_size), PROT_READ | PROT_WRITE, MAP_SHARED, shm_fd, 0);
@@ -168,24 +297,33 @@ int rx_child_main(int argc, char** argv) {
     RxRingHeader* hdr;
     unsigned char* base;
     int event_fd;
-  } ctx{hdr, static_cast<unsigned char*>(p) + 64 * ((sizeof(RxRingHeader) + 63) / 64), event_fd};
+    const std::vector<Accept>* acc;
+  } ctx{hdr, static_cast<unsigned char*>(p) + 64 * ((sizeof(RxRingHeader) + 63) / 64), event_fd, &acc};
   lcm_t* lcm = lcm_create(url);
   if (!lcm) return 4;
   // the channels are matched literally: LCM takes a regular expression, so escape them
   std::string re;
-  for (int a = 5; a < argc; ++a) {
+  for (const Accept& a : acc) {
     if (!re.empty()) re += '|';
-    for (const char* p = argv[a]; *p; ++p) {
-      if (std::strchr(".^$|()[]{}*+?\\", *p)) re += '\\';
-      re += *p;
+    for (const char* c = a.channel.c_str(); *c; ++c) {
+      if (std::strchr(".^$|()[]{}*+?\\", *c)) re += '\\';
+      re += *c;
     }
   }
   re = "(" + re + ")";  // LCM anchors the expression as ^...$: group the alternatives
-  lcm_subscribe(
+  lcm_subscription_t* sub = lcm_subscribe(
       lcm, re.c_str(),
-      [](const lcm_recv_buf_t* rb, const char*, void* user) {
+      [](const lcm_recv_buf_t* rb, const char* channel, void* user) {
         Ctx& c = *static_cast<Ctx*>(user);
         c.hdr->received.fetch_add(1, std::memory_order_relaxed);
+        // a coopdyn message of this channel's type, or nothing: no ring slot, no decode time
+        bool ours = false;
+        for (const Accept& a : *c.acc)
+          if (rb->data_size >= 8 && std::memcmp(rb->data, a.hash, 8) == 0 && a.channel == channel) ours = true;
+        if (!ours) {
+          c.hdr->filtered.fetch_add(1, std::memory_order_relaxed);
+          return;
+        }
         const int slots = static_cast<int>(c.hdr->slots), bytes = static_cast<int>(c.hdr->slot_bytes);
         const uint64_t head = c.hdr->head.load(std::memory_order_relaxed);
         if (rb->data_size > static_cast<uint32_t>(bytes) || head - c.hdr->tail.load(std::memory_order_acquire) >= static_cast<uint64_t>(slots)) {
@@ -203,8 +341,34 @@ int rx_child_main(int argc, char** argv) {
         (void)!write(c.event_fd, &one, sizeof one);
       },
       &ctx);
+  if (!sub) return 4;
+  // LCM drops a message silently when its subscription already queues this many (default 30)
+  lcm_subscription_set_queue_capacity(sub, static_cast<int>(hdr->slots));
+  // the receive socket exists now (LCM opens it on the first subscribe): buffer size and filter
+  const int sock = find_receive_socket(url_port(url));
+  if (sock < 0) {
+    hdr->filter.store(-1);
+  } else {
+    if (rcvbuf > 0) {
+      const int want = static_cast<int>(std::min<long>(rcvbuf, 1L << 30));
+      setsockopt(sock, SOL_SOCKET, SO_RCVBUF, &want, sizeof want);
+    }
+    std::vector<sock_filter> prog = build_filter(acc);
+    sock_fprog fp{static_cast<unsigned short>(prog.size()), prog.data()};
+    hdr->filter.store(setsockopt(sock, SOL_SOCKET, SO_ATTACH_FILTER, &fp, sizeof fp) == 0 ? 1 : -2);
+    int got = 0;
+    socklen_t gl = sizeof got;
+    if (getsockopt(sock, SOL_SOCKET, SO_RCVBUF, &got, &gl) == 0) hdr->rcvbuf.store(got);
+  }
   hdr->alive.store(static_cast<uint64_t>(getpid()));
-  while (getppid() == parent) lcm_handle_timeout(lcm, 100);
+  long long drops_read = 0;
+  while (getppid() == parent) {
+    lcm_handle_timeout(lcm, 100);
+    if (const long long now = now_ns(); now - drops_read > 50000000LL) {  // at most 20 reads per second
+      hdr->socket_drops.store(kernel_drops(sock), std::memory_order_relaxed);
+      drops_read = now;
+    }
+  }
   lcm_destroy(lcm);
   return 0;
 }

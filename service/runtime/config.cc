@@ -84,6 +84,12 @@ std::string check_receive(double queue, double bytes) {
     return "receive.max_message_bytes must be an integer in [256, 4194304] bytes, got " + num(bytes);
   return "";
 }
+std::string check_socket_buffer(double bytes) {
+  if (bytes == 0 || (bytes >= kMinSocketBufferBytes && bytes <= kMaxSocketBufferBytes && bytes == std::floor(bytes)))
+    return "";
+  return "receive.socket_buffer_bytes must be 0 (the OS default) or an integer in [" + std::to_string(kMinSocketBufferBytes) +
+         ", " + std::to_string(kMaxSocketBufferBytes) + "] bytes, got " + num(bytes);
+}
 
 std::string check_url(const std::string& url, const char* key = "lcm_url") {
   if (!url.empty() && url.size() <= static_cast<size_t>(kMaxUrlChars)) return "";
@@ -145,13 +151,16 @@ ServiceConfig parse(const YAML::Node& root, const Ctx& c) {
     if (!cfg.lcm_url_in.empty()) c.check(root["lcm_url_in"], check_url(cfg.lcm_url_in, "lcm_url_in"));
   }
   if (const YAML::Node rc = root["receive"]; rc.IsDefined()) {
-    c.keys(rc, {"queue", "max_message_bytes"}, "receive");
+    c.keys(rc, {"queue", "max_message_bytes", "socket_buffer_bytes"}, "receive");
     const double qn = c.get<double>(rc, "queue", cfg.receive_queue, "a number (messages)");
     const double mb = c.get<double>(rc, "max_message_bytes", cfg.receive_max_bytes, "a number (bytes)");
     c.check(rc["queue"], check_receive(qn, 65536));
     c.check(rc["max_message_bytes"], check_receive(64, mb));
     cfg.receive_queue = static_cast<int>(qn);
     cfg.receive_max_bytes = static_cast<int>(mb);
+    const double sb = c.get<double>(rc, "socket_buffer_bytes", cfg.receive_socket_buffer, "a number (bytes)");
+    c.check(rc["socket_buffer_bytes"], check_socket_buffer(sb));
+    cfg.receive_socket_buffer = static_cast<int>(sb);
   }
   if (const YAML::Node ch = root["channels"]; ch.IsDefined()) {
     c.keys(ch, {"command", "state", "output", "stats", "control"}, "channels");
@@ -280,7 +289,7 @@ void validate(const ServiceConfig& c) {
        {check_rate(c.rate_hz), check_watchdog(c.watchdog_ms), check_input_age(c.max_input_age_ms), check_stats_period(c.stats_period_s, c.rate_hz),
         check_catch_up(c.max_catch_up), check_priority(c.realtime.priority), check_cpu(c.realtime.cpu),
         check_url(c.lcm_url), c.lcm_url_in.empty() ? std::string() : check_url(c.lcm_url_in, "lcm_url_in"),
-        check_receive(c.receive_queue, c.receive_max_bytes), check_channel("command", c.command_channel), check_channel("control", c.control_channel), check_channel("state", c.state_channel),
+        check_receive(c.receive_queue, c.receive_max_bytes), check_socket_buffer(c.receive_socket_buffer), check_channel("command", c.command_channel), check_channel("control", c.control_channel), check_channel("state", c.state_channel),
         check_channel("output", c.output_channel), check_channel("stats", c.stats_channel)})
     if (!why.empty()) throw ConfigError(why);
   if (!(c.damping >= 0) || !std::isfinite(c.damping)) throw ConfigError("safe_torque.damping must be finite and >= 0");

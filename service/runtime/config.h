@@ -50,6 +50,8 @@ struct RealtimeOptions {
 //   realtime.cpu    -1 or [0, CPU_SETSIZE - 1 = 1023]: the bit must exist in a cpu_set_t
 //   closure_tolerance.*  (0, 1e6] in m, rad, m/s, rad/s
 //   receive.queue   [2, 4096] messages; receive.max_message_bytes [256, 4194304] bytes
+//   receive.socket_buffer_bytes  0 (the OS default) or [4096, 268435456] bytes (SO_RCVBUF takes an
+//                   int; the kernel caps a request at net.core.rmem_max, and the daemon logs what it got)
 //   channel names   1..63 characters (LCM_MAX_CHANNEL_NAME_LENGTH); lcm_url 1..1024 characters
 inline constexpr double kMinRateHz = 1.0, kMaxRateHz = 20000.0;
 inline constexpr double kMinWatchdogMs = 1.0, kMaxWatchdogMs = 3600.0e3;
@@ -58,6 +60,7 @@ inline constexpr int kMaxCatchUp = 1000;
 inline constexpr int kMaxCpu = 1023;
 inline constexpr int kMaxChannelChars = 63;
 inline constexpr int kMaxUrlChars = 1024;
+inline constexpr int kMinSocketBufferBytes = 4096, kMaxSocketBufferBytes = 268435456;
 
 struct ServiceConfig {
   double rate_hz = 1000.0;
@@ -68,6 +71,7 @@ struct ServiceConfig {
   std::string lcm_url_in;
   int receive_queue = 64;             // messages the child can queue for the daemon (ring slots)
   int receive_max_bytes = 65536;      // largest input message accepted, bytes (larger: dropped, counted)
+  int receive_socket_buffer = 0;      // SO_RCVBUF of the receive socket, bytes; 0: the OS default
   std::string command_channel = "COOPDYN_COMMAND";
   std::string state_channel = "COOPDYN_STATE";
   std::string output_channel = "COOPDYN_OUTPUT";

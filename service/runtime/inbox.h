@@ -31,6 +31,11 @@ namespace coopdyn::runtime {
 
 struct InputCounters {
   std::atomic<int64_t> received{0}, accepted{0}, rejected{0}, out_of_order{0};
+  // seqs skipped between consecutive accepted messages (seq above the last accepted + 1): the valid
+  // messages of a sender that numbers 1, 2, 3, ... that never arrived, wherever they were lost
+  // (socket buffer, receive process, ring). A sender that numbers otherwise, or jumps, adds to it
+  // too (at most 2^40 per jump).
+  std::atomic<int64_t> missed{0};
   std::atomic<int64_t> by_reason[io::kRejectKinds] = {};
 };
 
@@ -73,6 +78,10 @@ class Inbox {
     if (have_last_ && s.seq <= last_seq_ && expired_id_.load(std::memory_order_acquire) != last_id_) {
       counters_.out_of_order.fetch_add(1, std::memory_order_relaxed);
       return Offer::kOutOfOrder;
+    }
+    if (have_last_ && s.seq > last_seq_) {  // unsigned: the difference of any two int64 fits
+      const uint64_t gap = static_cast<uint64_t>(s.seq) - static_cast<uint64_t>(last_seq_) - 1;
+      if (gap > 0) counters_.missed.fetch_add(static_cast<int64_t>(gap < (1ULL << 40) ? gap : (1ULL << 40)), std::memory_order_relaxed);
     }
     s.recv_ns = recv_ns;
     s.id = ++last_id_;

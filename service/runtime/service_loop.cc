@@ -321,6 +321,8 @@ void ServiceLoop::fill_counters(io::StatsFrame& s) const {
   s.numerical_errors = numerical_errors();
   s.receiver_restarts = receiver_restarts_.load(std::memory_order_relaxed);
   s.inputs_dropped = inputs_dropped_.load(std::memory_order_relaxed);
+  s.missed = c.missed.load(std::memory_order_relaxed);
+  s.inputs_filtered = inputs_filtered_.load(std::memory_order_relaxed);
   for (int k = 0; k < io::kRejectKinds; ++k) s.rejected_by_reason[k] = c.by_reason[k].load(std::memory_order_relaxed);
   s.closure_rejected = closure_rejected_.load(std::memory_order_relaxed);
 }
