@@ -50,6 +50,9 @@ struct WrenchOutput {
   uint8_t constrained = 0x3f;  // bit k: component k is carried by a constraint or a bearing (a
                                // tip: its constrained axes; a joint: all but the axes its DOFs move
                                // along, when they are axes of the frame)
+  // filled by WrenchSet::compile(): X_BF.R is not exactly the identity, X_BF.p not exactly zero (the
+  // reaction's transform into the report frame skips what is not there)
+  bool frame_rotated = true, frame_offset = true;
 };
 
 struct WrenchSet {
