@@ -44,6 +44,24 @@ void WrenchSet::compile(const Model& model, const ConstraintSet& cs) {
                                                       : false;  // a lock is a generalized force inside its joint
     if (t) pass_specs.push_back(static_cast<int>(s));
   }
+  out_spec_begin.assign(1, 0);
+  out_spec.clear();
+  for (const WrenchOutput& o : outputs) {
+    if (o.spec < 0 && o.body >= 0)
+      for (size_t j = 0; j < pass_specs.size(); ++j) {
+        const ConstraintSpec& c = cs.specs[pass_specs[j]];
+        auto inside = [&](int b) { return b >= 0 && model.is_ancestor(o.body, b); };
+        int coef = 0;  // constraint_body_forces: +F on the body of frame A (rolling: the wheel), -F on frame B's
+        if (c.kind == ConstraintKind::kRolling) {
+          coef -= inside(c.body);
+        } else {
+          coef -= inside(model.frames[c.frame_a].body);
+          if (c.frame_b >= 0) coef += inside(model.frames[c.frame_b].body);
+        }
+        if (coef != 0) out_spec.emplace_back(static_cast<int>(j), coef);
+      }
+    out_spec_begin.push_back(static_cast<int>(out_spec.size()));
+  }
 }
 
 WrenchData::WrenchData(const System& sys) {
@@ -54,7 +72,7 @@ WrenchData::WrenchData(const System& sys) {
   a.assign(nb, Vec6::Zero());
   acc.assign(nb, Vec6::Zero());
   R.assign(nb, Vec6::Zero());
-  df_ext = dacc = f_ext;
+  dF_spec.assign(sys.wrenches.pass_specs.size(), Vec6::Zero());
   dlam.setZero(sys.constraints.rows);
 }
 
@@ -135,9 +153,27 @@ Transform wrench_frame_pose(const System& sys, const Data& data, int k) {
 
 namespace {
 
+// The force of pass spec s for multipliers lambda on the body of its frame A (rolling: the wheel),
+// world coordinates at data.p_ref, into F[6]; the spec's frame from the evaluation (cd.X_RS). In
+// scalars (see reaction_in_frame).
+inline void spec_force(const ConstraintSet& cs, const ConstraintData& cd, const double* lambda, int s, double* F) {
+  // the spec's wrench [moment; force] in its own frame (tip_wrench's layout)
+  double w[6] = {0, 0, 0, 0, 0, 0};
+  const int r0 = cs.row_offset[s];
+  for (int k = 0; k < cs.row_count[s]; ++k) w[cs.row_axis[s][k]] = lambda[r0 + k];
+  const Mat3& R = cd.X_RS[s].R;
+  const Vec3& p = cd.X_RS[s].p;
+  const double f0 = R(0, 0) * w[3] + R(0, 1) * w[4] + R(0, 2) * w[5];
+  const double f1 = R(1, 0) * w[3] + R(1, 1) * w[4] + R(1, 2) * w[5];
+  const double f2 = R(2, 0) * w[3] + R(2, 1) * w[4] + R(2, 2) * w[5];
+  F[0] = R(0, 0) * w[0] + R(0, 1) * w[1] + R(0, 2) * w[2] + (p[1] * f2 - p[2] * f1);
+  F[1] = R(1, 0) * w[0] + R(1, 1) * w[1] + R(1, 2) * w[2] + (p[2] * f0 - p[0] * f2);
+  F[2] = R(2, 0) * w[0] + R(2, 1) * w[1] + R(2, 2) * w[2] + (p[0] * f1 - p[1] * f0);
+  F[3] = f0, F[4] = f1, F[5] = f2;
+}
+
 // The constraint forces of multipliers lambda on the bodies of the reaction pass (world coordinates
-// at data.p_ref) into f_ext, zeroed first on those bodies; the specs' frames from the evaluation
-// (cd.X_RS). In scalars (see reaction_in_frame).
+// at data.p_ref) into f_ext, zeroed first on those bodies.
 void constraint_body_forces(const System& sys, const ConstraintData& cd, const double* lambda, std::vector<Vec6>& f_ext) {
   const Model& model = sys.model;
   const ConstraintSet& cs = sys.constraints;
@@ -148,19 +184,8 @@ void constraint_body_forces(const System& sys, const ConstraintData& cd, const d
   }
   for (int s : ws.pass_specs) {
     const ConstraintSpec& c = cs.specs[s];
-    // the spec's wrench [moment; force] in its own frame (tip_wrench's layout), then at p_ref in the world
-    double w[6] = {0, 0, 0, 0, 0, 0};
-    const int r0 = cs.row_offset[s];
-    for (int k = 0; k < cs.row_count[s]; ++k) w[cs.row_axis[s][k]] = lambda[r0 + k];
-    const Mat3& R = cd.X_RS[s].R;
-    const Vec3& p = cd.X_RS[s].p;
-    const double f0 = R(0, 0) * w[3] + R(0, 1) * w[4] + R(0, 2) * w[5];
-    const double f1 = R(1, 0) * w[3] + R(1, 1) * w[4] + R(1, 2) * w[5];
-    const double f2 = R(2, 0) * w[3] + R(2, 1) * w[4] + R(2, 2) * w[5];
-    const double F[6] = {R(0, 0) * w[0] + R(0, 1) * w[1] + R(0, 2) * w[2] + (p[1] * f2 - p[2] * f1),
-                         R(1, 0) * w[0] + R(1, 1) * w[1] + R(1, 2) * w[2] + (p[2] * f0 - p[0] * f2),
-                         R(2, 0) * w[0] + R(2, 1) * w[1] + R(2, 2) * w[2] + (p[0] * f1 - p[1] * f0),
-                         f0, f1, f2};
+    double F[6];
+    spec_force(cs, cd, lambda, s, F);
     auto add = [&](int body, double sign) {
       double* e = f_ext[body].data();
       for (int k = 0; k < 6; ++k) e[k] += sign * F[k];
@@ -230,29 +255,21 @@ void compute_wrenches(const System& sys, const Workspace& ws, WrenchData& wd) {
       wd.dlam[d] = 1.0;
       dlam = wd.dlam.data();
     }
-    constraint_body_forces(sys, ws.cd, dlam, wd.df_ext);
-    for (int i : set.pass) {  // the reactions' change: minus the subtree sums of the force change
-      double* da = wd.dacc[i].data();
-      for (int c = 0; c < 6; ++c) da[c] = 0.0;
-    }
-    for (int i : set.pass) {
-      double* da = wd.dacc[i].data();
-      const double* e = wd.df_ext[i].data();
-      for (int c = 0; c < 6; ++c) da[c] -= e[c];
-      const int p = model.bodies[i].parent;
-      if (p >= 0 && set.in_pass[p]) {
-        double* dp = wd.dacc[p].data();
-        for (int c = 0; c < 6; ++c) dp[c] += da[c];
-      }
-    }
+    for (size_t j = 0; j < set.pass_specs.size(); ++j) spec_force(cs, ws.cd, dlam, set.pass_specs[j], wd.dF_spec[j].data());
     for (size_t k = 0; k < no; ++k) {
       const WrenchOutput& o = set.outputs[k];
       if (o.spec >= 0) continue;
+      // the reaction's change: minus the subtree sum of the force change (WrenchSet::out_spec)
+      double dR[6] = {0, 0, 0, 0, 0, 0};
+      for (int t = set.out_spec_begin[k]; t < set.out_spec_begin[k + 1]; ++t) {
+        const double* F = wd.dF_spec[set.out_spec[t].first].data();
+        const double c = set.out_spec[t].second;
+        for (int i = 0; i < 6; ++i) dR[i] += c * F[i];
+      }
       double dF[6];
-      reaction_in_frame(data, cs, ws.cd, o, wd.dacc[o.body].data(), dF);
+      reaction_in_frame(data, cs, ws.cd, o, dR, dF);
       unsigned mask = wd.indeterminate[k];
-      for (int c = 0; c < 6; ++c)
-        if (std::abs(dF[c]) > 1e-6) mask |= 1u << c;
+      for (int c = 0; c < 6; ++c) mask |= static_cast<unsigned>(std::abs(dF[c]) > 1e-6) << c;
       wd.indeterminate[k] = static_cast<uint8_t>(mask);
     }
   }

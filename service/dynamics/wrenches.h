@@ -19,7 +19,8 @@ struct WrenchData {
                                         // physics (it moves along a free direction of lambda)
   // per body, world coordinates at data.p_ref
   std::vector<Vec6> f_ext, a, acc, R;   // f_ext: the constraint forces on the bodies of the pass
-  std::vector<Vec6> df_ext, dacc;       // the same for a free direction of lambda
+  std::vector<Vec6> dF_spec;            // per pass spec (WrenchSet::pass_specs): its force for a free
+                                        // direction of lambda
   Eigen::VectorXd dlam;                 // (rows) a free direction of lambda
 };
 
