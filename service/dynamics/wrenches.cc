@@ -91,7 +91,7 @@ Transform report_frame(const Model& model, const Data& data, const ConstraintSet
 }
 
 // A spatial force F (world coordinates at p_ref) expressed in output o's frame F at its origin,
-// negated for a reversed output, into out[6]. The frame F = X_WB * X_BF of a reaction is not formed:
+// negated for a reversed output. The frame F = X_WB * X_BF of a reaction is not formed:
 // the rotations are applied one after the other (cheaper, and no 3x3 product through memory), the
 // second only when X_BF turns, its offset only when it has one. Written in scalars: Eigen's cross
 // product of a freshly computed 3-vector reloads it from the stack in overlapping pairs, which
@@ -101,8 +101,13 @@ inline void rotate_t(const Mat3& R, double x, double y, double z, double& a, dou
   b = R(0, 1) * x + R(1, 1) * y + R(2, 1) * z;
   c = R(0, 2) * x + R(1, 2) * y + R(2, 2) * z;
 }
-void reaction_in_frame(const Data& data, const ConstraintSet& cs, const ConstraintData& cd, const WrenchOutput& o,
-                       const double* F, double* out) {
+struct Six {  // a spatial force as six scalars, returned in registers
+  double v0, v1, v2, v3, v4, v5;
+};
+// Inlined at both calls (the output loop, the null-space pass): a call would return the result
+// through memory, which the null-space test reloads in packets (store-to-load forwarding again).
+EIGEN_ALWAYS_INLINE Six reaction_in_frame(const Data& data, const ConstraintSet& cs, const ConstraintData& cd,
+                                          const WrenchOutput& o, const double* F) {
   const double nx = F[0], ny = F[1], nz = F[2], fx = F[3], fy = F[4], fz = F[5];
   const Mat3* R1;
   const Mat3* R2 = nullptr;
@@ -142,7 +147,7 @@ void reaction_in_frame(const Data& data, const ConstraintSet& cs, const Constrai
     rotate_t(*R2, b0, b1, b2, b0, b1, b2);
   }
   const double sg = o.reversed ? -1.0 : 1.0;
-  out[0] = sg * a0, out[1] = sg * a1, out[2] = sg * a2, out[3] = sg * b0, out[4] = sg * b1, out[5] = sg * b2;
+  return Six{sg * a0, sg * a1, sg * a2, sg * b0, sg * b1, sg * b2};
 }
 
 }  // namespace
@@ -173,14 +178,25 @@ inline void spec_force(const ConstraintSet& cs, const ConstraintData& cd, const 
 }
 
 // The constraint forces of multipliers lambda on the bodies of the reaction pass (world coordinates
-// at data.p_ref) into f_ext, zeroed first on those bodies.
+// at data.p_ref) into f_ext. Only the bodies the pass specs push on are ever written (zeroed first
+// here); the others keep the zero WrenchData's constructor gave them.
 void constraint_body_forces(const System& sys, const ConstraintData& cd, const double* lambda, std::vector<Vec6>& f_ext) {
   const Model& model = sys.model;
   const ConstraintSet& cs = sys.constraints;
   const WrenchSet& ws = sys.wrenches;
-  for (int i : ws.pass) {
-    double* e = f_ext[i].data();
+  auto zero = [&](int body) {
+    double* e = f_ext[body].data();
     for (int k = 0; k < 6; ++k) e[k] = 0.0;
+  };
+  for (int s : ws.pass_specs) {
+    const ConstraintSpec& c = cs.specs[s];
+    if (c.kind == ConstraintKind::kRolling) {
+      zero(c.body);
+      continue;
+    }
+    const int ba = model.frames[c.frame_a].body, bb = c.frame_b >= 0 ? model.frames[c.frame_b].body : -1;
+    if (ba >= 0 && ws.in_pass[ba]) zero(ba);
+    if (bb >= 0 && ws.in_pass[bb]) zero(bb);
   }
   for (int s : ws.pass_specs) {
     const ConstraintSpec& c = cs.specs[s];
@@ -235,7 +251,8 @@ void compute_wrenches(const System& sys, const Workspace& ws, WrenchData& wd) {
       wd.indeterminate[k] = static_cast<uint8_t>(mask);
       continue;
     }
-    reaction_in_frame(data, cs, ws.cd, o, wd.R[o.body].data(), W);
+    const Six r = reaction_in_frame(data, cs, ws.cd, o, wd.R[o.body].data());
+    W[0] = r.v0, W[1] = r.v1, W[2] = r.v2, W[3] = r.v3, W[4] = r.v4, W[5] = r.v5;
     wd.indeterminate[k] = 0;
   }
   // Free directions of lambda (an over-constrained system): a reaction component that moves along
@@ -266,10 +283,10 @@ void compute_wrenches(const System& sys, const Workspace& ws, WrenchData& wd) {
         const double c = set.out_spec[t].second;
         for (int i = 0; i < 6; ++i) dR[i] += c * F[i];
       }
-      double dF[6];
-      reaction_in_frame(data, cs, ws.cd, o, dR, dF);
+      const Six r = reaction_in_frame(data, cs, ws.cd, o, dR);
+      auto bit = [](double x, int c) { return static_cast<unsigned>(std::abs(x) > 1e-6) << c; };
       unsigned mask = wd.indeterminate[k];
-      for (int c = 0; c < 6; ++c) mask |= static_cast<unsigned>(std::abs(dF[c]) > 1e-6) << c;
+      mask |= bit(r.v0, 0) | bit(r.v1, 1) | bit(r.v2, 2) | bit(r.v3, 3) | bit(r.v4, 4) | bit(r.v5, 5);
       wd.indeterminate[k] = static_cast<uint8_t>(mask);
     }
   }
