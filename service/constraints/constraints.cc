@@ -80,6 +80,7 @@ ConstraintData::ConstraintData(const Model& model, const ConstraintSet& set) {
   gamma.setZero(set.rows);
   J_a.setZero(6, model.nv());
   J_b.setZero(6, model.nv());
+  X_RS.assign(set.specs.size(), Transform());
 }
 
 namespace {
@@ -183,9 +184,16 @@ void constraint_rows(const Model& model, const Data& data, const ConstraintSet& 
       cd.err[r0] = 0.0;          // nonholonomic: no position error, so no Baumgarte beta term
       cd.err[r0 + 1] = 0.0;
       cd.err[r0 + 2] = g.p.z() + data.p_ref.z();  // height of the contact point above the ground
+      Transform& X_RC = cd.X_RS[s];
+      X_RC.R.col(0) = g.x;
+      X_RC.R.col(1) = g.y;
+      X_RC.R.col(2) = nz;
+      X_RC.p = g.p;
       continue;
     }
     const Transform X_WA = frame_pose(model, data, c.frame_a);
+    cd.X_RS[s].R = X_WA.R;
+    cd.X_RS[s].p = X_WA.p - data.p_ref;
     const int body_a = model.frames[c.frame_a].body;
     if (c.frame_b < 0 && body_a >= 0) {
       // weld to the world (every arm base of a mobile platform, every classic tip): one pose, and

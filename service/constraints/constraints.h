@@ -90,9 +90,13 @@ struct ConstraintData {
   Eigen::VectorXd Gv;       // (rows) G * v: constraint velocity
   Eigen::VectorXd gamma;    // (rows) right-hand side
   Eigen::Matrix<double, 6, Eigen::Dynamic> J_a, J_b;  // (6 x nv) scratch
+  // per spec: its frame (weld: the tip frame A; rolling: the contact frame C) in world axes, its
+  // origin relative to data.p_ref (what to_ref() gives); unused for a lock. The wrenches read it
+  // (wrenches.h) instead of recomputing the poses of the same evaluation.
+  std::vector<Transform> X_RS;
 };
 
-// Fills G, Gdot_v, err, Gv and gamma after forward_kinematics(q, v).
+// Fills G, Gdot_v, err, Gv, gamma and X_RS after forward_kinematics(q, v).
 void constraint_rows(const Model& model, const Data& data, const ConstraintSet& set, const Eigen::VectorXd& q,
                      const Eigen::VectorXd& v, ConstraintData& cd);
 

@@ -26,6 +26,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "service/constraints/constraints.h"
@@ -50,6 +51,9 @@ struct WrenchOutput {
   uint8_t constrained = 0x3f;  // bit k: component k is carried by a constraint or a bearing (a
                                // tip: its constrained axes; a joint: all but the axes its DOFs move
                                // along, when they are axes of the frame)
+  // filled by WrenchSet::compile(): X_BF.R is not exactly the identity, X_BF.p not exactly zero (the
+  // reaction's transform into the report frame skips what is not there)
+  bool frame_rotated = true, frame_offset = true;
 };
 
 struct WrenchSet {
@@ -59,6 +63,13 @@ struct WrenchSet {
   std::vector<int> pass;
   std::vector<char> in_pass;  // (bodies)
   std::vector<int> pass_specs;
+  // per output k that is a reaction: the pass specs whose constraint forces act in the subtree of
+  // its body, as (index into pass_specs, coefficient) with the coefficient (+-1) they enter its
+  // reaction with (minus the subtree sum of the forces), in out_spec[out_spec_begin[k] ..
+  // out_spec_begin[k + 1]); the change of the reaction along a free direction of lambda is read off
+  // them without a pass over the bodies
+  std::vector<int> out_spec_begin;
+  std::vector<std::pair<int, int>> out_spec;
   void compile(const Model& model, const ConstraintSet& cs);
 };
 

@@ -22,6 +22,10 @@ const char* wrench_kind_name(WrenchKind k) {
 void WrenchSet::compile(const Model& model, const ConstraintSet& cs) {
   std::stable_sort(outputs.begin(), outputs.end(),
                    [](const WrenchOutput& a, const WrenchOutput& b) { return a.kind < b.kind; });
+  for (WrenchOutput& o : outputs) {
+    o.frame_rotated = !(o.X_BF.R.array() == Mat3::Identity().array()).all();
+    o.frame_offset = !(o.X_BF.p.array() == 0.0).all();
+  }
   const int nb = model.nbodies();
   in_pass.assign(nb, 0);
   for (const WrenchOutput& o : outputs)
@@ -40,6 +44,24 @@ void WrenchSet::compile(const Model& model, const ConstraintSet& cs) {
                                                       : false;  // a lock is a generalized force inside its joint
     if (t) pass_specs.push_back(static_cast<int>(s));
   }
+  out_spec_begin.assign(1, 0);
+  out_spec.clear();
+  for (const WrenchOutput& o : outputs) {
+    if (o.spec < 0 && o.body >= 0)
+      for (size_t j = 0; j < pass_specs.size(); ++j) {
+        const ConstraintSpec& c = cs.specs[pass_specs[j]];
+        auto inside = [&](int b) { return b >= 0 && model.is_ancestor(o.body, b); };
+        int coef = 0;  // constraint_body_forces: +F on the body of frame A (rolling: the wheel), -F on frame B's
+        if (c.kind == ConstraintKind::kRolling) {
+          coef -= inside(c.body);
+        } else {
+          coef -= inside(model.frames[c.frame_a].body);
+          if (c.frame_b >= 0) coef += inside(model.frames[c.frame_b].body);
+        }
+        if (coef != 0) out_spec.emplace_back(static_cast<int>(j), coef);
+      }
+    out_spec_begin.push_back(static_cast<int>(out_spec.size()));
+  }
 }
 
 WrenchData::WrenchData(const System& sys) {
@@ -50,19 +72,11 @@ WrenchData::WrenchData(const System& sys) {
   a.assign(nb, Vec6::Zero());
   acc.assign(nb, Vec6::Zero());
   R.assign(nb, Vec6::Zero());
-  df_ext = dacc = f_ext;
-  X_W_spec.assign(sys.constraints.specs.size(), Transform());
+  dF_spec.assign(sys.wrenches.pass_specs.size(), Vec6::Zero());
   dlam.setZero(sys.constraints.rows);
 }
 
 namespace {
-
-// [moment; force] of spec s for multipliers lambda, in the spec's own frame (tip_wrench's layout)
-Vec6 spec_wrench(const ConstraintSet& cs, const Eigen::VectorXd& lambda, int s) {
-  Vec6 w = Vec6::Zero();
-  for (int k = 0; k < cs.row_count[s]; ++k) w[cs.row_axis[s][k]] = lambda[cs.row_offset[s] + k];
-  return w;
-}
 
 Transform report_frame(const Model& model, const Data& data, const ConstraintSet& cs, const WrenchOutput& o) {
   if (o.centre_of >= 0) {
@@ -76,25 +90,30 @@ Transform report_frame(const Model& model, const Data& data, const ConstraintSet
   return o.frame_body >= 0 ? data.X_WB[o.frame_body] * o.X_BF : o.X_BF;
 }
 
-// A spatial force (world coordinates at p_ref, in halves n, f) expressed in output o's frame F at its
-// origin, negated for a reversed output. The frame F = X_WB * X_BF of a reaction is not formed: the
-// rotations are applied one after the other (cheaper, and no 3x3 product through memory). Written
-// in scalars: Eigen's cross product of a freshly computed 3-vector reloads it from the stack in
-// overlapping pairs, which stalls store-to-load forwarding (the loop spent a quarter of its time
-// there).
+// A spatial force F (world coordinates at p_ref) expressed in output o's frame F at its origin,
+// negated for a reversed output. The frame F = X_WB * X_BF of a reaction is not formed:
+// the rotations are applied one after the other (cheaper, and no 3x3 product through memory), the
+// second only when X_BF turns, its offset only when it has one. Written in scalars: Eigen's cross
+// product of a freshly computed 3-vector reloads it from the stack in overlapping pairs, which
+// stalls store-to-load forwarding (the loop spent a quarter of its time there).
 inline void rotate_t(const Mat3& R, double x, double y, double z, double& a, double& b, double& c) {  // R^T v
   a = R(0, 0) * x + R(1, 0) * y + R(2, 0) * z;
   b = R(0, 1) * x + R(1, 1) * y + R(2, 1) * z;
   c = R(0, 2) * x + R(1, 2) * y + R(2, 2) * z;
 }
-void reaction_in_frame(const Data& data, const ConstraintSet& cs, const std::vector<Transform>& X_W_spec,
-                       const WrenchOutput& o, const Vec6& F, Vec6& out) {
+struct Six {  // a spatial force as six scalars, returned in registers
+  double v0, v1, v2, v3, v4, v5;
+};
+// Inlined at both calls (the output loop, the null-space pass): a call would return the result
+// through memory, which the null-space test reloads in packets (store-to-load forwarding again).
+EIGEN_ALWAYS_INLINE Six reaction_in_frame(const Data& data, const ConstraintSet& cs, const ConstraintData& cd,
+                                          const WrenchOutput& o, const double* F) {
   const double nx = F[0], ny = F[1], nz = F[2], fx = F[3], fy = F[4], fz = F[5];
   const Mat3* R1;
   const Mat3* R2 = nullptr;
   double px, py, pz;  // the frame's origin relative to p_ref
-  if (o.centre_of >= 0) {  // the wheel's spec is in the pass: its contact frame is cached
-    R1 = &X_W_spec[o.centre_of].R;
+  if (o.centre_of >= 0) {  // the wheel centre, in the contact frame's axes (the evaluation's)
+    R1 = &cd.X_RS[o.centre_of].R;
     const Vec3& c = data.X_WB[cs.specs[o.centre_of].body].p;
     px = c[0] - data.p_ref[0];
     py = c[1] - data.p_ref[1];
@@ -102,11 +121,16 @@ void reaction_in_frame(const Data& data, const ConstraintSet& cs, const std::vec
   } else if (o.frame_body >= 0) {
     const Transform& X = data.X_WB[o.frame_body];
     R1 = &X.R;
-    R2 = &o.X_BF.R;
-    const Vec3& q = o.X_BF.p;
-    px = X.p[0] - data.p_ref[0] + X.R(0, 0) * q[0] + X.R(0, 1) * q[1] + X.R(0, 2) * q[2];
-    py = X.p[1] - data.p_ref[1] + X.R(1, 0) * q[0] + X.R(1, 1) * q[1] + X.R(1, 2) * q[2];
-    pz = X.p[2] - data.p_ref[2] + X.R(2, 0) * q[0] + X.R(2, 1) * q[1] + X.R(2, 2) * q[2];
+    if (o.frame_rotated) R2 = &o.X_BF.R;
+    px = X.p[0] - data.p_ref[0];
+    py = X.p[1] - data.p_ref[1];
+    pz = X.p[2] - data.p_ref[2];
+    if (o.frame_offset) {
+      const Vec3& q = o.X_BF.p;
+      px += X.R(0, 0) * q[0] + X.R(0, 1) * q[1] + X.R(0, 2) * q[2];
+      py += X.R(1, 0) * q[0] + X.R(1, 1) * q[1] + X.R(1, 2) * q[2];
+      pz += X.R(2, 0) * q[0] + X.R(2, 1) * q[1] + X.R(2, 2) * q[2];
+    }
   } else {
     R1 = &o.X_BF.R;
     px = o.X_BF.p[0] - data.p_ref[0];
@@ -123,7 +147,7 @@ void reaction_in_frame(const Data& data, const ConstraintSet& cs, const std::vec
     rotate_t(*R2, b0, b1, b2, b0, b1, b2);
   }
   const double sg = o.reversed ? -1.0 : 1.0;
-  out << sg * a0, sg * a1, sg * a2, sg * b0, sg * b1, sg * b2;
+  return Six{sg * a0, sg * a1, sg * a2, sg * b0, sg * b1, sg * b2};
 }
 
 }  // namespace
@@ -134,25 +158,62 @@ Transform wrench_frame_pose(const System& sys, const Data& data, int k) {
 
 namespace {
 
+// The force of pass spec s for multipliers lambda on the body of its frame A (rolling: the wheel),
+// world coordinates at data.p_ref, into F[6]; the spec's frame from the evaluation (cd.X_RS). In
+// scalars (see reaction_in_frame).
+inline void spec_force(const ConstraintSet& cs, const ConstraintData& cd, const double* lambda, int s, double* F) {
+  // the spec's wrench [moment; force] in its own frame (tip_wrench's layout)
+  double w[6] = {0, 0, 0, 0, 0, 0};
+  const int r0 = cs.row_offset[s];
+  for (int k = 0; k < cs.row_count[s]; ++k) w[cs.row_axis[s][k]] = lambda[r0 + k];
+  const Mat3& R = cd.X_RS[s].R;
+  const Vec3& p = cd.X_RS[s].p;
+  const double f0 = R(0, 0) * w[3] + R(0, 1) * w[4] + R(0, 2) * w[5];
+  const double f1 = R(1, 0) * w[3] + R(1, 1) * w[4] + R(1, 2) * w[5];
+  const double f2 = R(2, 0) * w[3] + R(2, 1) * w[4] + R(2, 2) * w[5];
+  F[0] = R(0, 0) * w[0] + R(0, 1) * w[1] + R(0, 2) * w[2] + (p[1] * f2 - p[2] * f1);
+  F[1] = R(1, 0) * w[0] + R(1, 1) * w[1] + R(1, 2) * w[2] + (p[2] * f0 - p[0] * f2);
+  F[2] = R(2, 0) * w[0] + R(2, 1) * w[1] + R(2, 2) * w[2] + (p[0] * f1 - p[1] * f0);
+  F[3] = f0, F[4] = f1, F[5] = f2;
+}
+
 // The constraint forces of multipliers lambda on the bodies of the reaction pass (world coordinates
-// at data.p_ref) into f_ext, zeroed first on those bodies; the specs' frames from wd.X_W_spec.
-void constraint_body_forces(const System& sys, const Data& data, const Eigen::VectorXd& lambda,
-                            const std::vector<Transform>& X_W_spec, std::vector<Vec6>& f_ext) {
+// at data.p_ref) into f_ext. Only the bodies the pass specs push on are ever written (zeroed first
+// here); the others keep the zero WrenchData's constructor gave them.
+void constraint_body_forces(const System& sys, const ConstraintData& cd, const double* lambda, std::vector<Vec6>& f_ext) {
   const Model& model = sys.model;
   const ConstraintSet& cs = sys.constraints;
   const WrenchSet& ws = sys.wrenches;
-  for (int i : ws.pass) f_ext[i].setZero();
+  auto zero = [&](int body) {
+    double* e = f_ext[body].data();
+    for (int k = 0; k < 6; ++k) e[k] = 0.0;
+  };
   for (int s : ws.pass_specs) {
     const ConstraintSpec& c = cs.specs[s];
-    const Vec6 F = to_ref(data, X_W_spec[s]).act_force(spec_wrench(cs, lambda, s));
     if (c.kind == ConstraintKind::kRolling) {
-      f_ext[c.body] += F;
+      zero(c.body);
+      continue;
+    }
+    const int ba = model.frames[c.frame_a].body, bb = c.frame_b >= 0 ? model.frames[c.frame_b].body : -1;
+    if (ba >= 0 && ws.in_pass[ba]) zero(ba);
+    if (bb >= 0 && ws.in_pass[bb]) zero(bb);
+  }
+  for (int s : ws.pass_specs) {
+    const ConstraintSpec& c = cs.specs[s];
+    double F[6];
+    spec_force(cs, cd, lambda, s, F);
+    auto add = [&](int body, double sign) {
+      double* e = f_ext[body].data();
+      for (int k = 0; k < 6; ++k) e[k] += sign * F[k];
+    };
+    if (c.kind == ConstraintKind::kRolling) {
+      add(c.body, 1.0);
       continue;
     }
     // the other side's wrench on tip frame A; its opposite acts on frame B's body
     const int ba = model.frames[c.frame_a].body, bb = c.frame_b >= 0 ? model.frames[c.frame_b].body : -1;
-    if (ba >= 0 && ws.in_pass[ba]) f_ext[ba] += F;
-    if (bb >= 0 && ws.in_pass[bb]) f_ext[bb] -= F;
+    if (ba >= 0 && ws.in_pass[ba]) add(ba, 1.0);
+    if (bb >= 0 && ws.in_pass[bb]) add(bb, -1.0);
   }
 }
 
@@ -172,22 +233,26 @@ void compute_wrenches(const System& sys, const Workspace& ws, WrenchData& wd) {
     return;
   }
   if (!set.pass.empty()) {
-    for (int s : set.pass_specs) {
-      const ConstraintSpec& c = cs.specs[s];
-      wd.X_W_spec[s] = c.kind == ConstraintKind::kRolling ? rolling_contact_frame(model, data, c) : frame_pose(model, data, c.frame_a);
-    }
-    constraint_body_forces(sys, data, ws.lambda, wd.X_W_spec, wd.f_ext);
+    constraint_body_forces(sys, ws.cd, ws.lambda.data(), wd.f_ext);
     joint_reactions(model, data, ws.vdot, wd.f_ext, set.pass, wd.a, wd.acc, wd.R);
   }
   for (size_t k = 0; k < no; ++k) {
     const WrenchOutput& o = set.outputs[k];
-    if (o.spec >= 0) {
+    double* W = wd.W[k].data();
+    if (o.spec >= 0) {  // tip_wrench(), in scalars
       unsigned mask = 0;
-      wd.W[k] = tip_wrench(sys, ws, o.spec, &mask);
+      for (int c = 0; c < 6; ++c) W[c] = 0.0;
+      const int r0 = cs.row_offset[o.spec];
+      for (int r = 0; r < cs.row_count[o.spec]; ++r) {
+        const int ax = cs.row_axis[o.spec][r];
+        W[ax] = ws.lambda[r0 + r];
+        if (ws.qs.row_indeterminate[r0 + r]) mask |= 1u << ax;
+      }
       wd.indeterminate[k] = static_cast<uint8_t>(mask);
       continue;
     }
-    reaction_in_frame(data, cs, wd.X_W_spec, o, wd.R[o.body], wd.W[k]);
+    const Six r = reaction_in_frame(data, cs, ws.cd, o, wd.R[o.body].data());
+    W[0] = r.v0, W[1] = r.v1, W[2] = r.v2, W[3] = r.v3, W[4] = r.v4, W[5] = r.v5;
     wd.indeterminate[k] = 0;
   }
   // Free directions of lambda (an over-constrained system): a reaction component that moves along
@@ -198,27 +263,31 @@ void compute_wrenches(const System& sys, const Workspace& ws, WrenchData& wd) {
   const bool basis = sys.options.formulation != Formulation::kSvdBaseline && !ws.qs.fast_path;
   const int ndir = basis ? m - ws.qs.rank : m;
   for (int d = 0; d < ndir; ++d) {
+    const double* dlam;
     if (basis) {
-      wd.dlam = ws.qs.Nq.col(d);
+      dlam = ws.qs.Nq.col(d).data();
     } else {
       if (!ws.qs.row_indeterminate[d]) continue;
       wd.dlam.setZero();
       wd.dlam[d] = 1.0;
+      dlam = wd.dlam.data();
     }
-    constraint_body_forces(sys, data, wd.dlam, wd.X_W_spec, wd.df_ext);
-    for (int i : set.pass) wd.dacc[i].setZero();
-    for (int i : set.pass) {  // the reactions' change: minus the subtree sums of the force change
-      wd.dacc[i] -= wd.df_ext[i];
-      const int p = model.bodies[i].parent;
-      if (p >= 0 && set.in_pass[p]) wd.dacc[p] += wd.dacc[i];
-    }
+    for (size_t j = 0; j < set.pass_specs.size(); ++j) spec_force(cs, ws.cd, dlam, set.pass_specs[j], wd.dF_spec[j].data());
     for (size_t k = 0; k < no; ++k) {
       const WrenchOutput& o = set.outputs[k];
       if (o.spec >= 0) continue;
-      Vec6 dF;
-      reaction_in_frame(data, cs, wd.X_W_spec, o, wd.dacc[o.body], dF);
-      for (int c = 0; c < 6; ++c)
-        if (std::abs(dF[c]) > 1e-6) wd.indeterminate[k] = static_cast<uint8_t>(wd.indeterminate[k] | (1u << c));
+      // the reaction's change: minus the subtree sum of the force change (WrenchSet::out_spec)
+      double dR[6] = {0, 0, 0, 0, 0, 0};
+      for (int t = set.out_spec_begin[k]; t < set.out_spec_begin[k + 1]; ++t) {
+        const double* F = wd.dF_spec[set.out_spec[t].first].data();
+        const double c = set.out_spec[t].second;
+        for (int i = 0; i < 6; ++i) dR[i] += c * F[i];
+      }
+      const Six r = reaction_in_frame(data, cs, ws.cd, o, dR);
+      auto bit = [](double x, int c) { return static_cast<unsigned>(std::abs(x) > 1e-6) << c; };
+      unsigned mask = wd.indeterminate[k];
+      mask |= bit(r.v0, 0) | bit(r.v1, 1) | bit(r.v2, 2) | bit(r.v3, 3) | bit(r.v4, 4) | bit(r.v5, 5);
+      wd.indeterminate[k] = static_cast<uint8_t>(mask);
     }
   }
 }

@@ -1,6 +1,7 @@
 // Computes the wrenches a system reports (wrench_outputs.h) from one evaluation: the constraint
 // multipliers as they are, the joint reactions from one backward pass (joint_reactions.h) over the
-// bodies asked for. Call after evaluate() (or step(), on Stepper::ws) with the same workspace.
+// bodies asked for. Call after evaluate() (or step(), on Stepper::ws) with the same workspace: it
+// reads the evaluation's accelerations, multipliers, bias forces and constraint frames (ws.cd.X_RS).
 // Allocation-free after construction; never throws.
 #pragma once
 
@@ -18,9 +19,8 @@ struct WrenchData {
                                         // physics (it moves along a free direction of lambda)
   // per body, world coordinates at data.p_ref
   std::vector<Vec6> f_ext, a, acc, R;   // f_ext: the constraint forces on the bodies of the pass
-  std::vector<Vec6> df_ext, dacc;       // the same for a free direction of lambda
-  std::vector<Transform> X_W_spec;      // per constraint spec of the pass: its frame (weld: A, rolling:
-                                        // the contact frame C) in the world
+  std::vector<Vec6> dF_spec;            // per pass spec (WrenchSet::pass_specs): its force for a free
+                                        // direction of lambda
   Eigen::VectorXd dlam;                 // (rows) a free direction of lambda
 };
 
