@@ -89,7 +89,8 @@ StateFitPlan plan_state_fit(const System& sys) {
 }
 
 StateFitWorkspace::StateFitWorkspace(const System& sys, const StateFitPlan& plan)
-    : data(sys.model), cd(sys.model, sys.constraints) {
+    // llt constructed in place: Eigen's LLT(size) leaves its info unset, and a copy or move reads it
+    : data(sys.model), cd(sys.model, sys.constraints), llt(static_cast<Eigen::Index>(plan.fit_v.size())) {
   const int nu = static_cast<int>(plan.fit_v.size()), rows = sys.constraints.rows;
   for (unsigned char h : plan.holonomic) n_hol += h;
   q_start = sys.q0;
@@ -97,7 +98,6 @@ StateFitWorkspace::StateFitWorkspace(const System& sys, const StateFitPlan& plan
   r.setZero(rows);
   N.setZero(nu, nu);
   V.setZero(nu, nu);
-  llt = Eigen::LLT<Eigen::MatrixXd>(nu);
   w.setZero(nu);
   b.setZero(nu);
   x.setZero(nu);
