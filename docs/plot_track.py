@@ -7,8 +7,8 @@
 
 track.csv is written by `coopdyn track --out` (one row per command: the reference and the load's
 position in the world, m; the pose errors, m and rad; the squeeze the daemon's end-effector wrenches
-give and its set-point, N; in_sync = 1 when the output was stepped under the command computed from
-the output before).
+give and its set-point, N; in_sync = 1 when the output was stepped under one of the controller's
+last 3 commands, not an older one or the daemon's safe torque after a stall).
 """
 import csv, sys
 import numpy as np

@@ -723,9 +723,9 @@ TEST_F(DaemonProcess, SendExitsNonZeroWhenItsCommandsAreRejected) {
 
 // The reference controller in the loop over udpm (issue 11): `coopdyn track` subscribes to the
 // daemon's outputs and commands the two PUMAs so that the load follows a 5 cm circle (4 s a lap)
-// while the squeeze holds 20 N. Judged on the outputs stepped under the command computed from the
-// output before ("in sync": a stall of either process on a loaded machine breaks it, and the daemon
-// then holds with its safe torque while the reference moves on), after the 1 s ramp and 0.5 s.
+// while the squeeze holds 20 N. Judged on the outputs "in sync" (stepped under one of the
+// controller's last 3 commands; a stall of either process on a loaded machine breaks it, and the
+// daemon then holds with its safe torque while the reference moves on), after the 1 s ramp and 0.5 s.
 TEST_F(DaemonProcess, ReferenceControllerTracksTheLoadAndHoldsTheSqueeze) {
   auto d = start_daemon({}, "tracked");
   const std::string csv = tmp_path("track.csv");
