@@ -409,7 +409,7 @@ arms:
 )";
   const System sys = load_scene_string(text, "scara.yaml");
   const Model& m = sys.model;
-  const int q3 = m.bodies[m.joint_index("arm1.q3")].joint.idx_q, v3 = m.bodies[m.joint_index("arm1.q3")].joint.idx_v;
+  const int v3 = m.bodies[m.joint_index("arm1.q3")].joint.idx_v;
   EXPECT_EQ(m.bodies[m.joint_index("arm1.q3")].joint.type, JointType::kPrismatic);
   // the DH product T = prod Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i), theta_3 = 0 and d_3 = 0.05 + q3
   auto dh = [](double th, double d, double a, double al) {
@@ -439,7 +439,6 @@ arms:
     rnea_bias(m, d);
     EXPECT_NEAR(d.h[v3], -(1.5 + 0.5) * 9.81, 1e-12);
   }
-  (void)q3;
   // the same robots in the mobile-platform form (the arms hang from the load, the slide reversed):
   // the same end-effector wrenches at the same physical state, under zero torques, in every
   // component the physics determines (two 4-DOF arms on one load leave the moments about the
