@@ -1,0 +1,228 @@
+// `load` + `arms`: the paper's cooperating arms carrying a common load.
+#include <limits>
+#include <set>
+#include <sstream>
+
+#include "service/scene/builder.h"
+
+namespace coopdyn::scene_detail {
+
+namespace {
+struct ArmSpec {
+  std::string name;
+  const Robot* robot = nullptr;
+  Transform X_W_base;
+  Transform tool;
+  std::vector<double> q;
+  std::vector<double> v;
+  std::set<int> fixed;  // 1-based joint numbers held fixed
+  bool grasp_given = false;
+  Transform X_L_EE;
+  std::array<double, 6> compliance{{0, 0, 0, 0, 0, 0}};
+  YAML::Node node;
+};
+
+// the end-effector (before the tool) in the robot base frame at the arm's q
+Transform chain_forward(const ArmSpec& a) {
+  Transform X;
+  for (size_t i = 0; i < a.robot->joints.size(); ++i) X = X * a.robot->joints[i].X_origin * chain_motion(a.robot->joints[i], a.q[i]);
+  return X * a.robot->X_last_EE;
+}
+}  // namespace
+
+void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, Robot>& robots, bool mobile_platform) {
+  const Ctx& c = B.c;
+  const YAML::Node load = require(c, root, "load", "scene");
+  check_keys(c, load, {"name", "mass", "com", "inertia", "pose", "velocity", "actuated"}, "load");
+  const std::string load_name = get_string(c, load, "name", "load");
+  // the platform DOFs of the load take no command force unless the scene declares a drive on it
+  // (thrusters, a positioner): tau_limit 0 = a command must be exactly 0 there (Reject::kUnactuated)
+  const double load_limit = get_bool(c, load, "actuated", false) ? std::numeric_limits<double>::infinity() : 0.0;
+  const Inertia I_load = get_inertia(c, load, "load");
+  const Transform X_W_L = get_pose(c, require(c, load, "pose", "load"), "load.pose");
+
+  std::vector<ArmSpec> arms;
+  const YAML::Node an = require(c, root, "arms", "scene");
+  if (!an.IsSequence() || an.size() == 0) fail(c, an, "arms must be a non-empty list");
+  for (const auto& a : an) {
+    check_keys(c, a, {"name", "robot", "base", "tool", "q", "v", "grasp", "fixed_joints", "compliance"}, "arm");
+    ArmSpec s;
+    s.node = YAML::Node(a);
+    s.name = get_string(c, a, "name", "");
+    if (s.name.empty()) fail(c, a, "arm: missing 'name'");
+    const std::string rn = get_string(c, a, "robot", "");
+    auto it = robots.find(rn);
+    if (it == robots.end()) fail(c, a["robot"].IsDefined() ? a["robot"] : a, "arm '" + s.name + "': unknown robot '" + rn + "'");
+    s.robot = &it->second;
+    const int n = static_cast<int>(s.robot->joints.size());
+    int nm = 0;  // joints that can move (a URDF's own fixed joints take no q)
+    for (const ChainJoint& cj : s.robot->joints) nm += cj.fixed ? 0 : 1;
+    s.X_W_base = get_pose(c, require(c, a, "base", "arm '" + s.name + "'"), "arm '" + s.name + "'.base");
+    s.tool = get_pose(c, a["tool"], "arm '" + s.name + "'.tool");
+    const std::vector<double> qm = as_list(c, require(c, a, "q", "arm '" + s.name + "'"), nm, "arm '" + s.name + "'.q");
+    const std::vector<double> vm = a["v"] ? as_list(c, a["v"], nm, "arm '" + s.name + "'.v") : std::vector<double>(nm, 0.0);
+    for (int i = 0, k = 0; i < n; ++i) {
+      const bool f = s.robot->joints[i].fixed;
+      s.q.push_back(f ? 0.0 : qm[k]);
+      s.v.push_back(f ? 0.0 : vm[k]);
+      k += f ? 0 : 1;
+    }
+    if (a["fixed_joints"]) {
+      for (double x : as_list(c, a["fixed_joints"], -1, "arm '" + s.name + "'.fixed_joints")) {
+        const int k = static_cast<int>(x);
+        if (k < 1 || k > n) fail(c, a["fixed_joints"], "arm '" + s.name + "': fixed joint " + std::to_string(k) + " out of range");
+        s.fixed.insert(k);
+      }
+    }
+    const YAML::Node g = a["grasp"];
+    if (g.IsDefined() && !g.IsNull() && !(g.IsScalar() && g.as<std::string>() == "at_initial_state")) {
+      s.grasp_given = true;
+      s.X_L_EE = get_pose(c, g, "arm '" + s.name + "'.grasp");
+    }
+    s.compliance = get_compliance(c, a["compliance"], "arm '" + s.name + "'.compliance");
+    arms.push_back(s);
+  }
+  // grasps: given ones must close with the load pose, missing ones are read off the initial state
+  for (ArmSpec& s : arms) {
+    const Transform X_W_EE = s.X_W_base * chain_forward(s) * s.tool;
+    if (s.grasp_given) {
+      const Vec6 e = pose_error((X_W_L * s.X_L_EE).inverse() * X_W_EE);
+      if (e.cwiseAbs().maxCoeff() > 1e-6) {
+        std::ostringstream os;
+        os << "initial state does not close: arm '" << s.name << "' end-effector misses its grasp on the load by "
+           << e.tail<3>().norm() << " m and " << e.head<3>().norm() << " rad";
+        fail(c, s.node, os.str());
+      }
+    } else {
+      s.X_L_EE = X_W_L.inverse() * X_W_EE;
+    }
+  }
+
+  Model& model = B.sys.model;
+  ConstraintSet& cs = B.sys.constraints;
+  Joint jf;
+  jf.type = JointType::kFloating;
+  jf.name = load_name;
+  std::vector<double> lq(7, 0.0), lv(6, 0.0);
+  {
+    Eigen::VectorXd tmp(7);
+    set_floating_q(tmp, 0, X_W_L);
+    for (int k = 0; k < 7; ++k) lq[k] = tmp[k];
+    if (load["velocity"]) {
+      auto l = as_list(c, load["velocity"], 6, "load.velocity");
+      for (int k = 0; k < 6; ++k) lv[k] = l[k];
+    }
+  }
+  if (mobile_platform) {
+    // the load is the root; each arm hangs from it last link first (METHOD s.3). Body B_k of the
+    // reversed chain is link k's frame moved to joint k+1 (link_k * X_origin_{k+1}), so that joint
+    // k+1 reversed is a plain motion about -axis at the origin of its parent.
+    const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, load_limit, load);
+    std::vector<WrenchOutput>& outs = B.sys.wrenches.outputs;
+    for (const ArmSpec& s : arms) {
+      const auto& J = s.robot->joints;
+      const int n = static_cast<int>(J.size());
+      Joint fixed;
+      fixed.type = JointType::kFixed;
+      int parent = B.add(s.name + "." + J[n - 1].link_name, L, s.X_L_EE * s.tool.inverse() * s.robot->X_last_EE.inverse(),
+                         fixed, J[n - 1].I, {}, {}, 0, s.node);
+      // the end-effector wrench is the reaction across the grasp: the load is the tree parent of the
+      // arm's last link, framed and named as the classic form's grasp weld
+      model.add_frame(s.name + ".ee", parent, s.robot->X_last_EE * s.tool);
+      model.add_frame(load_name + "." + s.name, L, s.X_L_EE);
+      {
+        WrenchOutput o = joint_output(s.name + ".ee", s.name + ".ee", load_name + "." + s.name, parent, false, parent,
+                                      s.robot->X_last_EE * s.tool, 0x3f);
+        o.kind = WrenchKind::kEndEffector;
+        outs.push_back(o);
+      }
+      std::vector<WrenchOutput> arm_joints;
+      for (int i = n; i >= 1; --i) {
+        const ChainJoint& cj = J[i - 1];
+        const int link_i = parent;  // the tree parent of joint i reversed is link i's side
+        Joint j;
+        const bool held = cj.fixed || s.fixed.count(i);
+        j.type = held ? JointType::kFixed : (cj.prismatic ? JointType::kPrismatic : JointType::kRevolute);
+        j.axis = -cj.axis;
+        j.name = s.name + "." + cj.name;
+        j.armature = cj.armature;
+        Transform X_PJ = i == n ? Transform() : J[i].X_origin.inverse();
+        if (held) X_PJ = X_PJ * chain_motion(cj, -s.q[i - 1]);
+        // the arm's base is welded to the world, so its inertia does no work; a nominal rotational
+        // inertia (no mass, hence no weight) keeps M regular for the joint that moves only the base
+        const Inertia I = i > 1 ? J[i - 2].I.transformed(cj.X_origin.inverse()) : Inertia(0.0, Vec3::Zero(), 1e-3 * Mat3::Identity());
+        const std::string body = s.name + "." + (i > 1 ? J[i - 2].link_name : s.robot->base_link);
+        parent = B.add(body, parent, X_PJ, j, I, {s.q[i - 1]}, {s.v[i - 1]}, cj.tau_limit, s.node);
+        // the reaction of link i-1 on link i is the tree's reaction negated, framed in link i: the
+        // joint frame of the reversed joint (X_PJ without a held joint's motion)
+        arm_joints.push_back(joint_output(s.name + "." + cj.name, s.name + "." + cj.link_name, body, parent, true, link_i,
+                                          i == n ? Transform() : J[i].X_origin.inverse(),
+                                          held ? 0x3f : bearing_mask(j.type, cj.axis, cj.axis)));
+      }
+      outs.insert(outs.end(), arm_joints.rbegin(), arm_joints.rend());  // in the robot's order, as classic
+      model.add_frame(s.name + ".base", parent, J[0].X_origin.inverse());
+      ConstraintSpec w;
+      w.name = s.name + ".base";
+      w.kind = ConstraintKind::kWeld;
+      w.frame_a = model.frame_index(s.name + ".base");
+      w.frame_b = -1;
+      w.X_WA_target = s.X_W_base;
+      w.compliance = s.compliance;
+      cs.specs.push_back(w);
+      WrenchOutput o;
+      o.name = o.frame = s.name + ".base";
+      o.by = "world";
+      o.kind = WrenchKind::kBase;
+      o.spec = static_cast<int>(cs.specs.size()) - 1;
+      outs.push_back(o);
+    }
+  } else {
+    std::vector<WrenchOutput>& outs = B.sys.wrenches.outputs;
+    for (const ArmSpec& s : arms) {
+      const auto& J = s.robot->joints;
+      const int n = static_cast<int>(J.size());
+      int parent = -1;
+      for (int i = 1; i <= n; ++i) {
+        const ChainJoint& cj = J[i - 1];
+        Joint j;
+        const bool held = cj.fixed || s.fixed.count(i);
+        j.type = held ? JointType::kFixed : (cj.prismatic ? JointType::kPrismatic : JointType::kRevolute);
+        j.axis = cj.axis;
+        j.name = s.name + "." + cj.name;
+        j.armature = cj.armature;
+        Transform X_PJ = (i == 1 ? s.X_W_base : Transform()) * cj.X_origin;
+        if (held) X_PJ = X_PJ * chain_motion(cj, s.q[i - 1]);
+        parent = B.add(s.name + "." + cj.link_name, parent, X_PJ, j, cj.I, {s.q[i - 1]}, {s.v[i - 1]}, cj.tau_limit, s.node);
+        const std::string by = s.name + "." + (i > 1 ? J[i - 2].link_name : s.robot->base_link);
+        outs.push_back(joint_output(s.name + "." + cj.name, s.name + "." + cj.link_name, by, parent, false, parent,
+                                    Transform(), held ? 0x3f : bearing_mask(j.type, cj.axis, cj.axis)));
+        if (i == 1) {  // the base wrench is the reaction at joint 1, in the base frame
+          model.add_frame(s.name + ".base", -1, s.X_W_base);
+          WrenchOutput o = joint_output(s.name + ".base", s.name + ".base", "world", parent, false, -1, s.X_W_base, 0x3f);
+          o.kind = WrenchKind::kBase;
+          outs.push_back(o);
+        }
+      }
+      model.add_frame(s.name + ".ee", parent, s.robot->X_last_EE * s.tool);
+    }
+    const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, load_limit, load);
+    for (const ArmSpec& s : arms) {
+      model.add_frame(load_name + "." + s.name, L, s.X_L_EE);
+      ConstraintSpec w;
+      w.name = s.name + ".ee";
+      w.kind = ConstraintKind::kWeld;
+      w.frame_a = model.frame_index(s.name + ".ee");
+      w.frame_b = model.frame_index(load_name + "." + s.name);
+      w.compliance = s.compliance;
+      cs.specs.push_back(w);
+      WrenchOutput o;
+      o.name = o.frame = s.name + ".ee";
+      o.by = load_name + "." + s.name;
+      o.kind = WrenchKind::kEndEffector;
+      o.spec = static_cast<int>(cs.specs.size()) - 1;
+      outs.push_back(o);
+    }
+  }
+}
+
+}  // namespace coopdyn::scene_detail

@@ -1,0 +1,48 @@
+// Serial robots as joint chains: standard DH (robot_dh.cc) and URDF (robot_urdf.cc) both compile to
+// one chain that every formulation builds its tree from. Internal to the scene compiler.
+#pragma once
+
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "service/scene/scene_yaml.h"
+
+namespace coopdyn::scene_detail {
+
+// A serial robot as a chain of joints, URDF-style: joint i sits at X_origin (its frame in the
+// previous link's frame, the robot base for i = 1), moves about `axis` (in the joint frame), and
+// link i's frame is the joint frame after the motion. Standard DH and URDF both compile to this.
+struct ChainJoint {
+  std::string name;       // coordinate name suffix (DH: qK; URDF: the joint's name)
+  std::string link_name;  // the child link (DH: linkK; URDF: the link's name)
+  Transform X_origin;
+  Vec3 axis = Vec3::UnitZ();
+  bool prismatic = false;
+  bool fixed = false;  // a fixed joint of the robot itself (URDF "fixed")
+  Inertia I;           // link i, in link i's frame
+  double armature = 0;
+  double tau_limit = std::numeric_limits<double>::infinity();
+};
+struct Robot {
+  std::string name;
+  std::vector<std::string> warnings;  // what the scene leaves out or finds missing (never silent)
+  std::vector<ChainJoint> joints;
+  Transform X_last_EE;  // the end-effector frame in the last link's frame
+  std::string base_link = "link0";
+};
+
+// the joint's motion X_JB(q): rotation about, or translation along, its axis
+Transform chain_motion(const ChainJoint& j, double q);
+
+// A robot given in the scene (or a robot file) as standard DH links.
+Robot parse_robot(const Ctx& c, const YAML::Node& n, const std::string& name);
+
+// A serial chain from a URDF file (urdfdom): from `base` link to `tip` link (defaults: the root and
+// its only leaf). Revolute/continuous and prismatic joints move; fixed joints stay fixed. Nothing
+// the file gives is lost silently: an unreadable <inertial> is an error with the URDF's line, a
+// moving link without one and the links off the chain are warnings (Robot::warnings).
+Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path, const std::string& name,
+                 std::string base, std::string tip);
+
+}  // namespace coopdyn::scene_detail
