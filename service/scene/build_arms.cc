@@ -1,4 +1,5 @@
 // `load` + `arms`: the paper's cooperating arms carrying a common load.
+#include <cmath>
 #include <limits>
 #include <set>
 #include <sstream>
@@ -33,7 +34,7 @@ Transform chain_forward(const ArmSpec& a) {
 void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, Robot>& robots, bool mobile_platform) {
   const Ctx& c = B.c;
   const YAML::Node load = require(c, root, "load", "scene");
-  check_keys(c, load, {"name", "mass", "com", "inertia", "pose", "velocity", "actuated"}, "load");
+  check_keys(c, load, {"name", "mass", "com", "inertia", "accept_inertia", "pose", "velocity", "actuated"}, "load");
   const std::string load_name = get_string(c, load, "name", "load");
   // the platform DOFs of the load take no command force unless the scene declares a drive on it
   // (thrusters, a positioner): tau_limit 0 = a command must be exactly 0 there (Reject::kUnactuated)
@@ -62,9 +63,22 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
     const std::vector<double> qm = as_list(c, require(c, a, "q", "arm '" + s.name + "'"), nm, "arm '" + s.name + "'.q");
     const std::vector<double> vm = a["v"] ? as_list(c, a["v"], nm, "arm '" + s.name + "'.v") : std::vector<double>(nm, 0.0);
     for (int i = 0, k = 0; i < n; ++i) {
-      const bool f = s.robot->joints[i].fixed;
+      const ChainJoint& cj = s.robot->joints[i];
+      const bool f = cj.fixed;
       s.q.push_back(f ? 0.0 : qm[k]);
       s.v.push_back(f ? 0.0 : vm[k]);
+      if (!f) {
+        const YAML::Node qk = a["q"][k];
+        std::ostringstream os;
+        os.precision(6);
+        if (!cj.prismatic && std::abs(qm[k]) > 2 * M_PI + 1e-9)
+          os << "arm '" << s.name << "' joint " << cj.name << " q = " << qm[k]
+             << " rad is more than a full turn: joint values are radians (degrees?)";
+        else if (qm[k] < cj.lower - 1e-9 || qm[k] > cj.upper + 1e-9)
+          os << "arm '" << s.name << "' joint " << cj.name << " q = " << qm[k] << " is outside its limits [" << cj.lower
+             << ", " << cj.upper << "] (" << cj.source << ")";
+        if (os.tellp() > 0) warn(c, qk, os.str());
+      }
       k += f ? 0 : 1;
     }
     if (a["fixed_joints"]) {

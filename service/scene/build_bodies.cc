@@ -11,7 +11,7 @@ void build_bodies(Builder& B, const YAML::Node& root) {
   const YAML::Node bn = require(c, root, "bodies", "scene");
   if (!bn.IsSequence() || bn.size() == 0) fail(c, bn, "bodies must be a non-empty list");
   for (const auto& b : bn) {
-    check_keys(c, b, {"name", "parent", "placement", "joint", "mass", "com", "inertia"}, "body");
+    check_keys(c, b, {"name", "parent", "placement", "joint", "mass", "com", "inertia", "accept_inertia"}, "body");
     const std::string name = get_string(c, b, "name", "");
     if (name.empty()) fail(c, b, "body: missing 'name'");
     const std::string pn = get_string(c, b, "parent", "world");
@@ -80,7 +80,7 @@ void build_bodies(Builder& B, const YAML::Node& root) {
   }
   if (root["frames"]) {
     for (const auto& f : root["frames"]) {
-      check_keys(c, f, {"name", "body", "xyz", "rpy"}, "frame");
+      check_keys(c, f, {"name", "body", "xyz", "rpy", "quat", "R"}, "frame");
       const std::string fname = get_string(c, f, "name", "");
       const std::string bname = get_string(c, f, "body", "world");
       int body = -1;
@@ -88,9 +88,7 @@ void build_bodies(Builder& B, const YAML::Node& root) {
         body = model.body_index(bname);
         if (body < 0) fail(c, f, "frame '" + fname + "': unknown body '" + bname + "'");
       }
-      Transform X;
-      if (f["xyz"]) X.p = as_vec3(c, f["xyz"], "frame xyz");
-      if (f["rpy"]) X.R = rpy_matrix(as_vec3(c, f["rpy"], "frame rpy"));
+      const Transform X = read_pose_fields(c, f, "frame '" + fname + "'");
       try {
         model.add_frame(fname, body, X);
       } catch (const std::invalid_argument& e) {

@@ -23,6 +23,9 @@ struct ChainJoint {
   Inertia I;           // link i, in link i's frame
   double armature = 0;
   double tau_limit = std::numeric_limits<double>::infinity();
+  double lower = -std::numeric_limits<double>::infinity();  // joint limits (URDF <limit lower upper>)
+  double upper = std::numeric_limits<double>::infinity();
+  std::string source;  // where the joint was declared ("URDF 'file' line N"), for messages
 };
 struct Robot {
   std::string name;

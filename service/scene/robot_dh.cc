@@ -25,7 +25,7 @@ Robot parse_robot(const Ctx& c, const YAML::Node& n, const std::string& name) {
   for (size_t i = 0; i < links.size(); ++i) {
     const YAML::Node& l = links[i];
     const std::string w = "robot '" + name + "' link " + std::to_string(i + 1);
-    check_keys(c, l, {"type", "a", "d", "alpha", "offset", "theta", "mass", "com", "inertia", "armature", "tau_limit"}, w);
+    check_keys(c, l, {"type", "a", "d", "alpha", "offset", "theta", "mass", "com", "inertia", "armature", "tau_limit", "accept_inertia"}, w);
     const std::string type = get_string(c, l, "type", "revolute");
     if (type != "revolute" && type != "prismatic") fail(c, l["type"], w + ": type must be revolute or prismatic");
     const bool prismatic = type == "prismatic";
@@ -34,11 +34,13 @@ Robot parse_robot(const Ctx& c, const YAML::Node& n, const std::string& name) {
     if (prismatic && l["offset"])
       fail(c, l["offset"], w + ": a prismatic link's constant extension is 'd' (d + q along z); its fixed angle is 'theta'");
     DhLink dl;
-    dl.a = get_double(c, l, "a", 0, w);
-    dl.d = get_double(c, l, "d", 0, w);
-    dl.alpha = get_double(c, l, "alpha", 0, w);
-    dl.offset = get_double(c, l, "offset", 0, w);
-    const double theta = get_double(c, l, "theta", 0, w);
+    auto length = [&](const char* k) { return l[k] ? as_length(c, l[k], w + "." + k) : 0.0; };
+    auto angle = [&](const char* k) { return l[k] ? as_angle(c, l[k], w + "." + k) : 0.0; };
+    dl.a = length("a");
+    dl.d = length("d");
+    dl.alpha = angle("alpha");
+    dl.offset = angle("offset");
+    const double theta = angle("theta");
     ChainJoint j;
     j.name = "q" + std::to_string(i + 1);
     j.link_name = "link" + std::to_string(i + 1);

@@ -143,6 +143,15 @@ Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path,
     }
     if (!j.fixed && !(j.axis.norm() > 0)) fail(c, where, "URDF joint '" + jt->name + "': zero axis");
     if (!j.fixed && jt->limits && jt->limits->effort > 0) j.tau_limit = jt->limits->effort;
+    // a continuous joint has no position limits; urdfdom leaves lower = upper = 0 when none is given
+    if (jt->limits && jt->type != urdf::Joint::CONTINUOUS && !j.fixed && jt->limits->upper > jt->limits->lower) {
+      j.lower = jt->limits->lower;
+      j.upper = jt->limits->upper;
+    }
+    {
+      const size_t at = xml.find("name=\"" + jt->name + "\"");
+      j.source = "URDF '" + path + "'" + (at == std::string::npos ? "" : " line " + std::to_string(line_of(xml, at)));
+    }
     r.joints.push_back(j);
   }
   if (r.joints.empty()) fail(c, where, "URDF '" + path + "': no joints between '" + base + "' and '" + tip + "'");

@@ -25,6 +25,7 @@ System load_scene_string(const std::string& text, const std::string& file, const
   Builder B;
   B.c.file = file;
   B.c.dir = std::filesystem::path(file).parent_path().string();
+  B.c.warnings = &B.sys.warnings;
   const Ctx& c = B.c;
   check_yaml_text(text, file);
   YAML::Node root;
@@ -95,7 +96,7 @@ System load_scene_string(const std::string& text, const std::string& file, const
         } else if (rnode["file"]) {
           const std::string rel = rnode["file"].as<std::string>();
           const std::string path = (std::filesystem::path(c.dir) / rel).string();
-          Ctx rc{path, std::filesystem::path(path).parent_path().string()};
+          Ctx rc{path, std::filesystem::path(path).parent_path().string(), c.warnings};
           YAML::Node rf = load_yaml_file(c, path, rnode["file"]);
           robots[rn] = parse_robot(rc, rf, rn);
         } else {

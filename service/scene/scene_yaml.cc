@@ -1,6 +1,7 @@
 #include "service/scene/scene_yaml.h"
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
 
 #include <cmath>
 #include <sstream>
@@ -17,6 +18,15 @@ namespace bounded = coopdyn::text;  // size and depth limits of user files
   if (n.IsDefined() && n.Mark().line >= 0) os << ":" << n.Mark().line + 1 << ":" << n.Mark().column + 1;
   os << ": " << msg;
   throw SceneError(os.str());
+}
+
+void warn(const Ctx& c, const YAML::Node& n, const std::string& msg) {
+  if (!c.warnings) return;
+  std::ostringstream os;
+  os << c.file;
+  if (n.IsDefined() && n.Mark().line >= 0) os << ":" << n.Mark().line + 1 << ":" << n.Mark().column + 1;
+  os << ": " << msg;
+  c.warnings->push_back(os.str());
 }
 
 void check_keys(const Ctx& c, const YAML::Node& n, std::initializer_list<const char*> allowed, const std::string& what) {
@@ -93,13 +103,96 @@ Vec3 as_vec3(const Ctx& c, const YAML::Node& n, const std::string& what) {
   return Vec3(l[0], l[1], l[2]);
 }
 
+double as_angle(const Ctx& c, const YAML::Node& n, const std::string& what) {
+  const double x = as_double(c, n, what);
+  if (std::abs(x) > 2 * M_PI + 1e-9) {
+    std::ostringstream os;
+    os.precision(6);
+    os << what << " = " << x << " rad is more than a full turn: angles are radians (degrees? " << x << " deg = "
+       << x * M_PI / 180 << " rad; pi, -pi, pi/2, -pi/2 may be written as words)";
+    fail(c, n, os.str());
+  }
+  return x;
+}
+
+double as_length(const Ctx& c, const YAML::Node& n, const std::string& what) {
+  const double x = as_double(c, n, what);
+  if (std::abs(x) > 1e3) {
+    std::ostringstream os;
+    os << what << " = " << x << " m is more than 1 km: lengths are metres (millimetres?)";
+    warn(c, n, os.str());
+  }
+  return x;
+}
+
+Transform read_pose_fields(const Ctx& c, const YAML::Node& n, const std::string& what) {
+  Transform X;
+  if (n["xyz"]) {
+    const YAML::Node xyz = n["xyz"];
+    as_list(c, xyz, 3, what + ".xyz");
+    for (int k = 0; k < 3; ++k) X.p[k] = as_length(c, xyz[k], what + ".xyz[" + std::to_string(k) + "]");
+  }
+  const int forms = (n["rpy"] ? 1 : 0) + (n["quat"] ? 1 : 0) + (n["R"] ? 1 : 0);
+  if (forms > 1) fail(c, n, what + ": give the rotation once, as rpy, quat or R");
+  if (n["rpy"]) {
+    const YAML::Node r = n["rpy"];
+    as_list(c, r, 3, what + ".rpy");
+    Vec3 rpy;
+    for (int k = 0; k < 3; ++k) rpy[k] = as_angle(c, r[k], what + ".rpy[" + std::to_string(k) + "]");
+    X.R = rpy_matrix(rpy);
+  } else if (n["quat"]) {
+    const auto l = as_list(c, n["quat"], 4, what + ".quat");
+    const Quat qu(l[0], l[1], l[2], l[3]);  // scalar first: [w, x, y, z]
+    if (std::abs(qu.norm() - 1.0) > 1e-6) {
+      std::ostringstream os;
+      os.precision(17);
+      os << what << ".quat [w, x, y, z] has norm " << qu.norm() << ", not 1 (a unit quaternion, scalar first)";
+      fail(c, n["quat"], os.str());
+    }
+    X.R = qu.normalized().toRotationMatrix();
+  } else if (n["R"]) {
+    const YAML::Node rn = n["R"];
+    if (!rn.IsSequence() || rn.size() != 3) fail(c, rn, what + ".R must be three rows of three numbers");
+    Mat3 R;
+    for (int i = 0; i < 3; ++i) {
+      const auto row = as_list(c, rn[i], 3, what + ".R[" + std::to_string(i) + "]");
+      for (int j = 0; j < 3; ++j) R(i, j) = row[j];
+    }
+    const double orth = (R.transpose() * R - Mat3::Identity()).cwiseAbs().maxCoeff();
+    if (orth > 1e-6 || R.determinant() < 0) {
+      std::ostringstream os;
+      os << what << ".R is not a rotation (|R^T R - I| = " << orth << ", det " << R.determinant()
+         << "): rows of an orthonormal matrix with det +1";
+      fail(c, rn, os.str());
+    }
+    // the nearest rotation (polar factor): a matrix printed to a few digits closes to round-off
+    Eigen::JacobiSVD<Mat3> svd(R, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    X.R = svd.matrixU() * svd.matrixV().transpose();
+  }
+  return X;
+}
+
 Transform get_pose(const Ctx& c, const YAML::Node& n, const std::string& what) {
   if (!n.IsDefined() || n.IsNull()) return Transform();
-  check_keys(c, n, {"xyz", "rpy"}, what);
-  Transform X;
-  if (n["xyz"]) X.p = as_vec3(c, n["xyz"], what + ".xyz");
-  if (n["rpy"]) X.R = rpy_matrix(as_vec3(c, n["rpy"], what + ".rpy"));
-  return X;
+  check_keys(c, n, {"xyz", "rpy", "quat", "R"}, what);
+  return read_pose_fields(c, n, what);
+}
+
+std::string inertia_plausibility(double m, const Mat3& I) {
+  std::ostringstream os;
+  if (m > 1e5) os << "mass " << m << " kg is more than 100 t (masses are kg: grams?)";
+  Eigen::SelfAdjointEigenSolver<Mat3> es(I);
+  const Vec3 p = es.eigenvalues().cwiseMax(0.0);  // ascending
+  const double tol = 1e-9 * std::max(1e-300, p.maxCoeff());
+  const bool rotor_only = p[0] <= tol && p[1] <= tol;  // a published idealization: only the moment about the axis
+  if (!rotor_only && p[0] + p[1] < p[2] - tol) {
+    if (os.tellp() > 0) os << "; ";
+    os.precision(6);
+    os << "principal moments " << p[0] << ", " << p[1] << ", " << p[2]
+       << " kg m^2 break the triangle inequality (I1 + I2 >= I3 holds for every rigid body: a typo, or an "
+          "inertia about another point than the centre of mass?)";
+  }
+  return os.str();
 }
 
 // mass, com, inertia [ixx, iyy, izz, ixy, iyz, ixz] about the centre of mass
@@ -107,7 +200,10 @@ Inertia get_inertia(const Ctx& c, const YAML::Node& n, const std::string& what) 
   const double m = get_double(c, n, "mass", 0.0, what);
   if (m < 0.0) fail(c, n["mass"], what + ": negative mass " + std::to_string(m));
   Vec3 com = Vec3::Zero();
-  if (n["com"]) com = as_vec3(c, n["com"], what + ".com");
+  if (n["com"]) {
+    as_list(c, n["com"], 3, what + ".com");
+    for (int k = 0; k < 3; ++k) com[k] = as_length(c, n["com"][k], what + ".com[" + std::to_string(k) + "]");
+  }
   Mat3 I = Mat3::Zero();
   if (n["inertia"]) {
     auto v = as_list(c, n["inertia"], 6, what + ".inertia");
@@ -116,9 +212,14 @@ Inertia get_inertia(const Ctx& c, const YAML::Node& n, const std::string& what) 
     const Vec3 p = es.eigenvalues();
     const double tol = 1e-12 * std::max(1.0, p.cwiseAbs().maxCoeff());
     if (p.minCoeff() < -tol) fail(c, n["inertia"], what + ": inertia tensor is not positive semi-definite");
-    // The triangle inequality of physical bodies is not enforced: published models use idealized
-    // rotor-only inertias (PUMA link 1 is [0, 0.35, 0]); positive semi-definiteness is what M needs.
   }
+  // positive semi-definiteness is what M needs; the rest is a warning (published models use
+  // rotor-only inertias, PUMA link 1 is [0, 0.35, 0], which the check accepts)
+  // `accept_inertia: REASON` (a non-empty text, e.g. the source of measured values) accepts it
+  const bool accepted = n["accept_inertia"] && n["accept_inertia"].IsScalar() && !n["accept_inertia"].Scalar().empty();
+  if (n["accept_inertia"] && !accepted) fail(c, n["accept_inertia"], what + ": accept_inertia needs the reason as text");
+  if (const std::string w = inertia_plausibility(m, I); !w.empty() && !accepted)
+    warn(c, n["inertia"] ? n["inertia"] : n, what + ": " + w + " (accept_inertia: REASON on this entry accepts it)");
   return Inertia(m, com, I);
 }
 
