@@ -50,6 +50,7 @@ int cmd_sim(const Args& a) {
   for (const auto& n : model.q_names) std::fprintf(out, ",q:%s", n.c_str());
   for (const auto& n : model.v_names) std::fprintf(out, ",v:%s", n.c_str());
   for (const auto& n : model.v_names) std::fprintf(out, ",tau:%s", n.c_str());
+  for (const auto& n : model.v_names) std::fprintf(out, ",vdot:%s", n.c_str());
   for (const WrenchOutput& o : sys.wrenches.outputs)
     for (int k = 0; k < 6; ++k) std::fprintf(out, ",%s.%s", o.name.c_str(), comp[k]);
   for (int d : model.pseudo_dofs) std::fprintf(out, ",stress:%s", model.v_names[d].c_str());
@@ -69,6 +70,7 @@ int cmd_sim(const Args& a) {
     for (int k = 0; k < q_prev.size(); ++k) std::fprintf(out, ",%.17g", q_prev[k]);
     for (int k = 0; k < v_prev.size(); ++k) std::fprintf(out, ",%.17g", v_prev[k]);
     for (int k = 0; k < tau.size(); ++k) std::fprintf(out, ",%.17g", tau[k]);
+    for (Eigen::Index k = 0; k < st.ws.vdot.size(); ++k) std::fprintf(out, ",%.17g", st.ws.vdot[k]);
     compute_wrenches(sys, st.ws, wd);
     for (const Vec6& w : wd.W)
       for (int k = 0; k < 6; ++k) std::fprintf(out, ",%.17g", w[k]);
