@@ -470,3 +470,53 @@ arms:
   EXPECT_NE(error_of(replaced(text, "{a: 0.0, d: 0.08,", "{theta: 0.2, a: 0.0, d: 0.08,"), "s.yaml").find("theta is the variable of a revolute link"),
             std::string::npos);
 }
+
+TEST(Scene, ASingleArmWithoutALoad) {
+  // a PUMA on a bench: rooted at the world, tip free; no constraint rows, no platform
+  const std::string text = "name: one_puma\nrobots:\n  puma560: {file: ../robots/puma560.yaml}\n"
+                           "arms:\n  - name: arm\n    robot: puma560\n    base: {xyz: [0.2, -0.1, 0.3], rpy: [0, 0, 0.7]}\n"
+                           "    q: [0.25, 0.75, 3.1, 0.1, 0.8, 0.0]\n    v: [0.3, -0.2, 0.1, 0.4, -0.5, 0.6]\n"
+                           "reactions: all\n";
+  const System s = load_scene_string(text, scene_path("one_puma"));
+  ASSERT_EQ(s.model.nv(), 6);
+  EXPECT_EQ(s.constraints.rows, 0);
+  EXPECT_EQ(s.options.formulation, Formulation::kClassic);  // rooted at the world: no platform
+  EXPECT_TRUE(s.warnings.empty());
+  // the torque that holds it (gravity and velocity terms, by RNEA with vdot = 0) gives vdot = 0
+  Data d(s.model);
+  forward_kinematics(s.model, d, s.q0, s.v0);
+  Eigen::VectorXd tau(6);
+  rnea(s.model, d, Eigen::VectorXd::Zero(6), nullptr, tau);
+  Workspace ws(s);
+  ASSERT_EQ(evaluate(s, ws, s.q0, s.v0, tau).status, Status::kOk);
+  EXPECT_LT(ws.vdot.cwiseAbs().maxCoeff(), 1e-10);
+  // at rest the base carries the arm's weight and the moment of it about the base origin
+  const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(6);
+  forward_kinematics(s.model, d, s.q0, v0);
+  rnea(s.model, d, Eigen::VectorXd::Zero(6), nullptr, tau);
+  ASSERT_EQ(evaluate(s, ws, s.q0, v0, tau).status, Status::kOk);
+  WrenchData wd(s);
+  compute_wrenches(s, ws, wd);
+  int base = -1;
+  for (size_t o = 0; o < s.wrenches.outputs.size(); ++o)
+    if (s.wrenches.outputs[o].name == "arm.base") base = static_cast<int>(o);
+  ASSERT_GE(base, 0);
+  double m = 0;
+  Vec3 mc = Vec3::Zero();  // sum m_i c_i in the world
+  for (int b = 0; b < s.model.nbodies(); ++b) {
+    const Inertia& I = s.model.bodies[b].inertia;
+    m += I.m;
+    mc += I.m * (d.X_WB[b].R * I.c + d.X_WB[b].p);
+  }
+  EXPECT_NEAR(m, 17.4 + 4.8 + 0.82 + 0.34 + 0.09, 1e-12);
+  const Transform X_WBase(rpy_matrix(Vec3(0, 0, 0.7)), Vec3(0.2, -0.1, 0.3));
+  const Vec3 f_W(0, 0, 9.81 * m);                               // the world holds the weight up
+  const Vec3 n_W = (mc / m - X_WBase.p).cross(-f_W) * -1.0;     // and cancels the weight's moment
+  const Vec6& W = wd.W[base];
+  EXPECT_LT((W.tail<3>() - X_WBase.R.transpose() * f_W).norm(), 1e-9) << W.transpose();
+  EXPECT_LT((W.head<3>() - X_WBase.R.transpose() * n_W).norm(), 1e-9) << W.transpose();
+  // what needs a load says so
+  EXPECT_NE(error_of(replaced(text, "    v: [", "    grasp: at_initial_state\n    v: ["), scene_path("one_puma")).find("'grasp' needs a load"),
+            std::string::npos);
+  EXPECT_NE(error_of(text + "formulation: pseudo_joint\n", scene_path("one_puma")).find("is about arms closed through a load"), std::string::npos);
+}

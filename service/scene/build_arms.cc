@@ -1,4 +1,4 @@
-// `load` + `arms`: the paper's cooperating arms carrying a common load.
+// `arms` (+ `load`): the paper's cooperating arms carrying a common load, or arms standing alone.
 #include <cmath>
 #include <limits>
 #include <set>
@@ -33,14 +33,24 @@ Transform chain_forward(const ArmSpec& a) {
 
 void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, Robot>& robots, bool mobile_platform) {
   const Ctx& c = B.c;
-  const YAML::Node load = require(c, root, "load", "scene");
-  check_keys(c, load, {"name", "mass", "com", "inertia", "accept_inertia", "pose", "velocity", "actuated"}, "load");
-  const std::string load_name = get_string(c, load, "name", "load");
-  // the platform DOFs of the load take no command force unless the scene declares a drive on it
-  // (thrusters, a positioner): tau_limit 0 = a command must be exactly 0 there (Reject::kUnactuated)
-  const double load_limit = get_bool(c, load, "actuated", false) ? std::numeric_limits<double>::infinity() : 0.0;
-  const Inertia I_load = get_inertia(c, load, "load");
-  const Transform X_W_L = get_pose(c, require(c, load, "pose", "load"), "load.pose");
+  // without a load the arms stand alone, rooted at the world with free tips (a single arm on a
+  // bench): no platform, no grasp rows; their base and joint reactions are still reported
+  const YAML::Node load = root["load"];
+  const bool has_load = load.IsDefined() && !load.IsNull();
+  if (!has_load) mobile_platform = false;
+  std::string load_name = "load";
+  double load_limit = 0;
+  Inertia I_load;
+  Transform X_W_L;
+  if (has_load) {
+    check_keys(c, load, {"name", "mass", "com", "inertia", "accept_inertia", "pose", "velocity", "actuated"}, "load");
+    load_name = get_string(c, load, "name", "load");
+    // the platform DOFs of the load take no command force unless the scene declares a drive on it
+    // (thrusters, a positioner): tau_limit 0 = a command must be exactly 0 there (Reject::kUnactuated)
+    load_limit = get_bool(c, load, "actuated", false) ? std::numeric_limits<double>::infinity() : 0.0;
+    I_load = get_inertia(c, load, "load");
+    X_W_L = get_pose(c, require(c, load, "pose", "load"), "load.pose");
+  }
 
   std::vector<ArmSpec> arms;
   const YAML::Node an = require(c, root, "arms", "scene");
@@ -94,10 +104,14 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
       s.X_L_EE = get_pose(c, g, "arm '" + s.name + "'.grasp");
     }
     s.compliance = get_compliance(c, a["compliance"], "arm '" + s.name + "'.compliance");
+    if (!has_load)
+      for (const char* k : {"grasp", "compliance"})
+        if (a[k]) fail(c, a[k], "arm '" + s.name + "': '" + k + "' needs a load (the scene has none: its arms' tips are free)");
     arms.push_back(s);
   }
   // grasps: given ones must close with the load pose, missing ones are read off the initial state
   for (ArmSpec& s : arms) {
+    if (!has_load) break;
     const Transform X_W_EE = s.X_W_base * chain_forward(s) * s.tool;
     if (s.grasp_given) {
       const Vec6 e = pose_error((X_W_L * s.X_L_EE).inverse() * X_W_EE);
@@ -122,7 +136,7 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
     Eigen::VectorXd tmp(7);
     set_floating_q(tmp, 0, X_W_L);
     for (int k = 0; k < 7; ++k) lq[k] = tmp[k];
-    if (load["velocity"]) {
+    if (has_load && load["velocity"]) {
       auto l = as_list(c, load["velocity"], 6, "load.velocity");
       for (int k = 0; k < 6; ++k) lv[k] = l[k];
     }
@@ -219,6 +233,7 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
       }
       model.add_frame(s.name + ".ee", parent, s.robot->X_last_EE * s.tool);
     }
+    if (!has_load) return;
     const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, load_limit, load);
     for (const ArmSpec& s : arms) {
       model.add_frame(load_name + "." + s.name, L, s.X_L_EE);

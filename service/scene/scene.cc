@@ -106,7 +106,13 @@ System load_scene_string(const std::string& text, const std::string& file, const
     }
     for (const auto& [rn, rb] : robots) sys.warnings.insert(sys.warnings.end(), rb.warnings.begin(), rb.warnings.end());
     const bool has_arms = root["arms"].IsDefined(), has_bodies = root["bodies"].IsDefined();
-    if (has_arms == has_bodies) fail(c, root, "a scene declares either 'arms' (with a 'load') or 'bodies', not both or neither");
+    if (has_arms == has_bodies) fail(c, root, "a scene declares either 'arms' (with or without a 'load') or 'bodies', not both or neither");
+    if (root["load"] && !has_arms) fail(c, root["load"], "a 'load' is carried by 'arms' (in a 'bodies' scene it is a body with a floating joint)");
+    if (has_arms && !root["load"] && root["formulation"] &&
+        (sys.options.formulation == Formulation::kPseudoJointSchur || sys.options.formulation == Formulation::kSvdBaseline))
+      fail(c, root["formulation"], "formulation '" + fs + "' is about arms closed through a load; this scene has none "
+                                   "(its arms are rooted at the world with free tips in every formulation)");
+    if (has_arms && !root["load"]) sys.options.formulation = Formulation::kClassic;  // what the tree is: no platform
     if (has_arms) {
       // the SVD baseline is the paper's, in its classic setting (METHOD s.6): arms rooted at the world
       build_arms(B, root, robots,
