@@ -6,6 +6,7 @@
 
 #include "clients/common.h"
 #include "service/algorithms/kinematics.h"
+#include "service/dynamics/free_directions.h"
 #include "service/dynamics/wrenches.h"
 #include "service/scene/scene.h"
 
@@ -131,7 +132,32 @@ void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const
       }
     std::fprintf(f, "]}");
   }
-  std::fprintf(f, "\n  ],\n  \"stresses\": [");
+  std::fprintf(f, "\n  ],\n  \"free_directions\": [");
+  // each free direction of the multipliers: its class, a reading, lambda along it and every
+  // reported wrench it moves (per unit; any multiple may be added to the wrenches above)
+  for (int dir = 0; dir < wd.num_free; ++dir) {
+    std::fprintf(f, "%s\n    {\"class\": \"%s\", \"reading\": \"", dir ? "," : "",
+                 free_class_name(wd.free_class[static_cast<size_t>(dir)]));
+    for (char ch : free_direction_reading(sys, wd, dir)) std::fprintf(f, ch == '"' || ch == '\\' ? "\\%c" : "%c", ch);
+    std::fprintf(f, "\", \"lambda\": ");
+    list(f, wd.free_lambda.col(dir).data(), static_cast<int>(wd.free_lambda.rows()));
+    std::fprintf(f, ", \"wrenches\": [");
+    bool first = true;
+    for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k) {
+      const double* x = wd.free_W.col(dir).data() + 6 * k;
+      double mx = 0;
+      for (int c = 0; c < 6; ++c) mx = std::max(mx, std::abs(x[c]));
+      if (mx <= 1e-12) continue;
+      std::fprintf(f, "%s{\"name\": \"%s\", \"moment\": ", first ? "" : ", ", sys.wrenches.outputs[k].name.c_str());
+      list(f, x, 3);
+      std::fprintf(f, ", \"force\": ");
+      list(f, x + 3, 3);
+      std::fprintf(f, "}");
+      first = false;
+    }
+    std::fprintf(f, "]}");
+  }
+  std::fprintf(f, "%s],\n  \"stresses\": [", wd.num_free ? "\n  " : "");
   for (size_t a = 0; a < model.pseudo_dofs.size(); ++a) {
     const int d = model.pseudo_dofs[a];
     std::fprintf(f, "%s\n    {\"joint\": \"%s\", \"value\": ", a ? "," : "", model.v_names[d].c_str());

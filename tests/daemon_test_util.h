@@ -132,6 +132,15 @@ inline void expect_matches_offline(const System& sys, const io::DecodedOutput& o
     for (int k = 0; k < 6; ++k) EXPECT_NEAR(o.wrench[t][k], w[k], tol * scale) << o.wrench_names[t] << " component " << k;
     EXPECT_EQ(static_cast<unsigned>(o.indeterminate_mask[t]) & 0x3f, wd.indeterminate[t]);
   }
+  // the free directions, as vectors, with their classes
+  ASSERT_EQ(static_cast<int>(o.free_direction.size()), wd.num_free);
+  for (int d = 0; d < wd.num_free; ++d) {
+    EXPECT_EQ(o.free_class[static_cast<size_t>(d)], static_cast<int>(wd.free_class[static_cast<size_t>(d)]));
+    for (size_t t = 0; t < outs.size(); ++t)
+      for (int k = 0; k < 6; ++k)
+        EXPECT_NEAR(o.free_direction[static_cast<size_t>(d)][t][static_cast<size_t>(k)], wd.free_W(6 * static_cast<Eigen::Index>(t) + k, d), tol)
+            << "free direction " << d << " " << o.wrench_names[t];
+  }
   ASSERT_EQ(static_cast<Eigen::Index>(o.stress.size()), ws.stress.size());
   for (Eigen::Index k = 0; k < ws.stress.size(); ++k)
     EXPECT_NEAR(o.stress[k], ws.stress[k], tol * (1.0 + std::abs(ws.stress[k])));

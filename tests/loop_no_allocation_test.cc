@@ -75,7 +75,9 @@ TEST(LoopNoAllocation, TickOfEverySceneBothModes) {
       EXPECT_GE(loop.expirations(), 2);
       EXPECT_EQ(bus.count("COOPDYN_OUTPUT"), 3000);
       EXPECT_EQ(bus.count("COOPDYN_STATS"), 60);
-      if (mode == runtime::ServiceMode::kEstimate && !plan.fit_q.empty()) EXPECT_GT(loop.closure_rejections(), 0);
+      if (mode == runtime::ServiceMode::kEstimate && !plan.fit_q.empty()) {
+        EXPECT_GT(loop.closure_rejections(), 0);
+      }
       runtime::Event e;
       while (loop.events().pop(&e)) {
       }

@@ -1,5 +1,7 @@
 #include "service/dynamics/wrenches.h"
 
+#include "service/dynamics/jacobi.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -74,6 +76,43 @@ WrenchData::WrenchData(const System& sys) {
   R.assign(nb, Vec6::Zero());
   dF_spec.assign(sys.wrenches.pass_specs.size(), Vec6::Zero());
   dlam.setZero(sys.constraints.rows);
+  const ConstraintSet& cs = sys.constraints;
+  const int m = cs.rows;
+  free_lambda.setZero(m, m);
+  free_class.assign(static_cast<size_t>(m), FreeClass::kMixed);
+  free_W.setZero(6 * static_cast<Eigen::Index>(no), m);
+  fb_N.setZero(m, m);
+  fb_T.setZero(m, m);
+  fb_A.setZero(m, m);
+  fb_V.setZero(m, m);
+  fb_w.setZero(m);
+  row_class.assign(static_cast<size_t>(m), static_cast<uint8_t>(FreeClass::kMixed));
+  for (size_t s = 0; s < cs.specs.size(); ++s)
+    for (int r = 0; r < cs.row_count[s]; ++r) {
+      const int ax = cs.row_axis[s][r];
+      FreeClass c;
+      switch (cs.specs[s].kind) {
+        case ConstraintKind::kRolling:
+          c = ax == 5 ? FreeClass::kWheelNormal : ax == 4 ? FreeClass::kWheelLateral : FreeClass::kWheelLongitudinal;
+          break;
+        case ConstraintKind::kLock: c = FreeClass::kLock; break;
+        default: c = ax < 3 ? FreeClass::kMoment : FreeClass::kForce; break;
+      }
+      row_class[static_cast<size_t>(cs.row_offset[s] + r)] = static_cast<uint8_t>(c);
+    }
+}
+
+const char* free_class_name(FreeClass c) {
+  switch (c) {
+    case FreeClass::kWheelNormal: return "wheel_normal";
+    case FreeClass::kWheelLateral: return "wheel_lateral";
+    case FreeClass::kWheelLongitudinal: return "wheel_longitudinal";
+    case FreeClass::kForce: return "force";
+    case FreeClass::kMoment: return "moment";
+    case FreeClass::kLock: return "lock";
+    case FreeClass::kMixed: break;
+  }
+  return "mixed";
 }
 
 namespace {
@@ -219,6 +258,80 @@ void constraint_body_forces(const System& sys, const ConstraintData& cd, const d
 
 }  // namespace
 
+namespace {
+// wd.free_lambda <- the null space of Q grouped by FreeClass: for each class in turn, the directions
+// of the remaining basis N that move no row outside the class are the null space of N_out (its rows
+// outside the class), i.e. the eigenvectors of N_out^T N_out with eigenvalue ~0 (Jacobi, k x k);
+// they are taken out and the rest (orthonormal, the other eigenvectors) goes on to the next class.
+void free_basis(const System& sys, const Workspace& ws, WrenchData& wd) {
+  const ConstraintSet& cs = sys.constraints;
+  const int m = cs.rows;
+  const bool basis = sys.options.formulation != Formulation::kSvdBaseline && !ws.qs.fast_path;
+  int k = 0;
+  Eigen::MatrixXd& N = wd.fb_N;
+  if (basis) {
+    k = m - ws.qs.rank;
+    for (int j = 0; j < k; ++j)
+      for (int i = 0; i < m; ++i) N(i, j) = ws.qs.Nq(i, j);
+  } else {
+    for (int d = 0; d < m; ++d) {
+      if (!ws.qs.row_indeterminate[d]) continue;
+      for (int i = 0; i < m; ++i) N(i, k) = i == d ? 1.0 : 0.0;
+      ++k;
+    }
+  }
+  int nf = 0;
+  auto take = [&](int col_N, FreeClass c) {  // N's column (after the rotation) -> free_lambda, sign fixed
+    int imax = 0;
+    for (int i = 1; i < m; ++i)
+      if (std::abs(N(i, col_N)) > std::abs(N(imax, col_N)) + 1e-12) imax = i;
+    const double sg = N(imax, col_N) < 0 ? -1.0 : 1.0;
+    for (int i = 0; i < m; ++i) wd.free_lambda(i, nf) = sg * N(i, col_N);
+    wd.free_class[static_cast<size_t>(nf)] = c;
+    ++nf;
+  };
+  for (int cls = 0; cls < kFreeClasses - 1 && k > 0; ++cls) {
+    auto A = wd.fb_A.topLeftCorner(k, k);
+    A.setZero();
+    bool any_in = false;
+    for (int i = 0; i < m; ++i) {
+      if (wd.row_class[static_cast<size_t>(i)] == cls) {
+        any_in = true;
+        continue;
+      }
+      for (int a = 0; a < k; ++a)
+        for (int b = 0; b < k; ++b) A(a, b) += N(i, a) * N(i, b);
+    }
+    if (!any_in) continue;
+    auto w = wd.fb_w.head(k);
+    auto V = wd.fb_V.topLeftCorner(k, k);
+    jacobi_eigen(A, w, V);  // ascending
+    int j = 0;
+    while (j < k && w[j] < 1e-12) ++j;
+    if (j == 0) continue;
+    // T = N V: the first j columns lie in the class, the others are the rest
+    for (int c = 0; c < k; ++c)
+      for (int i = 0; i < m; ++i) {
+        double x = 0;
+        for (int a = 0; a < k; ++a) x += N(i, a) * V(a, c);
+        wd.fb_T(i, c) = x;
+      }
+    for (int c = 0; c < k; ++c)
+      for (int i = 0; i < m; ++i) N(i, c) = wd.fb_T(i, c);
+    for (int c = 0; c < j; ++c) {
+      for (int i = 0; i < m; ++i)  // exactly in the class: round-off outside it dropped
+        if (wd.row_class[static_cast<size_t>(i)] != cls) N(i, c) = 0.0;
+      take(c, static_cast<FreeClass>(cls));
+    }
+    for (int c = j; c < k; ++c)
+      for (int i = 0; i < m; ++i) N(i, c - j) = N(i, c);
+    k -= j;
+  }
+  for (int c = 0; c < k; ++c) take(c, FreeClass::kMixed);
+  wd.num_free = nf;
+}
+}  // namespace
+
 void compute_wrenches(const System& sys, const Workspace& ws, WrenchData& wd) {
   const Model& model = sys.model;
   const ConstraintSet& cs = sys.constraints;
@@ -230,6 +343,7 @@ void compute_wrenches(const System& sys, const Workspace& ws, WrenchData& wd) {
       wd.W[k].setZero();
       wd.indeterminate[k] = 0;
     }
+    wd.num_free = 0;
     return;
   }
   if (!set.pass.empty()) {
@@ -258,20 +372,20 @@ void compute_wrenches(const System& sys, const Workspace& ws, WrenchData& wd) {
   // Free directions of lambda (an over-constrained system): a reaction component that moves along
   // one is not determined by the physics. The directions are the null space of Q where the solve
   // computed it, else (the SVD baseline) every indeterminate row on its own.
-  if (ws.diag.indeterminate <= 0 || set.pass.empty()) return;
-  const int m = cs.rows;
-  const bool basis = sys.options.formulation != Formulation::kSvdBaseline && !ws.qs.fast_path;
-  const int ndir = basis ? m - ws.qs.rank : m;
-  for (int d = 0; d < ndir; ++d) {
-    const double* dlam;
-    if (basis) {
-      dlam = ws.qs.Nq.col(d).data();
-    } else {
-      if (!ws.qs.row_indeterminate[d]) continue;
-      wd.dlam.setZero();
-      wd.dlam[d] = 1.0;
-      dlam = wd.dlam.data();
+  wd.num_free = 0;
+  if (ws.diag.indeterminate <= 0) return;
+  free_basis(sys, ws, wd);
+  for (int d = 0; d < wd.num_free; ++d) {
+    const double* dlam = wd.free_lambda.col(d).data();
+    double* FW = wd.free_W.col(d).data();
+    for (size_t k = 0; k < no; ++k) {  // a tip's wrench is its rows of lambda
+      const WrenchOutput& o = set.outputs[k];
+      if (o.spec < 0) continue;
+      for (int c = 0; c < 6; ++c) FW[6 * k + c] = 0.0;
+      const int r0 = cs.row_offset[o.spec];
+      for (int r = 0; r < cs.row_count[o.spec]; ++r) FW[6 * k + cs.row_axis[o.spec][r]] = dlam[r0 + r];
     }
+    if (set.pass.empty()) continue;
     for (size_t j = 0; j < set.pass_specs.size(); ++j) spec_force(cs, ws.cd, dlam, set.pass_specs[j], wd.dF_spec[j].data());
     for (size_t k = 0; k < no; ++k) {
       const WrenchOutput& o = set.outputs[k];
@@ -284,6 +398,8 @@ void compute_wrenches(const System& sys, const Workspace& ws, WrenchData& wd) {
         for (int i = 0; i < 6; ++i) dR[i] += c * F[i];
       }
       const Six r = reaction_in_frame(data, cs, ws.cd, o, dR);
+      FW[6 * k + 0] = r.v0, FW[6 * k + 1] = r.v1, FW[6 * k + 2] = r.v2;
+      FW[6 * k + 3] = r.v3, FW[6 * k + 4] = r.v4, FW[6 * k + 5] = r.v5;
       auto bit = [](double x, int c) { return static_cast<unsigned>(std::abs(x) > 1e-6) << c; };
       unsigned mask = wd.indeterminate[k];
       mask |= bit(r.v0, 0) | bit(r.v1, 1) | bit(r.v2, 2) | bit(r.v3, 3) | bit(r.v4, 4) | bit(r.v5, 5);

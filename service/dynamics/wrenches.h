@@ -12,6 +12,20 @@
 
 namespace coopdyn {
 
+// What a free direction of the multipliers moves, when it moves one kind of row only: the basis is
+// grouped by class, in this order (a direction that mixes kinds is kMixed).
+enum class FreeClass : uint8_t {
+  kWheelNormal = 0,        // the normal forces of rolling contacts (a rigid chassis on > 3 wheels)
+  kWheelLateral = 1,       // their lateral forces (wheels on one rigid axle)
+  kWheelLongitudinal = 2,  // their longitudinal forces
+  kForce = 3,              // force rows of welds and points (an internal force between grasps)
+  kMoment = 4,             // moment rows of welds
+  kLock = 5,               // pseudo-joint locks
+  kMixed = 6,
+};
+constexpr int kFreeClasses = 7;
+const char* free_class_name(FreeClass c);  // "wheel_normal", ..., "mixed"
+
 struct WrenchData {
   explicit WrenchData(const System& sys);
   std::vector<Vec6> W;                  // per output: [moment; force] in its frame
@@ -22,6 +36,20 @@ struct WrenchData {
   std::vector<Vec6> dF_spec;            // per pass spec (WrenchSet::pass_specs): its force for a free
                                         // direction of lambda
   Eigen::VectorXd dlam;                 // (rows) a free direction of lambda
+
+  // The free directions of lambda (an over-constrained system; 0 when determinate or failed): an
+  // orthonormal basis of the null space of Q, grouped by FreeClass (within a class, the subspace
+  // of directions that move that kind of row only), each column's largest component positive.
+  int num_free = 0;
+  Eigen::MatrixXd free_lambda;          // (rows x rows), first num_free columns
+  std::vector<FreeClass> free_class;    // (rows), first num_free entries
+  // free_W(6 k + c, d): component c of output k's wrench per unit of free direction d (the change
+  // of the reported wrench along it, in the output's frame; any multiple may be added to W)
+  Eigen::MatrixXd free_W;               // (6 outputs x rows)
+  // workspace of the grouping (allocation-free Jacobi)
+  Eigen::MatrixXd fb_N, fb_T, fb_A, fb_V;
+  Eigen::VectorXd fb_w;
+  std::vector<uint8_t> row_class;       // (rows) FreeClass of each row
 };
 
 // Fills wd.W and wd.indeterminate for the evaluation in ws (zeros when it failed).

@@ -378,6 +378,10 @@ struct OutputEncoder::Impl {
     msg.indeterminate_mask.assign(outs.size(), 0);
     msg.wrench_measured.assign(outs.size(), 0);
     msg.wrench_residual.assign(outs.size(), std::vector<double>(6, 0.0));
+    // free directions: sized for the most there can be (every row), sent as the first num_free
+    const int rows = s.constraints.rows;
+    msg.free_class.assign(static_cast<size_t>(rows), 0);
+    msg.free_direction.assign(static_cast<size_t>(rows), std::vector<std::vector<double>>(outs.size(), std::vector<double>(6, 0.0)));
     msg.num_stresses = static_cast<int32_t>(model.pseudo_dofs.size());
     for (int d : model.pseudo_dofs) msg.stress_names.push_back(model.v_names[d]);
     msg.stress.assign(model.pseudo_dofs.size(), 0.0);
@@ -395,10 +399,13 @@ struct OutputEncoder::Impl {
     msg.num_constraints = static_cast<int32_t>(s.constraints.specs.size());
     for (const ConstraintSpec& c : s.constraints.specs) msg.constraint_names.push_back(c.name);
     for (int k = 0; k < 4; ++k) msg.closure_constraint[k] = -1;
-    size = msg.getEncodedSize();
+    msg.num_free = rows;
+    size = msg.getEncodedSize();  // the largest message
+    msg.num_free = 0;
   }
   void zero_dynamics() {
     msg.rows = msg.rank = msg.indeterminate = 0;
+    msg.num_free = 0;
     msg.condition = msg.residual = 0;
     for (auto& w : msg.wrench) std::fill(w.begin(), w.end(), 0.0);
     std::fill(msg.indeterminate_mask.begin(), msg.indeterminate_mask.end(), 0);
@@ -472,15 +479,24 @@ int OutputEncoder::encode(const OutputFrame& f, uint8_t* buf, int cap, bool* san
           ok = ok && std::isfinite(wd.W[t][k]);
         }
         o.indeterminate_mask[t] = static_cast<int8_t>(wd.indeterminate[t]);
+        for (int d = 0; d < wd.num_free; ++d)
+          for (int k = 0; k < 6; ++k) {
+            const double x = wd.free_W(6 * static_cast<Eigen::Index>(t) + k, d);
+            o.free_direction[static_cast<size_t>(d)][t][static_cast<size_t>(k)] = x;
+            ok = ok && std::isfinite(x);
+          }
         const bool meas = f.measured && t < f.measured->has_wrench.size() && f.measured->has_wrench[t];
         for (int k = 0; k < 6; ++k) {
           o.wrench_residual[t][k] = meas ? f.measured->wrench[t][k] - wd.W[t][k] : 0.0;
           ok = ok && std::isfinite(o.wrench_residual[t][k]);
         }
       }
+      o.num_free = wd.num_free;
+      for (int d = 0; d < wd.num_free; ++d) o.free_class[static_cast<size_t>(d)] = static_cast<int8_t>(wd.free_class[static_cast<size_t>(d)]);
     } else {
       for (auto& w : o.wrench) std::fill(w.begin(), w.end(), 0.0);
       std::fill(o.indeterminate_mask.begin(), o.indeterminate_mask.end(), 0);
+      o.num_free = 0;
     }
     ok = copy_finite(&ws.stress, o.stress) && ok;
     ok = copy_finite(&ws.vdot, o.vdot) && ok;

@@ -138,6 +138,11 @@ bool decode_output(const void* data, int len, DecodedOutput* out) {
   out->wrench_residual.assign(m.wrench_residual.size(), {});
   for (size_t t = 0; t < m.wrench_residual.size(); ++t)
     for (int k = 0; k < 6; ++k) out->wrench_residual[t][k] = m.wrench_residual[t][k];
+  out->free_class.assign(m.free_class.begin(), m.free_class.begin() + m.num_free);
+  out->free_direction.assign(static_cast<size_t>(m.num_free), std::vector<std::array<double, 6>>(m.wrench.size()));
+  for (int d = 0; d < m.num_free; ++d)
+    for (size_t t = 0; t < m.wrench.size(); ++t)
+      for (int k = 0; k < 6; ++k) out->free_direction[static_cast<size_t>(d)][t][static_cast<size_t>(k)] = m.free_direction[static_cast<size_t>(d)][t][static_cast<size_t>(k)];
   out->stress_names = m.stress_names;
   out->stress = m.stress;
   out->q_names = m.q_names;

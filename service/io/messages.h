@@ -125,6 +125,8 @@ struct DecodedOutput {
   std::vector<int> constrained_mask, indeterminate_mask;
   std::vector<int> wrench_measured;                  // 1: a sensor reading came with the state
   std::vector<std::array<double, 6>> wrench_residual;  // measured - estimated
+  std::vector<int> free_class;                                      // per free direction: FreeClass
+  std::vector<std::vector<std::array<double, 6>>> free_direction;   // [direction][wrench]: change per unit
   std::vector<std::string> stress_names;
   std::vector<double> stress;
   std::vector<std::string> q_names, v_names;
