@@ -87,6 +87,7 @@ WrenchData::WrenchData(const System& sys) {
   fb_V.setZero(m, m);
   fb_w.setZero(m);
   row_class.assign(static_cast<size_t>(m), static_cast<uint8_t>(FreeClass::kMixed));
+  class_present.assign(kFreeClasses, 0);
   for (size_t s = 0; s < cs.specs.size(); ++s)
     for (int r = 0; r < cs.row_count[s]; ++r) {
       const int ax = cs.row_axis[s][r];
@@ -99,6 +100,7 @@ WrenchData::WrenchData(const System& sys) {
         default: c = ax < 3 ? FreeClass::kMoment : FreeClass::kForce; break;
       }
       row_class[static_cast<size_t>(cs.row_offset[s] + r)] = static_cast<uint8_t>(c);
+      class_present[static_cast<size_t>(c)] = 1;
     }
 }
 
@@ -290,19 +292,20 @@ void free_basis(const System& sys, const Workspace& ws, WrenchData& wd) {
     wd.free_class[static_cast<size_t>(nf)] = c;
     ++nf;
   };
+  const uint8_t* rc = wd.row_class.data();
+  double* Nd = N.data();
+  const Eigen::Index ld = N.outerStride();
   for (int cls = 0; cls < kFreeClasses - 1 && k > 0; ++cls) {
+    if (!wd.class_present[static_cast<size_t>(cls)]) continue;
     auto A = wd.fb_A.topLeftCorner(k, k);
-    A.setZero();
-    bool any_in = false;
-    for (int i = 0; i < m; ++i) {
-      if (wd.row_class[static_cast<size_t>(i)] == cls) {
-        any_in = true;
-        continue;
+    for (int a = 0; a < k; ++a)  // A = N_out^T N_out over the rows outside the class
+      for (int b = a; b < k; ++b) {
+        const double* na = Nd + a * ld;
+        const double* nb = Nd + b * ld;
+        double x = 0;
+        for (int i = 0; i < m; ++i) x += rc[i] == cls ? 0.0 : na[i] * nb[i];
+        A(a, b) = A(b, a) = x;
       }
-      for (int a = 0; a < k; ++a)
-        for (int b = 0; b < k; ++b) A(a, b) += N(i, a) * N(i, b);
-    }
-    if (!any_in) continue;
     auto w = wd.fb_w.head(k);
     auto V = wd.fb_V.topLeftCorner(k, k);
     jacobi_eigen(A, w, V);  // ascending
@@ -310,21 +313,26 @@ void free_basis(const System& sys, const Workspace& ws, WrenchData& wd) {
     while (j < k && w[j] < 1e-12) ++j;
     if (j == 0) continue;
     // T = N V: the first j columns lie in the class, the others are the rest
-    for (int c = 0; c < k; ++c)
-      for (int i = 0; i < m; ++i) {
-        double x = 0;
-        for (int a = 0; a < k; ++a) x += N(i, a) * V(a, c);
-        wd.fb_T(i, c) = x;
+    double* Td = wd.fb_T.data();
+    const Eigen::Index lt = wd.fb_T.outerStride();
+    for (int c = 0; c < k; ++c) {
+      double* t = Td + c * lt;
+      for (int i = 0; i < m; ++i) t[i] = 0.0;
+      for (int a = 0; a < k; ++a) {
+        const double v = V(a, c);
+        const double* na = Nd + a * ld;
+        for (int i = 0; i < m; ++i) t[i] += v * na[i];
       }
-    for (int c = 0; c < k; ++c)
-      for (int i = 0; i < m; ++i) N(i, c) = wd.fb_T(i, c);
+    }
     for (int c = 0; c < j; ++c) {
+      double* t = Td + c * lt;
       for (int i = 0; i < m; ++i)  // exactly in the class: round-off outside it dropped
-        if (wd.row_class[static_cast<size_t>(i)] != cls) N(i, c) = 0.0;
+        if (rc[i] != cls) t[i] = 0.0;
+      for (int i = 0; i < m; ++i) Nd[c * ld + i] = t[i];
       take(c, static_cast<FreeClass>(cls));
     }
     for (int c = j; c < k; ++c)
-      for (int i = 0; i < m; ++i) N(i, c - j) = N(i, c);
+      for (int i = 0; i < m; ++i) Nd[(c - j) * ld + i] = Td[c * lt + i];
     k -= j;
   }
   for (int c = 0; c < k; ++c) take(c, FreeClass::kMixed);

@@ -50,6 +50,7 @@ struct WrenchData {
   Eigen::MatrixXd fb_N, fb_T, fb_A, fb_V;
   Eigen::VectorXd fb_w;
   std::vector<uint8_t> row_class;       // (rows) FreeClass of each row
+  std::vector<uint8_t> class_present;   // (kFreeClasses) some row has that class
 };
 
 // Fills wd.W and wd.indeterminate for the evaluation in ws (zeros when it failed).
