@@ -520,3 +520,53 @@ TEST(Scene, ASingleArmWithoutALoad) {
             std::string::npos);
   EXPECT_NE(error_of(text + "formulation: pseudo_joint\n", scene_path("one_puma")).find("is about arms closed through a load"), std::string::npos);
 }
+
+TEST(Scene, ARobotInsideBodiesMakesAMobileManipulator) {
+  // a cart on a rail (prismatic x) carrying the planar 3R arm from its URDF, and the same with the
+  // arm's DH twin: robots as subtrees of `bodies`
+  const std::string dh_text = scene_text("planar_arms_load");
+  const auto a = dh_text.find("  planar3r:\n"), b = dh_text.find("load:\n");
+  ASSERT_NE(a, std::string::npos);
+  const std::string body_part =
+      "bodies:\n"
+      "  - {name: cart, parent: world, joint: {type: prismatic, axis: [1, 0, 0], name: rail, q: 0.2, v: 0.1}, mass: 20, "
+      "inertia: [0.5, 0.8, 1.0, 0, 0, 0]}\n"
+      "  - {name: arm, robot: planar3r, parent: cart, placement: {xyz: [0.1, 0, 0.3]}, q: [0.4, -0.7, 0.3], v: [0.2, 0.1, -0.3]}\n"
+      "reactions: all\n";
+  const std::string urdf = "name: mobile_manipulator\nrobots:\n  planar3r: {urdf: ../robots/planar3r.urdf}\n" + body_part;
+  const std::string dh = "name: mobile_manipulator_dh\nrobots:\n" + dh_text.substr(a, b - a) + body_part;
+  const System su = load_scene_string(urdf, scene_path("mobile_manipulator"));
+  const System sd = load_scene_string(dh, scene_path("mobile_manipulator_dh"));
+  ASSERT_EQ(su.model.nv(), 4);
+  EXPECT_EQ(su.model.v_names[0], "rail");
+  EXPECT_EQ(su.model.v_names[1], "arm.j1");
+  EXPECT_EQ(su.constraints.rows, 0);
+  EXPECT_TRUE(su.warnings.empty());
+  Eigen::VectorXd tau(4);
+  tau << 7.0, 1.5, -0.8, 0.3;
+  Workspace wu(su), wd(sd);
+  ASSERT_EQ(evaluate(su, wu, su.q0, su.v0, tau).status, Status::kOk);
+  ASSERT_EQ(evaluate(sd, wd, sd.q0, sd.v0, tau).status, Status::kOk);
+  EXPECT_LT((wu.vdot - wd.vdot).norm(), 1e-9 * (1 + wu.vdot.norm())) << "URDF and DH arms on the cart agree";
+  // Newton along the rail: the only force on the system along x is the rail's drive, so the rate
+  // of the total x momentum is tau_rail (central differences along the motion)
+  const double h = 1e-5;
+  auto P = [&](double s) {
+    const Eigen::VectorXd q = su.q0 + s * su.v0 + 0.5 * s * s * wu.vdot, v = su.v0 + s * wu.vdot;
+    return total_momentum(su.model, q, v);
+  };
+  const Vec6 dP = (P(h) - P(-h)) / (2 * h);
+  EXPECT_NEAR(dP[3], tau[0], 1e-6 * std::abs(tau[0]));
+  // the arm's first joint reaction is the cart's on the arm's first link
+  bool found = false;
+  for (const WrenchOutput& o : su.wrenches.outputs)
+    if (o.name == "arm.j1") {
+      found = true;
+      EXPECT_EQ(o.by, "cart");
+    }
+  EXPECT_TRUE(found);
+  // an unknown robot names the robots table
+  EXPECT_NE(error_of(replace_once(urdf, "robot: planar3r, parent", "robot: planar4r, parent"), scene_path("mm")).find(
+                "unknown robot 'planar4r' (declare it under 'robots')"),
+            std::string::npos);
+}

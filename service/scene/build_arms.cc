@@ -8,28 +8,79 @@
 
 namespace coopdyn::scene_detail {
 
-namespace {
-struct ArmSpec {
-  std::string name;
-  const Robot* robot = nullptr;
-  Transform X_W_base;
-  Transform tool;
-  std::vector<double> q;
-  std::vector<double> v;
-  std::set<int> fixed;  // 1-based joint numbers held fixed
-  bool grasp_given = false;
-  Transform X_L_EE;
-  std::array<double, 6> compliance{{0, 0, 0, 0, 0, 0}};
-  YAML::Node node;
-};
-
 // the end-effector (before the tool) in the robot base frame at the arm's q
 Transform chain_forward(const ArmSpec& a) {
   Transform X;
   for (size_t i = 0; i < a.robot->joints.size(); ++i) X = X * a.robot->joints[i].X_origin * chain_motion(a.robot->joints[i], a.q[i]);
   return X * a.robot->X_last_EE;
 }
-}  // namespace
+
+void parse_arm_joints(const Ctx& c, const YAML::Node& a, ArmSpec& s) {
+  const int n = static_cast<int>(s.robot->joints.size());
+  int nm = 0;  // joints that can move (a URDF's own fixed joints take no q)
+  for (const ChainJoint& cj : s.robot->joints) nm += cj.fixed ? 0 : 1;
+  const std::vector<double> qm = as_list(c, require(c, a, "q", "arm '" + s.name + "'"), nm, "arm '" + s.name + "'.q");
+  const std::vector<double> vm = a["v"] ? as_list(c, a["v"], nm, "arm '" + s.name + "'.v") : std::vector<double>(nm, 0.0);
+  for (int i = 0, k = 0; i < n; ++i) {
+    const ChainJoint& cj = s.robot->joints[i];
+    const bool f = cj.fixed;
+    s.q.push_back(f ? 0.0 : qm[k]);
+    s.v.push_back(f ? 0.0 : vm[k]);
+    if (!f) {
+      const YAML::Node qk = a["q"][k];
+      std::ostringstream os;
+      os.precision(6);
+      if (!cj.prismatic && std::abs(qm[k]) > 2 * M_PI + 1e-9)
+        os << "arm '" << s.name << "' joint " << cj.name << " q = " << qm[k]
+           << " rad is more than a full turn: joint values are radians (degrees?)";
+      else if (qm[k] < cj.lower - 1e-9 || qm[k] > cj.upper + 1e-9)
+        os << "arm '" << s.name << "' joint " << cj.name << " q = " << qm[k] << " is outside its limits [" << cj.lower
+           << ", " << cj.upper << "] (" << cj.source << ")";
+      if (os.tellp() > 0) warn(c, qk, os.str());
+    }
+    k += f ? 0 : 1;
+  }
+  if (a["fixed_joints"]) {
+    for (double x : as_list(c, a["fixed_joints"], -1, "arm '" + s.name + "'.fixed_joints")) {
+      const int k = static_cast<int>(x);
+      if (k < 1 || k > n) fail(c, a["fixed_joints"], "arm '" + s.name + "': fixed joint " + std::to_string(k) + " out of range");
+      s.fixed.insert(k);
+    }
+  }
+}
+
+int add_chain(Builder& B, const ArmSpec& s, int parent, const std::string& by_base, bool base_output) {
+  Model& model = B.sys.model;
+  std::vector<WrenchOutput>& outs = B.sys.wrenches.outputs;
+  const auto& J = s.robot->joints;
+  const int n = static_cast<int>(J.size());
+  const int root = parent;
+  for (int i = 1; i <= n; ++i) {
+    const ChainJoint& cj = J[i - 1];
+    Joint j;
+    const bool held = cj.fixed || s.fixed.count(i);
+    j.type = held ? JointType::kFixed : (cj.prismatic ? JointType::kPrismatic : JointType::kRevolute);
+    j.axis = cj.axis;
+    j.name = s.name + "." + cj.name;
+    j.armature = cj.armature;
+    Transform X_PJ = (i == 1 ? s.X_W_base : Transform()) * cj.X_origin;
+    if (held) X_PJ = X_PJ * chain_motion(cj, s.q[i - 1]);
+    parent = B.add(s.name + "." + cj.link_name, parent, X_PJ, j, cj.I, {s.q[i - 1]}, {s.v[i - 1]}, cj.tau_limit, s.node);
+    const std::string by = i > 1 ? s.name + "." + J[i - 2].link_name : by_base;
+    outs.push_back(joint_output(s.name + "." + cj.name, s.name + "." + cj.link_name, by, parent, false, parent,
+                                Transform(), held ? 0x3f : bearing_mask(j.type, cj.axis, cj.axis)));
+    if (i == 1) {
+      model.add_frame(s.name + ".base", root, s.X_W_base);
+      if (base_output) {  // the base wrench is the reaction at joint 1, in the base frame
+        WrenchOutput o = joint_output(s.name + ".base", s.name + ".base", "world", parent, false, -1, s.X_W_base, 0x3f);
+        o.kind = WrenchKind::kBase;
+        outs.push_back(o);
+      }
+    }
+  }
+  model.add_frame(s.name + ".ee", parent, s.robot->X_last_EE * s.tool);
+  return parent;
+}
 
 void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, Robot>& robots, bool mobile_platform) {
   const Ctx& c = B.c;
@@ -65,39 +116,9 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
     auto it = robots.find(rn);
     if (it == robots.end()) fail(c, a["robot"].IsDefined() ? a["robot"] : a, "arm '" + s.name + "': unknown robot '" + rn + "'");
     s.robot = &it->second;
-    const int n = static_cast<int>(s.robot->joints.size());
-    int nm = 0;  // joints that can move (a URDF's own fixed joints take no q)
-    for (const ChainJoint& cj : s.robot->joints) nm += cj.fixed ? 0 : 1;
     s.X_W_base = get_pose(c, require(c, a, "base", "arm '" + s.name + "'"), "arm '" + s.name + "'.base");
     s.tool = get_pose(c, a["tool"], "arm '" + s.name + "'.tool");
-    const std::vector<double> qm = as_list(c, require(c, a, "q", "arm '" + s.name + "'"), nm, "arm '" + s.name + "'.q");
-    const std::vector<double> vm = a["v"] ? as_list(c, a["v"], nm, "arm '" + s.name + "'.v") : std::vector<double>(nm, 0.0);
-    for (int i = 0, k = 0; i < n; ++i) {
-      const ChainJoint& cj = s.robot->joints[i];
-      const bool f = cj.fixed;
-      s.q.push_back(f ? 0.0 : qm[k]);
-      s.v.push_back(f ? 0.0 : vm[k]);
-      if (!f) {
-        const YAML::Node qk = a["q"][k];
-        std::ostringstream os;
-        os.precision(6);
-        if (!cj.prismatic && std::abs(qm[k]) > 2 * M_PI + 1e-9)
-          os << "arm '" << s.name << "' joint " << cj.name << " q = " << qm[k]
-             << " rad is more than a full turn: joint values are radians (degrees?)";
-        else if (qm[k] < cj.lower - 1e-9 || qm[k] > cj.upper + 1e-9)
-          os << "arm '" << s.name << "' joint " << cj.name << " q = " << qm[k] << " is outside its limits [" << cj.lower
-             << ", " << cj.upper << "] (" << cj.source << ")";
-        if (os.tellp() > 0) warn(c, qk, os.str());
-      }
-      k += f ? 0 : 1;
-    }
-    if (a["fixed_joints"]) {
-      for (double x : as_list(c, a["fixed_joints"], -1, "arm '" + s.name + "'.fixed_joints")) {
-        const int k = static_cast<int>(x);
-        if (k < 1 || k > n) fail(c, a["fixed_joints"], "arm '" + s.name + "': fixed joint " + std::to_string(k) + " out of range");
-        s.fixed.insert(k);
-      }
-    }
+    parse_arm_joints(c, a, s);
     const YAML::Node g = a["grasp"];
     if (g.IsDefined() && !g.IsNull() && !(g.IsScalar() && g.as<std::string>() == "at_initial_state")) {
       s.grasp_given = true;
@@ -206,33 +227,7 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
     }
   } else {
     std::vector<WrenchOutput>& outs = B.sys.wrenches.outputs;
-    for (const ArmSpec& s : arms) {
-      const auto& J = s.robot->joints;
-      const int n = static_cast<int>(J.size());
-      int parent = -1;
-      for (int i = 1; i <= n; ++i) {
-        const ChainJoint& cj = J[i - 1];
-        Joint j;
-        const bool held = cj.fixed || s.fixed.count(i);
-        j.type = held ? JointType::kFixed : (cj.prismatic ? JointType::kPrismatic : JointType::kRevolute);
-        j.axis = cj.axis;
-        j.name = s.name + "." + cj.name;
-        j.armature = cj.armature;
-        Transform X_PJ = (i == 1 ? s.X_W_base : Transform()) * cj.X_origin;
-        if (held) X_PJ = X_PJ * chain_motion(cj, s.q[i - 1]);
-        parent = B.add(s.name + "." + cj.link_name, parent, X_PJ, j, cj.I, {s.q[i - 1]}, {s.v[i - 1]}, cj.tau_limit, s.node);
-        const std::string by = s.name + "." + (i > 1 ? J[i - 2].link_name : s.robot->base_link);
-        outs.push_back(joint_output(s.name + "." + cj.name, s.name + "." + cj.link_name, by, parent, false, parent,
-                                    Transform(), held ? 0x3f : bearing_mask(j.type, cj.axis, cj.axis)));
-        if (i == 1) {  // the base wrench is the reaction at joint 1, in the base frame
-          model.add_frame(s.name + ".base", -1, s.X_W_base);
-          WrenchOutput o = joint_output(s.name + ".base", s.name + ".base", "world", parent, false, -1, s.X_W_base, 0x3f);
-          o.kind = WrenchKind::kBase;
-          outs.push_back(o);
-        }
-      }
-      model.add_frame(s.name + ".ee", parent, s.robot->X_last_EE * s.tool);
-    }
+    for (const ArmSpec& s : arms) add_chain(B, s, -1, s.name + "." + s.robot->base_link, true);
     if (!has_load) return;
     const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, load_limit, load);
     for (const ArmSpec& s : arms) {

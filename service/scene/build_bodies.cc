@@ -5,12 +5,34 @@
 
 namespace coopdyn::scene_detail {
 
-void build_bodies(Builder& B, const YAML::Node& root) {
+void build_bodies(Builder& B, const YAML::Node& root, const std::map<std::string, Robot>& robots) {
   const Ctx& c = B.c;
   Model& model = B.sys.model;
   const YAML::Node bn = require(c, root, "bodies", "scene");
   if (!bn.IsSequence() || bn.size() == 0) fail(c, bn, "bodies must be a non-empty list");
   for (const auto& b : bn) {
+    if (b.IsMap() && b["robot"]) {  // a robot's chain as a subtree (a mobile base with an arm)
+      check_keys(c, b, {"name", "robot", "parent", "placement", "q", "v", "fixed_joints", "tool"}, "robot body");
+      ArmSpec s;
+      s.node = YAML::Node(b);
+      s.name = get_string(c, b, "name", "");
+      if (s.name.empty()) fail(c, b, "robot body: missing 'name' (the prefix of its links and joints)");
+      const std::string rn = get_string(c, b, "robot", "");
+      auto it = robots.find(rn);
+      if (it == robots.end()) fail(c, b["robot"], "robot body '" + s.name + "': unknown robot '" + rn + "' (declare it under 'robots')");
+      s.robot = &it->second;
+      const std::string pn = get_string(c, b, "parent", "world");
+      int parent = -1;
+      if (pn != "world") {
+        parent = model.body_index(pn);
+        if (parent < 0) fail(c, b["parent"], "robot body '" + s.name + "': unknown parent '" + pn + "' (parents must come first)");
+      }
+      s.X_W_base = get_pose(c, b["placement"], "robot body '" + s.name + "'.placement");
+      s.tool = get_pose(c, b["tool"], "robot body '" + s.name + "'.tool");
+      parse_arm_joints(c, b, s);
+      add_chain(B, s, parent, pn, false);
+      continue;
+    }
     check_keys(c, b, {"name", "parent", "placement", "joint", "mass", "com", "inertia", "accept_inertia"}, "body");
     const std::string name = get_string(c, b, "name", "");
     if (name.empty()) fail(c, b, "body: missing 'name'");

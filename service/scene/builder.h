@@ -5,6 +5,7 @@
 #pragma once
 
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -54,10 +55,37 @@ WrenchOutput joint_output(const std::string& name, const std::string& frame, con
 // writes X as a floating joint's 7 coordinates at q[idx] (xyz, then the quaternion w x y z)
 void set_floating_q(Eigen::VectorXd& q, int idx, const Transform& X);
 
+// A robot placed in the scene: an arm of `arms`, or a robot subtree of `bodies`.
+struct ArmSpec {
+  std::string name;
+  const Robot* robot = nullptr;
+  Transform X_W_base;  // the robot's base frame in its parent (the world for arms)
+  Transform tool;
+  std::vector<double> q;
+  std::vector<double> v;
+  std::set<int> fixed;  // 1-based joint numbers held fixed
+  bool grasp_given = false;
+  Transform X_L_EE;
+  std::array<double, 6> compliance{{0, 0, 0, 0, 0, 0}};
+  YAML::Node node;
+};
+
+// the end-effector (before the tool) in the robot base frame at the arm's q
+Transform chain_forward(const ArmSpec& a);
+// q, v (the joints that move, in order; warnings for turns and URDF limits) and fixed_joints of an
+// arm's or robot subtree's node `a`, into s (s.robot and s.name set)
+void parse_arm_joints(const Ctx& c, const YAML::Node& a, ArmSpec& s);
+// Adds s's chain to the tree below body `parent` (-1: the world) at s.X_W_base (in the parent's
+// frame), with every joint's reaction output (joint 1's 'by' = by_base) and the frames ARM.base
+// and ARM.ee; base_output adds the base wrench (world-rooted arms). Returns the last link's body.
+int add_chain(Builder& B, const ArmSpec& s, int parent, const std::string& by_base, bool base_output);
+
 // `load` + `arms`: the paper's cooperating arms, in the mobile-platform form or rooted at the world
 void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, Robot>& robots, bool mobile_platform);
 // `bodies` + `frames` + `constraints`: any tree closed by welds, points and rolling wheels
-void build_bodies(Builder& B, const YAML::Node& root);
+// A body entry may be a robot instead: {robot: NAME, name: PREFIX, parent, placement, q, v,
+// fixed_joints, tool}, its chain added below `parent` (robots from `robots`, DH or URDF).
+void build_bodies(Builder& B, const YAML::Node& root, const std::map<std::string, Robot>& robots);
 // Completes the wrench outputs (wrench_outputs.h): every constraint not yet reported becomes a tip,
 // every wheel on a jointed parent an axle; `reactions: all | none | [joint, ...]` selects joint reactions.
 void build_wrench_outputs(const Ctx& c, const YAML::Node& root, System& sys);

@@ -120,7 +120,7 @@ System load_scene_string(const std::string& text, const std::string& file, const
     } else {
       if (sys.options.formulation == Formulation::kClassic && root["formulation"].as<std::string>("") != "classic")
         fail(c, root, "formulation classic applies to scenes with arms holding a load");
-      build_bodies(B, root);
+      build_bodies(B, root, robots);
     }
     Model& model = sys.model;
     sys.q0 = Eigen::Map<Eigen::VectorXd>(B.q0.data(), static_cast<Eigen::Index>(B.q0.size()));
