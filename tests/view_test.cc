@@ -410,7 +410,7 @@ TEST(ViewBrowser, EveryShippedSceneLoads) {
       EXPECT_EQ(p.title, "coopdyn view: " + sys.name) << s << ": a JavaScript error, or the page did not finish";
       EXPECT_EQ(p.title.find("JSERROR"), std::string::npos) << s << ": " << p.title;
       EXPECT_TRUE(p.ready) << s;
-      EXPECT_EQ(p.error, ">") << s << ": the page shows an error";
+      EXPECT_EQ(p.error, ">") << s << ": the page shows an error";  // <div id="error"></div>, empty
       EXPECT_EQ(p.frame, 50) << s << ": " << p.probe;
       EXPECT_DOUBLE_EQ(p.t, 0.25) << s;
       EXPECT_EQ(p.time_text, "t = 0.250 s") << s;
@@ -449,7 +449,9 @@ TEST(ViewBrowser, ForceArrowWhereProjected) {
   int cyan = 0;
   for (int y = 0; y < b.shot.h - kBarHeight; ++y)
     for (int x = 0; x < b.shot.w; ++x) cyan += is_moment_colour(b.shot.at(x, y));
-  if (lm > 15) EXPECT_GT(cyan, 10) << "no moment arrow (" << lm << " px long)";
+  if (lm > 15) {
+    EXPECT_GT(cyan, 10) << "no moment arrow (" << lm << " px long)";
+  }
 }
 
 // Moving the time slider (the hash sets it and fires its input event, the handler dragging runs)
