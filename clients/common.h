@@ -67,5 +67,6 @@ int cmd_control(const Args& a);
 int cmd_sim(const Args& a);
 int cmd_send(const Args&);
 int cmd_log(const Args&);
+int cmd_view(const Args&);  // clients/view.cc
 
 }  // namespace coopdyn::cli

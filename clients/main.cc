@@ -19,6 +19,7 @@ void usage() {
                "               [--lcm-url URL] [--channel C] [--output-url URL] [--output-channel C] [--seq N] [--no-wait]\n"
                "  coopdyn track --scene FILE [--duration S] [--radius M] [--period S] [--squeeze N] [--out FILE.csv]\n"
                "               [--lcm-url URL] [--channel C] [--output-url URL] [--output-channel C]\n"
+               "  coopdyn view --scene FILE --csv SIM.csv --out VIEW.html [--max-frames N] [--three-js FILE]\n"
                "PROFILE: JOINT:constant:VALUE | JOINT:step:VALUE:T0 | JOINT:pulse:VALUE:T0:T1 | FILE.csv\n");
 }
 }  // namespace
@@ -40,6 +41,7 @@ int main(int argc, char** argv) {
   if (cmd == "log") return coopdyn::cli::cmd_log(a);
   if (cmd == "control") return coopdyn::cli::cmd_control(a);
   if (cmd == "track") return coopdyn::cli::cmd_track(a);
+  if (cmd == "view") return coopdyn::cli::cmd_view(a);
   std::fprintf(stderr, "coopdyn: unknown command '%s'\n", cmd.c_str());
   usage();
   return 2;

@@ -1,0 +1,474 @@
+// coopdyn view: one self-contained HTML page with the scene in 3D over the run of a sim CSV.
+#include "clients/view.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+
+#include "clients/common.h"
+#include "service/algorithms/kinematics.h"
+#include "service/dynamics/wrenches.h"
+#include "service/scene/scene.h"
+
+namespace coopdyn::cli {
+
+namespace {
+
+const char kPage[] =
+#include "view_page.inc"
+    ;
+
+std::vector<std::string> split_csv(const std::string& s) {
+  std::vector<std::string> out;
+  std::string item;
+  std::stringstream ss(s);
+  while (std::getline(ss, item, ',')) out.push_back(item);
+  if (!s.empty() && s.back() == ',') out.emplace_back();
+  return out;
+}
+
+// A rotation taking +y to unit vector a (the three.js cylinder's axis to a wheel's axle).
+Mat3 y_to(const Vec3& a) {
+  return Eigen::Quaterniond::FromTwoVectors(Vec3::UnitY(), a.normalized()).toRotationMatrix();
+}
+
+void build_geometry(const System& sys, ViewFrames* vf) {
+  const Model& m = sys.model;
+  std::vector<char> is_shape(m.nbodies(), 0);
+  for (const ConstraintSpec& c : sys.constraints.specs) {
+    if (c.kind != ConstraintKind::kRolling || c.body < 0 || is_shape[c.body]) continue;
+    ViewFrames::Shape s;
+    s.name = m.bodies[c.body].name;
+    s.kind = "wheel";
+    s.body = c.body;
+    s.X_BS = Transform(y_to(c.axle), Vec3::Zero());
+    s.size = Vec3(c.radius, std::max(0.02, 0.16 * c.radius), 0);
+    vf->shapes.push_back(s);
+    is_shape[c.body] = 1;
+  }
+  for (int b = 0; b < m.nbodies(); ++b) {
+    const Body& body = m.bodies[b];
+    if (is_shape[b] || body.joint.type != JointType::kFloating || !(body.inertia.m > 0)) continue;
+    // a free body (a load, a vehicle's platform): the box of uniform density with its inertia
+    Eigen::SelfAdjointEigenSolver<Mat3> es(body.inertia.Ic);
+    Mat3 R = es.eigenvectors();
+    if (R.determinant() < 0) R.col(2) = -R.col(2);
+    const Vec3 I = es.eigenvalues();
+    Vec3 size;
+    for (int i = 0; i < 3; ++i) {
+      const double s2 = 6.0 / body.inertia.m * (I[(i + 1) % 3] + I[(i + 2) % 3] - I[i]);
+      size[i] = std::max(0.02, std::sqrt(std::max(0.0, s2)));
+    }
+    ViewFrames::Shape s;
+    s.name = body.name;
+    s.kind = "box";
+    s.body = b;
+    s.X_BS = Transform(R, body.inertia.c);
+    s.size = size;
+    vf->shapes.push_back(s);
+    is_shape[b] = 1;
+  }
+  // links: from the parent's origin (or the joint's place in the world) to the body's origin, and
+  // from a link's origin to the operational frames fixed in it (a cut, a tool point)
+  for (int b = 0; b < m.nbodies(); ++b) {
+    const Body& body = m.bodies[b];
+    ViewFrames::Segment s;
+    s.name = body.name;
+    s.body_b = b;
+    if (body.parent >= 0) {
+      s.body_a = body.parent;
+    } else {
+      if (body.joint.type == JointType::kFloating) continue;
+      s.p_a = body.X_PJ.p;
+    }
+    vf->segments.push_back(s);
+  }
+  for (const Frame& f : m.frames) {
+    if (f.body < 0 || is_shape[f.body] || f.X_BF.p.norm() < 1e-6) continue;
+    ViewFrames::Segment s;
+    s.name = f.name;
+    s.body_a = f.body;
+    s.body_b = f.body;
+    s.p_b = f.X_BF.p;
+    vf->segments.push_back(s);
+  }
+  for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k)
+    if (sys.wrenches.outputs[k].kind != WrenchKind::kJoint) vf->wrenches.push_back(static_cast<int>(k));
+}
+
+}  // namespace
+
+ViewFrames read_view_frames(const System& sys, const std::string& path, int max_frames) {
+  const Model& m = sys.model;
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot open '" + path + "'");
+  std::string line;
+  if (!std::getline(in, line) || line.empty()) throw std::runtime_error(path + ": empty file (expected a `coopdyn sim` CSV)");
+  const std::vector<std::string> head = split_csv(line);
+  std::map<std::string, int> col;
+  for (size_t i = 0; i < head.size(); ++i) col[head[i]] = static_cast<int>(i);
+  auto need = [&](const std::string& name) {
+    auto it = col.find(name);
+    if (it == col.end())
+      throw std::runtime_error(path + ":1: no column '" + name + "', which scene '" + sys.name +
+                               "' needs: is this a `coopdyn sim` CSV of that scene?");
+    return it->second;
+  };
+  const int c_t = need("t"), c_status = need("status");
+  std::vector<int> c_q;
+  for (const auto& n : m.q_names) c_q.push_back(need("q:" + n));
+  for (const auto& h : head)
+    if (h.rfind("q:", 0) == 0 && std::find(m.q_names.begin(), m.q_names.end(), h.substr(2)) == m.q_names.end())
+      throw std::runtime_error(path + ":1: column '" + h + "' is not a coordinate of scene '" + sys.name +
+                               "': the CSV was written for another scene");
+  ViewFrames vf;
+  build_geometry(sys, &vf);
+  static const char* comp[6] = {"mx", "my", "mz", "fx", "fy", "fz"};
+  std::vector<std::array<int, 6>> c_w;
+  for (int k : vf.wrenches) {
+    std::array<int, 6> c{};
+    for (int j = 0; j < 6; ++j) c[j] = need(sys.wrenches.outputs[k].name + "." + comp[j]);
+    c_w.push_back(c);
+  }
+
+  struct Row {
+    double t;
+    std::string status;
+    Eigen::VectorXd q;
+    std::vector<Vec6> w;
+  };
+  std::vector<Row> rows;
+  int ln = 1;
+  while (std::getline(in, line)) {
+    ++ln;
+    if (line.empty()) continue;
+    const std::vector<std::string> cells = split_csv(line);
+    const std::string where = path + ":" + std::to_string(ln);
+    if (cells.size() != head.size())
+      throw std::runtime_error(where + ": " + std::to_string(cells.size()) + " columns, the header has " +
+                               std::to_string(head.size()));
+    auto num = [&](int c) {
+      try {
+        size_t pos = 0;
+        const double x = std::stod(cells[c], &pos);
+        if (pos != cells[c].size()) throw std::invalid_argument("");
+        return x;
+      } catch (const std::exception&) {
+        throw std::runtime_error(where + ": bad number '" + cells[c] + "' in column '" + head[c] + "'");
+      }
+    };
+    Row r;
+    r.t = num(c_t);
+    r.status = cells[c_status];
+    if (r.status != "ok" && r.status != "indeterminate" && r.status != "error")
+      throw std::runtime_error(where + ": unknown status '" + r.status + "'");
+    r.q.resize(m.nq());
+    for (int i = 0; i < m.nq(); ++i) r.q[i] = num(c_q[i]);
+    for (const auto& c : c_w) {
+      Vec6 w;
+      for (int j = 0; j < 6; ++j) w[j] = num(c[j]);
+      r.w.push_back(w);
+    }
+    if (!configuration_valid(m, r.q)) throw std::runtime_error(where + ": not a valid configuration of scene '" + sys.name + "'");
+    rows.push_back(std::move(r));
+  }
+  if (rows.empty()) throw std::runtime_error(path + ": no rows after the header");
+
+  // evenly spaced rows, the first and the last always
+  const size_t n = rows.size(), keep = std::min(n, static_cast<size_t>(std::max(2, max_frames)));
+  std::vector<size_t> pick;
+  for (size_t i = 0; i < keep; ++i) {
+    const size_t r = keep == 1 ? 0 : static_cast<size_t>(std::llround(static_cast<double>(i) * (n - 1) / (keep - 1)));
+    if (pick.empty() || r != pick.back()) pick.push_back(r);
+  }
+
+  Data data(m);
+  const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(m.nv());
+  for (size_t r : pick) {
+    Row& row = rows[r];
+    normalize_configuration(m, row.q);
+    forward_kinematics(m, data, row.q, v0);
+    vf.t.push_back(row.t);
+    vf.status.push_back(row.status);
+    std::vector<double> sp, se, ww;
+    for (const auto& s : vf.shapes) {
+      const Transform X = data.X_WB[s.body] * s.X_BS;
+      const Eigen::Quaterniond qq(X.R);
+      sp.insert(sp.end(), {X.p.x(), X.p.y(), X.p.z(), qq.x(), qq.y(), qq.z(), qq.w()});
+    }
+    for (const auto& s : vf.segments) {
+      const Vec3 a = s.body_a >= 0 ? Vec3(data.X_WB[s.body_a].R * s.p_a + data.X_WB[s.body_a].p) : s.p_a;
+      const Vec3 b = s.body_b >= 0 ? Vec3(data.X_WB[s.body_b].R * s.p_b + data.X_WB[s.body_b].p) : s.p_b;
+      se.insert(se.end(), {a.x(), a.y(), a.z(), b.x(), b.y(), b.z()});
+    }
+    for (size_t j = 0; j < vf.wrenches.size(); ++j) {
+      // [moment; force] at the report frame's origin in its coordinates -> world coordinates there
+      const Transform X = wrench_frame_pose(sys, data, vf.wrenches[j]);
+      const Vec3 f = X.R * row.w[j].tail<3>(), mo = X.R * row.w[j].head<3>();
+      ww.insert(ww.end(), {X.p.x(), X.p.y(), X.p.z(), f.x(), f.y(), f.z(), mo.x(), mo.y(), mo.z()});
+    }
+    vf.shape_pose.push_back(std::move(sp));
+    vf.seg_ends.push_back(std::move(se));
+    vf.wrench_W.push_back(std::move(ww));
+  }
+  return vf;
+}
+
+namespace {
+
+// JSON string: quotes, backslashes and control characters escaped, and "</" written as "<\/" so
+// that no name can close the inline <script>.
+std::string jstr(const std::string& s) {
+  std::string o = "\"";
+  for (size_t i = 0; i < s.size(); ++i) {
+    const unsigned char c = static_cast<unsigned char>(s[i]);
+    if (c == '"' || c == '\\') {
+      o += '\\';
+      o += static_cast<char>(c);
+    } else if (c < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", c);
+      o += buf;
+    } else if (c == '/' && i > 0 && s[i - 1] == '<') {
+      o += "\\/";
+    } else {
+      o += static_cast<char>(c);
+    }
+  }
+  return o + "\"";
+}
+
+void jnum(std::string& o, double x, const char* fmt = "%.6g") {
+  if (!std::isfinite(x)) {
+    o += "0";
+    return;
+  }
+  char buf[32];
+  std::snprintf(buf, sizeof buf, fmt, x);
+  o += buf;
+}
+
+void jvec(std::string& o, const double* x, size_t n, const char* fmt = "%.6g") {
+  o += '[';
+  for (size_t i = 0; i < n; ++i) {
+    if (i) o += ',';
+    jnum(o, x[i], fmt);
+  }
+  o += ']';
+}
+
+// the smallest of 1, 2, 5 x 10^k that is >= x
+double nice_ceil(double x) {
+  if (!(x > 0) || !std::isfinite(x)) return 1.0;
+  const double e = std::pow(10.0, std::floor(std::log10(x)));
+  for (double m : {1.0, 2.0, 5.0, 10.0})
+    if (m * e >= x * (1 - 1e-12)) return m * e;
+  return 10 * e;
+}
+
+std::string replace_once(std::string s, const std::string& key, const std::string& value) {
+  const size_t at = s.find(key);
+  if (at == std::string::npos) throw std::logic_error("view page template lacks " + key);
+  return s.replace(at, key.size(), value);
+}
+
+}  // namespace
+
+std::string view_page(const System& sys, const ViewFrames& vf, const std::string& three_js, const std::string& csv_name) {
+  const Model& m = sys.model;
+  Vec3 up = -m.gravity_W;
+  up = up.norm() > 0 ? Vec3(up.normalized()) : Vec3(Vec3::UnitZ());
+
+  // extent of the bodies over the run
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  auto grow = [&](const Vec3& p, double r) {
+    lo = lo.cwiseMin(p - Vec3::Constant(r));
+    hi = hi.cwiseMax(p + Vec3::Constant(r));
+  };
+  for (size_t i = 0; i < vf.t.size(); ++i) {
+    for (size_t s = 0; s < vf.shapes.size(); ++s) {
+      const Vec3 p(vf.shape_pose[i][7 * s], vf.shape_pose[i][7 * s + 1], vf.shape_pose[i][7 * s + 2]);
+      const Vec3& z = vf.shapes[s].size;
+      grow(p, vf.shapes[s].kind == "wheel" ? z[0] : 0.5 * z.maxCoeff());
+    }
+    for (size_t s = 0; s < vf.segments.size(); ++s)
+      for (int e = 0; e < 2; ++e) grow(Vec3(vf.seg_ends[i][6 * s + 3 * e], vf.seg_ends[i][6 * s + 3 * e + 1], vf.seg_ends[i][6 * s + 3 * e + 2]), 0);
+    for (size_t w = 0; w < vf.wrenches.size(); ++w) grow(Vec3(vf.wrench_W[i][9 * w], vf.wrench_W[i][9 * w + 1], vf.wrench_W[i][9 * w + 2]), 0);
+  }
+  if (!(lo.array() <= hi.array()).all()) lo = hi = Vec3::Zero();
+  const double size = std::max(0.2, (hi - lo).norm());
+
+  // arrow scales: the largest force (moment) over the run is at most 0.4 of the scene's size
+  double fmax = 0, mmax = 0;
+  for (const auto& ww : vf.wrench_W)
+    for (size_t w = 0; w < vf.wrenches.size(); ++w) {
+      fmax = std::max(fmax, Vec3(ww[9 * w + 3], ww[9 * w + 4], ww[9 * w + 5]).norm());
+      mmax = std::max(mmax, Vec3(ww[9 * w + 6], ww[9 * w + 7], ww[9 * w + 8]).norm());
+    }
+  const double fscale = nice_ceil(fmax / (0.4 * size)), mscale = nice_ceil(mmax / (0.4 * size));
+  for (size_t i = 0; i < vf.t.size(); ++i)  // the arrows in view too
+    for (size_t w = 0; w < vf.wrenches.size(); ++w) {
+      const double* x = &vf.wrench_W[i][9 * w];
+      const Vec3 o(x[0], x[1], x[2]);
+      grow(o + Vec3(x[3], x[4], x[5]) / fscale, 0);
+      grow(o + Vec3(x[6], x[7], x[8]) / mscale, 0);
+    }
+
+  // ground: the rolling plane z = 0 of the wheels, else below everything, normal to gravity
+  bool rolling = false;
+  for (const auto& c : sys.constraints.specs) rolling |= c.kind == ConstraintKind::kRolling;
+  const Vec3 centre = 0.5 * (lo + hi);
+  double lowest = std::numeric_limits<double>::infinity();
+  for (int c = 0; c < 8; ++c) {
+    const Vec3 p((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(), (c & 4) ? hi.z() : lo.z());
+    lowest = std::min(lowest, p.dot(up));
+  }
+  const double ground_h = rolling ? 0.0 : lowest - 0.05 * size;
+  const Vec3 ground_o = centre - (centre.dot(up) - ground_h) * up;
+  const double radius = 0.5 * std::max(0.2, (hi - lo).norm());
+
+  // camera: along the world axis (normal to up) in which the scene is thinnest, a little from the
+  // side and above; the page moves it back to fit the window
+  int axes[3] = {0, 1, 2};
+  std::sort(axes, axes + 3, [&](int a, int b) { return std::abs(up[a]) < std::abs(up[b]); });
+  int thin = axes[0], other = axes[1];
+  if ((hi - lo)[other] < (hi - lo)[thin]) std::swap(thin, other);
+  const Vec3 e_thin = Vec3::Unit(thin), e_other = Vec3::Unit(other);
+  const double sgn = up.cross(e_thin).dot(e_other) >= 0 ? 1.0 : -1.0;
+  const Vec3 dir = (sgn * e_thin + 0.45 * e_other + 0.5 * up).normalized();
+
+  std::string d;
+  d.reserve(vf.t.size() * (vf.shapes.size() * 7 + vf.segments.size() * 6 + vf.wrenches.size() * 9) * 11 + 4096);
+  d += "{\"scene\":" + jstr(sys.name) + ",\"csv\":" + jstr(csv_name) + ",\"up\":";
+  jvec(d, up.data(), 3);
+  d += ",\"centre\":";
+  jvec(d, centre.data(), 3);
+  d += ",\"radius\":";
+  jnum(d, radius);
+  d += ",\"view_dir\":";
+  jvec(d, dir.data(), 3);
+  d += ",\"fov\":40,\"ground\":{\"origin\":";
+  jvec(d, ground_o.data(), 3);
+  d += ",\"size\":";
+  jnum(d, nice_ceil(2.5 * radius));
+  d += "},\"link_radius\":";
+  jnum(d, std::clamp(0.012 * size, 0.004, 0.04));
+  d += ",\"force_scale\":";
+  jnum(d, fscale);
+  d += ",\"moment_scale\":";
+  jnum(d, mscale);
+  d += ",\"shapes\":[";
+  for (size_t s = 0; s < vf.shapes.size(); ++s) {
+    d += (s ? ",{\"name\":" : "{\"name\":") + jstr(vf.shapes[s].name) + ",\"kind\":" + jstr(vf.shapes[s].kind) + ",\"size\":";
+    jvec(d, vf.shapes[s].size.data(), 3);
+    d += "}";
+  }
+  d += "],\"segments\":[";
+  for (size_t s = 0; s < vf.segments.size(); ++s) d += (s ? "," : "") + jstr(vf.segments[s].name);
+  d += "],\"wrenches\":[";
+  for (size_t w = 0; w < vf.wrenches.size(); ++w) {
+    const WrenchOutput& o = sys.wrenches.outputs[vf.wrenches[w]];
+    d += (w ? ",{\"name\":" : "{\"name\":") + jstr(o.name) + ",\"kind\":" + jstr(wrench_kind_name(o.kind)) +
+         ",\"frame\":" + jstr(o.frame) + ",\"by\":" + jstr(o.by) + "}";
+  }
+  d += "],\"t\":";
+  jvec(d, vf.t.data(), vf.t.size(), "%.9g");
+  d += ",\"status\":[";
+  for (size_t i = 0; i < vf.status.size(); ++i) d += (i ? "," : "") + jstr(vf.status[i]);
+  d += "],\"shape_pose\":[";
+  for (size_t i = 0; i < vf.t.size(); ++i) {
+    if (i) d += ',';
+    jvec(d, vf.shape_pose[i].data(), vf.shape_pose[i].size());
+  }
+  d += "],\"seg\":[";
+  for (size_t i = 0; i < vf.t.size(); ++i) {
+    if (i) d += ',';
+    jvec(d, vf.seg_ends[i].data(), vf.seg_ends[i].size());
+  }
+  d += "],\"wrench\":[";
+  for (size_t i = 0; i < vf.t.size(); ++i) {
+    if (i) d += ',';
+    jvec(d, vf.wrench_W[i].data(), vf.wrench_W[i].size());
+  }
+  d += "]}";
+
+  // three.js inline: a "</script" in it would end the element early
+  std::string js = three_js;
+  for (size_t at = 0; (at = js.find("</script", at)) != std::string::npos; at += 2) js.replace(at, 2, "<\\/");
+  std::string page = kPage;
+  page = replace_once(page, "/*@VIEW_DATA@*/", d);
+  page = replace_once(page, "/*@THREE_JS@*/", js);
+  return page;
+}
+
+int cmd_view(const Args& a) {
+  if (!a.has("csv") || !a.has("out")) {
+    std::fprintf(stderr, "coopdyn view: --scene FILE, --csv SIM.csv and --out VIEW.html are required\n");
+    return 2;
+  }
+  System sys;
+  if (const int rc = load_cli_scene(a, "view", &sys)) return rc;
+  int max_frames = 2000;
+  if (a.has("max-frames")) {
+    try {
+      max_frames = std::stoi(a.get("max-frames"));
+    } catch (const std::exception&) {
+      max_frames = 0;
+    }
+    if (max_frames < 2) {
+      std::fprintf(stderr, "coopdyn view: --max-frames must be an integer >= 2\n");
+      return 2;
+    }
+  }
+  const std::string three_path = a.get("three-js", "/usr/share/javascript/three/three.min.js");
+  std::string three;
+  {
+    std::ifstream f(three_path, std::ios::binary);
+    if (!f) {
+      std::fprintf(stderr,
+                   "coopdyn view: cannot read three.js at '%s' (Debian: apt-get install libjs-three; or give its path "
+                   "with --three-js FILE)\n",
+                   three_path.c_str());
+      return 1;
+    }
+    std::ostringstream ss;
+    ss << f.rdbuf();
+    three = ss.str();
+    if (three.find("WebGLRenderer") == std::string::npos) {
+      std::fprintf(stderr, "coopdyn view: '%s' is not three.js (no WebGLRenderer in it)\n", three_path.c_str());
+      return 1;
+    }
+  }
+  std::string page;
+  try {
+    const ViewFrames vf = read_view_frames(sys, a.get("csv"), max_frames);
+    page = view_page(sys, vf, three, a.get("csv"));
+    std::fprintf(stderr, "coopdyn view: %zu frames (t %g .. %g s), %zu shapes, %zu links, %zu wrenches\n", vf.t.size(),
+                 vf.t.front(), vf.t.back(), vf.shapes.size(), vf.segments.size(), vf.wrenches.size());
+  } catch (const std::runtime_error& e) {
+    std::fprintf(stderr, "coopdyn view: %s\n", e.what());
+    return 1;
+  }
+  std::FILE* out = std::fopen(a.get("out").c_str(), "wb");
+  bool ok = out != nullptr;
+  if (out) {
+    ok = std::fwrite(page.data(), 1, page.size(), out) == page.size();
+    ok = std::fclose(out) == 0 && ok;
+  }
+  if (!ok) {
+    std::fprintf(stderr, "coopdyn view: cannot write '%s'\n", a.get("out").c_str());
+    return 1;
+  }
+  std::fprintf(stderr, "coopdyn view: wrote %s (%zu bytes)\n", a.get("out").c_str(), page.size());
+  return 0;
+}
+
+}  // namespace coopdyn::cli

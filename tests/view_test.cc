@@ -1,0 +1,517 @@
+// coopdyn view: the page it writes, checked in a real headless Chromium (skipped, saying so, when
+// Chromium or three.js is not installed), and its errors on bad input.
+//
+// The browser tests run `coopdyn sim` and `coopdyn view`, then Chromium with a hash that picks the
+// frame (#t=, #slider=) and pauses. They read the page's DOM (--dump-dom: the title, which carries
+// any JavaScript error, the time text and the #probe element with the camera) and its screenshot
+// (PNG, read with libpng). The expected arrow is computed here, not by the page: the wrench columns
+// of the CSV row, the report frame's pose from this process's own forward kinematics of the row's q,
+// the force scale the page shows, and a pinhole projection with the page's camera.
+#include <png.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <future>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "service/algorithms/kinematics.h"
+#include "service/constraints/constraints.h"
+#include "service/scene/scene.h"
+
+namespace coopdyn {
+namespace {
+
+namespace fs = std::filesystem;
+const std::string kSrc = COOPDYN_SOURCE_DIR;
+const std::string kBin = COOPDYN_BIN;
+const char kThree[] = "/usr/share/javascript/three/three.min.js";
+constexpr int kBarHeight = 58;  // the page's control bar (#bar in clients/view_page.html), below the canvas
+
+std::string scene_file(const std::string& name) { return kSrc + "/config/scenes/" + name + ".yaml"; }
+
+std::string slurp(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  std::ostringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+// A fresh directory per test, removed at the end.
+struct TempDir {
+  fs::path path;
+  explicit TempDir(const std::string& name) {
+    path = fs::temp_directory_path() / ("coopdyn_view_test_" + std::to_string(getpid()) + "_" + name);
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    if (!std::getenv("COOPDYN_KEEP_TEST_FILES")) fs::remove_all(path, ec);
+  }
+  std::string operator/(const std::string& f) const { return (path / f).string(); }
+};
+
+// Runs a shell command; returns its exit status and its stderr in *err.
+int run(const std::string& cmd, const std::string& err_file, std::string* err = nullptr) {
+  const int rc = std::system((cmd + " 2> '" + err_file + "'").c_str());
+  if (err) *err = slurp(err_file);
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+int sim(const std::string& scene, double duration, double dt, const std::string& csv, const std::string& err_file) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, " --duration %g --dt %g", duration, dt);
+  return run("'" + kBin + "' sim --scene '" + scene_file(scene) + "'" + buf + " --out '" + csv + "'", err_file);
+}
+
+int view(const std::string& scene_path, const std::string& csv, const std::string& html, const std::string& err_file,
+         std::string* err, const std::string& extra = "") {
+  return run("'" + kBin + "' view --scene '" + scene_path + "' --csv '" + csv + "' --out '" + html + "' " + extra, err_file, err);
+}
+
+std::string find_chromium() {
+  if (const char* c = std::getenv("COOPDYN_CHROMIUM")) return c;
+  for (const char* n : {"chromium", "chromium-browser"}) {
+    const char* path = std::getenv("PATH");
+    std::stringstream ss(path ? path : "/usr/bin:/bin");
+    std::string dir;
+    while (std::getline(ss, dir, ':'))
+      if (!dir.empty() && access((dir + "/" + n).c_str(), X_OK) == 0) return dir + "/" + n;
+  }
+  return "";
+}
+
+#define REQUIRE_BROWSER()                                                                                  \
+  const std::string chromium = find_chromium();                                                            \
+  if (chromium.empty())                                                                                    \
+    GTEST_SKIP() << "Chromium not installed (Debian: apt-get install chromium, or set COOPDYN_CHROMIUM): " \
+                    "browser test skipped";                                                                \
+  if (!fs::exists(kThree)) GTEST_SKIP() << kThree << " missing (Debian: apt-get install libjs-three): browser test skipped"
+
+struct Image {
+  int w = 0, h = 0;
+  std::vector<unsigned char> rgb;
+  const unsigned char* at(int x, int y) const { return &rgb[3 * (static_cast<size_t>(y) * w + x)]; }
+};
+
+bool read_png(const std::string& path, Image* im) {
+  png_image p{};
+  p.version = PNG_IMAGE_VERSION;
+  if (!png_image_begin_read_from_file(&p, path.c_str())) return false;
+  p.format = PNG_FORMAT_RGB;
+  im->w = static_cast<int>(p.width);
+  im->h = static_cast<int>(p.height);
+  im->rgb.resize(PNG_IMAGE_SIZE(p));
+  if (!png_image_finish_read(&p, nullptr, im->rgb.data(), 0, nullptr)) {
+    png_image_free(&p);
+    return false;
+  }
+  return true;
+}
+
+// One headless Chromium run on the page: its DOM after the virtual time budget and, if asked, a
+// screenshot of the window.
+struct Browse {
+  std::string dom;
+  Image shot;
+  bool ok = false;
+  std::string log;
+};
+Browse browse(const std::string& chromium, const std::string& html, const std::string& hash, const TempDir& dir,
+              const std::string& tag, bool screenshot) {
+  Browse b;
+  const std::string png = dir / (tag + ".png"), dom = dir / (tag + ".dom.html"), log = dir / (tag + ".chromium.log");
+  std::string cmd = "timeout 120 '" + chromium +
+                    "' --headless --no-sandbox --disable-gpu --use-angle=swiftshader --enable-unsafe-swiftshader"
+                    " --hide-scrollbars --mute-audio --no-first-run --user-data-dir='" + dir / (tag + ".profile") +
+                    "' --window-size=900,600 --virtual-time-budget=3000";
+  if (screenshot) cmd += " --screenshot='" + png + "'";
+  cmd += " --dump-dom 'file://" + html + "#" + hash + "' > '" + dom + "'";
+  const int rc = run(cmd, log, &b.log);
+  b.dom = slurp(dom);
+  b.ok = rc == 0 && !b.dom.empty() && (!screenshot || read_png(png, &b.shot));
+  return b;
+}
+
+std::string between(const std::string& s, const std::string& a, const std::string& b) {
+  const size_t i = s.find(a);
+  if (i == std::string::npos) return "";
+  const size_t j = s.find(b, i + a.size());
+  return j == std::string::npos ? "" : s.substr(i + a.size(), j - i - a.size());
+}
+double num_after(const std::string& s, const std::string& key) {
+  const size_t i = s.find(key);
+  return i == std::string::npos ? NAN : std::strtod(s.c_str() + i + key.size(), nullptr);
+}
+Vec3 vec_after(const std::string& s, const std::string& key) {  // key ends with '['
+  size_t i = s.find(key);
+  if (i == std::string::npos) return Vec3::Constant(NAN);
+  const char* p = s.c_str() + i + key.size();
+  Vec3 v;
+  for (int k = 0; k < 3; ++k) {
+    char* end;
+    v[k] = std::strtod(p, &end);
+    p = end + 1;  // the comma
+  }
+  return v;
+}
+
+// What a page's DOM says about itself.
+struct PageState {
+  std::string title, time_text, probe, error;
+  bool ready = false;
+  int frame = -1;
+  double t = NAN, force_scale = NAN, fov = NAN, canvas_w = NAN;
+  Vec3 eye, target, up;
+};
+PageState page_state(const std::string& dom) {
+  PageState s;
+  s.title = between(dom, "<title>", "</title>");
+  s.time_text = between(dom, "<span id=\"time\">", "</span>");
+  s.error = between(dom, "<div id=\"error\"", "</div>");
+  s.probe = between(dom, "<pre id=\"probe\">", "</pre>");
+  s.ready = dom.find("data-ready=\"1\"") != std::string::npos;
+  s.frame = static_cast<int>(num_after(s.probe, "\"frame\":"));
+  s.t = num_after(s.probe, "\"t\":");
+  s.force_scale = num_after(s.probe, "\"force_scale\":");
+  s.fov = num_after(s.probe, "\"fov\":");
+  s.canvas_w = num_after(s.probe, "\"width\":");
+  s.eye = vec_after(s.probe, "\"eye\":[");
+  s.target = vec_after(s.probe, "\"target\":[");
+  s.up = vec_after(s.probe, "\"up\":[");
+  return s;
+}
+
+// Pinhole projection as three.js's PerspectiveCamera.lookAt(target) with camera.up: pixel (x right,
+// y down) in a canvas of w x h CSS pixels.
+Eigen::Vector2d project(const PageState& c, double w, double h, const Vec3& p) {
+  const Vec3 z = (c.eye - c.target).normalized(), x = c.up.cross(z).normalized(), y = z.cross(x);
+  const Vec3 d = p - c.eye;
+  const double depth = -d.dot(z), f = 1.0 / std::tan(c.fov * M_PI / 360.0);
+  const double nx = f * d.dot(x) / (depth * (w / h)), ny = f * d.dot(y) / depth;
+  return {(nx + 1) / 2 * w, (1 - ny) / 2 * h};
+}
+
+// The CSV row at time t: every column by name.
+std::map<std::string, std::string> csv_row(const std::string& csv, double t) {
+  std::ifstream f(csv);
+  std::string line;
+  std::getline(f, line);
+  std::vector<std::string> head;
+  {
+    std::stringstream ss(line);
+    std::string c;
+    while (std::getline(ss, c, ',')) head.push_back(c);
+  }
+  while (std::getline(f, line)) {
+    std::stringstream ss(line);
+    std::string c;
+    std::vector<std::string> cells;
+    while (std::getline(ss, c, ',')) cells.push_back(c);
+    if (cells.size() == head.size() && std::abs(std::stod(cells[0]) - t) < 1e-9) {
+      std::map<std::string, std::string> r;
+      for (size_t i = 0; i < head.size(); ++i) r[head[i]] = cells[i];
+      return r;
+    }
+  }
+  return {};
+}
+
+// The force of wrench `name` at the CSV row at time t, in the world: its application point and the
+// force vector, from the row's q (own forward kinematics) and the row's wrench columns.
+struct WorldForce {
+  Vec3 origin, force, moment;
+};
+WorldForce world_force(const System& sys, const std::string& csv, double t, const std::string& name) {
+  const auto row = csv_row(csv, t);
+  EXPECT_FALSE(row.empty()) << "no row at t=" << t << " in " << csv;
+  const Model& m = sys.model;
+  Eigen::VectorXd q(m.nq());
+  for (int i = 0; i < m.nq(); ++i) q[i] = std::stod(row.at("q:" + m.q_names[i]));
+  Data data(m);
+  forward_kinematics(m, data, q, Eigen::VectorXd::Zero(m.nv()));
+  const Vec3 f_F(std::stod(row.at(name + ".fx")), std::stod(row.at(name + ".fy")), std::stod(row.at(name + ".fz")));
+  const Vec3 m_F(std::stod(row.at(name + ".mx")), std::stod(row.at(name + ".my")), std::stod(row.at(name + ".mz")));
+  for (const ConstraintSpec& c : sys.constraints.specs)
+    if (c.kind == ConstraintKind::kRolling && c.name == name) {  // a wheel's ground force: the contact frame
+      const Transform X = rolling_contact_frame(m, data, c);
+      return {X.p, X.R * f_F, X.R * m_F};
+    }
+  for (const WrenchOutput& o : sys.wrenches.outputs)
+    if (o.name == name) {
+      const int fi = m.frame_index(o.frame);
+      EXPECT_GE(fi, 0) << "frame " << o.frame << " of " << name << " is not a model frame";
+      if (fi < 0) break;
+      const Transform X = frame_pose(m, data, fi);
+      return {X.p, X.R * f_F, X.R * m_F};
+    }
+  ADD_FAILURE() << "no wrench " << name;
+  return {Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
+}
+
+bool is_force_colour(const unsigned char* p) { return p[0] > 200 && p[1] < 90 && p[2] > 200; }   // #ff00ff
+bool is_moment_colour(const unsigned char* p) { return p[0] < 90 && p[1] > 200 && p[2] > 200; }  // #00ffff
+
+// The force-coloured pixels of the canvas form an arrow from the projection of its origin to the
+// projection of its tip: none before the origin or past the tip (a few pixels of antialiasing
+// aside), some at both ends, none far from the line between them.
+void expect_arrow_at(const Image& im, const Eigen::Vector2d& o, const Eigen::Vector2d& tip, const std::string& what) {
+  const int ch = im.h - kBarHeight;
+  const Eigen::Vector2d axis = tip - o;
+  const double L = axis.norm();
+  ASSERT_GT(L, 30) << what << ": the projected arrow is too short to judge (" << L << " px)";
+  const Eigen::Vector2d u = axis / L;
+  double smin = INFINITY, smax = -INFINITY, dmax = 0;
+  int n = 0;
+  for (int y = 0; y < ch; ++y)
+    for (int x = 0; x < im.w; ++x) {
+      if (!is_force_colour(im.at(x, y))) continue;
+      const Eigen::Vector2d d = Eigen::Vector2d(x + 0.5, y + 0.5) - o;
+      const double s = d.dot(u);
+      smin = std::min(smin, s);
+      smax = std::max(smax, s);
+      dmax = std::max(dmax, std::abs(d.x() * u.y() - d.y() * u.x()));
+      ++n;
+    }
+  ASSERT_GT(n, 30) << what << ": no force arrow in the screenshot (expected from (" << o.transpose() << ") to ("
+                   << tip.transpose() << "))";
+  EXPECT_NEAR(smax, L, 5) << what << ": the arrow's tip is off its projection " << tip.transpose();
+  EXPECT_NEAR(smin, 0, 5) << what << ": the arrow's base is off its projection " << o.transpose();
+  EXPECT_LT(dmax, 0.2 * L + 4) << what << ": force-coloured pixels away from the arrow's line";
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bad input: a clear error naming the file, exit status 1, no page.
+
+TEST(ViewErrors, NameTheFile) {
+  TempDir dir("errors");
+  ASSERT_EQ(sim("unicycle", 0.05, 0.01, dir / "u.csv", dir / "sim.err"), 0) << slurp(dir / "sim.err");
+  const std::string fake_three = dir / "three.min.js";
+  std::ofstream(fake_three) << "/* stand-in */ var THREE = {WebGLRenderer: null};\n";
+  const std::string three = "--three-js '" + fake_three + "'";
+  std::string err;
+
+  // three.js missing or not three.js
+  EXPECT_EQ(view(scene_file("unicycle"), dir / "u.csv", dir / "a.html", dir / "e", &err, "--three-js /nonexistent/three.min.js"), 1);
+  EXPECT_NE(err.find("/nonexistent/three.min.js"), std::string::npos) << err;
+  EXPECT_NE(err.find("libjs-three"), std::string::npos) << err;
+  EXPECT_EQ(view(scene_file("unicycle"), dir / "u.csv", dir / "a.html", dir / "e", &err, "--three-js '" + dir / "u.csv" + "'"), 1);
+  EXPECT_NE(err.find("is not three.js"), std::string::npos) << err;
+
+  // the CSV of another scene
+  EXPECT_EQ(view(scene_file("four_bar"), dir / "u.csv", dir / "a.html", dir / "e", &err, three), 1);
+  EXPECT_NE(err.find(dir / "u.csv"), std::string::npos) << err;
+  EXPECT_NE(err.find("four_bar"), std::string::npos) << err;
+
+  // a missing wrench column, a short row, a bad number, no rows, no file
+  const std::string csv = slurp(dir / "u.csv");
+  const std::string header = csv.substr(0, csv.find('\n'));
+  {
+    std::string h = header;
+    const size_t at = h.find(",wheel.fz");
+    ASSERT_NE(at, std::string::npos) << header;
+    h.replace(at, 9, ",wheel.FZ");
+    std::ofstream(dir / "nocol.csv") << h << csv.substr(csv.find('\n'));
+  }
+  EXPECT_EQ(view(scene_file("unicycle"), dir / "nocol.csv", dir / "a.html", dir / "e", &err, three), 1);
+  EXPECT_NE(err.find(dir / "nocol.csv" + ":1: no column 'wheel.fz'"), std::string::npos) << err;
+
+  std::ofstream(dir / "short.csv") << header << "\n" << csv.substr(csv.find('\n') + 1, 20) << "\n";
+  EXPECT_EQ(view(scene_file("unicycle"), dir / "short.csv", dir / "a.html", dir / "e", &err, three), 1);
+  EXPECT_NE(err.find(dir / "short.csv" + ":2:"), std::string::npos) << err;
+
+  {
+    std::string body = csv.substr(csv.find('\n') + 1);
+    body.replace(body.find(','), 1, ",x");  // the first q of the first row
+    std::ofstream(dir / "bad.csv") << header << "\n" << body;
+  }
+  EXPECT_EQ(view(scene_file("unicycle"), dir / "bad.csv", dir / "a.html", dir / "e", &err, three), 1);
+  EXPECT_NE(err.find(dir / "bad.csv" + ":2: bad number"), std::string::npos) << err;
+
+  std::ofstream(dir / "empty.csv") << header << "\n";
+  EXPECT_EQ(view(scene_file("unicycle"), dir / "empty.csv", dir / "a.html", dir / "e", &err, three), 1);
+  EXPECT_NE(err.find(dir / "empty.csv" + ": no rows"), std::string::npos) << err;
+
+  EXPECT_EQ(view(scene_file("unicycle"), dir / "none.csv", dir / "a.html", dir / "e", &err, three), 1);
+  EXPECT_NE(err.find("cannot open '" + dir / "none.csv" + "'"), std::string::npos) << err;
+
+  EXPECT_FALSE(fs::exists(dir / "a.html"));
+}
+
+// The page holds everything (no address to fetch), three.js inline, at most --max-frames frames,
+// the first and the last row always among them.
+TEST(ViewPage, SelfContainedAndSubsampled) {
+  TempDir dir("page");
+  ASSERT_EQ(sim("unicycle", 3, 0.001, dir / "u.csv", dir / "sim.err"), 0) << slurp(dir / "sim.err");
+  const std::string fake_three = dir / "three.min.js";
+  std::ofstream(fake_three) << "/* stand-in */ var THREE_STAND_IN = 'WebGLRenderer';\n";
+  std::string err;
+  ASSERT_EQ(view(scene_file("unicycle"), dir / "u.csv", dir / "u.html", dir / "e", &err, "--three-js '" + fake_three + "'"), 0) << err;
+  const std::string page = slurp(dir / "u.html");
+  EXPECT_NE(page.find("var THREE_STAND_IN = 'WebGLRenderer';"), std::string::npos);
+  for (const char* ref : {"src=", "href=", "http:", "https:", "<link", "import("}) EXPECT_EQ(page.find(ref), std::string::npos) << ref;
+  const std::string t = between(page, "\"t\":[", "]");
+  ASSERT_FALSE(t.empty());
+  const long commas = std::count(t.begin(), t.end(), ',');
+  EXPECT_EQ(commas + 1, 2000);  // 3001 rows -> the default cap
+  EXPECT_EQ(t.substr(0, 2), "0,");
+  EXPECT_EQ(t.substr(t.rfind(',') + 1), "3");
+
+  ASSERT_EQ(view(scene_file("unicycle"), dir / "u.csv", dir / "v.html", dir / "e", &err,
+                 "--max-frames 7 --three-js '" + fake_three + "'"), 0) << err;
+  EXPECT_EQ(between(slurp(dir / "v.html"), "\"t\":[", "]"), "0,0.5,1,1.5,2,2.5,3");
+}
+
+// ---------------------------------------------------------------------------------------------
+// In the browser.
+
+// Every shipped scene's page loads and renders with no JavaScript error, at the frame the hash asks.
+TEST(ViewBrowser, EveryShippedSceneLoads) {
+  REQUIRE_BROWSER();
+  TempDir dir("scenes");
+  std::vector<std::string> scenes;
+  for (const auto& e : fs::directory_iterator(kSrc + "/config/scenes"))
+    if (e.path().extension() == ".yaml") scenes.push_back(e.path().stem().string());
+  std::sort(scenes.begin(), scenes.end());
+  ASSERT_GE(scenes.size(), 6u);
+  for (const auto& s : scenes) {
+    ASSERT_EQ(sim(s, 0.5, 0.005, dir / (s + ".csv"), dir / "sim.err"), 0) << s << ": " << slurp(dir / "sim.err");
+    std::string err;
+    ASSERT_EQ(view(scene_file(s), dir / (s + ".csv"), dir / (s + ".html"), dir / "e", &err), 0) << s << ": " << err;
+  }
+  // two browsers at a time
+  std::vector<Browse> res(scenes.size());
+  for (size_t i = 0; i < scenes.size(); i += 2) {
+    std::vector<std::future<Browse>> f;
+    for (size_t k = i; k < std::min(i + 2, scenes.size()); ++k)
+      f.push_back(std::async(std::launch::async, [&, k] {
+        return browse(chromium, dir / (scenes[k] + ".html"), "t=0.25&paused=1", dir, scenes[k], false);
+      }));
+    for (size_t k = i; k < std::min(i + 2, scenes.size()); ++k) res[k] = f[k - i].get();
+  }
+  for (size_t k = 0; k < scenes.size(); ++k) {
+    {
+      const Browse& b = res[k];
+      const std::string& s = scenes[k];
+      ASSERT_TRUE(b.ok) << s << ": chromium failed:\n" << b.log.substr(0, 3000);
+      const PageState p = page_state(b.dom);
+      const System sys = load_scene(scene_file(s));
+      EXPECT_EQ(p.title, "coopdyn view: " + sys.name) << s << ": a JavaScript error, or the page did not finish";
+      EXPECT_EQ(p.title.find("JSERROR"), std::string::npos) << s << ": " << p.title;
+      EXPECT_TRUE(p.ready) << s;
+      EXPECT_EQ(p.error, ">") << s << ": the page shows an error";  // <div id="error"></div>, empty
+      EXPECT_EQ(p.frame, 50) << s << ": " << p.probe;
+      EXPECT_DOUBLE_EQ(p.t, 0.25) << s;
+      EXPECT_EQ(p.time_text, "t = 0.250 s") << s;
+    }
+  }
+}
+
+// A wrench in a rotated frame: arm1's end-effector wrench of two_puma_load (in frame arm1.ee),
+// drawn where its world direction projects, at a time picked by #t.
+TEST(ViewBrowser, ForceArrowWhereProjected) {
+  REQUIRE_BROWSER();
+  TempDir dir("arrow");
+  // with zero torque the arms fall and pull the box apart: 855 N on arm1's end-effector at 0.7 s
+  ASSERT_EQ(sim("two_puma_load", 0.8, 0.005, dir / "p.csv", dir / "sim.err"), 0) << slurp(dir / "sim.err");
+  std::string err;
+  ASSERT_EQ(view(scene_file("two_puma_load"), dir / "p.csv", dir / "p.html", dir / "e", &err), 0) << err;
+  const Browse b = browse(chromium, dir / "p.html", "t=0.7&paused=1&wrench=arm1.ee", dir, "p", true);
+  ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
+  const PageState p = page_state(b.dom);
+  ASSERT_EQ(p.title, "coopdyn view: two_puma_load");
+  ASSERT_DOUBLE_EQ(p.t, 0.7);
+  ASSERT_EQ(p.canvas_w, b.shot.w);
+  ASSERT_GT(p.force_scale, 0);
+  EXPECT_NE(b.dom.find("force <span id=\"fscale\">1 m = " + between(p.probe, "\"force_scale\":", ",") + " N</span>"), std::string::npos)
+      << "the scale shown is not the one drawn";
+
+  const System sys = load_scene(scene_file("two_puma_load"));
+  const WorldForce wf = world_force(sys, dir / "p.csv", 0.7, "arm1.ee");
+  EXPECT_GT(wf.force.norm(), 800);
+  const double w = b.shot.w, h = b.shot.h - kBarHeight;
+  const Eigen::Vector2d o = project(p, w, h, wf.origin), tip = project(p, w, h, wf.origin + wf.force / p.force_scale);
+  expect_arrow_at(b.shot, o, tip, "arm1.ee at t=0.7");
+  // the moment arrow, in its own colour, when it is long enough to see
+  const double moment_scale = num_after(p.probe, "\"moment_scale\":");
+  const double lm = (project(p, w, h, wf.origin + wf.moment / moment_scale) - o).norm();
+  int cyan = 0;
+  for (int y = 0; y < b.shot.h - kBarHeight; ++y)
+    for (int x = 0; x < b.shot.w; ++x) cyan += is_moment_colour(b.shot.at(x, y));
+  if (lm > 15) {
+    EXPECT_GT(cyan, 10) << "no moment arrow (" << lm << " px long)";
+  }
+}
+
+// Moving the time slider (the hash sets it and fires its input event, the handler dragging runs)
+// shows another frame: the time text and the probe follow, and the rolling wheel's contact force,
+// which has no moment, is drawn where each frame's projection says.
+TEST(ViewBrowser, TimeSliderChangesFrame) {
+  REQUIRE_BROWSER();
+  TempDir dir("slider");
+  ASSERT_EQ(sim("unicycle", 1, 0.005, dir / "u.csv", dir / "sim.err"), 0) << slurp(dir / "sim.err");
+  std::string err;
+  ASSERT_EQ(view(scene_file("unicycle"), dir / "u.csv", dir / "u.html", dir / "e", &err), 0) << err;
+  const System sys = load_scene(scene_file("unicycle"));
+  auto a = std::async(std::launch::async, [&] { return browse(chromium, dir / "u.html", "slider=40&paused=1", dir, "a", true); });
+  const Browse b = browse(chromium, dir / "u.html", "slider=160&paused=1", dir, "b", true);
+  const Browse b0 = a.get();
+  std::vector<Eigen::Vector2d> tips;
+  for (int k = 0; k < 2; ++k) {
+    const Browse& br = k == 0 ? b0 : b;
+    const int frame = k == 0 ? 40 : 160;
+    ASSERT_TRUE(br.ok) << br.log.substr(0, 3000);
+    const PageState p = page_state(br.dom);
+    ASSERT_EQ(p.title, "coopdyn view: unicycle");
+    EXPECT_EQ(p.frame, frame);
+    const double t = frame * 0.005;
+    EXPECT_NEAR(p.t, t, 1e-12);
+    char text[32];
+    std::snprintf(text, sizeof text, "t = %.3f s", t);
+    EXPECT_EQ(p.time_text, text);
+    const WorldForce wf = world_force(sys, dir / "u.csv", t, "wheel");
+    EXPECT_NEAR(wf.force.z(), 3 * 9.81, 0.5);  // the wheel's weight, up, at the contact point
+    const double w = br.shot.w, h = br.shot.h - kBarHeight;
+    const Eigen::Vector2d o = project(p, w, h, wf.origin), tip = project(p, w, h, wf.origin + wf.force / p.force_scale);
+    expect_arrow_at(br.shot, o, tip, "wheel at frame " + std::to_string(frame));
+    tips.push_back(tip);
+    int cyan = 0;
+    for (int y = 0; y < br.shot.h - kBarHeight; ++y)
+      for (int x = 0; x < br.shot.w; ++x) cyan += is_moment_colour(br.shot.at(x, y));
+    EXPECT_EQ(cyan, 0) << "a moment arrow for a point contact";
+  }
+  ASSERT_EQ(tips.size(), 2u);
+  EXPECT_GT((tips[1] - tips[0]).norm(), 50) << "the wheel rolled 1.2 m between the frames";
+}
+
+// Play: without `paused` the page advances on its own (Chromium's virtual time drives the
+// animation frames), at the speed asked.
+TEST(ViewBrowser, Plays) {
+  REQUIRE_BROWSER();
+  TempDir dir("play");
+  ASSERT_EQ(sim("four_bar", 2, 0.005, dir / "f.csv", dir / "sim.err"), 0) << slurp(dir / "sim.err");
+  std::string err;
+  ASSERT_EQ(view(scene_file("four_bar"), dir / "f.csv", dir / "f.html", dir / "e", &err), 0) << err;
+  const Browse b = browse(chromium, dir / "f.html", "t=0&speed=0.25", dir, "f", false);
+  ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
+  const PageState p = page_state(b.dom);
+  ASSERT_EQ(p.title, "coopdyn view: four_bar");
+  EXPECT_NE(p.probe.find("\"playing\":true"), std::string::npos) << p.probe;
+  // 3 s of virtual time at speed 0.25: about 0.75 s of the run (less: loading takes part of it)
+  EXPECT_GT(p.t, 0.05) << p.probe;
+  EXPECT_LT(p.t, 0.8) << p.probe;
+}
+
+}  // namespace
+}  // namespace coopdyn
