@@ -23,4 +23,4 @@ add_library(coopdyn_runtime
 target_link_libraries(coopdyn_runtime PUBLIC coopdyn_io coopdyn_text yaml-cpp Threads::Threads)
 
 add_executable(coopdynd ${CMAKE_CURRENT_LIST_DIR}/daemon/main.cc)
-target_link_libraries(coopdynd PRIVATE coopdyn_runtime coopdyn_scene spdlog::spdlog)
+target_link_libraries(coopdynd PRIVATE coopdyn_runtime coopdyn_scene spdlog::spdlog CLI11::CLI11)
