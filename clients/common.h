@@ -13,7 +13,8 @@
 
 namespace coopdyn::cli {
 
-// --key value pairs (and bare --flags) after the subcommand; repeated keys are kept in order.
+// The options given to a subcommand, as parsed by CLI11 (clients/cli.h): --key value pairs (a bare
+// --flag has an empty value); repeated keys are kept in order.
 struct Args {
   std::multimap<std::string, std::string> kv;
   bool has(const std::string& k) const { return kv.count(k) > 0; }
@@ -23,8 +24,6 @@ struct Args {
   }
   std::vector<std::string> all(const std::string& k) const;
 };
-// Returns false and prints the problem on a malformed command line.
-bool parse_args(int argc, char** argv, int first, Args* out);
 
 // Writes the evaluation at (q, v, tau) as the JSON object documented in README.md.
 void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const Eigen::VectorXd& q,
@@ -61,6 +60,15 @@ int load_cli_profile(const Args& a, const char* cmd, const System& sys, TorquePr
 // prints the problem and returns false on a bad file.
 bool read_state(const std::string& path, const System& sys, Eigen::VectorXd& q, Eigen::VectorXd& v, Eigen::VectorXd& tau);
 
+// The subcommands: register_NAME declares the options of `coopdyn NAME` (clients/cli.h), cmd_NAME runs it.
+class Cli;
+void register_eval(Cli& cli);
+void register_sim(Cli& cli);
+void register_send(Cli& cli);
+void register_log(Cli& cli);
+void register_control(Cli& cli);
+void register_track(Cli& cli);
+void register_view(Cli& cli);
 int cmd_eval(const Args& a);
 int cmd_track(const Args& a);
 int cmd_control(const Args& a);

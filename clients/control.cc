@@ -5,12 +5,28 @@
 #include <mutex>
 #include <thread>
 
-#include "clients/common.h"
+#include "clients/cli.h"
 #include "service/io/codec.h"
 #include "service/io/lcm_bus.h"
 #include "service/scene/scene.h"
 
 namespace coopdyn::cli {
+
+void register_control(Cli& cli) {
+  Command& c = cli.add("control",
+                       "Send one control_t to coopdynd (reset, reset to a state, pause, resume, clear a fault) and wait "
+                       "for its acknowledgement (exit 3 when refused, 1 when none comes within 2 s).",
+                       cmd_control);
+  c.value("--action", "ACTION", "reset, reset_to_state, pause, resume or clear_fault")->required();
+  scene_options(c, false);
+  c.value("--state", "FILE.json", "reset_to_state: q, v in the scene's coordinate order (needs --scene)");
+  c.value("--lcm-url", "URL", "LCM URL to send on", kDefaultLcmUrl);
+  c.value("--output-url", "URL", "LCM URL of the daemon's outputs (default: --lcm-url)");
+  c.value("--channel", "C", "control channel", "COOPDYN_CONTROL");
+  c.value("--output-channel", "C", "the daemon's output channel (the acknowledgement)", "COOPDYN_OUTPUT");
+  c.number("--seq", "N", "the control's seq (default: the wall clock in microseconds, so that it keeps increasing)");
+  c.flag("--no-wait", "send and exit without waiting for the acknowledgement");
+}
 
 int cmd_control(const Args& a) {
   static const std::pair<const char*, io::ControlAction> actions[] = {
@@ -39,7 +55,7 @@ int cmd_control(const Args& a) {
     q.assign(qs.data(), qs.data() + qs.size());
     v.assign(vs.data(), vs.data() + vs.size());
   }
-  const std::string url = a.get("lcm-url", "udpm://239.255.76.67:7667?ttl=0");
+  const std::string url = a.get("lcm-url", kDefaultLcmUrl);
   const std::string out_url = a.get("output-url", url);
   const std::string channel = a.get("channel", "COOPDYN_CONTROL");
   const std::string out_channel = a.get("output-channel", "COOPDYN_OUTPUT");

@@ -3,7 +3,7 @@
 
 #include <cstdio>
 
-#include "clients/common.h"
+#include "clients/cli.h"
 #include "service/scene/scene.h"
 
 namespace coopdyn::cli {
@@ -43,6 +43,16 @@ bool read_state(const std::string& path, const System& sys, Eigen::VectorXd& q, 
     return false;
   }
   return get("q", q, sys.model.nq()) && get("v", v, sys.model.nv()) && get("tau", tau, sys.model.nv());
+}
+
+void register_eval(Cli& cli) {
+  Command& c = cli.add("eval",
+                       "Evaluate one state of a scene and print it as JSON: accelerations, wrenches, stresses, "
+                       "diagnostics (exit 3 on an error status).",
+                       cmd_eval);
+  scene_options(c, true);
+  c.value("--state", "FILE.json",
+          "q, v, tau (each optional) in the scene's coordinate order (default: the scene's initial state, zero torque)");
 }
 
 int cmd_eval(const Args& a) {

@@ -11,7 +11,7 @@
 #include <memory>
 #include <string>
 
-#include "clients/common.h"
+#include "clients/cli.h"
 #include "service/io/codec.h"
 
 namespace coopdyn::cli {
@@ -91,6 +91,17 @@ std::string shell_quote(const std::string& s) {
   return o + "'";
 }
 }  // namespace
+
+void register_log(Cli& cli) {
+  Command& c = cli.add("log",
+                       "Convert an lcm-logger log to one CSV per channel and plot the wrenches, reactions and timing "
+                       "(PNG, when python3 has matplotlib).",
+                       cmd_log);
+  c.value("--in", "FILE.lcmlog", "the log")->required();
+  c.value("--out", "DIR", "directory for the CSVs and plots (default: the log's path without its extension, then _csv)");
+  c.flag("--no-plot", "CSVs only");
+  c.value("--python", "PATH", "the Python that plots", "/usr/bin/python3");
+}
 
 int cmd_log(const Args& a) {
   if (!a.has("in")) {

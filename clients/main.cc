@@ -1,48 +1,49 @@
-// coopdyn: offline evaluation and simulation of a scene.
-#include <cstdio>
-#include <cstring>
+// coopdyn: offline evaluation and simulation of a scene, and the LCM clients of coopdynd.
+#include <iostream>
 #include <string>
 
-#include "clients/common.h"
-
-namespace {
-void usage() {
-  std::fprintf(stderr,
-               "usage:\n"
-               "  coopdyn eval --scene FILE [--state FILE.json] [--formulation NAME]\n"
-               "  coopdyn sim  --scene FILE --duration T --dt H [--integrator semi_implicit_euler|rk4|implicit_euler]\n"
-               "               [--torque PROFILE]... [--formulation NAME] [--out FILE.csv]\n"
-               "  coopdyn send --scene FILE (--torque PROFILE... | --states SIM.csv [--joints-only]) [--rate HZ] [--duration S]\n"
-               "               [--lcm-url URL] [--channel C] [--seq N] [--measure-latency] [--output-channel C] [--no-check]\n"
-               "  coopdyn log  --in FILE.lcmlog [--out DIR] [--no-plot]\n"
-               "  coopdyn control --action reset|reset_to_state|pause|resume|clear_fault [--scene FILE --state FILE.json]\n"
-               "               [--lcm-url URL] [--channel C] [--output-url URL] [--output-channel C] [--seq N] [--no-wait]\n"
-               "  coopdyn track --scene FILE [--duration S] [--radius M] [--period S] [--squeeze N] [--out FILE.csv]\n"
-               "               [--lcm-url URL] [--channel C] [--output-url URL] [--output-channel C]\n"
-               "  coopdyn view --scene FILE --csv SIM.csv --out VIEW.html [--max-frames N] [--three-js FILE]\n"
-               "PROFILE: JOINT:constant:VALUE | JOINT:step:VALUE:T0 | JOINT:pulse:VALUE:T0:T1 | FILE.csv\n");
-}
-}  // namespace
+#include "clients/cli.h"
+#include "service/version.h"
 
 int main(int argc, char** argv) {
-  if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
-    usage();
-    return argc < 2 ? 2 : 0;
-  }
-  const std::string cmd = argv[1];
-  coopdyn::cli::Args a;
-  if (!coopdyn::cli::parse_args(argc, argv, 2, &a)) {
-    usage();
+  using namespace coopdyn::cli;
+  CLI::App app{"coopdyn " COOPDYN_VERSION
+               ": constrained dynamics of cooperating manipulators, offline (eval, sim) and as clients of "
+               "coopdynd (send, log, control, track)",
+               "coopdyn"};
+  app.set_version_flag("--version", "coopdyn " COOPDYN_VERSION, "print the version and exit");
+  app.require_subcommand(1);
+  app.footer("Run 'coopdyn COMMAND --help' for the options of a command and their defaults.");
+  app.failure_message([](const CLI::App* a, const CLI::Error& e) {
+    std::string cmd = a->get_name();
+    for (const CLI::App* s : a->get_subcommands()) cmd += " " + s->get_name();
+    return cmd + ": " + e.what() + "\nRun '" + cmd + " --help' for the options.\n";
+  });
+  Cli cli(&app);
+  register_eval(cli);
+  register_sim(cli);
+  register_send(cli);
+  register_log(cli);
+  register_control(cli);
+  register_track(cli);
+  register_view(cli);
+  if (argc < 2) {  // no command: the usage, as an error
+    std::cerr << app.help();
     return 2;
   }
-  if (cmd == "eval") return coopdyn::cli::cmd_eval(a);
-  if (cmd == "sim") return coopdyn::cli::cmd_sim(a);
-  if (cmd == "send") return coopdyn::cli::cmd_send(a);
-  if (cmd == "log") return coopdyn::cli::cmd_log(a);
-  if (cmd == "control") return coopdyn::cli::cmd_control(a);
-  if (cmd == "track") return coopdyn::cli::cmd_track(a);
-  if (cmd == "view") return coopdyn::cli::cmd_view(a);
-  std::fprintf(stderr, "coopdyn: unknown command '%s'\n", cmd.c_str());
-  usage();
-  return 2;
+  if (argv[1][0] != '-') {  // CLI11 would only say that a subcommand is required
+    try {
+      app.get_subcommand(argv[1]);
+    } catch (const CLI::OptionNotFound&) {
+      std::cerr << "coopdyn: unknown command '" << argv[1] << "'\n" << app.help();
+      return 2;
+    }
+  }
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help and --version: stdout, 0; errors: stderr, 2
+  }
+  Command* c = cli.chosen();
+  return c ? c->run(c->args) : 2;
 }

@@ -19,27 +19,6 @@ std::vector<std::string> Args::all(const std::string& k) const {
   return out;
 }
 
-bool parse_args(int argc, char** argv, int first, Args* out) {
-  for (int i = first; i < argc; ++i) {
-    std::string k = argv[i];
-    if (k.rfind("--", 0) != 0) {
-      std::fprintf(stderr, "coopdyn: unexpected argument '%s'\n", k.c_str());
-      return false;
-    }
-    k = k.substr(2);
-    std::string v;
-    const auto eq = k.find('=');
-    if (eq != std::string::npos) {
-      v = k.substr(eq + 1);
-      k = k.substr(0, eq);
-    } else if (i + 1 < argc && std::string(argv[i + 1]).rfind("--", 0) != 0) {
-      v = argv[++i];
-    }
-    out->kv.emplace(k, v);
-  }
-  return true;
-}
-
 namespace {
 void num(std::FILE* f, double x) {
   if (std::isfinite(x)) std::fprintf(f, "%.17g", x);  // round-trips

@@ -17,7 +17,7 @@
 #include <thread>
 #include <unordered_map>
 
-#include "clients/common.h"
+#include "clients/cli.h"
 #include "service/io/codec.h"
 #include "service/io/lcm_bus.h"
 #include "service/scene/scene.h"
@@ -101,6 +101,30 @@ double pct(std::vector<double> v, double p) {
 }
 }  // namespace
 
+void register_send(Cli& cli) {
+  Command& c = cli.add("send",
+                       "Publish torque commands (or measured states, for estimate mode) to coopdynd at a fixed rate and "
+                       "read back what it did with them (exit 4 when commands went unused and the daemon rejected some, "
+                       "1 when no daemon answers).",
+                       cmd_send);
+  scene_options(c, true);
+  c.repeated("--torque", "PROFILE", "torque commands; repeat to combine (see below)");
+  c.value("--states", "SIM.csv", "replay the states of a coopdyn sim CSV as measured_state_t instead");
+  c.flag("--joints-only", "with --states: leave out the floating bodies' coordinates (the daemon fits them)");
+  c.number("--rate", "HZ", "messages per second, (0, 10000]", "100");
+  c.number("--duration", "S", "how long to send (default: 2; with --states the file's time span)");
+  c.number("--t0", "S", "profile (or replay) time of the first message", "0");
+  c.number("--seq", "N", "seq of the first message (then +1 per message)", "1");
+  c.value("--lcm-url", "URL", "LCM URL", kDefaultLcmUrl);
+  c.value("--channel", "C", "channel to publish on (default: COOPDYN_COMMAND; with --states COOPDYN_STATE)");
+  c.value("--output-channel", "C", "the daemon's output channel (read back, latency)", "COOPDYN_OUTPUT");
+  c.value("--stats-channel", "C", "the daemon's loop_stats_t channel (read back)", "COOPDYN_STATS");
+  c.flag("--measure-latency", "report the time from each command's publish to the first output that used it");
+  c.flag("--no-check", "do not read back what the daemon did");
+  c.flag("--quiet", "no summary line");
+  c.app->footer(kProfileHelp);
+}
+
 int cmd_send(const Args& a) {
   const bool replay = a.has("states");
   if (!a.has("scene") || (!a.has("torque") && !replay)) {
@@ -166,7 +190,7 @@ int cmd_send(const Args& a) {
       for (auto& r : states.tau) pick(keep_v, r);
     }
   }
-  const std::string url = a.get("lcm-url", "udpm://239.255.76.67:7667?ttl=0");
+  const std::string url = a.get("lcm-url", kDefaultLcmUrl);
   const std::string channel = a.get("channel", replay ? "COOPDYN_STATE" : "COOPDYN_COMMAND");
   const std::string out_channel = a.get("output-channel", "COOPDYN_OUTPUT");
   const bool measure = a.has("measure-latency");

@@ -3,12 +3,26 @@
 #include <cstdio>
 #include <stdexcept>
 
-#include "clients/common.h"
+#include "clients/cli.h"
 #include "service/dynamics/integrators.h"
 #include "service/dynamics/wrenches.h"
 #include "service/scene/scene.h"
 
 namespace coopdyn::cli {
+
+void register_sim(Cli& cli) {
+  Command& c = cli.add("sim",
+                       "Simulate a scene with a fixed step and write CSV: time, state, torques, every reported wrench, "
+                       "stresses, diagnostics (exit 3 on a numerical failure).",
+                       cmd_sim);
+  scene_options(c, true);
+  c.number("--duration", "T", "simulated time, s")->required();
+  c.number("--dt", "H", "step, s")->required();
+  c.value("--integrator", "NAME", "semi_implicit_euler, rk4 or implicit_euler", "rk4");
+  c.repeated("--torque", "PROFILE", "applied torque; repeat to combine (see below)");
+  c.value("--out", "FILE.csv", "where to write the CSV (default: stdout)");
+  c.app->footer(kProfileHelp);
+}
 
 int cmd_sim(const Args& a) {
   if (!a.has("duration") || !a.has("dt")) {

@@ -12,7 +12,7 @@
 #include <mutex>
 #include <thread>
 
-#include "clients/common.h"
+#include "clients/cli.h"
 #include "clients/cooperative_controller.h"
 #include "service/io/codec.h"
 #include "service/io/lcm_bus.h"
@@ -24,6 +24,24 @@ namespace {
 std::atomic<bool> g_track_stop{false};
 void on_track_signal(int) { g_track_stop = true; }
 }  // namespace
+
+void register_track(Cli& cli) {
+  Command& c = cli.add("track",
+                       "The reference controller in the loop: move the load along a circle while holding the squeeze "
+                       "between the arms, commanding coopdynd over LCM.",
+                       cmd_track);
+  scene_options(c, true);
+  const TrackOptions def;
+  c.number("--duration", "S", "how long to control", "6");
+  c.number("--radius", "M", "radius of the circle (y-z plane), [0, 10)", show(def.radius));
+  c.number("--period", "S", "one lap, > 0.1", show(def.period));
+  c.number("--squeeze", "N", "internal force set-point between the grasps", show(def.squeeze));
+  c.value("--out", "FILE.csv", "one row per command: reference, load, errors, squeeze, in_sync (default: none)");
+  c.value("--lcm-url", "URL", "LCM URL to send the commands on", kDefaultLcmUrl);
+  c.value("--output-url", "URL", "LCM URL of the daemon's outputs (default: --lcm-url)");
+  c.value("--channel", "C", "command channel", "COOPDYN_COMMAND");
+  c.value("--output-channel", "C", "the daemon's output channel", "COOPDYN_OUTPUT");
+}
 
 int cmd_track(const Args& a) {
   if (!a.has("scene")) {
@@ -55,7 +73,7 @@ int cmd_track(const Args& a) {
     std::fprintf(stderr, "%s\n", e.what());
     return 2;
   }
-  const std::string url = a.get("lcm-url", "udpm://239.255.76.67:7667?ttl=0");
+  const std::string url = a.get("lcm-url", kDefaultLcmUrl);
   const std::string out_url = a.get("output-url", url);
   const std::string cmd_channel = a.get("channel", "COOPDYN_COMMAND");
   const std::string out_channel = a.get("output-channel", "COOPDYN_OUTPUT");

@@ -13,6 +13,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
+#include "clients/cli.h"
 #include "clients/common.h"
 #include "service/algorithms/kinematics.h"
 #include "service/dynamics/wrenches.h"
@@ -407,6 +408,18 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
   page = replace_once(page, "/*@VIEW_DATA@*/", d);
   page = replace_once(page, "/*@THREE_JS@*/", js);
   return page;
+}
+
+void register_view(Cli& cli) {
+  Command& c = cli.add("view",
+                       "Write one self-contained HTML page (three.js inlined) that shows the scene in 3D over a sim CSV, "
+                       "with every end-effector, base, tip and wheel wrench as force and moment arrows.",
+                       cmd_view);
+  scene_options(c, true);
+  c.value("--csv", "SIM.csv", "the run: a 'coopdyn sim --out' CSV of the same scene")->required();
+  c.value("--out", "VIEW.html", "the page to write")->required();
+  c.number("--max-frames", "N", "frames kept, evenly spaced (first and last always)", "2000");
+  c.value("--three-js", "FILE", "three.js to inline (Debian libjs-three)", "/usr/share/javascript/three/three.min.js");
 }
 
 int cmd_view(const Args& a) {

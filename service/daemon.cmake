@@ -9,9 +9,8 @@ add_library(coopdyn_io
   ${CMAKE_CURRENT_LIST_DIR}/io/lcm_bus.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/rx_isolated.cc
 )
-target_link_libraries(coopdyn_io PUBLIC coopdyn_core Threads::Threads ${LCM_LINK_LIBRARIES}
+target_link_libraries(coopdyn_io PUBLIC coopdyn_core Threads::Threads PkgConfig::LCM
                                  PRIVATE coopdyn_lcmtypes)
-target_include_directories(coopdyn_io PUBLIC ${LCM_INCLUDE_DIRS})
 add_dependencies(coopdyn_io coopdyn_lcmtypes_gen)
 
 # coopdyn_runtime: the fixed-rate loop, handoff, statistics, config, real-time options
@@ -23,4 +22,4 @@ add_library(coopdyn_runtime
 target_link_libraries(coopdyn_runtime PUBLIC coopdyn_io coopdyn_text yaml-cpp Threads::Threads)
 
 add_executable(coopdynd ${CMAKE_CURRENT_LIST_DIR}/daemon/main.cc)
-target_link_libraries(coopdynd PRIVATE coopdyn_runtime coopdyn_scene spdlog::spdlog)
+target_link_libraries(coopdynd PRIVATE coopdyn_runtime coopdyn_scene spdlog::spdlog CLI11::CLI11)

@@ -27,3 +27,15 @@ target_link_libraries(coopdyn_fuzz_tests PRIVATE coopdyn_runtime coopdyn_scene G
 target_compile_definitions(coopdyn_fuzz_tests PRIVATE COOPDYN_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
 target_include_directories(coopdyn_fuzz_tests PRIVATE ${PROJECT_SOURCE_DIR})
 gtest_discover_tests(coopdyn_fuzz_tests DISCOVERY_TIMEOUT 60 PROPERTIES LABELS fuzz TIMEOUT 300)
+
+# The command lines of coopdyn and coopdynd, run as processes (tests/cli_test.cc).
+add_executable(coopdyn_cli_tests ${CMAKE_CURRENT_LIST_DIR}/cli_test.cc)
+target_link_libraries(coopdyn_cli_tests PRIVATE coopdyn_io GTest::gtest GTest::gtest_main)
+target_compile_definitions(coopdyn_cli_tests PRIVATE
+  COOPDYN_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
+  COOPDYN_PROJECT_VERSION="${PROJECT_VERSION}"
+  COOPDYND_PATH="$<TARGET_FILE:coopdynd>"
+  COOPDYN_PATH="$<TARGET_FILE:coopdyn>")
+target_include_directories(coopdyn_cli_tests PRIVATE ${PROJECT_SOURCE_DIR})
+add_dependencies(coopdyn_cli_tests coopdynd coopdyn)
+gtest_discover_tests(coopdyn_cli_tests DISCOVERY_TIMEOUT 60 PROPERTIES LABELS cli)

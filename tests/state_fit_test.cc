@@ -100,7 +100,9 @@ TEST(StateFit, JointsOnlyGiveTheTrueLoadPoseAndTwist) {
       for (int k = 0; k < 4; ++k) EXPECT_NEAR(sgn * qf[iq + k], q[iq + k], 1e-11) << "trial " << trial;
       for (int d : plan.fit_v) EXPECT_NEAR(vf[d], v[d], 1e-10 * (1 + v.cwiseAbs().maxCoeff())) << "trial " << trial;
       for (int i = 0; i < q.size(); ++i)
-        if (std::find(plan.fit_q.begin(), plan.fit_q.end(), i) == plan.fit_q.end()) EXPECT_EQ(qf[i], q[i]) << "measured: untouched";
+        if (std::find(plan.fit_q.begin(), plan.fit_q.end(), i) == plan.fit_q.end()) {
+          EXPECT_EQ(qf[i], q[i]) << "measured: untouched";
+        }
       EXPECT_GE(cl.iterations, 1);
       EXPECT_LE(cl.iterations, 50);
     }

@@ -1,7 +1,7 @@
 // coopdynd: the real-time constrained-dynamics service.
 //
 //   coopdynd --scene FILE [--config FILE] [--lcm-url URL] [--mode simulate|estimate]
-//            [--rate HZ] [--duration S]
+//            [--rate HZ] [--duration S]      (coopdynd --help: the options and their defaults)
 //
 // Processes and threads: the loop (ServiceLoop::run, optionally SCHED_FIFO) publishes through LCM
 // and never receives; inputs arrive in a supervised child process (coopdynd --rx-child,
@@ -16,6 +16,8 @@
 #include <spdlog/async.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
 
 #include <algorithm>
 #include <atomic>
@@ -35,6 +37,7 @@
 #include "service/runtime/realtime.h"
 #include "service/runtime/service_loop.h"
 #include "service/scene/scene.h"
+#include "service/version.h"
 
 namespace {
 
@@ -43,14 +46,6 @@ std::atomic<int> g_signal{0};
 void on_signal(int sig) {
   g_signal.store(sig);
   g_stop.store(true);
-}
-
-void usage(std::FILE* f) {
-  std::fprintf(f,
-               "usage: coopdynd --scene FILE [--config FILE] [--lcm-url URL] [--mode simulate|estimate]\n"
-               "                [--rate HZ] [--duration S]\n"
-               "  --config    service config (YAML; see config/coopdynd.yaml); defaults are built in\n"
-               "  --duration  stop by itself after S seconds (default: run until SIGINT/SIGTERM)\n");
 }
 
 bool parse_double(const char* s, double* out) {
@@ -123,43 +118,44 @@ int main(int argc, char** argv) {
   using namespace coopdyn;
   // the isolated receive process (io/rx_isolated.h): this binary, exec'd by the daemon itself
   if (argc > 1 && std::strcmp(argv[1], "--rx-child") == 0) return io::rx_child_main(argc, argv);
-  std::string scene_path, config_path, url_override, mode_override;
+  std::string scene_path, config_path, url_override, mode_override, rate_arg, duration_arg;
   double rate_override = 0, duration = -1;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&](const char* name) -> const char* {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "coopdynd: %s needs a value\n", name);
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    if (a == "--help" || a == "-h") {
-      usage(stdout);
-      return 0;
-    } else if (a == "--scene") scene_path = value("--scene");
-    else if (a == "--config") config_path = value("--config");
-    else if (a == "--lcm-url") url_override = value("--lcm-url");
-    else if (a == "--mode") mode_override = value("--mode");
-    else if (a == "--rate") {
-      if (!parse_double(value("--rate"), &rate_override)) {
-        std::fprintf(stderr, "coopdynd: --rate must be a number (Hz)\n");
-        return 2;
-      }
-    } else if (a == "--duration") {
-      if (!parse_double(value("--duration"), &duration) || duration < 0) {
-        std::fprintf(stderr, "coopdynd: --duration must be a number of seconds >= 0\n");
-        return 2;
-      }
-    } else {
-      std::fprintf(stderr, "coopdynd: unknown argument '%s'\n", a.c_str());
-      usage(stderr);
-      return 2;
+  {
+    const runtime::ServiceConfig def;
+    CLI::App app{"coopdynd " COOPDYN_VERSION
+                 ": the real-time constrained-dynamics service. Runs a scene at a fixed rate; LCM in (torque "
+                 "commands or measured states, controls) and out (wrenches, stresses, accelerations, loop statistics).",
+                 "coopdynd"};
+    app.set_version_flag("--version", "coopdynd (coopdyn) " COOPDYN_VERSION, "print the version and exit");
+    app.add_option("--scene", scene_path, "scene file (YAML; config/scenes/)")->type_name("FILE")->required();
+    app.add_option("--config", config_path, "service config (YAML; see config/coopdynd.yaml; default: the built-in values)")
+        ->type_name("FILE");
+    app.add_option("--lcm-url", url_override, "LCM URL of the outputs (and inputs, unless lcm_url_in); overrides the config")
+        ->type_name("URL")
+        ->default_str(def.lcm_url);
+    app.add_option("--mode", mode_override, "simulate (torque commands in) or estimate (measured states in); overrides the config")
+        ->type_name("MODE")
+        ->default_str(runtime::mode_name(def.mode));
+    app.add_option("--rate", rate_arg, "loop rate; overrides the config's rate_hz")
+        ->type_name("HZ")
+        ->default_str(std::to_string(static_cast<int>(def.rate_hz)));
+    app.add_option("--duration", duration_arg, "stop by itself after S seconds (default: run until SIGINT or SIGTERM)")
+        ->type_name("S");
+    app.failure_message([](const CLI::App*, const CLI::Error& e) {
+      return std::string("coopdynd: ") + e.what() + "\nRun 'coopdynd --help' for the options.\n";
+    });
+    try {
+      app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+      return app.exit(e) == 0 ? 0 : 2;  // --help and --version: stdout, 0; errors: stderr, 2
     }
   }
-  if (scene_path.empty()) {
-    std::fprintf(stderr, "coopdynd: --scene FILE is required\n");
-    usage(stderr);
+  if (!rate_arg.empty() && !parse_double(rate_arg.c_str(), &rate_override)) {
+    std::fprintf(stderr, "coopdynd: --rate must be a number (Hz)\n");
+    return 2;
+  }
+  if (!duration_arg.empty() && (!parse_double(duration_arg.c_str(), &duration) || duration < 0)) {
+    std::fprintf(stderr, "coopdynd: --duration must be a number of seconds >= 0\n");
     return 2;
   }
 
