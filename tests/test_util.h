@@ -23,7 +23,7 @@ inline std::string scene_path(const std::string& name) {
 }
 
 inline const std::vector<std::string>& all_scenes() {
-  static const std::vector<std::string> s = {"two_puma_load", "two_5dof_arms_load", "planar_arms_load", "four_bar"};
+  static const std::vector<std::string> s = {"two_puma_load", "two_5dof_arms_load", "planar_arms_load", "four_bar", "two_iiwa_load"};
   return s;
 }
 

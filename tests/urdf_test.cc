@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <fstream>
 
+#include "service/dynamics/holding_torque.h"
+#include "service/dynamics/wrenches.h"
 #include "tests/test_util.h"
 
 namespace coopdyn::testing {
@@ -84,6 +86,39 @@ TEST(Urdf, AnUnexpandedXacroIsRefused) {
   t.insert(t.find("<link name=\"base\"/>"), "<xacro:property name=\"len\" value=\"0.5\"/>\n  ");
   const std::string e = error_of(t);
   EXPECT_NE(e.find("is a xacro macro: expand the file first"), std::string::npos) << e;
+}
+
+TEST(Urdf, TheShippedIiwaSceneHoldsItsBoxWithinTheUrdfLimits) {
+  // two_iiwa_load: KUKA iiwa 14 arms from Drake's published URDF (config/robots/iiwa14.urdf)
+  const System sys = load("two_iiwa_load");
+  EXPECT_TRUE(sys.warnings.empty()) << sys.warnings.front();
+  ASSERT_EQ(sys.model.nv(), 6 + 14);
+  const double effort[7] = {320, 320, 176, 176, 110, 40, 40};  // the URDF's <limit effort>
+  for (int a = 1; a <= 2; ++a)
+    for (int k = 1; k <= 7; ++k) {
+      const int i = index_of(sys.model.v_names, "arm" + std::to_string(a) + ".iiwa_joint_" + std::to_string(k));
+      ASSERT_GE(i, 0);
+      EXPECT_EQ(sys.tau_limit[i], effort[k - 1]);
+    }
+  // the masses of the URDF, summed by hand: links 0..7 = 5 + 5.76 + 6.35 + 3 x 3.5 + 1.8 + 1.2 kg per arm
+  double m = 0;
+  for (const Body& b : sys.model.bodies) m += b.inertia.m;
+  EXPECT_NEAR(m, 2 * 30.61 + 4.0, 1e-12);
+  // held still by the minimum-norm holding torques, within the efforts; the bases carry everything
+  HoldWorkspace hw(sys, default_actuated(sys));
+  Eigen::VectorXd tau(sys.model.nv());
+  ASSERT_TRUE(holding_torque(sys, hw, sys.q0, sys.v0, tau));
+  for (int i = 6; i < sys.model.nv(); ++i) EXPECT_LE(std::abs(tau[i]), sys.tau_limit[i]) << sys.model.v_names[i];
+  Workspace ws(sys);
+  ASSERT_EQ(evaluate(sys, ws, sys.q0, sys.v0, tau).status, Status::kOk);
+  EXPECT_LT(ws.vdot.cwiseAbs().maxCoeff(), 1e-9);
+  WrenchData wd(sys);
+  compute_wrenches(sys, ws, wd);
+  double fz = 0;
+  for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k)
+    if (sys.wrenches.outputs[k].kind == WrenchKind::kBase)
+      fz += wrench_frame_pose(sys, ws.data, static_cast<int>(k)).R.row(2).dot(wd.W[k].tail<3>());
+  EXPECT_NEAR(fz, (2 * 30.61 + 4.0) * 9.81, 1e-8 * fz);
 }
 
 }  // namespace

@@ -99,6 +99,7 @@ Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path,
   {
     std::string left;
     double mass = 0;
+    bool moving = false;  // a left-out link that moves (a finger) or has mass is a loss; a bare frame is not
     std::vector<urdf::LinkConstSharedPtr> stack;
     for (const std::string& l : on_chain)
       for (const auto& ch : u->getLink(l)->child_links)
@@ -108,9 +109,10 @@ Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path,
       stack.pop_back();
       left += (left.empty() ? "" : ", ") + l->name;
       if (l->inertial) mass += l->inertial->mass;
+      if (l->parent_joint && l->parent_joint->type != urdf::Joint::FIXED) moving = true;
       for (const auto& ch : l->child_links) stack.push_back(ch);
     }
-    if (!left.empty()) {
+    if (!left.empty() && (mass > 0 || moving)) {
       std::ostringstream os;
       os << "URDF '" << path << "': links off the chain " << base << " .. " << tip << " are left out: " << left << " ("
          << mass << " kg)";
