@@ -77,8 +77,44 @@ TEST(Urdf, LinksOffTheChainAreReportedWithTheirMass) {
   EXPECT_NE(error_of(t).find("branches below 'l3': give robots.<name>.tip"), std::string::npos);
   const System s = load_with_urdf(t, ", tip: tool");
   ASSERT_EQ(s.warnings.size(), 1u);
-  EXPECT_NE(s.warnings[0].find("links off the chain base .. tool are left out: finger (0.25 kg)"), std::string::npos)
+  EXPECT_NE(s.warnings[0].find("links off the chain base .. tool are left out: finger (0.25 kg; robots.<name>.branches: keep adds them rigidly)"), std::string::npos)
       << s.warnings[0];
+}
+
+TEST(Urdf, SideBranchesKeptRigidlyCountTheirMass) {
+  // the finger off l3, kept (branches: keep) rigidly at its joint's zero, equals the same URDF read
+  // with the finger as the chain's tip and its joint held at 0 (fixed_joints): the same rigid body
+  std::string t = planar3r();
+  t.insert(t.find("</robot>"),
+           "  <link name=\"finger\"><inertial><origin xyz=\"0.05 0.02 0\"/><mass value=\"0.25\"/><inertia ixx=\"1e-4\" "
+           "iyy=\"2e-4\" izz=\"2.5e-4\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n"
+           "  <joint name=\"jf\" type=\"prismatic\"><parent link=\"l3\"/><child link=\"finger\"/><origin xyz=\"0.1 0 0\"/>"
+           "<axis xyz=\"0 1 0\"/><limit lower=\"0\" upper=\"0.04\" effort=\"20\" velocity=\"0.2\"/></joint>\n");
+  const System kept = load_with_urdf(t, ", tip: tool, branches: keep");
+  ASSERT_EQ(kept.warnings.size(), 1u);
+  EXPECT_NE(kept.warnings[0].find("finger (0.25 kg) kept rigidly on 'l3' with their joints at zero"), std::string::npos)
+      << kept.warnings[0];
+  double m_kept = 0, m_plain = 0;
+  for (const Body& b : kept.model.bodies) m_kept += b.inertia.m;
+  for (const Body& b : load_with_urdf(t, ", tip: tool").model.bodies) m_plain += b.inertia.m;
+  EXPECT_NEAR(m_kept - m_plain, 2 * 0.25, 1e-12) << "both arms' fingers count";
+  // the twin: finger on the chain, its joint held (planar_arms_load's q gain the finger's 0)
+  const std::string path = ::testing::TempDir() + "coopdyn_urdf_twin_" + std::to_string(::getpid()) + ".urdf";
+  std::ofstream(path) << t;
+  std::string dh = scene_text("planar_arms_load");
+  const auto a = dh.find("  planar3r:\n"), b = dh.find("load:");
+  std::string scene = dh.substr(0, a) + "  planar3r: {urdf: " + path + ", tip: finger}\n" + dh.substr(b);
+  scene = replace_once(scene, "q: [0.6, -1.0, 0.4]", "q: [0.6, -1.0, 0.4, 0]\n    fixed_joints: [4]");
+  scene = replace_once(scene, "q: [-0.6, 1.0, -0.4]", "q: [-0.6, 1.0, -0.4, 0]\n    fixed_joints: [4]");
+  const System twin = load_scene_string(scene, scene_path("planar_twin"));
+  std::remove(path.c_str());
+  ASSERT_EQ(twin.model.nv(), kept.model.nv());
+  Eigen::VectorXd tau = Eigen::VectorXd::Zero(kept.model.nv());
+  for (int i = 6; i < tau.size(); ++i) tau[i] = 0.5 * std::sin(1.0 + i);
+  Workspace wk(kept), wt(twin);
+  evaluate(kept, wk, kept.q0, kept.v0, tau);
+  evaluate(twin, wt, twin.q0, twin.v0, tau);
+  EXPECT_LT((wk.vdot - wt.vdot).cwiseAbs().maxCoeff(), 1e-10 * (1 + wk.vdot.cwiseAbs().maxCoeff()));
 }
 
 TEST(Urdf, AnUnexpandedXacroIsRefused) {

@@ -45,7 +45,9 @@ Robot parse_robot(const Ctx& c, const YAML::Node& n, const std::string& name);
 // its only leaf). Revolute/continuous and prismatic joints move; fixed joints stay fixed. Nothing
 // the file gives is lost silently: an unreadable <inertial> is an error with the URDF's line, a
 // moving link without one and the links off the chain are warnings (Robot::warnings).
+// keep_branches: the links off the chain are added rigidly (joints at zero) to the chain link they
+// hang from, instead of reported as left out.
 Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path, const std::string& name,
-                 std::string base, std::string tip);
+                 std::string base, std::string tip, bool keep_branches);
 
 }  // namespace coopdyn::scene_detail

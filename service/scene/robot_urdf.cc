@@ -1,6 +1,8 @@
 #include <urdf_parser/urdf_parser.h>
 
 #include <algorithm>
+#include <functional>
+#include <map>
 #include <cmath>
 #include <cstdlib>
 #include <regex>
@@ -33,7 +35,7 @@ int line_of(const std::string& text, size_t pos) { return 1 + static_cast<int>(s
 }  // namespace
 
 Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path, const std::string& name,
-                 std::string base, std::string tip) {
+                 std::string base, std::string tip, bool keep_branches) {
   // bounded before urdfdom sees it: its TinyXML parser recurses per element without a limit
   std::string xml, why;
   if (!bounded::read_file(path, bounded::kMaxUrdfBytes, "URDF '" + path + "'", &xml, &why)) fail(c, where, why);
@@ -112,12 +114,46 @@ Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path,
       if (l->parent_joint && l->parent_joint->type != urdf::Joint::FIXED) moving = true;
       for (const auto& ch : l->child_links) stack.push_back(ch);
     }
-    if (!left.empty() && (mass > 0 || moving)) {
+    if (!left.empty() && (mass > 0 || moving) && !keep_branches) {
       std::ostringstream os;
       os << "URDF '" << path << "': links off the chain " << base << " .. " << tip << " are left out: " << left << " ("
-         << mass << " kg)";
+         << mass << " kg; robots.<name>.branches: keep adds them rigidly)";
       r.warnings.push_back(os.str());
     }
+  }
+  // branches: keep: each side subtree (a gripper's fingers) is added rigidly, its joints at zero,
+  // to the chain link it hangs from, so its mass and inertia count
+  std::map<std::string, Inertia> side;  // chain link -> the side subtrees' inertia in its frame
+  if (keep_branches) {
+    std::function<void(const urdf::LinkConstSharedPtr&, const Transform&, Inertia&, double&, std::string&)> add;
+    add = [&](const urdf::LinkConstSharedPtr& l, const Transform& X_CL, Inertia& acc, double& m, std::string& names) {
+      if (l->inertial) {
+        const auto& in = *l->inertial;
+        if (in.mass < 0) fail(c, where, "URDF link '" + l->name + "': negative mass");
+        Mat3 Ic;
+        Ic << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
+        const Transform X = pose(in.origin);
+        acc += Inertia(in.mass, X.p, X.R * Ic * X.R.transpose()).transformed(X_CL);
+        m += in.mass;
+      }
+      names += (names.empty() ? "" : ", ") + l->name;
+      for (const auto& ch : l->child_links) add(ch, X_CL * pose(ch->parent_joint->parent_to_joint_origin_transform), acc, m, names);
+    };
+    for (const std::string& ln : on_chain)
+      for (const auto& ch : u->getLink(ln)->child_links) {
+        if (on_chain.count(ch->name)) continue;
+        Inertia acc;
+        double m = 0;
+        std::string names;
+        add(ch, pose(ch->parent_joint->parent_to_joint_origin_transform), acc, m, names);
+        if (m <= 0) continue;
+        side[ln] += acc;
+        std::ostringstream os;
+        os << "URDF '" << path << "': " << names << " (" << m << " kg) kept rigidly on '" << ln
+           << "' with their joints at zero (branches: keep)";
+        if (ln == base) os << "; on the base link it is carried by the base and moves nothing";
+        r.warnings.push_back(os.str());
+      }
   }
   for (const auto& jt : chain) {
     urdf::LinkConstSharedPtr child = u->getLink(jt->child_link_name);
@@ -130,6 +166,7 @@ Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path,
       const Transform X = pose(in.origin);
       I = Inertia(in.mass, X.p, X.R * Ic * X.R.transpose());
     }
+    if (auto it = side.find(child->name); it != side.end()) I += it->second;
     ChainJoint j;
     j.name = jt->name;
     j.link_name = child->name;

@@ -90,9 +90,13 @@ System load_scene_string(const std::string& text, const std::string& file, const
         const std::string rn = kv.first.as<std::string>();
         YAML::Node rnode = kv.second;
         if (rnode["urdf"]) {
-          check_keys(c, rnode, {"urdf", "base", "tip", "source"}, "robot '" + rn + "'");
+          check_keys(c, rnode, {"urdf", "base", "tip", "source", "branches"}, "robot '" + rn + "'");
           const std::string path = (std::filesystem::path(c.dir) / rnode["urdf"].as<std::string>()).string();
-          robots[rn] = parse_urdf(c, rnode["urdf"], path, rn, get_string(c, rnode, "base", ""), get_string(c, rnode, "tip", ""));
+          const std::string br = get_string(c, rnode, "branches", "report");
+          if (br != "report" && br != "keep")
+            fail(c, rnode["branches"], "robot '" + rn + "': branches must be report (default: listed as left out) or keep");
+          robots[rn] = parse_urdf(c, rnode["urdf"], path, rn, get_string(c, rnode, "base", ""), get_string(c, rnode, "tip", ""),
+                                  br == "keep");
         } else if (rnode["file"]) {
           const std::string rel = rnode["file"].as<std::string>();
           const std::string path = (std::filesystem::path(c.dir) / rel).string();
