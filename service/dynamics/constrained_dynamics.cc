@@ -102,6 +102,9 @@ Workspace::Workspace(const System& sys)
   eig_w.setZero(m);
   tmp_m.setZero(m);
   tmp_m2.setZero(m);
+  // Eigen's default LLT leaves its info unset, which a copy of the workspace reads (UBSan: "invalid
+  // value for type ComputationInfo"): every workspace computes it once, sized where it is used
+  d4_llt.compute(Eigen::MatrixXd::Identity(0, 0));
   if (sys.options.formulation == Formulation::kPseudoJointSchur) {
     const int p = static_cast<int>(sys.model.pseudo_dofs.size());
     Minv.setZero(n, n);

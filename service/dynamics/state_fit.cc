@@ -97,6 +97,7 @@ StateFitWorkspace::StateFitWorkspace(const System& sys, const StateFitPlan& plan
   Gu.setZero(rows, nu);
   r.setZero(rows);
   N.setZero(nu, nu);
+  llt.compute(Eigen::MatrixXd::Identity(nu, nu));  // sets its info: a copy of the workspace reads it
   V.setZero(nu, nu);
   w.setZero(nu);
   b.setZero(nu);
