@@ -12,24 +12,6 @@ using namespace coopdyn;
 using namespace coopdyn::testing;
 
 namespace {
-// four wheels (r = 0.3 m) at the corners of a 2.6 m x 1.5 m chassis, resting on the ground
-const char* kCar = R"(
-name: car
-gravity: [0, 0, -9.81]
-bodies:
-  - {name: chassis, parent: world, joint: {type: floating, name: chassis, q: {xyz: [0, 0, 0.3]}}, mass: 1200, com: [0.2, 0.05, 0.25], inertia: [400, 1800, 2000, 0, 0, 0]}
-  - {name: fl, parent: chassis, placement: {xyz: [1.3, 0.75, 0]}, joint: {type: revolute, axis: [0, 1, 0], name: fl_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
-  - {name: fr, parent: chassis, placement: {xyz: [1.3, -0.75, 0]}, joint: {type: revolute, axis: [0, 1, 0], name: fr_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
-  - {name: rl, parent: chassis, placement: {xyz: [-1.3, 0.75, 0]}, joint: {type: revolute, axis: [0, 1, 0], name: rl_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
-  - {name: rr, parent: chassis, placement: {xyz: [-1.3, -0.75, 0]}, joint: {type: revolute, axis: [0, 1, 0], name: rr_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
-constraints:
-  - {name: fl, type: rolling, body: fl, axle: [0, 1, 0], radius: 0.3}
-  - {name: fr, type: rolling, body: fr, axle: [0, 1, 0], radius: 0.3}
-  - {name: rl, type: rolling, body: rl, axle: [0, 1, 0], radius: 0.3}
-  - {name: rr, type: rolling, body: rr, axle: [0, 1, 0], radius: 0.3}
-reactions: all
-)";
-
 int output_index(const System& s, const std::string& name) {
   for (size_t k = 0; k < s.wrenches.outputs.size(); ++k)
     if (s.wrenches.outputs[k].name == name) return static_cast<int>(k);
@@ -66,7 +48,9 @@ void expect_free_directions_are_free(const System& sys, const Eigen::VectorXd& t
 }  // namespace
 
 TEST(FreeDirections, FourWheelCarHasTheDiagonalModeAndTheAxleSplits) {
-  const System sys = load_scene_string(kCar, "car.yaml");
+  const System sys = load_scene_string(
+      replace_once(rigid_car_scene(), "mass: 1200, inertia", "mass: 1200, com: [0.2, 0.05, 0.25], inertia") + "reactions: all\n",
+      "car.yaml");
   const Eigen::VectorXd tau = Eigen::VectorXd::Zero(sys.model.nv());
   Workspace ws(sys);
   evaluate(sys, ws, sys.q0, sys.v0, tau);

@@ -32,12 +32,7 @@ TEST(HoldingTorque, HoldsTwoPumasStillAndTheBasesCarryTheWeight) {
   ASSERT_NE(evaluate(sys, ws, sys.q0, sys.v0, tau).status, Status::kError);
   EXPECT_LT(ws.vdot.cwiseAbs().maxCoeff(), 1e-9) << "held: no acceleration";
   // the bases carry exactly the weight of arms and box (world z up)
-  WrenchData wd(sys);
-  compute_wrenches(sys, ws, wd);
-  double fz = 0;
-  for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k)
-    if (sys.wrenches.outputs[k].kind == WrenchKind::kBase)
-      fz += wrench_frame_pose(sys, ws.data, static_cast<int>(k)).R.row(2).dot(wd.W[k].tail<3>());
+  const double fz = base_vertical_force(sys, ws);
   EXPECT_NEAR(fz, total_weight(sys.model), 1e-8 * total_weight(sys.model));
 }
 

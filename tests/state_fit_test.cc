@@ -216,27 +216,11 @@ TEST(StateFit, PerturbedJointVelocityShowsAsTheVelocityResidual) {
 // car's own estimator). The shipped two_wheel_vehicle cannot fit its twist: its rod pitching about
 // the axle while the wheels counter-spin leaves every contact still, so its pitch rate must be
 // measured (an IMU), and the plan says so.
-const char* kCar = R"(
-name: car
-gravity: [0, 0, -9.81]
-bodies:
-  - {name: chassis, parent: world, joint: {type: floating, name: chassis, q: {xyz: [0, 0, 0.3]}}, mass: 1200, inertia: [400, 1800, 2000, 0, 0, 0]}
-  - {name: fl, parent: chassis, placement: {xyz: [1.3, 0.75, 0]}, joint: {type: revolute, axis: [0, 1, 0], name: fl_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
-  - {name: fr, parent: chassis, placement: {xyz: [1.3, -0.75, 0]}, joint: {type: revolute, axis: [0, 1, 0], name: fr_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
-  - {name: rl, parent: chassis, placement: {xyz: [-1.3, 0.75, 0]}, joint: {type: revolute, axis: [0, 1, 0], name: rl_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
-  - {name: rr, parent: chassis, placement: {xyz: [-1.3, -0.75, 0]}, joint: {type: revolute, axis: [0, 1, 0], name: rr_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
-constraints:
-  - {name: fl, type: rolling, body: fl, axle: [0, 1, 0], radius: 0.3}
-  - {name: fr, type: rolling, body: fr, axle: [0, 1, 0], radius: 0.3}
-  - {name: rl, type: rolling, body: rl, axle: [0, 1, 0], radius: 0.3}
-  - {name: rr, type: rolling, body: rr, axle: [0, 1, 0], radius: 0.3}
-)";
-
 TEST(StateFit, VehicleTwistFromWheelSpinsPoseFromItsEstimator) {
   const StateFitPlan p2 = plan_state_fit(load("two_wheel_vehicle"));
   EXPECT_FALSE(p2.v_fittable);
   EXPECT_FALSE(p2.q_fittable);
-  const System sys = load_scene_string(kCar, "car.yaml");
+  const System sys = load_scene_string(coopdyn::testing::rigid_car_scene(), "car.yaml");
   const StateFitPlan plan = plan_state_fit(sys);
   EXPECT_FALSE(plan.q_fittable);
   ASSERT_TRUE(plan.v_fittable) << plan.why_not_v;

@@ -14,6 +14,7 @@
 #include "service/algorithms/kinematics.h"
 #include "service/algorithms/rnea.h"
 #include "service/dynamics/constrained_dynamics.h"
+#include "service/dynamics/wrenches.h"
 #include "service/scene/scene.h"
 
 namespace coopdyn::testing {
@@ -133,6 +134,37 @@ inline System load_with_reactions(const std::string& name, std::optional<Formula
   SceneOverrides ov;
   ov.formulation = f;
   return load_scene_string(without_reactions(scene_text(name)) + "\nreactions: all\n", scene_path(name), ov);
+}
+
+// A rigid car: four wheels (r = 0.3 m) at the corners of a 2.6 m x 1.5 m, 1200 kg chassis, resting
+// on the ground (tests/state_fit_test.cc, tests/free_directions_test.cc).
+inline std::string rigid_car_scene() {
+  return R"(
+name: car
+gravity: [0, 0, -9.81]
+bodies:
+  - {name: chassis, parent: world, joint: {type: floating, name: chassis, q: {xyz: [0, 0, 0.3]}}, mass: 1200, inertia: [400, 1800, 2000, 0, 0, 0]}
+  - {name: fl, parent: chassis, placement: {xyz: [1.3, 0.75, 0]}, joint: {type: revolute, axis: [0, 1, 0], name: fl_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
+  - {name: fr, parent: chassis, placement: {xyz: [1.3, -0.75, 0]}, joint: {type: revolute, axis: [0, 1, 0], name: fr_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
+  - {name: rl, parent: chassis, placement: {xyz: [-1.3, 0.75, 0]}, joint: {type: revolute, axis: [0, 1, 0], name: rl_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
+  - {name: rr, parent: chassis, placement: {xyz: [-1.3, -0.75, 0]}, joint: {type: revolute, axis: [0, 1, 0], name: rr_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
+constraints:
+  - {name: fl, type: rolling, body: fl, axle: [0, 1, 0], radius: 0.3}
+  - {name: fr, type: rolling, body: fr, axle: [0, 1, 0], radius: 0.3}
+  - {name: rl, type: rolling, body: rl, axle: [0, 1, 0], radius: 0.3}
+  - {name: rr, type: rolling, body: rr, axle: [0, 1, 0], radius: 0.3}
+)";
+}
+
+// The vertical (world z) force the world exerts on all arm bases together, at the evaluation in ws.
+inline double base_vertical_force(const System& sys, const Workspace& ws) {
+  WrenchData wd(sys);
+  compute_wrenches(sys, ws, wd);
+  double fz = 0;
+  for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k)
+    if (sys.wrenches.outputs[k].kind == WrenchKind::kBase)
+      fz += wrench_frame_pose(sys, ws.data, static_cast<int>(k)).R.row(2).dot(wd.W[k].tail<3>());
+  return fz;
 }
 
 // Velocity index of a coordinate name (-1 if absent).

@@ -148,12 +148,7 @@ TEST(Urdf, TheShippedIiwaSceneHoldsItsBoxWithinTheUrdfLimits) {
   Workspace ws(sys);
   ASSERT_EQ(evaluate(sys, ws, sys.q0, sys.v0, tau).status, Status::kOk);
   EXPECT_LT(ws.vdot.cwiseAbs().maxCoeff(), 1e-9);
-  WrenchData wd(sys);
-  compute_wrenches(sys, ws, wd);
-  double fz = 0;
-  for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k)
-    if (sys.wrenches.outputs[k].kind == WrenchKind::kBase)
-      fz += wrench_frame_pose(sys, ws.data, static_cast<int>(k)).R.row(2).dot(wd.W[k].tail<3>());
+  const double fz = base_vertical_force(sys, ws);
   EXPECT_NEAR(fz, (2 * 30.61 + 4.0) * 9.81, 1e-8 * fz);
 }
 

@@ -15,6 +15,14 @@ Transform chain_forward(const ArmSpec& a) {
   return X * a.robot->X_last_EE;
 }
 
+const Robot* find_robot(const Ctx& c, const YAML::Node& n, const std::map<std::string, Robot>& robots, const std::string& what) {
+  const std::string rn = get_string(c, n, "robot", "");
+  auto it = robots.find(rn);
+  if (it == robots.end())
+    fail(c, n["robot"].IsDefined() ? n["robot"] : n, what + ": unknown robot '" + rn + "' (declare it under 'robots')");
+  return &it->second;
+}
+
 void parse_arm_joints(const Ctx& c, const YAML::Node& a, ArmSpec& s) {
   const int n = static_cast<int>(s.robot->joints.size());
   int nm = 0;  // joints that can move (a URDF's own fixed joints take no q)
@@ -112,10 +120,7 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
     s.node = YAML::Node(a);
     s.name = get_string(c, a, "name", "");
     if (s.name.empty()) fail(c, a, "arm: missing 'name'");
-    const std::string rn = get_string(c, a, "robot", "");
-    auto it = robots.find(rn);
-    if (it == robots.end()) fail(c, a["robot"].IsDefined() ? a["robot"] : a, "arm '" + s.name + "': unknown robot '" + rn + "'");
-    s.robot = &it->second;
+    s.robot = find_robot(c, a, robots, "arm '" + s.name + "'");
     s.X_W_base = get_pose(c, require(c, a, "base", "arm '" + s.name + "'"), "arm '" + s.name + "'.base");
     s.tool = get_pose(c, a["tool"], "arm '" + s.name + "'.tool");
     parse_arm_joints(c, a, s);

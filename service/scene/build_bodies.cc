@@ -17,10 +17,7 @@ void build_bodies(Builder& B, const YAML::Node& root, const std::map<std::string
       s.node = YAML::Node(b);
       s.name = get_string(c, b, "name", "");
       if (s.name.empty()) fail(c, b, "robot body: missing 'name' (the prefix of its links and joints)");
-      const std::string rn = get_string(c, b, "robot", "");
-      auto it = robots.find(rn);
-      if (it == robots.end()) fail(c, b["robot"], "robot body '" + s.name + "': unknown robot '" + rn + "' (declare it under 'robots')");
-      s.robot = &it->second;
+      s.robot = find_robot(c, b, robots, "robot body '" + s.name + "'");
       const std::string pn = get_string(c, b, "parent", "world");
       int parent = -1;
       if (pn != "world") {

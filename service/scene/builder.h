@@ -70,6 +70,8 @@ struct ArmSpec {
   YAML::Node node;
 };
 
+// The robot `n["robot"]` names, from the scene's `robots`; an unknown name is an error at its line.
+const Robot* find_robot(const Ctx& c, const YAML::Node& n, const std::map<std::string, Robot>& robots, const std::string& what);
 // the end-effector (before the tool) in the robot base frame at the arm's q
 Transform chain_forward(const ArmSpec& a);
 // q, v (the joints that move, in order; warnings for turns and URDF limits) and fixed_joints of an
