@@ -1,6 +1,7 @@
 // Shared pieces of the coopdyn command line: argument parsing, JSON output, torque profiles.
 #pragma once
 
+#include <limits>
 #include <cstdio>
 #include <map>
 #include <string>
@@ -28,6 +29,11 @@ struct Args {
 // Writes the evaluation at (q, v, tau) as the JSON object documented in README.md.
 void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const Eigen::VectorXd& q,
                      const Eigen::VectorXd& v, const Eigen::VectorXd& tau);
+
+// One warning line on f per rolling contact the evaluation in ws finds sliding or lifting off
+// (contacts.h), prefixed with "t=T: " when t is finite; returns how many.
+int warn_contacts(std::FILE* f, const char* cmd, const System& sys, const Workspace& ws,
+                  double t = std::numeric_limits<double>::quiet_NaN());
 
 // Torque profiles: "JOINT:constant:VALUE", "JOINT:step:VALUE:T0", "JOINT:pulse:VALUE:T0:T1", or a
 // CSV file "file.csv" whose header is "t,JOINT,..." (piecewise constant between rows).

@@ -63,6 +63,7 @@ int cmd_eval(const Args& a) {
   Workspace ws(sys);
   const Diagnostics& d = evaluate(sys, ws, q, v, tau);
   write_eval_json(stdout, sys, ws, q, v, tau);
+  warn_contacts(stderr, "eval", sys, ws);
   return d.status == Status::kError ? 3 : 0;
 }
 

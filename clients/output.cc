@@ -6,6 +6,7 @@
 
 #include "clients/common.h"
 #include "service/algorithms/kinematics.h"
+#include "service/dynamics/contacts.h"
 #include "service/dynamics/free_directions.h"
 #include "service/dynamics/wrenches.h"
 #include "service/scene/scene.h"
@@ -136,7 +137,27 @@ void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const
     }
     std::fprintf(f, "]}");
   }
-  std::fprintf(f, "%s],\n  \"stresses\": [", wd.num_free ? "\n  " : "");
+  std::fprintf(f, "%s],\n  \"contacts\": [", wd.num_free ? "\n  " : "");
+  // each rolling contact: what the road must supply (README "Vehicles"); -1: undefined
+  ContactData cts(sys);
+  compute_contacts(sys, ws, cts);
+  for (size_t i = 0; i < cts.spec.size(); ++i) {
+    const ConstraintSpec& c = sys.constraints.specs[static_cast<size_t>(cts.spec[i])];
+    std::fprintf(f, "%s\n    {\"name\": \"%s\", \"normal\": ", i ? "," : "", c.name.c_str());
+    num(f, cts.normal[i]);
+    std::fprintf(f, ", \"tangential\": ");
+    num(f, cts.tangential[i]);
+    std::fprintf(f, ", \"friction_needed\": ");
+    num(f, cts.friction_needed[i]);
+    std::fprintf(f, ", \"mu\": ");
+    if (c.mu > 0) num(f, c.mu);
+    else std::fprintf(f, "null");
+    std::fprintf(f, ", \"utilisation\": ");
+    num(f, cts.utilisation[i]);
+    std::fprintf(f, ", \"state\": \"%s\"}", contact_state_name(cts.state[i]));
+  }
+  std::fprintf(f, "%s],\n  \"contact_status\": \"%s\",\n  \"stresses\": [", cts.spec.empty() ? "" : "\n  ",
+               contact_state_name(cts.worst));
   for (size_t a = 0; a < model.pseudo_dofs.size(); ++a) {
     const int d = model.pseudo_dofs[a];
     std::fprintf(f, "%s\n    {\"joint\": \"%s\", \"value\": ", a ? "," : "", model.v_names[d].c_str());
@@ -150,6 +171,26 @@ void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const
   std::fprintf(f, ", \"residual\": ");
   num(f, d.residual);
   std::fprintf(f, ", \"status\": \"%s\", \"reason\": \"%s\"}\n}\n", status_name(d.status), reason_text(d.reason));
+}
+
+int warn_contacts(std::FILE* f, const char* cmd, const System& sys, const Workspace& ws, double t) {
+  ContactData cts(sys);
+  compute_contacts(sys, ws, cts);
+  int n = 0;
+  for (size_t i = 0; i < cts.spec.size(); ++i) {
+    if (cts.state[i] == ContactState::kOk) continue;
+    const ConstraintSpec& c = sys.constraints.specs[static_cast<size_t>(cts.spec[i])];
+    std::fprintf(f, "coopdyn %s: warning: ", cmd);
+    if (std::isfinite(t)) std::fprintf(f, "t=%g: ", t);
+    if (cts.state[i] == ContactState::kLiftOff)
+      std::fprintf(f, "wheel '%s' lifts off (normal force %.6g N < 0: the ground would have to pull it)\n", c.name.c_str(),
+                   cts.normal[i]);
+    else
+      std::fprintf(f, "wheel '%s' needs more friction than it has (%.6g N tangential on %.6g N normal: %.4g > mu = %g)\n",
+                   c.name.c_str(), cts.tangential[i], cts.normal[i], cts.friction_needed[i], c.mu);
+    ++n;
+  }
+  return n;
 }
 
 int load_cli_scene(const Args& a, const char* cmd, System* sys) {

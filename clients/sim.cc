@@ -2,8 +2,10 @@
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
+#include <vector>
 
 #include "clients/cli.h"
+#include "service/dynamics/contacts.h"
 #include "service/dynamics/integrators.h"
 #include "service/dynamics/wrenches.h"
 #include "service/scene/scene.h"
@@ -68,6 +70,12 @@ int cmd_sim(const Args& a) {
   for (const WrenchOutput& o : sys.wrenches.outputs)
     for (int k = 0; k < 6; ++k) std::fprintf(out, ",%s.%s", o.name.c_str(), comp[k]);
   for (int d : model.pseudo_dofs) std::fprintf(out, ",stress:%s", model.v_names[d].c_str());
+  ContactData cts(sys);  // per rolling contact: friction needed, utilisation, state (contacts.h)
+  for (int s : cts.spec) {
+    const char* n = sys.constraints.specs[static_cast<size_t>(s)].name.c_str();
+    std::fprintf(out, ",%s.friction_needed,%s.utilisation,%s.contact", n, n, n);
+  }
+  std::vector<ContactState> last_state(cts.spec.size(), ContactState::kOk);
   std::fprintf(out, ",status,rank,residual,position_error\n");
 
   Stepper st(sys);
@@ -89,6 +97,20 @@ int cmd_sim(const Args& a) {
     for (const Vec6& w : wd.W)
       for (int k = 0; k < 6; ++k) std::fprintf(out, ",%.17g", w[k]);
     for (Eigen::Index k = 0; k < st.ws.stress.size(); ++k) std::fprintf(out, ",%.17g", st.ws.stress[k]);
+    compute_contacts(sys, st.ws, cts);
+    for (size_t k = 0; k < cts.spec.size(); ++k) {
+      std::fprintf(out, ",%.17g,%.17g,%s", cts.friction_needed[k], cts.utilisation[k], contact_state_name(cts.state[k]));
+      if (cts.state[k] != last_state[k]) {  // never silent: each change of a contact's state, once
+        const char* n = sys.constraints.specs[static_cast<size_t>(cts.spec[k])].name.c_str();
+        if (cts.state[k] == ContactState::kOk)
+          std::fprintf(stderr, "coopdyn sim: t=%g: wheel '%s' is back within its contact (ok)\n", t, n);
+        else
+          std::fprintf(stderr, "coopdyn sim: warning: t=%g: wheel '%s' %s (normal %.6g N, friction needed %.4g)\n", t, n,
+                       cts.state[k] == ContactState::kLiftOff ? "lifts off" : "needs more friction than its mu",
+                       cts.normal[k], cts.friction_needed[k]);
+        last_state[k] = cts.state[k];
+      }
+    }
     std::fprintf(out, ",%s,%d,%.3g,%.3g\n", status_name(d.status), d.rank, d.residual,
                  st.ws.cd.err.size() ? st.ws.cd.err.cwiseAbs().maxCoeff() : 0.0);
     if (d.status == Status::kError) {

@@ -50,6 +50,8 @@ void ConstraintSet::compile(const Model& model) {
         throw std::invalid_argument("constraint '" + c.name + "': wheel radius must be > 0");
       if (!(std::abs(c.axle.norm() - 1.0) < 1e-9))
         throw std::invalid_argument("constraint '" + c.name + "': wheel axle must be a unit vector");
+      if (!(std::abs(c.ground_n.norm() - 1.0) < 1e-9) || !std::isfinite(c.ground_d))
+        throw std::invalid_argument("constraint '" + c.name + "': ground normal must be a unit vector, offset finite");
       for (int k = 0; k < 3; ++k) {
         ax[n++] = 3 + k;
         comp.push_back(c.compliance[3 + k]);
@@ -86,7 +88,7 @@ ConstraintData::ConstraintData(const Model& model, const ConstraintSet& set) {
 namespace {
 
 // Contact geometry of a rolling disk and its time derivative along the motion (ConstraintKind::
-// kRolling). All vectors in world coordinates; n = z_W is the ground normal.
+// kRolling). All vectors in world coordinates; n is the ground plane's unit normal.
 struct RollingGeometry {
   Vec3 a, d, x, y, p;              // axle, centre->top of the wheel plane, heading, lateral, contact point
   Vec3 d_dot, x_dot, y_dot, p_dot; // their rates; p_dot is the geometric contact point's velocity
@@ -94,9 +96,8 @@ struct RollingGeometry {
 };
 
 // R = R_WB, c = p_WB (wheel centre), w = angular velocity and c_dot = centre velocity (world).
-void rolling_geometry(const Mat3& R, const Vec3& c, const Vec3& axle, double r, const Vec3& w, const Vec3& c_dot,
-                      RollingGeometry& g) {
-  const Vec3 n = Vec3::UnitZ();
+void rolling_geometry(const Mat3& R, const Vec3& c, const Vec3& axle, double r, const Vec3& n, const Vec3& w,
+                      const Vec3& c_dot, RollingGeometry& g) {
   g.a = R * axle;
   const Vec3 a_dot = w.cross(g.a);
   const double s = n.dot(g.a), s_dot = n.dot(a_dot);
@@ -131,11 +132,11 @@ Transform rolling_contact_frame(const Model& model, const Data& data, const Cons
   (void)model;
   const Transform& X_WB = data.X_WB[c.body];
   RollingGeometry g;
-  rolling_geometry(X_WB.R, X_WB.p, c.axle, c.radius, Vec3::Zero(), Vec3::Zero(), g);
+  rolling_geometry(X_WB.R, X_WB.p, c.axle, c.radius, c.ground_n, Vec3::Zero(), Vec3::Zero(), g);
   Transform X_WC;
   X_WC.R.col(0) = g.x;
   X_WC.R.col(1) = g.y;
-  X_WC.R.col(2) = Vec3::UnitZ();
+  X_WC.R.col(2) = c.ground_n;
   X_WC.p = g.p;
   return X_WC;
 }
@@ -165,10 +166,10 @@ void constraint_rows(const Model& model, const Data& data, const ConstraintSet& 
       const Vec3 w = V_W.head<3>();
       RollingGeometry g;
       const Vec3 c_R = X_WB.p - data.p_ref;  // wheel centre relative to R
-      rolling_geometry(X_WB.R, c_R, c.axle, c.radius, w, V_W.tail<3>() + w.cross(c_R), g);
+      rolling_geometry(X_WB.R, c_R, c.axle, c.radius, c.ground_n, w, V_W.tail<3>() + w.cross(c_R), g);
       const Vec3 u = V_W.tail<3>() + w.cross(g.p);
       const Vec3 u_dot = A_W.tail<3>() + A_W.head<3>().cross(g.p) + w.cross(g.p_dot);
-      const Vec3 nz = Vec3::UnitZ();
+      const Vec3& nz = c.ground_n;
       for (int d : sup) {
         const Vec3 Jp = data.S_W.col(d).tail<3>() + data.S_W.col(d).head<3>().cross(g.p);
         cd.G(r0, d) = g.x.dot(Jp);
@@ -183,7 +184,7 @@ void constraint_rows(const Model& model, const Data& data, const ConstraintSet& 
       cd.Gdot_v[r0 + 2] = nz.dot(u_dot);
       cd.err[r0] = 0.0;          // nonholonomic: no position error, so no Baumgarte beta term
       cd.err[r0 + 1] = 0.0;
-      cd.err[r0 + 2] = g.p.z() + data.p_ref.z();  // height of the contact point above the ground
+      cd.err[r0 + 2] = nz.dot(g.p + data.p_ref) - c.ground_d;  // height of the contact point above the plane
       Transform& X_RC = cd.X_RS[s];
       X_RC.R.col(0) = g.x;
       X_RC.R.col(1) = g.y;

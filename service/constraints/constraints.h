@@ -24,16 +24,16 @@ namespace coopdyn {
 enum class ConstraintKind {
   kWeld,  // tip frame A held to the world (target pose) or to frame B; any subset of the 6 axes of A
   kLock,  // one pseudo-joint DOF held at its initial value (METHOD s.4)
-  // A rigid disk of radius r rolling without slip on the ground plane z = 0 (world z up), METHOD
-  // s.7. The wheel centre is the origin of `body`, `axle` (unit, body coordinates) its spin axis.
-  // The contact point P is the lowest point of the rim: p_WP = p_WB - r d, with d the unit vector
-  // of the wheel plane closest to the ground normal n = z_W, d = (n - (n.a) a) / |n - (n.a) a|,
-  // a = R_WB axle. Contact frame C, R_WC = [x_C y_C n]:
+  // A rigid disk of radius r rolling without slip on a ground plane {x : n.x = d} (by default
+  // z = 0, n = z_W), METHOD s.7. The wheel centre is the origin of `body`, `axle` (unit, body
+  // coordinates) its spin axis. The contact point P is the lowest point of the rim: p_WP = p_WB -
+  // r d, with d the unit vector of the wheel plane closest to the ground normal n,
+  // d = (n - (n.a) a) / |n - (n.a) a|, a = R_WB axle. Contact frame C, R_WC = [x_C y_C n]:
   //   x_C = a x n / |a x n|   heading: a positive spin about +axle rolls the wheel towards +x_C
   //   y_C = n x x_C           lateral, to the left of the heading
   // Three rows, the velocity of the wheel's material point at P along x_C, y_C, n:
   //   x, y  longitudinal and lateral no-slip: nonholonomic, err = 0, no Baumgarte beta term
-  //   z     ground contact: holonomic, err = height of P above the ground, stabilized
+  //   z     ground contact: holonomic, err = n.p_WP - d (height of P above the plane), stabilized
   // Gdot*v is analytic (the motion of P around the rim and the rotation of C included). A wheel
   // lying flat (axle vertical, |a x n| -> 0) has no heading; rows stay finite but meaningless.
   kRolling,
@@ -55,6 +55,10 @@ struct ConstraintSpec {
   int body = -1;                 // rolling: the wheel body (its origin is the wheel centre)
   Vec3 axle = Vec3::UnitY();     // rolling: spin axis, unit, in the body frame
   double radius = 0.0;           // rolling: wheel radius (m)
+  Vec3 ground_n = Vec3::UnitZ(); // rolling: the ground plane's unit normal (world), pointing up
+  double ground_d = 0.0;         // rolling: the plane is {x : ground_n . x = ground_d} (m)
+  double mu = 0.0;               // rolling: friction coefficient for the utilisation report
+                                 // (contacts.h); 0 = not given (friction needed still reported)
 };
 
 // Contact geometry of a rolling spec after forward_kinematics: X_WC (contact frame C at the contact

@@ -1,6 +1,8 @@
 // The loop-side codec: command/state decoders (receive thread), output/stats encoders (loop thread).
 #include "service/io/codec.h"
 
+#include "service/dynamics/contacts.h"
+
 #include <cmath>
 #include <cstring>
 #include <unordered_map>
@@ -361,8 +363,9 @@ Reject ControlDecoder::decode(const void* data, int len, ControlSlot& out) {
 struct OutputEncoder::Impl {
   const System& sys;
   coopdyn::output_t msg;
+  ContactData contacts;
   int size = 0;
-  explicit Impl(const System& s) : sys(s) {
+  explicit Impl(const System& s) : sys(s), contacts(s) {
     const Model& model = s.model;
     msg = coopdyn::output_t();
     const auto& outs = s.wrenches.outputs;
@@ -382,6 +385,13 @@ struct OutputEncoder::Impl {
     const int rows = s.constraints.rows;
     msg.free_class.assign(static_cast<size_t>(rows), 0);
     msg.free_direction.assign(static_cast<size_t>(rows), std::vector<std::vector<double>>(outs.size(), std::vector<double>(6, 0.0)));
+    msg.num_contacts = static_cast<int32_t>(contacts.spec.size());
+    for (int k : contacts.spec) msg.contact_names.push_back(s.constraints.specs[static_cast<size_t>(k)].name);
+    msg.contact_normal.assign(contacts.spec.size(), 0.0);
+    msg.contact_friction_needed.assign(contacts.spec.size(), -1.0);
+    msg.contact_utilisation.assign(contacts.spec.size(), -1.0);
+    msg.contact_state.assign(contacts.spec.size(), 0);
+    msg.contact_status = 0;
     msg.num_stresses = static_cast<int32_t>(model.pseudo_dofs.size());
     for (int d : model.pseudo_dofs) msg.stress_names.push_back(model.v_names[d]);
     msg.stress.assign(model.pseudo_dofs.size(), 0.0);
@@ -412,6 +422,11 @@ struct OutputEncoder::Impl {
     for (auto& w : msg.wrench_residual) std::fill(w.begin(), w.end(), 0.0);
     std::fill(msg.stress.begin(), msg.stress.end(), 0.0);
     std::fill(msg.vdot.begin(), msg.vdot.end(), 0.0);
+    std::fill(msg.contact_normal.begin(), msg.contact_normal.end(), 0.0);
+    std::fill(msg.contact_friction_needed.begin(), msg.contact_friction_needed.end(), -1.0);
+    std::fill(msg.contact_utilisation.begin(), msg.contact_utilisation.end(), -1.0);
+    std::fill(msg.contact_state.begin(), msg.contact_state.end(), 0);
+    msg.contact_status = 0;
   }
 };
 
@@ -498,6 +513,16 @@ int OutputEncoder::encode(const OutputFrame& f, uint8_t* buf, int cap, bool* san
       std::fill(o.indeterminate_mask.begin(), o.indeterminate_mask.end(), 0);
       o.num_free = 0;
     }
+    compute_contacts(m.sys, ws, m.contacts);
+    for (size_t i = 0; i < m.contacts.spec.size(); ++i) {
+      o.contact_normal[i] = m.contacts.normal[i];
+      o.contact_friction_needed[i] = m.contacts.friction_needed[i];
+      o.contact_utilisation[i] = m.contacts.utilisation[i];
+      o.contact_state[i] = static_cast<int8_t>(m.contacts.state[i]);
+      ok = ok && std::isfinite(o.contact_normal[i]) && std::isfinite(o.contact_friction_needed[i]) &&
+           std::isfinite(o.contact_utilisation[i]);
+    }
+    o.contact_status = static_cast<int8_t>(m.contacts.worst);
     ok = copy_finite(&ws.stress, o.stress) && ok;
     ok = copy_finite(&ws.vdot, o.vdot) && ok;
     bad = bad || !ok;

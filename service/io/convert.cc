@@ -143,6 +143,12 @@ bool decode_output(const void* data, int len, DecodedOutput* out) {
   for (int d = 0; d < m.num_free; ++d)
     for (size_t t = 0; t < m.wrench.size(); ++t)
       for (int k = 0; k < 6; ++k) out->free_direction[static_cast<size_t>(d)][t][static_cast<size_t>(k)] = m.free_direction[static_cast<size_t>(d)][t][static_cast<size_t>(k)];
+  out->contact_status = m.contact_status;
+  out->contact_names = m.contact_names;
+  out->contact_normal = m.contact_normal;
+  out->contact_friction_needed = m.contact_friction_needed;
+  out->contact_utilisation = m.contact_utilisation;
+  out->contact_state.assign(m.contact_state.begin(), m.contact_state.end());
   out->stress_names = m.stress_names;
   out->stress = m.stress;
   out->q_names = m.q_names;

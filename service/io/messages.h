@@ -127,6 +127,10 @@ struct DecodedOutput {
   std::vector<std::array<double, 6>> wrench_residual;  // measured - estimated
   std::vector<int> free_class;                                      // per free direction: FreeClass
   std::vector<std::vector<std::array<double, 6>>> free_direction;   // [direction][wrench]: change per unit
+  int contact_status = 0;                      // worst ContactState (output_t CONTACT_*)
+  std::vector<std::string> contact_names;      // rolling contacts, constraint order
+  std::vector<double> contact_normal, contact_friction_needed, contact_utilisation;  // N; -1: undefined
+  std::vector<int> contact_state;              // ContactState codes
   std::vector<std::string> stress_names;
   std::vector<double> stress;
   std::vector<std::string> q_names, v_names;

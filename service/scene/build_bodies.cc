@@ -5,6 +5,34 @@
 
 namespace coopdyn::scene_detail {
 
+namespace {
+// The plane a wheel rolls on and its friction coefficient (0: not given).
+struct GroundSpec {
+  Vec3 n = Vec3::UnitZ();
+  Vec3 point = Vec3::Zero();
+  double mu = 0.0;
+};
+
+// `ground: {normal: [nx, ny, nz], point: [x, y, z], mu: MU}`, each key optional (from `def`).
+GroundSpec read_ground(const Ctx& c, const YAML::Node& g, const GroundSpec& def, const std::string& what) {
+  if (!g.IsMap()) fail(c, g, what + " must be a mapping {normal, point, mu}");
+  check_keys(c, g, {"normal", "point", "mu"}, what);
+  GroundSpec out = def;
+  if (g["normal"]) {
+    const Vec3 n = as_vec3(c, g["normal"], what + ".normal");
+    const double len = n.norm();
+    if (!(len >= 1e-9 && len <= 1e150)) fail(c, g["normal"], what + ": normal must be a nonzero vector");
+    out.n = n / len;
+  }
+  if (g["point"]) out.point = as_vec3(c, g["point"], what + ".point");
+  if (g["mu"]) {
+    out.mu = as_double(c, g["mu"], what + ".mu");
+    if (!(out.mu > 0)) fail(c, g["mu"], what + ": mu must be > 0 (leave it out for no friction coefficient)");
+  }
+  return out;
+}
+}  // namespace
+
 void build_bodies(Builder& B, const YAML::Node& root, const std::map<std::string, Robot>& robots) {
   const Ctx& c = B.c;
   Model& model = B.sys.model;
@@ -115,9 +143,14 @@ void build_bodies(Builder& B, const YAML::Node& root, const std::map<std::string
       }
     }
   }
+  // the ground the wheels roll on: the scene's `ground` (default z = 0, no friction coefficient),
+  // which a wheel's own `ground` overrides key by key
+  GroundSpec ground;
+  if (root["ground"]) ground = read_ground(c, root["ground"], ground, "ground");
   if (root["constraints"]) {
     for (const auto& k : root["constraints"]) {
-      check_keys(c, k, {"name", "type", "frame", "to", "axes", "target", "compliance", "body", "axle", "radius"}, "constraint");
+      check_keys(c, k, {"name", "type", "frame", "to", "axes", "target", "compliance", "body", "axle", "radius", "mu", "ground"},
+                 "constraint");
       ConstraintSpec s;
       s.name = get_string(c, k, "name", "");
       const std::string type = get_string(c, k, "type", "weld");
@@ -145,6 +178,15 @@ void build_bodies(Builder& B, const YAML::Node& root, const std::map<std::string
             if (l[i] < 0) fail(c, cn, "constraint '" + s.name + "': compliance must be >= 0");
             s.compliance[3 + i] = l[i];
           }
+        }
+        const GroundSpec g = k["ground"] ? read_ground(c, k["ground"], ground, "constraint '" + s.name + "'.ground") : ground;
+        s.ground_n = g.n;
+        s.ground_d = g.n.dot(g.point);
+        s.mu = g.mu;
+        if (k["mu"]) {
+          if (k["ground"] && k["ground"]["mu"]) fail(c, k["mu"], "constraint '" + s.name + "': 'mu' is given twice (also in its 'ground')");
+          s.mu = as_double(c, k["mu"], "constraint '" + s.name + "'.mu");
+          if (!(s.mu > 0)) fail(c, k["mu"], "constraint '" + s.name + "': mu must be > 0 (leave it out for no friction coefficient)");
         }
         s.axes = {{false, false, false, true, true, true}};
         B.sys.constraints.specs.push_back(s);

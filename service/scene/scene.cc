@@ -40,7 +40,7 @@ System load_scene_string(const std::string& text, const std::string& file, const
   if (!root.IsMap()) fail(c, root, "a scene must be a YAML mapping");
   try {
     check_keys(c, root, {"name", "description", "source", "gravity", "formulation", "redundancy", "stabilization", "solver",
-                         "robots", "load", "arms", "bodies", "frames", "constraints", "reactions", "close_initial_state"},
+                         "robots", "load", "arms", "bodies", "frames", "constraints", "ground", "reactions", "close_initial_state"},
                "scene");
     System& sys = B.sys;
     sys.name = get_string(c, root, "name", std::filesystem::path(file).stem().string());
