@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "service/dynamics/integrators.h"
+#include "service/dynamics/contacts.h"
 #include "service/dynamics/wrenches.h"
 #include "tests/test_util.h"
 
@@ -63,6 +64,7 @@ TEST(NoAllocation, EvaluateAndStepOfTheWheelScenes) {
       const System sys = load_with_reactions(name, f);
       Stepper st(sys);
       WrenchData wd(sys);
+      ContactData cts(sys);
       std::mt19937 rng(6);
       const int n = sys.model.nv();
       std::vector<Eigen::VectorXd> qs, vs, taus;
@@ -80,6 +82,7 @@ TEST(NoAllocation, EvaluateAndStepOfTheWheelScenes) {
         for (int k = 0; k < 2000; ++k) {
           evaluate(sys, st.ws, qs[k % 16], vs[k % 16], taus[k % 16]);
           compute_wrenches(sys, st.ws, wd);  // the vehicle: axles, and the null-space pass (rank 5 of 6)
+          compute_contacts(sys, st.ws, cts);
         }
         for (int k = 0; k < 500; ++k) step(sys, st, k % 2 ? Integrator::kRk4 : Integrator::kSemiImplicitEuler, 1e-3, tau, q, v);
         EXPECT_EQ(c.count(), 0);

@@ -32,7 +32,7 @@ inline const std::vector<std::string>& all_scenes() {
 // from all_scenes(): their nonholonomic rows have velocity errors without a position error, which
 // the generic weld checks over all_scenes() do not expect; tests/wheel_test.cc covers them.
 inline const std::vector<std::string>& wheel_scenes() {
-  static const std::vector<std::string> s = {"unicycle", "two_wheel_vehicle"};
+  static const std::vector<std::string> s = {"unicycle", "two_wheel_vehicle", "four_wheel_car", "trike"};
   return s;
 }
 
