@@ -101,3 +101,29 @@ TEST(NoAllocation, TheCounterSeesEigenAndStdAllocations) {
   EXPECT_GE(c.count(), 2);
   EXPECT_EQ(x.sum() + v.size(), 1010);
 }
+
+TEST(NoAllocation, RollingResistanceAndTheContactReport) {
+  // the car with rolling resistance: the fixed-point iterations on the factored Q, the contact
+  // report, and steps with projection
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  const System sys = load_scene_string(replace_once(scene_text("four_wheel_car"), "mu: 0.85}", "mu: 0.85, rolling_resistance: 0.012}"),
+                                       scene_path("four_wheel_car"));
+  Stepper st(sys);
+  WrenchData wd(sys);
+  ContactData cts(sys);
+  const int n = sys.model.nv();
+  Eigen::VectorXd q = sys.q0, v = Eigen::VectorXd::Zero(n), tau = Eigen::VectorXd::Zero(n);
+  v[3] = 15.0;
+  for (const char* w : {"fl_spin", "fr_spin", "rl_spin", "rr_spin"}) v[velocity_index_of(sys, w)] = 15.0 / 0.31;
+  {
+    AllocationCounter c;
+    for (int k = 0; k < 500; ++k) {
+      step(sys, st, Integrator::kRk4, 1e-3, tau, q, v);
+      compute_wrenches(sys, st.ws, wd);
+      compute_contacts(sys, st.ws, cts);
+    }
+    EXPECT_EQ(c.count(), 0);
+  }
+  EXPECT_GT(st.ws.rr_iterations, 1);
+  EXPECT_LT(v[3], 15.0);  // it slowed
+}

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "service/dynamics/contacts.h"
+#include "service/dynamics/integrators.h"
 #include "service/io/codec.h"
 #include "tests/child_process.h"
 #include "tests/test_util.h"
@@ -420,4 +421,64 @@ TEST(Vehicle, SimReportsTheMomentAWheelStartsToSlip) {
     ++rows;
   }
   EXPECT_EQ(rows, 101);
+}
+
+TEST(Vehicle, RollingResistanceSlowsACoastingCarAsTheEnergyBalanceSays) {
+  // ground rolling_resistance c_rr: each wheel's normal force acts c_rr r ahead of its contact
+  // point, a moment -c_rr r N about the axle. The moments' power is -c_rr (sum N) V = -c_rr M g V,
+  // so a car coasting straight decelerates by c_rr g M / (M + 4 I / r^2) (the wheels' spin inertia
+  // slows with it), whatever the pitch transfer does to each wheel.
+  const double crr = 0.012, V = 20.0;
+  const System sys = load_scene_string(replace_once(scene_text("four_wheel_car"), "mu: 0.85}", "mu: 0.85, rolling_resistance: 0.012}"),
+                                       scene_path("four_wheel_car"));
+  const Model& m = sys.model;
+  Eigen::VectorXd q = sys.q0, v = Eigen::VectorXd::Zero(m.nv()), tau = Eigen::VectorXd::Zero(m.nv());
+  v[3] = V;
+  for (const char* w : {"fl_spin", "fr_spin", "rl_spin", "rr_spin"}) v[velocity_index_of(sys, w)] = V / kR;
+  Workspace ws(sys);
+  ASSERT_NE(evaluate(sys, ws, q, v, tau).status, Status::kError);
+  EXPECT_GT(ws.rr_iterations, 1);
+  EXPECT_LT(ws.rr_iterations, 50);
+  const double M = kMc + 4 * kMw, s = V / std::sqrt(V * V + kRollingResistanceSpeed * kRollingResistanceSpeed);
+  const double a = -crr * kG * M * s / (M + 4 * kIspin / (kR * kR));
+  EXPECT_NEAR(ws.vdot[3], a, 1e-9 * std::abs(a));
+  // each contact's wrench carries its moment, -c_rr r N about y_C
+  for (const char* w : {"fl", "fr", "rl", "rr"}) {
+    const Vec6 W = tip_wrench(sys, ws, spec_of(sys, w));
+    EXPECT_NEAR(W[1], -crr * kR * s * W[5], 1e-12 * W[5]) << w;
+  }
+  // the external wrenches (contacts with their moments, gravity) equal the momentum rate
+  const double eps = 1e-6;
+  Eigen::VectorXd qp(m.nq()), qm(m.nq());
+  integrate(m, q, v, eps, qp);
+  integrate(m, q, v, -eps, qm);
+  const Vec6 hdot = (total_momentum(m, qp, v + eps * ws.vdot) - total_momentum(m, qm, v - eps * ws.vdot)) / (2 * eps);
+  Vec6 F = Vec6::Zero();
+  for (const char* w : {"fl", "fr", "rl", "rr"}) {
+    const int sp = spec_of(sys, w);
+    F += rolling_contact_frame(m, ws.data, sys.constraints.specs[static_cast<size_t>(sp)]).act_force(tip_wrench(sys, ws, sp));
+  }
+  for (int i = 0; i < m.nbodies(); ++i) {
+    const Inertia& I = m.bodies[i].inertia;
+    Vec6 Fg;
+    Fg << Vec3::Zero(), I.m * m.gravity_W;
+    F += Transform(Mat3::Identity(), ws.data.X_WB[i].R * I.c + ws.data.X_WB[i].p).act_force(Fg);
+  }
+  EXPECT_LT((hdot - F).norm(), 1e-6 * F.norm());
+  // coasting 2 s: the speed falls linearly at that rate (RK4, 1 ms)
+  Stepper st(sys);
+  for (int k = 0; k < 2000; ++k) ASSERT_NE(step(sys, st, Integrator::kRk4, 1e-3, tau, q, v).status, Status::kError);
+  EXPECT_NEAR(v[3], V + 2.0 * a, 1e-6);
+  std::printf("[ four_wheel_car ] c_rr %.3f: coasting from %.0f m/s decelerates %.6f m/s^2 (c_rr g M / (M + 4 I / r^2)), "
+              "%.6f m/s after 2 s; %d fixed-point iterations\n",
+              crr, V, -a, v[3], ws.rr_iterations);
+  // only where it is solved
+  try {
+    SceneOverrides ov;
+    ov.formulation = Formulation::kSvdBaseline;
+    load_scene_string(replace_once(scene_text("four_wheel_car"), "mu: 0.85}", "mu: 0.85, rolling_resistance: 0.012}"), "car.yaml", ov);
+    ADD_FAILURE() << "loaded";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("mobile_platform and classic"), std::string::npos) << e.what();
+  }
 }

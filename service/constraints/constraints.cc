@@ -11,6 +11,7 @@ namespace coopdyn {
 
 void ConstraintSet::compile(const Model& model) {
   rows = 0;
+  rolling_resistance = false;
   row_offset.clear();
   row_count.clear();
   row_axis.clear();
@@ -50,6 +51,9 @@ void ConstraintSet::compile(const Model& model) {
         throw std::invalid_argument("constraint '" + c.name + "': wheel radius must be > 0");
       if (!(std::abs(c.axle.norm() - 1.0) < 1e-9))
         throw std::invalid_argument("constraint '" + c.name + "': wheel axle must be a unit vector");
+      if (!(c.rolling_resistance >= 0.0 && c.rolling_resistance <= 0.1))
+        throw std::invalid_argument("constraint '" + c.name + "': rolling resistance must be in [0, 0.1]");
+      if (c.rolling_resistance > 0) rolling_resistance = true;
       if (!(std::abs(c.ground_n.norm() - 1.0) < 1e-9) || !std::isfinite(c.ground_d))
         throw std::invalid_argument("constraint '" + c.name + "': ground normal must be a unit vector, offset finite");
       for (int k = 0; k < 3; ++k) {
@@ -83,6 +87,7 @@ ConstraintData::ConstraintData(const Model& model, const ConstraintSet& set) {
   J_a.setZero(6, model.nv());
   J_b.setZero(6, model.nv());
   X_RS.assign(set.specs.size(), Transform());
+  rr_arm.assign(set.specs.size(), 0.0);
 }
 
 namespace {
@@ -185,6 +190,10 @@ void constraint_rows(const Model& model, const Data& data, const ConstraintSet& 
       cd.err[r0] = 0.0;          // nonholonomic: no position error, so no Baumgarte beta term
       cd.err[r0 + 1] = 0.0;
       cd.err[r0 + 2] = nz.dot(g.p + data.p_ref) - c.ground_d;  // height of the contact point above the plane
+      if (c.rolling_resistance > 0) {
+        const double uc = g.x.dot(V_W.tail<3>() + w.cross(c_R));  // the centre's speed along the heading
+        cd.rr_arm[s] = -c.rolling_resistance * c.radius * uc / std::sqrt(uc * uc + kRollingResistanceSpeed * kRollingResistanceSpeed);
+      }
       Transform& X_RC = cd.X_RS[s];
       X_RC.R.col(0) = g.x;
       X_RC.R.col(1) = g.y;

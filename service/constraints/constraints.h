@@ -57,9 +57,17 @@ struct ConstraintSpec {
   double radius = 0.0;           // rolling: wheel radius (m)
   Vec3 ground_n = Vec3::UnitZ(); // rolling: the ground plane's unit normal (world), pointing up
   double ground_d = 0.0;         // rolling: the plane is {x : ground_n . x = ground_d} (m)
+  // rolling: rolling-resistance coefficient c_rr (dimensionless, 0 = none): the normal force acts
+  // c_rr r ahead of P, a moment -c_rr r N sgn(u) y_C on the wheel about P, u the wheel centre's
+  // speed along x_C and sgn smoothed over kRollingResistanceSpeed (README "Vehicles")
+  double rolling_resistance = 0.0;
   double mu = 0.0;               // rolling: friction coefficient for the utilisation report
                                  // (contacts.h); 0 = not given (friction needed still reported)
 };
+
+// Speed (m/s) over which the rolling-resistance moment's sign is smoothed: sgn(u) ~ u / sqrt(u^2 +
+// u0^2), so a wheel at rest feels none and one rolling at 1 m/s 1 - 5e-7 of it.
+constexpr double kRollingResistanceSpeed = 1e-3;
 
 // Contact geometry of a rolling spec after forward_kinematics: X_WC (contact frame C at the contact
 // point P, see ConstraintKind::kRolling). Allocation-free.
@@ -81,6 +89,7 @@ struct ConstraintSet {
   std::vector<std::vector<int>> support;    // DOFs each spec touches, ascending
   std::vector<int> row_spec;                // spec of each row
   Eigen::VectorXd row_compliance;           // (rows)
+  bool rolling_resistance = false;          // some rolling spec has a rolling-resistance coefficient
 
   void compile(const Model& model);
 };
@@ -98,6 +107,10 @@ struct ConstraintData {
   // origin relative to data.p_ref (what to_ref() gives); unused for a lock. The wrenches read it
   // (wrenches.h) instead of recomputing the poses of the same evaluation.
   std::vector<Transform> X_RS;
+  // per spec (rolling with a resistance coefficient; 0 otherwise): the moment about y_C per newton
+  // of normal force, -c_rr r sgn(u) (m); the ground's wrench on the wheel at P in C is
+  // [0, rr_arm N, 0; fx, fy, N]
+  std::vector<double> rr_arm;
 };
 
 // Fills G, Gdot_v, err, Gv, gamma and X_RS after forward_kinematics(q, v).

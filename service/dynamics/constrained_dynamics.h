@@ -78,6 +78,8 @@ struct Workspace {
   Eigen::MatrixXd eig_A, eig_V;  // (rows x rows) SVD baseline's eigen-decomposition of Q_r
   Eigen::VectorXd eig_w;         // (rows)
   Eigen::VectorXd tmp_m, tmp_m2;  // (rows)
+  Eigen::VectorXd tau_c0;        // (nv) tau - h before the rolling-resistance moments
+  int rr_iterations = 0;         // fixed-point iterations of the rolling-resistance moments (0: none)
 
   // kPseudoJointSchur only (empty otherwise)
   Eigen::MatrixXd Minv, P, QinvPt, D;  // (nv x nv), (nv x rows), (rows x nv), (nv x nv)

@@ -11,12 +11,13 @@ struct GroundSpec {
   Vec3 n = Vec3::UnitZ();
   Vec3 point = Vec3::Zero();
   double mu = 0.0;
+  double rolling_resistance = 0.0;
 };
 
 // `ground: {normal: [nx, ny, nz], point: [x, y, z], mu: MU}`, each key optional (from `def`).
 GroundSpec read_ground(const Ctx& c, const YAML::Node& g, const GroundSpec& def, const std::string& what) {
   if (!g.IsMap()) fail(c, g, what + " must be a mapping {normal, point, mu}");
-  check_keys(c, g, {"normal", "point", "mu"}, what);
+  check_keys(c, g, {"normal", "point", "mu", "rolling_resistance"}, what);
   GroundSpec out = def;
   if (g["normal"]) {
     const Vec3 n = as_vec3(c, g["normal"], what + ".normal");
@@ -28,6 +29,11 @@ GroundSpec read_ground(const Ctx& c, const YAML::Node& g, const GroundSpec& def,
   if (g["mu"]) {
     out.mu = as_double(c, g["mu"], what + ".mu");
     if (!(out.mu > 0)) fail(c, g["mu"], what + ": mu must be > 0 (leave it out for no friction coefficient)");
+  }
+  if (g["rolling_resistance"]) {
+    out.rolling_resistance = as_double(c, g["rolling_resistance"], what + ".rolling_resistance");
+    if (!(out.rolling_resistance >= 0 && out.rolling_resistance <= 0.1))
+      fail(c, g["rolling_resistance"], what + ": rolling_resistance must be in [0, 0.1] (tires: 0.005-0.03)");
   }
   return out;
 }
@@ -183,6 +189,11 @@ void build_bodies(Builder& B, const YAML::Node& root, const std::map<std::string
         s.ground_n = g.n;
         s.ground_d = g.n.dot(g.point);
         s.mu = g.mu;
+        s.rolling_resistance = g.rolling_resistance;
+        if (s.rolling_resistance > 0 && B.sys.options.formulation != Formulation::kMobilePlatform &&
+            B.sys.options.formulation != Formulation::kClassic)
+          fail(c, k, "constraint '" + s.name + "': rolling resistance is solved in the mobile_platform and classic "
+                     "formulations only (this scene is " + formulation_name(B.sys.options.formulation) + ")");
         if (k["mu"]) {
           if (k["ground"] && k["ground"]["mu"]) fail(c, k["mu"], "constraint '" + s.name + "': 'mu' is given twice (also in its 'ground')");
           s.mu = as_double(c, k["mu"], "constraint '" + s.name + "'.mu");
