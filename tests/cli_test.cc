@@ -118,7 +118,8 @@ TEST(Cli, EverySubcommandHasHelpOnStdoutWithItsOptionsAndDefaults) {
   };
   const std::vector<Case> cases = {
       {"eval", {"--scene", "--state", "--formulation"}},
-      {"sim", {"--scene", "--duration", "--dt", "--integrator NAME=rk4", "--torque", "--out", "JOINT:pulse:VALUE:T0:T1"}},
+      {"sim", {"--scene", "--duration", "--dt", "--integrator NAME=rk4", "--torque", "--out", "--every N=1", "--progress",
+               "JOINT:pulse:VALUE:T0:T1"}},
       {"send", {"--torque", "--states", "--joints-only", "--rate HZ=100", "--lcm-url URL=udpm://239.255.76.67:7667?ttl=0",
                 "--measure-latency", "--no-check"}},
       {"log", {"--in", "--out", "--no-plot", "--python PATH=/usr/bin/python3"}},
