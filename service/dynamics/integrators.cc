@@ -26,7 +26,7 @@ bool parse_integrator(const std::string& s, Integrator* i) {
 }
 
 Stepper::Stepper(const System& sys)
-    : ws(sys), ws_stage(sys), proj_qs(sys.options.projection_iterations > 0 ? sys.constraints.rows : 0) {
+    : ws(sys), ws_stage(sys), proj_qs(sys.constraints.rows) {
   for (int k = 0; k < 4; ++k) {
     k_q[k].setZero(sys.model.nq());
     k_v[k].setZero(sys.model.nv());
@@ -44,7 +44,7 @@ Stepper::Stepper(const System& sys)
   q_start.setZero(sys.model.nq());
   v_start.setZero(sys.model.nv());
   const int m = sys.constraints.rows;
-  if (sys.options.projection_iterations > 0) {
+  {  // sized whether or not the scene projects: project_state may be called on any Stepper
     GGt.setZero(m, m);
     eA.setZero(m, m);
     eV.setZero(m, m);

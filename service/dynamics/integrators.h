@@ -37,7 +37,7 @@ struct Stepper {
   // eigen-decomposition (eigenvalues <= rank_tol * the largest dropped) as a reference for tests
   enum class ProjectionSolve { kCholesky, kEigen };
   ProjectionSolve projection_solve = ProjectionSolve::kCholesky;
-  QSolver proj_qs;                 // sized rows when the scene projects, else 0
+  QSolver proj_qs;                 // (rows)
   SolverOptions proj_opt;          // the scene's tolerances, minimum norm
   Eigen::MatrixXd GGt, eA, eV;     // (rows x rows); eA, eV only for kEigen
   Eigen::VectorXd ew, r, dv;       // (rows), (rows), (nv)
