@@ -75,6 +75,7 @@ void register_log(Cli& cli);
 void register_control(Cli& cli);
 void register_track(Cli& cli);
 void register_view(Cli& cli);
+void register_bench(Cli& cli);
 int cmd_eval(const Args& a);
 int cmd_track(const Args& a);
 int cmd_control(const Args& a);
@@ -82,5 +83,6 @@ int cmd_sim(const Args& a);
 int cmd_send(const Args&);
 int cmd_log(const Args&);
 int cmd_view(const Args&);  // clients/view.cc
+int cmd_bench(const Args& a);  // clients/bench.cc
 
 }  // namespace coopdyn::cli

@@ -8,7 +8,7 @@
 int main(int argc, char** argv) {
   using namespace coopdyn::cli;
   CLI::App app{"coopdyn " COOPDYN_VERSION
-               ": constrained dynamics of cooperating manipulators, offline (eval, sim) and as clients of "
+               ": constrained dynamics of cooperating manipulators, offline (eval, sim, bench) and as clients of "
                "coopdynd (send, log, control, track)",
                "coopdyn"};
   app.set_version_flag("--version", "coopdyn " COOPDYN_VERSION, "print the version and exit");
@@ -27,6 +27,7 @@ int main(int argc, char** argv) {
   register_control(cli);
   register_track(cli);
   register_view(cli);
+  register_bench(cli);
   if (argc < 2) {  // no command: the usage, as an error
     std::cerr << app.help();
     return 2;

@@ -1,7 +1,18 @@
 // coopdyn sim: fixed-step simulation to CSV (time, state, wrenches, stresses, diagnostics).
+//
+// Numbers are written by std::to_chars in their shortest round-trip form (strtod reads back the
+// exact double, like %.17g, in fewer characters) into one line buffer, one fwrite per row; the
+// diagnostics keep %.3g (to_chars with precision 3, the same text). --every N writes every N-th
+// step (rows t = 0, N dt, 2 N dt, ...: row k is row k N of the full run, bit for bit; a step that
+// fails is written too) and skips the wrenches of the steps not written. Progress goes to stderr when it is a terminal, or on --progress.
+#include <unistd.h>
+
+#include <charconv>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "clients/cli.h"
@@ -11,6 +22,39 @@
 #include "service/scene/scene.h"
 
 namespace coopdyn::cli {
+
+namespace {
+
+// A CSV line assembled in a buffer sized once for the scene's columns.
+class Line {
+ public:
+  explicit Line(size_t columns) : buf_(columns * 32 + 64) {}
+  void clear() { n_ = 0; }
+  void num(double x) {  // shortest round-trip
+    char* p = buf_.data() + n_;
+    n_ = std::to_chars(p, buf_.data() + buf_.size(), x).ptr - buf_.data();
+  }
+  void num3(double x) {  // as %.3g
+    char* p = buf_.data() + n_;
+    n_ = std::to_chars(p, buf_.data() + buf_.size(), x, std::chars_format::general, 3).ptr - buf_.data();
+  }
+  void integer(int x) {
+    char* p = buf_.data() + n_;
+    n_ = std::to_chars(p, buf_.data() + buf_.size(), x).ptr - buf_.data();
+  }
+  void text(const char* s) {
+    while (*s) buf_[n_++] = *s++;
+  }
+  void sep() { buf_[n_++] = ','; }
+  void end() { buf_[n_++] = '\n'; }
+  void write(std::FILE* f) const { std::fwrite(buf_.data(), 1, n_, f); }
+
+ private:
+  std::vector<char> buf_;
+  size_t n_ = 0;
+};
+
+}  // namespace
 
 void register_sim(Cli& cli) {
   Command& c = cli.add("sim",
@@ -23,6 +67,8 @@ void register_sim(Cli& cli) {
   c.value("--integrator", "NAME", "semi_implicit_euler, rk4 or implicit_euler", "rk4");
   c.repeated("--torque", "PROFILE", "applied torque; repeat to combine (see below)");
   c.value("--out", "FILE.csv", "where to write the CSV (default: stdout)");
+  c.number("--every", "N", "write every N-th step only (t = 0, N dt, 2 N dt, ...)", "1");
+  c.flag("--progress", "report progress on stderr (default: only when stderr is a terminal)");
   c.app->footer(kProfileHelp);
 }
 
@@ -32,6 +78,7 @@ int cmd_sim(const Args& a) {
     return 2;
   }
   double T, h;
+  long every = 1;
   try {
     T = std::stod(a.get("duration"));
     h = std::stod(a.get("dt"));
@@ -42,6 +89,19 @@ int cmd_sim(const Args& a) {
   if (!(T >= 0) || !(h > 0) || !std::isfinite(T) || !std::isfinite(h)) {
     std::fprintf(stderr, "coopdyn sim: need duration >= 0 and dt > 0\n");
     return 2;
+  }
+  if (a.has("every")) {
+    const std::string s = a.get("every");
+    size_t used = 0;
+    try {
+      every = std::stol(s, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != s.size() || every < 1) {
+      std::fprintf(stderr, "coopdyn sim: --every must be a whole number >= 1 (got '%s')\n", s.c_str());
+      return 2;
+    }
   }
   Integrator integ = Integrator::kRk4;
   if (a.has("integrator") && !parse_integrator(a.get("integrator"), &integ)) {
@@ -60,6 +120,8 @@ int cmd_sim(const Args& a) {
       return 1;
     }
   }
+  static std::vector<char> iobuf(1 << 16);  // outlives stdout's last flush at exit
+  std::setvbuf(out, iobuf.data(), _IOFBF, iobuf.size());
   const Model& model = sys.model;
   static const char* comp[6] = {"mx", "my", "mz", "fx", "fy", "fz"};
   std::fprintf(out, "t");
@@ -81,39 +143,63 @@ int cmd_sim(const Args& a) {
   Stepper st(sys);
   WrenchData wd(sys);
   Eigen::VectorXd q = sys.q0, v = sys.v0, tau(model.nv());
+  Eigen::VectorXd q_prev(model.nq()), v_prev(model.nv());
+  Line line(1 + model.nq() + 3 * model.nv() + 6 * sys.wrenches.outputs.size() + model.pseudo_dofs.size() + 4);
   const long steps = std::lround(T / h);
+  const bool progress = a.has("progress") || isatty(STDERR_FILENO);
+  const bool tty = isatty(STDERR_FILENO);
+  using clock = std::chrono::steady_clock;
+  const clock::time_point t_start = clock::now();
+  clock::time_point next_report = t_start + std::chrono::milliseconds(tty ? 200 : 1000);
+  bool reported = false;
   int rc = 0;
   for (long i = 0; i <= steps; ++i) {
     const double t = i * h;
     prof.eval(t, tau);
-    Eigen::VectorXd q_prev = q, v_prev = v;
+    q_prev = q;  // no allocation: sized above
+    v_prev = v;
     const Diagnostics& d = i < steps ? step(sys, st, integ, h, tau, q, v) : evaluate(sys, st.ws, q, v, tau);
-    std::fprintf(out, "%.17g", t);
-    for (int k = 0; k < q_prev.size(); ++k) std::fprintf(out, ",%.17g", q_prev[k]);
-    for (int k = 0; k < v_prev.size(); ++k) std::fprintf(out, ",%.17g", v_prev[k]);
-    for (int k = 0; k < tau.size(); ++k) std::fprintf(out, ",%.17g", tau[k]);
-    for (Eigen::Index k = 0; k < st.ws.vdot.size(); ++k) std::fprintf(out, ",%.17g", st.ws.vdot[k]);
-    compute_wrenches(sys, st.ws, wd);
-    for (const Vec6& w : wd.W)
-      for (int k = 0; k < 6; ++k) std::fprintf(out, ",%.17g", w[k]);
-    for (Eigen::Index k = 0; k < st.ws.stress.size(); ++k) std::fprintf(out, ",%.17g", st.ws.stress[k]);
-    compute_contacts(sys, st.ws, cts);
+    compute_contacts(sys, st.ws, cts);  // every step: a change of a contact's state is said when it happens
     for (size_t k = 0; k < cts.spec.size(); ++k) {
-      std::fprintf(out, ",%.17g,%.17g,%s", cts.friction_needed[k], cts.utilisation[k], contact_state_name(cts.state[k]));
-      if (cts.state[k] != last_state[k]) {  // never silent: each change of a contact's state, once
-        const char* n = sys.constraints.specs[static_cast<size_t>(cts.spec[k])].name.c_str();
-        if (cts.state[k] == ContactState::kOk)
-          std::fprintf(stderr, "coopdyn sim: t=%g: wheel '%s' is back within its contact (ok)\n", t, n);
-        else
-          std::fprintf(stderr, "coopdyn sim: warning: t=%g: wheel '%s' %s (normal %.6g N, friction needed %.4g)\n", t, n,
-                       cts.state[k] == ContactState::kLiftOff ? "lifts off" : "needs more friction than its mu",
-                       cts.normal[k], cts.friction_needed[k]);
-        last_state[k] = cts.state[k];
-      }
+      if (cts.state[k] == last_state[k]) continue;
+      const char* n = sys.constraints.specs[static_cast<size_t>(cts.spec[k])].name.c_str();
+      if (cts.state[k] == ContactState::kOk)
+        std::fprintf(stderr, "coopdyn sim: t=%g: wheel '%s' is back within its contact (ok)\n", t, n);
+      else
+        std::fprintf(stderr, "coopdyn sim: warning: t=%g: wheel '%s' %s (normal %.6g N, friction needed %.4g)\n", t, n,
+                     cts.state[k] == ContactState::kLiftOff ? "lifts off" : "needs more friction than its mu", cts.normal[k],
+                     cts.friction_needed[k]);
+      last_state[k] = cts.state[k];
     }
-    std::fprintf(out, ",%s,%d,%.3g,%.3g\n", status_name(d.status), d.rank, d.residual,
-                 st.ws.cd.err.size() ? st.ws.cd.err.cwiseAbs().maxCoeff() : 0.0);
+    if (i % every == 0 || d.status == Status::kError) {  // the failing step's row is always written
+      line.clear();
+      line.num(t);
+      for (int k = 0; k < q_prev.size(); ++k) line.sep(), line.num(q_prev[k]);
+      for (int k = 0; k < v_prev.size(); ++k) line.sep(), line.num(v_prev[k]);
+      for (int k = 0; k < tau.size(); ++k) line.sep(), line.num(tau[k]);
+      for (Eigen::Index k = 0; k < st.ws.vdot.size(); ++k) line.sep(), line.num(st.ws.vdot[k]);
+      compute_wrenches(sys, st.ws, wd);
+      for (const Vec6& w : wd.W)
+        for (int k = 0; k < 6; ++k) line.sep(), line.num(w[k]);
+      for (Eigen::Index k = 0; k < st.ws.stress.size(); ++k) line.sep(), line.num(st.ws.stress[k]);
+      for (size_t k = 0; k < cts.spec.size(); ++k) {
+        line.sep(), line.num(cts.friction_needed[k]);
+        line.sep(), line.num(cts.utilisation[k]);
+        line.sep(), line.text(contact_state_name(cts.state[k]));
+      }
+      line.sep();
+      line.text(status_name(d.status));
+      line.sep();
+      line.integer(d.rank);
+      line.sep();
+      line.num3(d.residual);
+      line.sep();
+      line.num3(st.ws.cd.err.size() ? st.ws.cd.err.cwiseAbs().maxCoeff() : 0.0);
+      line.end();
+      line.write(out);
+    }
     if (d.status == Status::kError) {
+      if (reported && tty) std::fprintf(stderr, "\n");
       std::fprintf(stderr, "coopdyn sim: stopped at t=%g: %s", t, reason_text(d.reason));
       if (d.reason == Reason::kDiverged && d.bad_index >= 0)
         std::fprintf(stderr, " (v:%s reached %.3g, bound solver.max_speed %.3g; the last row is the last good state)",
@@ -122,8 +208,22 @@ int cmd_sim(const Args& a) {
       rc = 3;
       break;
     }
+    if (progress && (i & 255) == 0 && clock::now() >= next_report) {
+      const double wall = std::chrono::duration<double>(clock::now() - t_start).count();
+      const double frac = steps > 0 ? double(i) / steps : 1.0;
+      std::fprintf(stderr, "%scoopdyn sim: t = %.3f of %.3f s (%.0f %%), %.1f s wall, %.0f s left%s", tty ? "\r" : "", t, T,
+                   100 * frac, wall, frac > 0 ? wall * (1 - frac) / frac : 0.0, tty ? "" : "\n");
+      std::fflush(stderr);
+      reported = true;
+      next_report = clock::now() + std::chrono::milliseconds(tty ? 200 : 1000);
+    }
+  }
+  if (progress && rc == 0) {
+    const double wall = std::chrono::duration<double>(clock::now() - t_start).count();
+    std::fprintf(stderr, "%scoopdyn sim: %ld steps in %.2f s wall\n", tty && reported ? "\r" : "", steps, wall);
   }
   if (out != stdout) std::fclose(out);
+  else std::fflush(out);
   return rc;
 }
 

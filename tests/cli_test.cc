@@ -3,8 +3,12 @@
 // exit 0 and shows the options and their defaults; --version; the old flags keep their meaning.
 #include <gtest/gtest.h>
 #include <unistd.h>
+#include <yaml-cpp/yaml.h>
 
+#include <cmath>
+#include <cstdio>
 #include <cstdlib>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -114,13 +118,15 @@ TEST(Cli, EverySubcommandHasHelpOnStdoutWithItsOptionsAndDefaults) {
   };
   const std::vector<Case> cases = {
       {"eval", {"--scene", "--state", "--formulation"}},
-      {"sim", {"--scene", "--duration", "--dt", "--integrator NAME=rk4", "--torque", "--out", "JOINT:pulse:VALUE:T0:T1"}},
+      {"sim", {"--scene", "--duration", "--dt", "--integrator NAME=rk4", "--torque", "--out", "--every N=1", "--progress",
+               "JOINT:pulse:VALUE:T0:T1"}},
       {"send", {"--torque", "--states", "--joints-only", "--rate HZ=100", "--lcm-url URL=udpm://239.255.76.67:7667?ttl=0",
                 "--measure-latency", "--no-check"}},
       {"log", {"--in", "--out", "--no-plot", "--python PATH=/usr/bin/python3"}},
       {"control", {"--action", "reset_to_state", "--state", "--no-wait", "--channel C=COOPDYN_CONTROL"}},
       {"track", {"--duration S=6", "--radius M=0.05", "--period S=4", "--squeeze N=20", "--out"}},
       {"view", {"--scene", "--csv", "--out", "--max-frames N=2000", "--three-js FILE=/usr/share/javascript/three/three.min.js"}},
+      {"bench", {"--scene", "--min-time S=0.5", "--repetitions N=15", "--json", "--formulation"}},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.sub);
@@ -132,7 +138,7 @@ TEST(Cli, EverySubcommandHasHelpOnStdoutWithItsOptionsAndDefaults) {
   const Result top = run({COOPDYN_PATH, "--help"}, "help_top");
   EXPECT_EQ(top.rc, 0);
   EXPECT_EQ(top.err, "");
-  for (const char* sub : {"eval", "sim", "send", "log", "control", "track", "view"}) EXPECT_TRUE(has(top.out, sub)) << top.out;
+  for (const char* sub : {"eval", "sim", "send", "log", "control", "track", "view", "bench"}) EXPECT_TRUE(has(top.out, sub)) << top.out;
   const Result d = run({COOPDYND_PATH, "--help"}, "help_d");
   EXPECT_EQ(d.rc, 0);
   EXPECT_EQ(d.err, "");
@@ -144,7 +150,7 @@ TEST(Cli, NoSubcommandPrintsTheUsageAsAnError) {
   const Result r = run({COOPDYN_PATH}, "none");
   EXPECT_NE(r.rc, 0);
   EXPECT_EQ(r.out, "");
-  for (const char* sub : {"eval", "sim", "send", "log", "control", "track", "view"}) EXPECT_TRUE(has(r.err, sub)) << r.err;
+  for (const char* sub : {"eval", "sim", "send", "log", "control", "track", "view", "bench"}) EXPECT_TRUE(has(r.err, sub)) << r.err;
   const Result u = run({COOPDYN_PATH, "bogus"}, "unknown_sub");
   EXPECT_EQ(u.rc, 2);
   EXPECT_TRUE(has(u.err, "bogus")) << u.err;
@@ -189,4 +195,70 @@ TEST(Cli, OldFlagsKeepTheirMeaning) {
   const Result l = run({COOPDYN_PATH, "log", "--no-plot", "--in", "/no/such.lcmlog"}, "log_flag");
   EXPECT_EQ(l.rc, 1) << "got to reading the log: " << l.err;
   EXPECT_TRUE(has(l.err, "/no/such.lcmlog")) << l.err;
+}
+
+// coopdyn bench on shipped scenes: the JSON parses, every number is finite and positive, and the rows
+// are the evaluation plus one step per integrator, twice (with and without) where the scene projects.
+// No wall-clock limit is asserted; --min-time keeps the run short.
+TEST(Cli, BenchPrintsOneRowPerIntegratorAndProjectionWithFinitePositiveCosts) {
+  struct Case {
+    const char* scene;
+    bool projects;
+  };
+  for (const Case& c : {Case{"two_puma_load", false}, Case{"two_wheel_vehicle", true}}) {
+    SCOPED_TRACE(c.scene);
+    const Result r = run({COOPDYN_PATH, "bench", "--scene", scene(c.scene), "--min-time", "0.03", "--repetitions", "5",
+                          "--json"},
+                         std::string("bench_") + c.scene);
+    ASSERT_EQ(r.rc, 0) << r.err;
+    YAML::Node j;
+    ASSERT_NO_THROW(j = YAML::Load(r.out)) << r.out;
+    EXPECT_EQ(j["name"].as<std::string>(), c.scene);
+    EXPECT_EQ(j["projection_iterations"].as<int>() > 0, c.projects);
+    std::set<std::string> names, want = {"evaluate", "step:semi_implicit_euler", "step:rk4", "step:implicit_euler"};
+    if (c.projects)
+      for (const char* i : {"semi_implicit_euler", "rk4", "implicit_euler"}) want.insert(std::string("step:") + i + "+projection");
+    ASSERT_TRUE(j["rows"].IsSequence()) << r.out;
+    for (const YAML::Node& row : j["rows"]) {
+      const std::string name = row["name"].as<std::string>();
+      EXPECT_TRUE(names.insert(name).second) << "row twice: " << name;
+      for (const char* k : {"median", "p10", "p90", "wall_median"}) {
+        const double x = row[k].as<double>();
+        EXPECT_TRUE(std::isfinite(x) && x > 0.0) << name << "." << k << " = " << x;
+      }
+      const double mad = row["mad"].as<double>();
+      EXPECT_TRUE(std::isfinite(mad) && mad >= 0.0) << name;
+      EXPECT_LE(row["p10"].as<double>(), row["median"].as<double>()) << name;
+      EXPECT_LE(row["median"].as<double>(), row["p90"].as<double>()) << name;
+      EXPECT_GE(row["batch"].as<long>(), 1) << name;
+      EXPECT_EQ(row["repetitions"].as<int>(), 5) << name;
+      EXPECT_EQ(row["projection"].as<bool>(), name.find("+projection") != std::string::npos) << name;
+    }
+    EXPECT_EQ(names, want);
+  }
+  // the table form: a header and one line per row
+  const Result t = run({COOPDYN_PATH, "bench", "--scene", scene("unicycle"), "--min-time", "0.02", "--repetitions", "3"},
+                       "bench_table");
+  ASSERT_EQ(t.rc, 0) << t.err;
+  for (const char* row : {"evaluate", "step:semi_implicit_euler", "step:rk4", "step:implicit_euler", "median", "p90"})
+    EXPECT_TRUE(has(t.out, row)) << t.out;
+}
+
+TEST(Cli, BenchOnAMissingOrBrokenSceneNamesTheFile) {
+  const Result m = run({COOPDYN_PATH, "bench", "--scene", "/no/such/scene.yaml"}, "bench_missing");
+  EXPECT_EQ(m.rc, 1);
+  EXPECT_TRUE(has(m.err, "/no/such/scene.yaml")) << m.err;
+  EXPECT_EQ(m.out, "");
+  const std::string broken = "/tmp/coopdyn_cli_bench_broken_" + std::to_string(getpid()) + ".yaml";
+  {
+    std::FILE* f = std::fopen(broken.c_str(), "w");
+    ASSERT_TRUE(f);
+    std::fputs("name: broken\nbodies: [unclosed\n", f);
+    std::fclose(f);
+  }
+  const Result b = run({COOPDYN_PATH, "bench", "--scene", broken}, "bench_broken");
+  std::remove(broken.c_str());
+  EXPECT_EQ(b.rc, 1);
+  EXPECT_TRUE(has(b.err, broken)) << b.err;
+  EXPECT_EQ(b.out, "");
 }

@@ -31,7 +31,7 @@ gtest_discover_tests(coopdyn_fuzz_tests DISCOVERY_TIMEOUT 60 PROPERTIES LABELS f
 
 # The command lines of coopdyn and coopdynd, run as processes (tests/cli_test.cc).
 add_executable(coopdyn_cli_tests ${CMAKE_CURRENT_LIST_DIR}/cli_test.cc)
-target_link_libraries(coopdyn_cli_tests PRIVATE coopdyn_io GTest::gtest GTest::gtest_main)
+target_link_libraries(coopdyn_cli_tests PRIVATE coopdyn_io yaml-cpp GTest::gtest GTest::gtest_main)
 target_compile_definitions(coopdyn_cli_tests PRIVATE
   COOPDYN_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
   COOPDYN_PROJECT_VERSION="${PROJECT_VERSION}"

@@ -74,3 +74,50 @@ TEST(SimCsv, RowsReadBackEvaluateToTheirOwnVdotAndWrenches) {
   expect_rows_reproduce("four_bar", {"--torque", "j1:constant:0.5"});
   expect_rows_reproduce("two_wheel_vehicle", {});  // Baumgarte + projection: no terms of its own either
 }
+
+namespace {
+std::vector<std::string> lines_of(const std::string& path) {
+  std::ifstream f(path);
+  std::vector<std::string> out;
+  for (std::string l; std::getline(f, l);) out.push_back(l);
+  return out;
+}
+}  // namespace
+
+// --every N writes the steps 0, N, 2N, ...: the same header, floor(steps / N) + 1 rows, and row k is
+// row k N of the full run character for character (the decimated run computes the same states; only
+// the writing is skipped). Progress goes to stderr only when asked (stderr is not a terminal here),
+// and the CSV is unchanged by it.
+TEST(SimCsv, EveryNWritesEveryNthRowOfTheFullRunExactly) {
+  const std::string full = tmp_path("sim_every_full.csv"), dec = tmp_path("sim_every_7.csv");
+  const std::vector<std::string> base = {COOPDYN_PATH, "sim", "--scene", scene_path("two_wheel_vehicle"), "--duration",
+                                         "0.2", "--dt", "0.002", "--torque", "left_spin:constant:2"};
+  std::vector<std::string> a = base, b = base;
+  a.insert(a.end(), {"--out", full});
+  b.insert(b.end(), {"--out", dec, "--every", "7", "--progress"});
+  std::string err_a, err_b;
+  {
+    Child sim(a, "sim_every_full");
+    ASSERT_EQ(sim.wait(), 0) << slurp(sim.err);
+    err_a = slurp(sim.err);
+  }
+  {
+    Child sim(b, "sim_every_7");
+    ASSERT_EQ(sim.wait(), 0) << slurp(sim.err);
+    err_b = slurp(sim.err);
+  }
+  const std::vector<std::string> F = lines_of(full), D = lines_of(dec);
+  ASSERT_EQ(F.size(), 1u + 101u);  // header + steps 0..100
+  ASSERT_EQ(D.size(), 1u + 100u / 7 + 1);
+  EXPECT_EQ(D[0], F[0]);
+  for (size_t k = 1; k < D.size(); ++k) EXPECT_EQ(D[k], F[1 + (k - 1) * 7]) << "row " << k - 1;
+  EXPECT_EQ(split(D.back())[0], "0.196");  // t of step 98
+  EXPECT_EQ(err_a, "") << "no progress unless asked or on a terminal";
+  EXPECT_NE(err_b.find("100 steps in"), std::string::npos) << err_b;
+  // a bad N is a usage error naming the option
+  Child bad({COOPDYN_PATH, "sim", "--scene", scene_path("two_wheel_vehicle"), "--duration", "0.01", "--dt", "0.001",
+             "--every", "0"},
+            "sim_every_bad");
+  EXPECT_EQ(bad.wait(), 2);
+  EXPECT_NE(slurp(bad.err).find("--every"), std::string::npos);
+}

@@ -25,7 +25,8 @@ bool parse_integrator(const std::string& s, Integrator* i) {
   return false;
 }
 
-Stepper::Stepper(const System& sys) : ws(sys), ws_stage(sys) {
+Stepper::Stepper(const System& sys)
+    : ws(sys), ws_stage(sys), proj_qs(sys.constraints.rows) {
   for (int k = 0; k < 4; ++k) {
     k_q[k].setZero(sys.model.nq());
     k_v[k].setZero(sys.model.nv());
@@ -43,21 +44,32 @@ Stepper::Stepper(const System& sys) : ws(sys), ws_stage(sys) {
   q_start.setZero(sys.model.nq());
   v_start.setZero(sys.model.nv());
   const int m = sys.constraints.rows;
-  if (sys.options.projection_iterations > 0) {
+  {  // sized whether or not the scene projects: project_state may be called on any Stepper
     GGt.setZero(m, m);
     eA.setZero(m, m);
     eV.setZero(m, m);
     ew.setZero(m);
     r.setZero(m);
     dv.setZero(sys.model.nv());
+    proj_opt = sys.options;
+    proj_opt.redundancy = Redundancy::kMinNorm;
   }
 }
 
 namespace {
-// x <- G^T (G G^T)^+ b, with G G^T eigen-decomposed in st (rank-safe)
+// x <- G^T (G G^T)^+ b (rank-safe): the minimum-norm solution of G x = b, least squares when b is
+// not in the range of G
 void apply_pinv(const System& sys, Stepper& st, const Eigen::MatrixXd& G, const Eigen::VectorXd& b, Eigen::VectorXd& x) {
   const int m = sys.constraints.rows;
   st.GGt.noalias() = G * G.transpose();
+  if (st.projection_solve == Stepper::ProjectionSolve::kCholesky) {
+    // the factorization of the constrained solve (q_solve.h): Cholesky when G G^T is well
+    // conditioned, else pivoted Cholesky with its null space; (G G^T)^+ b by minimum norm
+    st.proj_qs.factor(st.GGt, st.proj_opt, st.r);  // st.r: no compliance (minimum norm ignores it)
+    st.proj_qs.solve(b, st.ew);
+    x.noalias() = G.transpose() * st.ew;
+    return;
+  }
   st.eA = st.GGt;
   jacobi_eigen(st.eA, st.ew, st.eV);
   const double emax = m ? std::max(st.ew[m - 1], 0.0) : 0.0;
@@ -72,17 +84,22 @@ double project_state(const System& sys, Stepper& st, Eigen::VectorXd& q, Eigen::
   const Model& model = sys.model;
   Workspace& ws = st.ws_stage;
   double err = 0.0;
+  bool current = false;  // ws.cd holds the rows at the present q (skips a second evaluation after a break)
   for (int it = 0; it < std::max(1, sys.options.projection_iterations); ++it) {
     forward_kinematics(model, ws.data, q, v);
     constraint_rows(model, ws.data, sys.constraints, q, v, ws.cd);
     err = ws.cd.err.size() ? ws.cd.err.cwiseAbs().maxCoeff() : 0.0;
+    current = true;
     if (err < 1e-13) break;
     apply_pinv(sys, st, ws.cd.G, ws.cd.err, st.dv);
     integrate(model, q, st.dv, -1.0, q);
+    current = false;
   }
-  forward_kinematics(model, ws.data, q, v);
-  constraint_rows(model, ws.data, sys.constraints, q, v, ws.cd);
-  err = ws.cd.err.size() ? ws.cd.err.cwiseAbs().maxCoeff() : 0.0;
+  if (!current) {
+    forward_kinematics(model, ws.data, q, v);
+    constraint_rows(model, ws.data, sys.constraints, q, v, ws.cd);
+    err = ws.cd.err.size() ? ws.cd.err.cwiseAbs().maxCoeff() : 0.0;
+  }
   apply_pinv(sys, st, ws.cd.G, ws.cd.Gv, st.dv);
   v -= st.dv;
   return err;

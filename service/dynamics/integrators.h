@@ -32,8 +32,14 @@ struct Stepper {
   Eigen::MatrixXd Ja, Jb, K;
   Eigen::PartialPivLU<Eigen::MatrixXd> lu;
   Eigen::VectorXd vdot0, dq, rhs_v;
-  // projection scratch
-  Eigen::MatrixXd GGt, eA, eV;     // (rows x rows)
+  // projection scratch: x = G^T (G G^T)^+ b through the rank-revealing Cholesky of the solve
+  // (q_solve.h: fast path, else pivoted, minimum norm); kEigen keeps the former Jacobi
+  // eigen-decomposition (eigenvalues <= rank_tol * the largest dropped) as a reference for tests
+  enum class ProjectionSolve { kCholesky, kEigen };
+  ProjectionSolve projection_solve = ProjectionSolve::kCholesky;
+  QSolver proj_qs;                 // (rows)
+  SolverOptions proj_opt;          // the scene's tolerances, minimum norm
+  Eigen::MatrixXd GGt, eA, eV;     // (rows x rows); eA, eV only for kEigen
   Eigen::VectorXd ew, r, dv;       // (rows), (rows), (nv)
   // start state of the last step, restored when the step diverges
   Eigen::VectorXd q_start, v_start;  // (nq), (nv)
