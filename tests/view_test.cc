@@ -23,9 +23,15 @@
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
 #include <unistd.h>
 
+#include <mutex>
+
 #include "service/algorithms/kinematics.h"
+#include "service/dynamics/wrenches.h"
+#include "service/io/codec.h"
+#include "tests/child_process.h"
 #include "service/constraints/constraints.h"
 #include "service/scene/scene.h"
 
@@ -511,6 +517,190 @@ TEST(ViewBrowser, Plays) {
   // 3 s of virtual time at speed 0.25: about 0.75 s of the run (less: loading takes part of it)
   EXPECT_GT(p.t, 0.05) << p.probe;
   EXPECT_LT(p.t, 0.8) << p.probe;
+}
+
+// ---------------------------------------------------------------------------------------------
+// From a daemon log: coopdynd runs over udpm on a private loopback port, this process receives its
+// messages (a real LCM round trip) and writes them with LCM's event-log API as lcm-logger would.
+
+std::string private_udpm_url(int offset) {
+  return "udpm://239.255.76.67:" + std::to_string(20000 + (getpid() * 11 + offset) % 30000) + "?ttl=0";
+}
+
+struct Received {
+  std::string channel;
+  std::vector<uint8_t> data;
+  int64_t utime;
+};
+
+// Runs coopdynd on `scene` at `rate` Hz for `duration` s and returns every message it published on
+// the output and stats channels, in arrival order; empty when LCM cannot start (no multicast route).
+std::vector<Received> record_daemon(const std::string& url, const std::string& scene, int rate, double duration,
+                                    std::string* daemon_err) {
+  auto bus = daemon_test::try_bus(url);
+  if (!bus) return {};
+  std::mutex mu;
+  std::vector<Received> got;
+  for (const char* ch : {"COOPDYN_OUTPUT", "COOPDYN_STATS"})
+    bus->subscribe(ch, [&, ch](const void* d, int n, long long) {
+      std::lock_guard<std::mutex> lk(mu);
+      got.push_back({ch, std::vector<uint8_t>(static_cast<const uint8_t*>(d), static_cast<const uint8_t*>(d) + n),
+                     io::wall_us()});
+    });
+  bus->start();
+  char dur[32];
+  std::snprintf(dur, sizeof dur, "%g", duration);
+  const std::string cfg = daemon_test::tmp_path("view_cfg.yaml");
+  std::ofstream(cfg) << "stats_period_s: 0.1\n";
+  daemon_test::Child d({COOPDYND_PATH, "--scene", scene_file(scene), "--config", cfg, "--lcm-url", url, "--rate",
+                        std::to_string(rate), "--duration", dur},
+                       "view_daemon");
+  EXPECT_EQ(d.wait(), 0) << daemon_test::slurp(d.err);
+  *daemon_err = daemon_test::slurp(d.err);
+  std::remove(cfg.c_str());
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  bus->stop();
+  std::lock_guard<std::mutex> lk(mu);
+  return got;
+}
+
+void write_log(const std::string& path, const std::vector<Received>& msgs) {
+  lcm::LogFile log(path, "w");
+  ASSERT_TRUE(log.good()) << path;
+  int64_t n = 0;
+  for (const Received& r : msgs) {
+    lcm::LogEvent ev{};
+    ev.eventnum = n++;
+    ev.timestamp = r.utime;
+    ev.channel = r.channel;
+    ev.datalen = static_cast<int32_t>(r.data.size());
+    ev.data = const_cast<uint8_t*>(r.data.data());
+    ASSERT_EQ(log.writeEvent(&ev), 0);
+  }
+}
+
+std::vector<double> numbers(const std::string& list) {  // "1,2.5,3" -> {1, 2.5, 3}
+  std::vector<double> out;
+  const char* p = list.c_str();
+  while (*p) {
+    char* end;
+    out.push_back(std::strtod(p, &end));
+    if (end == p) break;
+    p = *end == ',' ? end + 1 : end;
+  }
+  return out;
+}
+
+// The page of a recorded daemon log has one frame per output_t message: the message's simulation
+// time and status, and its wrenches turned into world axes with the message's own configuration
+// (this process's forward kinematics). It loads in Chromium without a JavaScript error.
+TEST(ViewLog, FramesAreTheDaemonsMessages) {
+  TempDir dir("log");
+  std::string derr;
+  const std::vector<Received> msgs = record_daemon(private_udpm_url(1), "two_puma_load", 200, 0.5, &derr);
+  if (msgs.empty()) GTEST_SKIP() << "LCM over udpm unavailable (multicast route? ip route add 224.0.0.0/4 dev lo)";
+  std::vector<io::DecodedOutput> outs;
+  for (const Received& r : msgs) {
+    if (r.channel != "COOPDYN_OUTPUT") continue;
+    io::DecodedOutput o;
+    ASSERT_TRUE(io::decode_output(r.data.data(), static_cast<int>(r.data.size()), &o));
+    outs.push_back(std::move(o));
+  }
+  ASSERT_GE(outs.size(), 50u) << derr;  // 0.5 s at 200 Hz, less what loopback lost
+  const std::string log = dir / "run.lcmlog";
+  write_log(log, msgs);
+
+  std::string err;
+  ASSERT_EQ(run("'" + kBin + "' view --scene '" + scene_file("two_puma_load") + "' --log '" + log + "' --out '" +
+                    dir / "v.html" + "'",
+                dir / "e", &err),
+            0)
+      << err;
+  const std::string page = slurp(dir / "v.html");
+  const std::vector<double> t = numbers(between(page, "\"t\":[", "]"));
+  ASSERT_EQ(t.size(), outs.size());
+  const std::string all_w = between(page, "\"wrench\":[[", "]]}");
+  std::vector<std::vector<double>> w;
+  for (size_t at = 0, next; at < all_w.size(); at = next + 3) {
+    next = all_w.find("],[", at);
+    if (next == std::string::npos) next = all_w.size();
+    w.push_back(numbers(all_w.substr(at, next - at)));
+  }
+  ASSERT_EQ(w.size(), outs.size());
+  const System sys = load_scene(scene_file("two_puma_load"));
+  std::vector<int> drawn;
+  for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k)
+    if (sys.wrenches.outputs[k].kind != WrenchKind::kJoint) drawn.push_back(static_cast<int>(k));
+  Data data(sys.model);
+  int checked = 0;
+  double fmax = 0;
+  for (size_t i = 0; i < outs.size(); ++i) {
+    const io::DecodedOutput& o = outs[i];
+    EXPECT_NEAR(t[i], o.sim_time, 1e-8 * (1 + o.sim_time)) << "frame " << i;
+    ASSERT_EQ(w[i].size(), 9 * drawn.size());
+    Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(o.q.data(), static_cast<Eigen::Index>(o.q.size()));
+    normalize_configuration(sys.model, q);
+    forward_kinematics(sys.model, data, q, Eigen::VectorXd::Zero(sys.model.nv()));
+    for (size_t j = 0; j < drawn.size(); ++j) {
+      const Transform X = wrench_frame_pose(sys, data, drawn[j]);
+      const Vec3 f = X.R * Vec3(o.wrench[drawn[j]][3], o.wrench[drawn[j]][4], o.wrench[drawn[j]][5]);
+      const Vec3 m = X.R * Vec3(o.wrench[drawn[j]][0], o.wrench[drawn[j]][1], o.wrench[drawn[j]][2]);
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_NEAR(w[i][9 * j + k], X.p[k], 1e-5 * (1 + X.p.norm())) << o.wrench_names[drawn[j]];
+        EXPECT_NEAR(w[i][9 * j + 3 + k], f[k], 1e-5 * (1 + f.norm())) << o.wrench_names[drawn[j]] << " frame " << i;
+        EXPECT_NEAR(w[i][9 * j + 6 + k], m[k], 1e-5 * (1 + m.norm())) << o.wrench_names[drawn[j]] << " frame " << i;
+      }
+      fmax = std::max(fmax, f.norm());
+      ++checked;
+    }
+  }
+  EXPECT_GT(fmax, 10) << "the wrenches compared are not all zero";
+  EXPECT_EQ(checked, static_cast<int>(outs.size() * drawn.size()));
+  EXPECT_NE(page.find("\"source\":\"" + log + "\""), std::string::npos);
+
+  // bad input: another scene, another channel, a missing log, a file that is not a log
+  EXPECT_EQ(run("'" + kBin + "' view --scene '" + scene_file("four_bar") + "' --log '" + log + "' --out '" + dir / "x.html" + "'",
+                dir / "e", &err),
+            1);
+  EXPECT_NE(err.find(log + ": output_t 1 on channel 'COOPDYN_OUTPUT'"), std::string::npos) << err;
+  EXPECT_NE(err.find("scene 'four_bar'"), std::string::npos) << err;
+  EXPECT_NE(err.find("another scene"), std::string::npos) << err;
+  EXPECT_EQ(run("'" + kBin + "' view --scene '" + scene_file("two_puma_load") + "' --log '" + log +
+                    "' --channel COOPDYN_STATS --out '" + dir / "x.html" + "'",
+                dir / "e", &err),
+            1);
+  EXPECT_NE(err.find(log + ": no coopdyn.output_t messages on channel 'COOPDYN_STATS'"), std::string::npos) << err;
+  EXPECT_NE(err.find("COOPDYN_OUTPUT (coopdyn.output_t, " + std::to_string(outs.size()) + ")"), std::string::npos) << err;
+  EXPECT_NE(err.find("COOPDYN_STATS (coopdyn.loop_stats_t"), std::string::npos) << err;
+  EXPECT_EQ(run("'" + kBin + "' view --scene '" + scene_file("two_puma_load") + "' --log '" + dir / "none.lcmlog" +
+                    "' --out '" + dir / "x.html" + "'",
+                dir / "e", &err),
+            1);
+  EXPECT_NE(err.find("cannot read '" + dir / "none.lcmlog" + "' as an LCM log"), std::string::npos) << err;
+  EXPECT_EQ(run("'" + kBin + "' view --scene '" + scene_file("two_puma_load") + "' --log '" + scene_file("two_puma_load") +
+                    "' --out '" + dir / "x.html" + "'",
+                dir / "e", &err),
+            1);
+  EXPECT_NE(err.find(scene_file("two_puma_load") + ": no coopdyn.output_t messages"), std::string::npos) << err;
+  std::ofstream(dir / "broken.yaml") << "name: broken\nrobots: [\n";
+  EXPECT_EQ(run("'" + kBin + "' view --scene '" + dir / "broken.yaml" + "' --log '" + log + "' --out '" + dir / "x.html" + "'",
+                dir / "e", &err),
+            1);
+  EXPECT_NE(err.find(dir / "broken.yaml"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir / "x.html"));
+
+  const std::string chromium = find_chromium();
+  if (chromium.empty() || !fs::exists(kThree)) {
+    std::printf("[  SKIPPED ] the browser part: Chromium or three.js not installed\n");
+    return;
+  }
+  const Browse b = browse(chromium, dir / "v.html", "frame=20&paused=1", dir, "v", false);
+  ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
+  const PageState p = page_state(b.dom);
+  EXPECT_EQ(p.title, "coopdyn view: two_puma_load") << "a JavaScript error, or the page did not finish";
+  EXPECT_TRUE(p.ready);
+  EXPECT_EQ(p.frame, 20);
+  EXPECT_NEAR(p.t, outs[20].sim_time, 1e-8);
 }
 
 }  // namespace
