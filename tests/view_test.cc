@@ -26,7 +26,13 @@
 #include <lcm/lcm-cpp.hpp>
 #include <unistd.h>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+
+#include <atomic>
 #include <mutex>
+#include <thread>
 
 #include "service/algorithms/kinematics.h"
 #include "service/dynamics/wrenches.h"
@@ -701,6 +707,266 @@ TEST(ViewLog, FramesAreTheDaemonsMessages) {
   EXPECT_TRUE(p.ready);
   EXPECT_EQ(p.frame, 20);
   EXPECT_NEAR(p.t, outs[20].sim_time, 1e-8);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Live: coopdynd over udpm on a private loopback port, `coopdyn view --live` as its own process
+// serving the page and its WebSocket on 127.0.0.1 (port 0: the one it prints).
+
+// A TCP connection to 127.0.0.1:port (rcvbuf > 0: that receive buffer, set before connecting).
+int tcp_connect(int port, int rcvbuf = 0) {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  if (fd < 0) return -1;
+  if (rcvbuf > 0) setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
+  timeval tv{5, 0};
+  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(static_cast<uint16_t>(port));
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+    close(fd);
+    return -1;
+  }
+  return fd;
+}
+bool send_all(int fd, const std::string& s) { return ::send(fd, s.data(), s.size(), MSG_NOSIGNAL) == static_cast<ssize_t>(s.size()); }
+// Reads up to the end of the HTTP head (and whatever came with it).
+std::string read_head(int fd) {
+  std::string got;
+  char buf[4096];
+  while (got.find("\r\n\r\n") == std::string::npos) {
+    const ssize_t n = recv(fd, buf, sizeof buf, 0);
+    if (n <= 0) break;
+    got.append(buf, static_cast<size_t>(n));
+  }
+  return got;
+}
+std::string http_get(int port, const std::string& path) {
+  const int fd = tcp_connect(port);
+  if (fd < 0) return "";
+  send_all(fd, "GET " + path + " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n");
+  std::string got;
+  char buf[65536];
+  for (ssize_t n; (n = recv(fd, buf, sizeof buf, 0)) > 0;) got.append(buf, static_cast<size_t>(n));
+  close(fd);
+  return got;
+}
+// A WebSocket client at the handshake: returns the socket after the server's 101, or -1.
+int ws_connect(int port, int rcvbuf) {
+  const int fd = tcp_connect(port, rcvbuf);
+  if (fd < 0) return -1;
+  send_all(fd, "GET /ws HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+               "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n");
+  if (read_head(fd).rfind("HTTP/1.1 101", 0) != 0) {
+    close(fd);
+    return -1;
+  }
+  return fd;
+}
+long rss_kib(pid_t pid) {
+  std::ifstream f("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(f, line))
+    if (line.rfind("VmRSS:", 0) == 0) return std::atol(line.c_str() + 6);
+  return -1;
+}
+
+// A running daemon and a live viewer of it, and what the test receives from the daemon.
+struct LiveRig {
+  std::string url;
+  std::unique_ptr<io::LcmBus> bus;
+  std::unique_ptr<daemon_test::Child> daemon, viewer;
+  int port = -1;
+  std::mutex mu;
+  std::vector<double> sim_t;               // output_t sim_time, as received
+  std::vector<std::pair<int64_t, int64_t>> stats;  // loop_stats_t (utime, tick)
+  std::string skip;
+
+  LiveRig(int offset, const std::vector<std::string>& viewer_extra) {
+    if (!COOPDYN_VIEW_LIVE) {
+      skip = "coopdyn view --live is not built (Debian: libwebsocketpp-dev libasio-dev)";
+      return;
+    }
+    url = private_udpm_url(offset);
+    bus = daemon_test::try_bus(url);
+    if (!bus) {
+      skip = "LCM over udpm unavailable (multicast route? ip route add 224.0.0.0/4 dev lo)";
+      return;
+    }
+    bus->subscribe("COOPDYN_OUTPUT", [this](const void* d, int n, long long) {
+      io::DecodedOutput o;
+      if (!io::decode_output(d, n, &o)) return;
+      std::lock_guard<std::mutex> lk(mu);
+      sim_t.push_back(o.sim_time);
+    });
+    bus->subscribe("COOPDYN_STATS", [this](const void* d, int n, long long) {
+      io::StatsFrame st;
+      if (!io::decode_stats(d, n, &st)) return;
+      std::lock_guard<std::mutex> lk(mu);
+      stats.emplace_back(st.utime, st.tick);
+    });
+    bus->start();
+    const std::string cfg = daemon_test::tmp_path("live_cfg.yaml");
+    std::ofstream(cfg) << "stats_period_s: 0.25\n";
+    daemon = std::make_unique<daemon_test::Child>(
+        std::vector<std::string>{COOPDYND_PATH, "--scene", scene_file("two_puma_load"), "--config", cfg, "--lcm-url", url,
+                                 "--duration", "60"},
+        "live_daemon");
+    std::vector<std::string> args{kBin, "view", "--scene", scene_file("two_puma_load"), "--live", "--listen",
+                                  "127.0.0.1:0", "--lcm-url", url};
+    args.insert(args.end(), viewer_extra.begin(), viewer_extra.end());
+    viewer = std::make_unique<daemon_test::Child>(args, "live_viewer");
+    for (int i = 0; i < 200 && port < 0; ++i) {  // its address, once it listens
+      std::this_thread::sleep_for(std::chrono::milliseconds(25));
+      const std::string err = daemon_test::slurp(viewer->err);
+      const size_t at = err.find("serving http://127.0.0.1:");
+      if (at != std::string::npos) port = std::atoi(err.c_str() + at + 25);
+    }
+  }
+  ~LiveRig() {
+    if (bus) bus->stop();
+  }
+  // ticks per second of the daemon from its loop_stats_t between wall times [t0, t1] (us)
+  double tick_rate(int64_t t0, int64_t t1) {
+    std::lock_guard<std::mutex> lk(mu);
+    const std::pair<int64_t, int64_t>* a = nullptr;
+    const std::pair<int64_t, int64_t>* b = nullptr;
+    for (const auto& s : stats) {
+      if (s.first >= t0 && !a) a = &s;
+      if (s.first <= t1) b = &s;
+    }
+    if (!a || !b || b->first <= a->first) return NAN;
+    return static_cast<double>(b->second - a->second) / (static_cast<double>(b->first - a->first) * 1e-6);
+  }
+};
+
+// The live page in Chromium connects, receives the daemon's frames and shows the simulation time
+// advancing: the time it shows is later than the first it received, and both are times the daemon
+// published.
+TEST(ViewLive, BrowserReceivesFramesAndTimeAdvances) {
+  REQUIRE_BROWSER();
+  TempDir dir("live");
+  LiveRig rig(2, {});
+  if (!rig.skip.empty()) GTEST_SKIP() << rig.skip;
+  ASSERT_GT(rig.port, 0) << daemon_test::slurp(rig.viewer->err);
+  const std::string index = http_get(rig.port, "/");
+  ASSERT_EQ(index.rfind("HTTP/1.1 200", 0), 0u) << index.substr(0, 200);
+  EXPECT_NE(index.find("\"live\":true"), std::string::npos);
+  EXPECT_EQ(http_get(rig.port, "/nothing").rfind("HTTP/1.1 404", 0), 0u);
+
+  std::string cmd = "timeout 60 '" + chromium +
+                    "' --headless --no-sandbox --disable-gpu --use-angle=swiftshader --enable-unsafe-swiftshader"
+                    " --hide-scrollbars --mute-audio --no-first-run --user-data-dir='" + dir / "profile" +
+                    "' --window-size=900,600 --virtual-time-budget=4000 --dump-dom 'http://127.0.0.1:" +
+                    std::to_string(rig.port) + "/' > '" + dir / "dom.html" + "'";
+  std::string log;
+  ASSERT_EQ(run(cmd, dir / "chromium.log", &log), 0) << log.substr(0, 3000);
+  const std::string dom = slurp(dir / "dom.html");
+  const PageState p = page_state(dom);
+  EXPECT_EQ(p.title, "coopdyn view: two_puma_load") << "a JavaScript error, or the page did not finish";
+  const std::string live = between(dom, "<span id=\"live\">", "</span>");
+  EXPECT_EQ(live.rfind("live: connected, ", 0), 0u) << live;
+  const long received = std::atol(live.c_str() + std::string("live: connected, ").size());
+  EXPECT_GE(received, 5) << live;
+  const double first_t = num_after(p.probe, "\"first_t\":");
+  ASSERT_TRUE(std::isfinite(first_t)) << p.probe;
+  // the time text shows the newest frame received (playing follows it)
+  const double shown = std::strtod(p.time_text.c_str() + 4, nullptr);
+  EXPECT_GT(shown, first_t + 0.01) << p.time_text << " " << p.probe;
+  {
+    std::lock_guard<std::mutex> lk(rig.mu);
+    ASSERT_FALSE(rig.sim_t.empty());
+    auto near = [&](double t) {
+      return std::any_of(rig.sim_t.begin(), rig.sim_t.end(), [&](double x) { return std::abs(x - t) < 5e-4; });
+    };
+    EXPECT_TRUE(near(first_t)) << first_t << " is not a time the daemon published";
+    EXPECT_TRUE(near(shown)) << shown << " is not a time the daemon published";
+  }
+  rig.viewer->signal(SIGTERM);
+  EXPECT_EQ(rig.viewer->wait(std::chrono::seconds(5)), 0) << daemon_test::slurp(rig.viewer->err);
+  rig.daemon->signal(SIGTERM);
+  EXPECT_EQ(rig.daemon->wait(std::chrono::seconds(5)), 0);
+}
+
+// A WebSocket client that connects and never reads: the daemon's tick rate is the same with it as
+// without it, the viewer drops that client's frames (counted) instead of queueing them, its memory
+// stays bounded, and a client that reads goes on receiving.
+TEST(ViewLive, ClientThatNeverReadsChangesNothing) {
+  TempDir dir("slow");
+  // every output framed and sent (--rate 1000): ~2.5 MB/s for each client, what a queue without
+  // bound would grow by
+  LiveRig rig(3, {"--rate", "1000"});
+  if (!rig.skip.empty()) GTEST_SKIP() << rig.skip;
+  ASSERT_GT(rig.port, 0) << daemon_test::slurp(rig.viewer->err);
+  auto stat = [&](const char* key) {
+    const std::string s = http_get(rig.port, "/stats");
+    return num_after(s, std::string("\"") + key + "\":");
+  };
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  const int64_t a0 = io::wall_us();
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+  const int64_t a1 = io::wall_us();
+
+  // a reader that keeps reading, and a client that never reads (a small receive buffer)
+  const double framed0 = stat("framed");
+  const int reader = ws_connect(rig.port, 0);
+  ASSERT_GE(reader, 0);
+  std::atomic<long> read_bytes{0};
+  std::atomic<bool> stop{false};
+  std::thread rd([&] {
+    char buf[65536];
+    while (!stop) {
+      const ssize_t n = recv(reader, buf, sizeof buf, 0);
+      if (n > 0) read_bytes += n;
+      else if (n == 0) break;
+    }
+  });
+  const int sleeper = ws_connect(rig.port, 4096);
+  ASSERT_GE(sleeper, 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+  const long rss1 = rss_kib(rig.viewer->pid);
+  const double dropped1 = stat("dropped"), framed1 = stat("framed");
+  const long read1 = read_bytes;
+  const int64_t b0 = io::wall_us();
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+  const int64_t b1 = io::wall_us();
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  const long rss2 = rss_kib(rig.viewer->pid);
+  const double dropped2 = stat("dropped"), queued = stat("queued"), clients = stat("clients"), framed = stat("framed");
+  const long read2 = read_bytes;
+  stop = true;
+  shutdown(reader, SHUT_RDWR);
+  rd.join();
+  close(reader);
+
+  const double rate_without = rig.tick_rate(a0, a1), rate_with = rig.tick_rate(b0, b1);
+  std::printf("daemon tick rate: %.1f Hz without the client that never reads, %.1f Hz with it; viewer RSS %ld -> %ld KiB "
+              "over 4 s; frames dropped for it %.0f of %.0f framed; the reader got %ld bytes in 4 s\n",
+              rate_without, rate_with, rss1, rss2, dropped2, framed, read2 - read1);
+  ASSERT_TRUE(std::isfinite(rate_without) && std::isfinite(rate_with)) << "no loop_stats_t received";
+  EXPECT_NEAR(rate_with, rate_without, 0.02 * rate_without);
+  EXPECT_NEAR(rate_without, 1000, 20);
+  EXPECT_EQ(clients, 2);
+  EXPECT_GT(dropped2 - dropped1, 1000) << "the client that never reads was not dropped from";
+  EXPECT_LE(queued, 2 * 32) << "more queued than the per-client bound";
+  // what a queue without bound would have grown by over [rss1, rss2]: the frames framed then, at the
+  // size the reader received them
+  const double frame_bytes = static_cast<double>(read2) / std::max(1.0, framed - framed0);  // (the reader drops none, or
+                                                                                          // this is less)
+  const double unbounded_kib = (framed - framed1) * frame_bytes / 1024;
+  EXPECT_GT(unbounded_kib, 1500) << "too few frames to judge the memory bound";
+#if defined(__SANITIZE_ADDRESS__)
+  std::printf("(AddressSanitizer: freed memory is quarantined, the viewer's RSS is not judged)\n");
+#else
+  EXPECT_LT(rss2 - rss1, 0.3 * unbounded_kib) << "the viewer's memory grew (KiB) while a client did not read";
+#endif
+  EXPECT_GT(read2 - read1, 500 * 1024) << "the reading client was starved";
+  close(sleeper);
+  rig.viewer->signal(SIGTERM);
+  EXPECT_EQ(rig.viewer->wait(std::chrono::seconds(5)), 0) << daemon_test::slurp(rig.viewer->err);
+  rig.daemon->signal(SIGTERM);
+  EXPECT_EQ(rig.daemon->wait(std::chrono::seconds(5)), 0);
 }
 
 }  // namespace
