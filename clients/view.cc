@@ -107,6 +107,14 @@ ViewFrames view_geometry(const System& sys) {
   }
   for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k)
     if (sys.wrenches.outputs[k].kind != WrenchKind::kJoint) vf->wrenches.push_back(static_cast<int>(k));
+  for (int dof : m.pseudo_dofs) {
+    ViewFrames::Pseudo p;
+    p.dof = dof;
+    p.body = m.dof_body[dof];
+    p.name = m.v_names[dof];
+    p.unit = m.bodies[p.body].joint.type == JointType::kPrismatic ? "N" : "N*m";
+    vf->pseudos.push_back(p);
+  }
   return out;
 }
 
@@ -134,9 +142,18 @@ void add_view_frame(const System& sys, Data& data, ViewSample& row, ViewFrames* 
     const Vec3 f = X.R * row.w[j].tail<3>(), mo = X.R * row.w[j].head<3>();
     ww.insert(ww.end(), {X.p.x(), X.p.y(), X.p.z(), f.x(), f.y(), f.z(), mo.x(), mo.y(), mo.z()});
   }
+  std::vector<double> pp;
+  for (const auto& p : vf->pseudos) {
+    const Vec3& x = data.X_WB[p.body].p;
+    pp.insert(pp.end(), {x.x(), x.y(), x.z()});
+  }
   vf->shape_pose.push_back(std::move(sp));
   vf->seg_ends.push_back(std::move(se));
   vf->wrench_W.push_back(std::move(ww));
+  vf->pseudo_p.push_back(std::move(pp));
+  vf->stress.push_back(row.stress.size() == vf->pseudos.size() ? row.stress : std::vector<double>{});
+  vf->indet.push_back(row.indet.size() == vf->wrenches.size() ? row.indet : std::vector<int>{});
+  vf->free.push_back(row.free);
 }
 
 ViewFrames view_frames_of(const System& sys, std::vector<ViewSample>& rows, int max_frames) {
@@ -267,6 +284,12 @@ void jvec(std::string& o, const double* x, size_t n, const char* fmt = "%.6g") {
   o += ']';
 }
 
+void jints(std::string& o, const std::vector<int>& x) {
+  o += '[';
+  for (size_t i = 0; i < x.size(); ++i) o += (i ? "," : "") + std::to_string(x[i]);
+  o += ']';
+}
+
 // the smallest of 1, 2, 5 x 10^k that is >= x
 double nice_ceil(double x) {
   if (!(x > 0) || !std::isfinite(x)) return 1.0;
@@ -293,6 +316,13 @@ std::string view_frame_json(const ViewFrames& vf, size_t i) {
   jvec(d, vf.seg_ends[i].data(), vf.seg_ends[i].size());
   d += ",\"w\":";
   jvec(d, vf.wrench_W[i].data(), vf.wrench_W[i].size());
+  d += ",\"pj\":";
+  jvec(d, vf.pseudo_p[i].data(), vf.pseudo_p[i].size());
+  d += ",\"stress\":";
+  jvec(d, vf.stress[i].data(), vf.stress[i].size(), "%.9g");
+  d += ",\"indet\":";
+  jints(d, vf.indet[i]);
+  d += ",\"free\":" + jstr(vf.free[i]);
   return d + "}";
 }
 
@@ -397,6 +427,9 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
     d += (w ? ",{\"name\":" : "{\"name\":") + jstr(o.name) + ",\"kind\":" + jstr(wrench_kind_name(o.kind)) +
          ",\"frame\":" + jstr(o.frame) + ",\"by\":" + jstr(o.by) + "}";
   }
+  d += "],\"pseudos\":[";
+  for (size_t k = 0; k < vf.pseudos.size(); ++k)
+    d += (k ? ",{\"name\":" : "{\"name\":") + jstr(vf.pseudos[k].name) + ",\"unit\":" + jstr(vf.pseudos[k].unit) + "}";
   d += "],\"t\":";
   jvec(d, vf.t.data(), vf.t.size(), "%.9g");
   d += ",\"status\":[";
@@ -416,6 +449,23 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
     if (i) d += ',';
     jvec(d, vf.wrench_W[i].data(), vf.wrench_W[i].size());
   }
+  d += "],\"pj\":[";
+  for (size_t i = 0; i < vf.t.size(); ++i) {
+    if (i) d += ',';
+    jvec(d, vf.pseudo_p[i].data(), vf.pseudo_p[i].size());
+  }
+  d += "],\"stress\":[";
+  for (size_t i = 0; i < vf.t.size(); ++i) {
+    if (i) d += ',';
+    jvec(d, vf.stress[i].data(), vf.stress[i].size(), "%.9g");
+  }
+  d += "],\"indet\":[";
+  for (size_t i = 0; i < vf.t.size(); ++i) {
+    if (i) d += ',';
+    jints(d, vf.indet[i]);
+  }
+  d += "],\"free\":[";
+  for (size_t i = 0; i < vf.t.size(); ++i) d += (i ? "," : "") + jstr(vf.free[i]);
   d += "]}";
 
   // three.js inline: a "</script" in it would end the element early

@@ -10,6 +10,10 @@
 
 #include "service/dynamics/system.h"
 
+namespace coopdyn::io {
+struct DecodedOutput;
+}
+
 namespace coopdyn::cli {
 
 // What the page draws, in world coordinates.
@@ -26,8 +30,14 @@ struct ViewFrames {
     int body_a = -1, body_b = -1;  // -1: the world
     Vec3 p_a = Vec3::Zero(), p_b = Vec3::Zero();  // in the body frames
   };
+  struct Pseudo {  // a pseudo-joint (METHOD s.4): its lock's generalized force is the stress there
+    std::string name, unit;  // the joint's name; "N*m" (revolute) or "N" (prismatic)
+    int body = -1;           // the body after the joint: its origin is the joint's place
+    int dof = -1;            // velocity index
+  };
   std::vector<Shape> shapes;
   std::vector<Segment> segments;
+  std::vector<Pseudo> pseudos;
   std::vector<int> wrenches;  // the outputs drawn as arrows (every one but the joint reactions)
   // per frame
   std::vector<double> t;
@@ -35,6 +45,11 @@ struct ViewFrames {
   std::vector<std::vector<double>> shape_pose;  // 7 per shape: position, quaternion x y z w
   std::vector<std::vector<double>> seg_ends;    // 6 per segment: both ends
   std::vector<std::vector<double>> wrench_W;    // 9 per drawn wrench: origin, force, moment (world)
+  std::vector<std::vector<double>> pseudo_p;    // 3 per pseudo-joint: its place (world)
+  std::vector<std::vector<double>> stress;      // 1 per pseudo-joint, N*m or N; empty: not in the source
+  std::vector<std::vector<int>> indet;          // 1 per drawn wrench: bit k, component k of [m; f] is
+                                                // not determined by the physics; empty: not in the source
+  std::vector<std::string> free;                // the free directions by class ("2 wheel_normal"); "" none
 };
 
 // One instant of a run, whatever its source: the state and the wrenches the page draws.
@@ -43,6 +58,9 @@ struct ViewSample {
   std::string status;      // "ok" | "indeterminate" | "error"
   Eigen::VectorXd q;       // (nq) in the scene's order
   std::vector<Vec6> w;     // per drawn wrench (ViewFrames::wrenches): [moment; force] in its report frame
+  std::vector<double> stress;  // per pseudo-joint (ViewFrames::pseudos); empty: unknown (a sim CSV)
+  std::vector<int> indet;      // per drawn wrench, indeterminate_mask; empty: unknown
+  std::string free;            // the free directions by class, "" none
 };
 
 // The shapes, links and drawn wrenches of the scene, no frames yet.
@@ -58,6 +76,12 @@ std::string view_frame_json(const ViewFrames& vf, size_t i);
 // the last always) and computes their geometry. Throws std::runtime_error naming the file on a
 // missing column, a column of another scene, a malformed row or no rows.
 ViewFrames read_view_frames(const System& sys, const std::string& csv_path, int max_frames);
+
+// The sample of one output_t of coopdynd running `sys` (`geo`: view_geometry(sys)): time, status,
+// q, the drawn wrenches, the stresses, the indeterminate components and the free directions. False,
+// with the reason in *why, when it is of another scene (other coordinates or wrenches, by name) or
+// its q is not a configuration of it. Used by --log and --live (clients/view_log.cc).
+bool sample_of_output(const System& sys, const ViewFrames& geo, const io::DecodedOutput& o, ViewSample* s, std::string* why);
 
 // Reads the output_t messages on `channel` of an lcm-logger file recorded from coopdynd running
 // `sys` (clients/view_log.cc). Throws std::runtime_error naming the file when it cannot be read,

@@ -197,8 +197,7 @@ int run_view_live(const System& sys, const std::string& three_js, const std::str
   ViewFrames frame_vf = view_geometry(sys);
   Data data(sys.model);
   io::DecodedOutput o;
-  std::vector<std::string> wrench_names;
-  for (const WrenchOutput& w : sys.wrenches.outputs) wrench_names.push_back(w.name);
+  std::string why;
   const long long min_gap_ns = static_cast<long long>(1e9 / max_rate_hz);
   long long last_ns = 0;
   bool warned = false;
@@ -213,32 +212,22 @@ int run_view_live(const System& sys, const std::string& three_js, const std::str
       ++count.undecodable;
       return;
     }
-    if (o.q_names != sys.model.q_names || o.wrench_names != wrench_names || o.q.size() != o.q_names.size() ||
-        o.wrench.size() != wrench_names.size()) {
-      if (!warned)
-        std::fprintf(stderr, "coopdyn view: outputs on '%s' are of another scene (%zu coordinates, %zu wrenches; scene "
-                     "'%s' has %d and %zu): ignored\n",
-                     channel.c_str(), o.q_names.size(), o.wrench_names.size(), sys.name.c_str(), sys.model.nq(),
-                     wrench_names.size());
+    if (!sample_of_output(sys, frame_vf, o, &s, &why)) {
+      if (!warned) std::fprintf(stderr, "coopdyn view: an output on '%s' %s: ignored\n", channel.c_str(), why.c_str());
       warned = true;
       ++count.mismatched;
       return;
     }
     last_ns = recv_ns;
-    s.t = o.sim_time;
-    s.status = o.status == 0 ? "ok" : o.status == 1 ? "indeterminate" : "error";
-    s.q = Eigen::Map<const Eigen::VectorXd>(o.q.data(), static_cast<Eigen::Index>(o.q.size()));
-    if (!configuration_valid(sys.model, s.q)) {
-      ++count.mismatched;
-      return;
-    }
-    s.w.clear();
-    for (int k : frame_vf.wrenches) s.w.push_back(Eigen::Map<const Vec6>(o.wrench[static_cast<size_t>(k)].data()));
     frame_vf.t.clear();
     frame_vf.status.clear();
     frame_vf.shape_pose.clear();
     frame_vf.seg_ends.clear();
     frame_vf.wrench_W.clear();
+    frame_vf.pseudo_p.clear();
+    frame_vf.stress.clear();
+    frame_vf.indet.clear();
+    frame_vf.free.clear();
     add_view_frame(sys, data, s, &frame_vf);
     auto json = std::make_shared<const std::string>(view_frame_json(frame_vf, 0));
     ++count.framed;

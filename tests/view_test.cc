@@ -278,7 +278,9 @@ bool is_moment_colour(const unsigned char* p) { return p[0] < 90 && p[1] > 200 &
 // The force-coloured pixels of the canvas form an arrow from the projection of its origin to the
 // projection of its tip: none before the origin or past the tip (a few pixels of antialiasing
 // aside), some at both ends, none far from the line between them.
-void expect_arrow_at(const Image& im, const Eigen::Vector2d& o, const Eigen::Vector2d& tip, const std::string& what) {
+bool is_indet_force_colour(const unsigned char* p) { return p[0] > 200 && p[1] > 90 && p[1] < 170 && p[2] < 60; }  // #ff8000
+void expect_arrow_at(const Image& im, const Eigen::Vector2d& o, const Eigen::Vector2d& tip, const std::string& what,
+                     bool (*is_colour)(const unsigned char*) = is_force_colour) {
   const int ch = im.h - kBarHeight;
   const Eigen::Vector2d axis = tip - o;
   const double L = axis.norm();
@@ -288,7 +290,7 @@ void expect_arrow_at(const Image& im, const Eigen::Vector2d& o, const Eigen::Vec
   int n = 0;
   for (int y = 0; y < ch; ++y)
     for (int x = 0; x < im.w; ++x) {
-      if (!is_force_colour(im.at(x, y))) continue;
+      if (!is_colour(im.at(x, y))) continue;
       const Eigen::Vector2d d = Eigen::Vector2d(x + 0.5, y + 0.5) - o;
       const double s = d.dot(u);
       smin = std::min(smin, s);
@@ -542,7 +544,7 @@ struct Received {
 // Runs coopdynd on `scene` at `rate` Hz for `duration` s and returns every message it published on
 // the output and stats channels, in arrival order; empty when LCM cannot start (no multicast route).
 std::vector<Received> record_daemon(const std::string& url, const std::string& scene, int rate, double duration,
-                                    std::string* daemon_err) {
+                                    std::string* daemon_err, const std::string& config = "") {
   auto bus = daemon_test::try_bus(url);
   if (!bus) return {};
   std::mutex mu;
@@ -557,7 +559,7 @@ std::vector<Received> record_daemon(const std::string& url, const std::string& s
   char dur[32];
   std::snprintf(dur, sizeof dur, "%g", duration);
   const std::string cfg = daemon_test::tmp_path("view_cfg.yaml");
-  std::ofstream(cfg) << "stats_period_s: 0.1\n";
+  std::ofstream(cfg) << "stats_period_s: 0.1\n" << config;
   daemon_test::Child d({COOPDYND_PATH, "--scene", scene_file(scene), "--config", cfg, "--lcm-url", url, "--rate",
                         std::to_string(rate), "--duration", dur},
                        "view_daemon");
@@ -625,7 +627,7 @@ TEST(ViewLog, FramesAreTheDaemonsMessages) {
   const std::string page = slurp(dir / "v.html");
   const std::vector<double> t = numbers(between(page, "\"t\":[", "]"));
   ASSERT_EQ(t.size(), outs.size());
-  const std::string all_w = between(page, "\"wrench\":[[", "]]}");
+  const std::string all_w = between(page, "\"wrench\":[[", "]],\"pj\"");
   std::vector<std::vector<double>> w;
   for (size_t at = 0, next; at < all_w.size(); at = next + 3) {
     next = all_w.find("],[", at);
@@ -707,6 +709,145 @@ TEST(ViewLog, FramesAreTheDaemonsMessages) {
   EXPECT_TRUE(p.ready);
   EXPECT_EQ(p.frame, 20);
   EXPECT_NEAR(p.t, outs[20].sim_time, 1e-8);
+}
+
+// Decoded outputs of a recorded run, and its log.
+std::vector<io::DecodedOutput> outputs_of(const std::vector<Received>& msgs) {
+  std::vector<io::DecodedOutput> outs;
+  for (const Received& r : msgs) {
+    io::DecodedOutput o;
+    if (r.channel == "COOPDYN_OUTPUT" && io::decode_output(r.data.data(), static_cast<int>(r.data.size()), &o))
+      outs.push_back(std::move(o));
+  }
+  return outs;
+}
+
+// Stresses as colours: each pseudo-joint of the four-bar is a ball at the joint whose colour is the
+// page's map of the message's stress (grey at 0, pure red / blue at the largest positive / negative
+// stress of that joint over the run), computed here from the messages; the ball is where this
+// process's forward kinematics of the message's q projects.
+TEST(ViewLog, StressColoursOnThePseudoJoints) {
+  REQUIRE_BROWSER();
+  TempDir dir("stress");
+  std::string derr;
+  // no torque (not the default hold): the four-bar falls and its stresses change
+  const std::vector<Received> msgs =
+      record_daemon(private_udpm_url(4), "four_bar", 200, 0.5, &derr, "safe_torque:\n  policy: zero\n");
+  if (msgs.empty()) GTEST_SKIP() << "LCM over udpm unavailable (multicast route? ip route add 224.0.0.0/4 dev lo)";
+  const std::vector<io::DecodedOutput> outs = outputs_of(msgs);
+  ASSERT_GE(outs.size(), 50u) << derr;
+  write_log(dir / "run.lcmlog", msgs);
+  std::string err;
+  ASSERT_EQ(run("'" + kBin + "' view --scene '" + scene_file("four_bar") + "' --log '" + dir / "run.lcmlog" + "' --out '" +
+                    dir / "v.html" + "'",
+                dir / "e", &err),
+            0)
+      << err;
+  const System sys = load_scene(scene_file("four_bar"));
+  const Model& m = sys.model;
+  ASSERT_EQ(m.pseudo_dofs.size(), 2u);
+  std::vector<double> smax(m.pseudo_dofs.size(), 0.0);
+  std::vector<std::vector<double>> st(outs.size());
+  for (size_t i = 0; i < outs.size(); ++i)
+    for (size_t k = 0; k < m.pseudo_dofs.size(); ++k) {
+      const auto& names = outs[i].stress_names;
+      const auto it = std::find(names.begin(), names.end(), m.v_names[m.pseudo_dofs[k]]);
+      ASSERT_NE(it, names.end()) << m.v_names[m.pseudo_dofs[k]];
+      st[i].push_back(outs[i].stress[static_cast<size_t>(it - names.begin())]);
+      smax[k] = std::max(smax[k], std::abs(st[i][k]));
+    }
+  auto expected = [&](double s, double mx) {  // the page's map
+    const double r = mx > 0 ? std::min(1.0, std::abs(s) / mx) : 0;
+    return s >= 0 ? Vec3(128 + 127 * r, 128 - 128 * r, 128 - 128 * r) : Vec3(128 - 128 * r, 128 - 128 * r, 128 + 127 * r);
+  };
+  // the frames of the smallest and the largest |stress| of the first pseudo-joint
+  size_t frames[2] = {0, 0};
+  for (size_t i = 0; i < outs.size(); ++i) {
+    if (std::abs(st[i][0]) < std::abs(st[frames[0]][0])) frames[0] = i;
+    if (std::abs(st[i][0]) > std::abs(st[frames[1]][0])) frames[1] = i;
+  }
+  std::vector<Vec3> seen;
+  for (size_t i : frames) {
+    const Browse b = browse(chromium, dir / "v.html", "frame=" + std::to_string(i) + "&paused=1", dir, "f" + std::to_string(i), true);
+    ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
+    const PageState p = page_state(b.dom);
+    ASSERT_EQ(p.title, "coopdyn view: four_bar");
+    ASSERT_EQ(p.frame, static_cast<int>(i));
+    Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(outs[i].q.data(), static_cast<Eigen::Index>(outs[i].q.size()));
+    Data data(m);
+    forward_kinematics(m, data, q, Eigen::VectorXd::Zero(m.nv()));
+    for (size_t k = 0; k < m.pseudo_dofs.size(); ++k) {
+      const Vec3 x = data.X_WB[m.dof_body[m.pseudo_dofs[k]]].p;
+      const Eigen::Vector2d px = project(p, b.shot.w, b.shot.h - kBarHeight, x);
+      const Vec3 want = expected(st[i][k], smax[k]);
+      Vec3 got = Vec3::Zero();  // the mean of 3 x 3 pixels at the projection
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const unsigned char* c = b.shot.at(static_cast<int>(px.x()) + dx, static_cast<int>(px.y()) + dy);
+          got += Vec3(c[0], c[1], c[2]) / 9;
+        }
+      EXPECT_LT((got - want).cwiseAbs().maxCoeff(), 12)
+          << m.v_names[m.pseudo_dofs[k]] << " at frame " << i << ": stress " << st[i][k] << " of max " << smax[k]
+          << ", expected colour " << want.transpose() << ", got " << got.transpose() << " at " << px.transpose();
+      seen.push_back(want);
+    }
+  }
+  // the map told the frames apart (else the check above could not tell a stress from a constant)
+  EXPECT_GT((seen[0] - seen[2]).cwiseAbs().maxCoeff() + (seen[1] - seen[3]).cwiseAbs().maxCoeff(), 40)
+      << "the stresses barely changed over the run";
+}
+
+// Indeterminate components highlighted: on the two-wheel vehicle (a rigid axle, over-constrained)
+// a wheel's contact force with components the physics does not determine is drawn orange, not
+// magenta, where its projection says; the status shows the free directions.
+TEST(ViewLog, IndeterminateForceIsHighlighted) {
+  REQUIRE_BROWSER();
+  TempDir dir("indet");
+  std::string derr;
+  const std::vector<Received> msgs = record_daemon(private_udpm_url(5), "two_wheel_vehicle", 200, 0.3, &derr);
+  if (msgs.empty()) GTEST_SKIP() << "LCM over udpm unavailable (multicast route? ip route add 224.0.0.0/4 dev lo)";
+  const std::vector<io::DecodedOutput> outs = outputs_of(msgs);
+  ASSERT_GE(outs.size(), 20u) << derr;
+  write_log(dir / "run.lcmlog", msgs);
+  std::string err;
+  ASSERT_EQ(run("'" + kBin + "' view --scene '" + scene_file("two_wheel_vehicle") + "' --log '" + dir / "run.lcmlog" +
+                    "' --out '" + dir / "v.html" + "'",
+                dir / "e", &err),
+            0)
+      << err;
+  const System sys = load_scene(scene_file("two_wheel_vehicle"));
+  // a frame and a drawn wrench with an indeterminate force component and a force long enough to see
+  const size_t i = outs.size() / 2;
+  const io::DecodedOutput& o = outs[i];
+  int pick = -1;
+  double fbest = 0;
+  for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k) {
+    if (sys.wrenches.outputs[k].kind == WrenchKind::kJoint || !(o.indeterminate_mask[k] & 0x38)) continue;
+    const double f = Vec3(o.wrench[k][3], o.wrench[k][4], o.wrench[k][5]).norm();
+    if (f > fbest) fbest = f, pick = static_cast<int>(k);
+  }
+  ASSERT_GE(pick, 0) << "no indeterminate force in the vehicle's output (status " << o.status << ")";
+  ASSERT_FALSE(o.free_class.empty());
+  const std::string name = sys.wrenches.outputs[static_cast<size_t>(pick)].name;
+  const Browse b = browse(chromium, dir / "v.html", "frame=" + std::to_string(i) + "&paused=1&wrench=" + name, dir, "v", true);
+  ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
+  const PageState p = page_state(b.dom);
+  ASSERT_EQ(p.title, "coopdyn view: two_wheel_vehicle");
+  ASSERT_EQ(p.frame, static_cast<int>(i));
+  const std::string status = between(b.dom, "<span id=\"status\" class=\"indeterminate\">", "</span>");
+  EXPECT_EQ(status.rfind("indeterminate (free: ", 0), 0u) << b.dom.substr(b.dom.find("id=\"status\""), 120);
+  Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(o.q.data(), static_cast<Eigen::Index>(o.q.size()));
+  Data data(sys.model);
+  forward_kinematics(sys.model, data, q, Eigen::VectorXd::Zero(sys.model.nv()));
+  const Transform X = wrench_frame_pose(sys, data, pick);
+  const Vec3 f = X.R * Vec3(o.wrench[pick][3], o.wrench[pick][4], o.wrench[pick][5]);
+  const double w = b.shot.w, h = b.shot.h - kBarHeight;
+  const Eigen::Vector2d po = project(p, w, h, X.p), tip = project(p, w, h, X.p + f / p.force_scale);
+  expect_arrow_at(b.shot, po, tip, name + " (indeterminate) at frame " + std::to_string(i), is_indet_force_colour);
+  int magenta = 0;
+  for (int y = 0; y < b.shot.h - kBarHeight; ++y)
+    for (int x = 0; x < b.shot.w; ++x) magenta += is_force_colour(b.shot.at(x, y));
+  EXPECT_EQ(magenta, 0) << "an indeterminate force drawn in the determinate colour";
 }
 
 // ---------------------------------------------------------------------------------------------
