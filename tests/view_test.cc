@@ -1110,5 +1110,35 @@ TEST(ViewLive, ClientThatNeverReadsChangesNothing) {
   EXPECT_EQ(rig.daemon->wait(std::chrono::seconds(5)), 0);
 }
 
+// Bad command lines of the new sources: one source at a time, --out for a file, a usable --listen
+// (a malformed one, a port already taken: the error names it), exit status 2 for usage, 1 for the rest.
+TEST(ViewErrors, SourcesAndListenAddress) {
+  TempDir dir("usage");
+  const std::string v = "'" + kBin + "' view --scene '" + scene_file("unicycle") + "' ";
+  std::string err;
+  EXPECT_EQ(run(v + "--csv a.csv --log b.lcmlog --out x.html", dir / "e", &err), 2);
+  EXPECT_NE(err.find("--csv excludes --log"), std::string::npos) << err;
+  EXPECT_EQ(run(v + "--log b.lcmlog", dir / "e", &err), 2);
+  EXPECT_NE(err.find("--out VIEW.html"), std::string::npos) << err;
+  EXPECT_EQ(run(v + "--live --log b.lcmlog", dir / "e", &err), 2);
+  if (!COOPDYN_VIEW_LIVE) return;
+  EXPECT_EQ(run(v + "--live --listen nonsense --lcm-url memq://", dir / "e", &err), 2);
+  EXPECT_NE(err.find("--listen 'nonsense': expected HOST:PORT"), std::string::npos) << err;
+  // a port this process holds
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  ASSERT_GE(fd, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  ASSERT_EQ(listen(fd, 1), 0);
+  socklen_t len = sizeof a;
+  getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
+  const std::string taken = "127.0.0.1:" + std::to_string(ntohs(a.sin_port));
+  EXPECT_EQ(run(v + "--live --listen " + taken + " --lcm-url memq://", dir / "e", &err), 1);
+  EXPECT_NE(err.find("cannot listen on " + taken), std::string::npos) << err;
+  close(fd);
+}
+
 }  // namespace
 }  // namespace coopdyn
