@@ -924,7 +924,7 @@ struct LiveRig {
   std::vector<std::pair<int64_t, int64_t>> stats;  // loop_stats_t (utime, tick)
   std::string skip;
 
-  LiveRig(int offset, const std::vector<std::string>& viewer_extra) {
+  LiveRig(int offset, const std::vector<std::string>& viewer_extra, const std::string& daemon_rate = "1000") {
     if (!COOPDYN_VIEW_LIVE) {
       skip = "coopdyn view --live is not built (Debian: libwebsocketpp-dev libasio-dev)";
       return;
@@ -952,7 +952,7 @@ struct LiveRig {
     std::ofstream(cfg) << "stats_period_s: 0.25\n";
     daemon = std::make_unique<daemon_test::Child>(
         std::vector<std::string>{COOPDYND_PATH, "--scene", scene_file("two_puma_load"), "--config", cfg, "--lcm-url", url,
-                                 "--duration", "60"},
+                                 "--rate", daemon_rate, "--duration", "60"},
         "live_daemon");
     std::vector<std::string> args{kBin, "view", "--scene", scene_file("two_puma_load"), "--live", "--listen",
                                   "127.0.0.1:0", "--lcm-url", url};
@@ -1037,14 +1037,15 @@ TEST(ViewLive, ClientThatNeverReadsChangesNothing) {
   TempDir dir("slow");
   // every output framed and sent (--rate 1000): ~2.5 MB/s for each client, what a queue without
   // bound would grow by
-  LiveRig rig(3, {"--rate", "1000"});
+  // the daemon at 500 Hz: a sanitizer build of it holds that from the start
+  LiveRig rig(3, {"--rate", "1000"}, "500");
   if (!rig.skip.empty()) GTEST_SKIP() << rig.skip;
   ASSERT_GT(rig.port, 0) << daemon_test::slurp(rig.viewer->err);
   auto stat = [&](const char* key) {
     const std::string s = http_get(rig.port, "/stats");
     return num_after(s, std::string("\"") + key + "\":");
   };
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  std::this_thread::sleep_for(std::chrono::milliseconds(1000));
   const int64_t a0 = io::wall_us();
   std::this_thread::sleep_for(std::chrono::milliseconds(2500));
   const int64_t a1 = io::wall_us();
@@ -1086,17 +1087,22 @@ TEST(ViewLive, ClientThatNeverReadsChangesNothing) {
               "over 4 s; frames dropped for it %.0f of %.0f framed; the reader got %ld bytes in 4 s\n",
               rate_without, rate_with, rss1, rss2, dropped2, framed, read2 - read1);
   ASSERT_TRUE(std::isfinite(rate_without) && std::isfinite(rate_with)) << "no loop_stats_t received";
-  EXPECT_NEAR(rate_with, rate_without, 0.02 * rate_without);
-  EXPECT_NEAR(rate_without, 1000, 20);
+#if defined(__SANITIZE_ADDRESS__)
+  const double tol = 0.05;  // a sanitizer build's daemon jitters more
+#else
+  const double tol = 0.02;
+#endif
+  EXPECT_NEAR(rate_with, rate_without, tol * rate_without);
+  EXPECT_NEAR(rate_without, 500, 25);
   EXPECT_EQ(clients, 2);
-  EXPECT_GT(dropped2 - dropped1, 1000) << "the client that never reads was not dropped from";
+  EXPECT_GT(dropped2 - dropped1, 500) << "the client that never reads was not dropped from";
   EXPECT_LE(queued, 2 * 32) << "more queued than the per-client bound";
   // what a queue without bound would have grown by over [rss1, rss2]: the frames framed then, at the
   // size the reader received them
   const double frame_bytes = static_cast<double>(read2) / std::max(1.0, framed - framed0);  // (the reader drops none, or
                                                                                           // this is less)
   const double unbounded_kib = (framed - framed1) * frame_bytes / 1024;
-  EXPECT_GT(unbounded_kib, 1500) << "too few frames to judge the memory bound";
+  EXPECT_GT(unbounded_kib, 1000) << "too few frames to judge the memory bound";
 #if defined(__SANITIZE_ADDRESS__)
   std::printf("(AddressSanitizer: freed memory is quarantined, the viewer's RSS is not judged)\n");
 #else
