@@ -1,10 +1,10 @@
 // coopdyn log: an lcm-logger file -> one CSV per channel (coopdyn types), a per-channel summary
 // (type, count, rate), and PNG plots of the wrenches (joint reactions apart) and the loop timing when matplotlib is
 // available (/usr/bin/python3 with python3-matplotlib; optional: the CSVs never need it).
-#include <lcm/lcm-cpp.hpp>
 #include <sys/stat.h>
 #include <sys/wait.h>
 
+#include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <map>
@@ -12,6 +12,7 @@
 #include <string>
 
 #include "clients/cli.h"
+#include "clients/lcm_log.h"
 #include "service/io/codec.h"
 
 namespace coopdyn::cli {
@@ -116,47 +117,59 @@ int cmd_log(const Args& a) {
     if (dot != std::string::npos && dot > out.rfind('/') + 1) out = out.substr(0, dot);
     out += "_csv";
   }
-  lcm::LogFile log(in, "r");
-  if (!log.good()) {
-    std::fprintf(stderr, "coopdyn log: cannot read '%s' as an LCM log\n", in.c_str());
-    return 1;
-  }
-  if (mkdir(out.c_str(), 0755) != 0 && errno != EEXIST) {
-    std::fprintf(stderr, "coopdyn log: cannot create directory '%s'\n", out.c_str());
-    return 1;
-  }
   std::map<std::string, Channel> chans;
   int64_t t_first = -1;
   std::string header, row;
-  while (const lcm::LogEvent* ev = log.readNextEvent()) {
-    if (t_first < 0) t_first = ev->timestamp;
-    Channel& c = chans[ev->channel];
-    if (c.count == 0) {
-      c.first_us = ev->timestamp;
-      c.type = io::identify(ev->data, ev->datalen);
-    }
-    ++c.count;
-    c.last_us = ev->timestamp;
-    if (c.type == io::MessageType::kUnknown) continue;
-    if (!io::to_csv(c.type, ev->data, ev->datalen, &header, &row)) {
-      ++c.bad;
-      continue;
-    }
-    if (!c.f) {
-      c.path = out + "/" + ev->channel + ".csv";
-      c.f = std::fopen(c.path.c_str(), "w");
-      if (!c.f) {
-        std::fprintf(stderr, "coopdyn log: cannot write '%s'\n", c.path.c_str());
-        return 1;
+  bool made_dir = false, write_failed = false;
+  try {
+    read_lcm_log(in, [&](const LogMessage& ev) {
+      if (!made_dir) {  // once the log reads: a missing log makes no directory
+        made_dir = true;
+        if (mkdir(out.c_str(), 0755) != 0 && errno != EEXIST) {
+          std::fprintf(stderr, "coopdyn log: cannot create directory '%s'\n", out.c_str());
+          write_failed = true;
+          return false;
+        }
       }
-      c.header = header;
-      std::fprintf(c.f, "log_time,%s\n", header.c_str());
-    }
-    if (header != c.header) {  // a different scene mid-log: its rows do not fit these columns
-      ++c.bad;
-      continue;
-    }
-    std::fprintf(c.f, "%.6f,%s\n", static_cast<double>(ev->timestamp - t_first) * 1e-6, row.c_str());
+      if (t_first < 0) t_first = ev.timestamp_us;
+      Channel& c = chans[ev.channel];
+      if (c.count == 0) {
+        c.first_us = ev.timestamp_us;
+        c.type = ev.type;
+      }
+      ++c.count;
+      c.last_us = ev.timestamp_us;
+      if (c.type == io::MessageType::kUnknown) return true;
+      if (!io::to_csv(c.type, ev.data, ev.len, &header, &row)) {
+        ++c.bad;
+        return true;
+      }
+      if (!c.f) {
+        c.path = out + "/" + ev.channel + ".csv";
+        c.f = std::fopen(c.path.c_str(), "w");
+        if (!c.f) {
+          std::fprintf(stderr, "coopdyn log: cannot write '%s'\n", c.path.c_str());
+          write_failed = true;
+          return false;
+        }
+        c.header = header;
+        std::fprintf(c.f, "log_time,%s\n", header.c_str());
+      }
+      if (header != c.header) {  // a different scene mid-log: its rows do not fit these columns
+        ++c.bad;
+        return true;
+      }
+      std::fprintf(c.f, "%.6f,%s\n", static_cast<double>(ev.timestamp_us - t_first) * 1e-6, row.c_str());
+      return true;
+    });
+  } catch (const std::runtime_error& e) {
+    std::fprintf(stderr, "coopdyn log: %s\n", e.what());
+    return 1;
+  }
+  if (write_failed) {
+    for (auto& [name, c] : chans)
+      if (c.f) std::fclose(c.f);
+    return 1;
   }
   std::printf("%-20s %-26s %9s %10s  %s\n", "channel", "type", "messages", "rate_hz", "csv");
   std::string out_csv, stats_csv;

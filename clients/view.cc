@@ -41,7 +41,11 @@ Mat3 y_to(const Vec3& a) {
   return Eigen::Quaterniond::FromTwoVectors(Vec3::UnitY(), a.normalized()).toRotationMatrix();
 }
 
-void build_geometry(const System& sys, ViewFrames* vf) {
+}  // namespace
+
+ViewFrames view_geometry(const System& sys) {
+  ViewFrames out;
+  ViewFrames* vf = &out;
   const Model& m = sys.model;
   std::vector<char> is_shape(m.nbodies(), 0);
   for (const ConstraintSpec& c : sys.constraints.specs) {
@@ -103,9 +107,68 @@ void build_geometry(const System& sys, ViewFrames* vf) {
   }
   for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k)
     if (sys.wrenches.outputs[k].kind != WrenchKind::kJoint) vf->wrenches.push_back(static_cast<int>(k));
+  for (int dof : m.pseudo_dofs) {
+    ViewFrames::Pseudo p;
+    p.dof = dof;
+    p.body = m.dof_body[dof];
+    p.name = m.v_names[dof];
+    p.unit = m.bodies[p.body].joint.type == JointType::kPrismatic ? "N" : "N*m";
+    vf->pseudos.push_back(p);
+  }
+  return out;
 }
 
-}  // namespace
+void add_view_frame(const System& sys, Data& data, ViewSample& row, ViewFrames* vf) {
+  const Model& m = sys.model;
+  const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(m.nv());
+  normalize_configuration(m, row.q);
+  forward_kinematics(m, data, row.q, v0);
+  vf->t.push_back(row.t);
+  vf->status.push_back(row.status);
+  std::vector<double> sp, se, ww;
+  for (const auto& s : vf->shapes) {
+    const Transform X = data.X_WB[s.body] * s.X_BS;
+    const Eigen::Quaterniond qq(X.R);
+    sp.insert(sp.end(), {X.p.x(), X.p.y(), X.p.z(), qq.x(), qq.y(), qq.z(), qq.w()});
+  }
+  for (const auto& s : vf->segments) {
+    const Vec3 a = s.body_a >= 0 ? Vec3(data.X_WB[s.body_a].R * s.p_a + data.X_WB[s.body_a].p) : s.p_a;
+    const Vec3 b = s.body_b >= 0 ? Vec3(data.X_WB[s.body_b].R * s.p_b + data.X_WB[s.body_b].p) : s.p_b;
+    se.insert(se.end(), {a.x(), a.y(), a.z(), b.x(), b.y(), b.z()});
+  }
+  for (size_t j = 0; j < vf->wrenches.size(); ++j) {
+    // [moment; force] at the report frame's origin in its coordinates -> world coordinates there
+    const Transform X = wrench_frame_pose(sys, data, vf->wrenches[j]);
+    const Vec3 f = X.R * row.w[j].tail<3>(), mo = X.R * row.w[j].head<3>();
+    ww.insert(ww.end(), {X.p.x(), X.p.y(), X.p.z(), f.x(), f.y(), f.z(), mo.x(), mo.y(), mo.z()});
+  }
+  std::vector<double> pp;
+  for (const auto& p : vf->pseudos) {
+    const Vec3& x = data.X_WB[p.body].p;
+    pp.insert(pp.end(), {x.x(), x.y(), x.z()});
+  }
+  vf->shape_pose.push_back(std::move(sp));
+  vf->seg_ends.push_back(std::move(se));
+  vf->wrench_W.push_back(std::move(ww));
+  vf->pseudo_p.push_back(std::move(pp));
+  vf->stress.push_back(row.stress.size() == vf->pseudos.size() ? row.stress : std::vector<double>{});
+  vf->indet.push_back(row.indet.size() == vf->wrenches.size() ? row.indet : std::vector<int>{});
+  vf->free.push_back(row.free);
+}
+
+ViewFrames view_frames_of(const System& sys, std::vector<ViewSample>& rows, int max_frames) {
+  ViewFrames vf = view_geometry(sys);
+  // evenly spaced rows, the first and the last always
+  const size_t n = rows.size(), keep = std::min(n, static_cast<size_t>(std::max(2, max_frames)));
+  std::vector<size_t> pick;
+  for (size_t i = 0; i < keep; ++i) {
+    const size_t r = keep == 1 ? 0 : static_cast<size_t>(std::llround(static_cast<double>(i) * (n - 1) / (keep - 1)));
+    if (pick.empty() || r != pick.back()) pick.push_back(r);
+  }
+  Data data(sys.model);
+  for (size_t r : pick) add_view_frame(sys, data, rows[r], &vf);
+  return vf;
+}
 
 ViewFrames read_view_frames(const System& sys, const std::string& path, int max_frames) {
   const Model& m = sys.model;
@@ -130,23 +193,16 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
     if (h.rfind("q:", 0) == 0 && std::find(m.q_names.begin(), m.q_names.end(), h.substr(2)) == m.q_names.end())
       throw std::runtime_error(path + ":1: column '" + h + "' is not a coordinate of scene '" + sys.name +
                                "': the CSV was written for another scene");
-  ViewFrames vf;
-  build_geometry(sys, &vf);
+  const ViewFrames geo = view_geometry(sys);
   static const char* comp[6] = {"mx", "my", "mz", "fx", "fy", "fz"};
   std::vector<std::array<int, 6>> c_w;
-  for (int k : vf.wrenches) {
+  for (int k : geo.wrenches) {
     std::array<int, 6> c{};
     for (int j = 0; j < 6; ++j) c[j] = need(sys.wrenches.outputs[k].name + "." + comp[j]);
     c_w.push_back(c);
   }
 
-  struct Row {
-    double t;
-    std::string status;
-    Eigen::VectorXd q;
-    std::vector<Vec6> w;
-  };
-  std::vector<Row> rows;
+  std::vector<ViewSample> rows;
   int ln = 1;
   while (std::getline(in, line)) {
     ++ln;
@@ -166,7 +222,7 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
         throw std::runtime_error(where + ": bad number '" + cells[c] + "' in column '" + head[c] + "'");
       }
     };
-    Row r;
+    ViewSample r;
     r.t = num(c_t);
     r.status = cells[c_status];
     if (r.status != "ok" && r.status != "indeterminate" && r.status != "error")
@@ -182,45 +238,7 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
     rows.push_back(std::move(r));
   }
   if (rows.empty()) throw std::runtime_error(path + ": no rows after the header");
-
-  // evenly spaced rows, the first and the last always
-  const size_t n = rows.size(), keep = std::min(n, static_cast<size_t>(std::max(2, max_frames)));
-  std::vector<size_t> pick;
-  for (size_t i = 0; i < keep; ++i) {
-    const size_t r = keep == 1 ? 0 : static_cast<size_t>(std::llround(static_cast<double>(i) * (n - 1) / (keep - 1)));
-    if (pick.empty() || r != pick.back()) pick.push_back(r);
-  }
-
-  Data data(m);
-  const Eigen::VectorXd v0 = Eigen::VectorXd::Zero(m.nv());
-  for (size_t r : pick) {
-    Row& row = rows[r];
-    normalize_configuration(m, row.q);
-    forward_kinematics(m, data, row.q, v0);
-    vf.t.push_back(row.t);
-    vf.status.push_back(row.status);
-    std::vector<double> sp, se, ww;
-    for (const auto& s : vf.shapes) {
-      const Transform X = data.X_WB[s.body] * s.X_BS;
-      const Eigen::Quaterniond qq(X.R);
-      sp.insert(sp.end(), {X.p.x(), X.p.y(), X.p.z(), qq.x(), qq.y(), qq.z(), qq.w()});
-    }
-    for (const auto& s : vf.segments) {
-      const Vec3 a = s.body_a >= 0 ? Vec3(data.X_WB[s.body_a].R * s.p_a + data.X_WB[s.body_a].p) : s.p_a;
-      const Vec3 b = s.body_b >= 0 ? Vec3(data.X_WB[s.body_b].R * s.p_b + data.X_WB[s.body_b].p) : s.p_b;
-      se.insert(se.end(), {a.x(), a.y(), a.z(), b.x(), b.y(), b.z()});
-    }
-    for (size_t j = 0; j < vf.wrenches.size(); ++j) {
-      // [moment; force] at the report frame's origin in its coordinates -> world coordinates there
-      const Transform X = wrench_frame_pose(sys, data, vf.wrenches[j]);
-      const Vec3 f = X.R * row.w[j].tail<3>(), mo = X.R * row.w[j].head<3>();
-      ww.insert(ww.end(), {X.p.x(), X.p.y(), X.p.z(), f.x(), f.y(), f.z(), mo.x(), mo.y(), mo.z()});
-    }
-    vf.shape_pose.push_back(std::move(sp));
-    vf.seg_ends.push_back(std::move(se));
-    vf.wrench_W.push_back(std::move(ww));
-  }
-  return vf;
+  return view_frames_of(sys, rows, max_frames);
 }
 
 namespace {
@@ -266,6 +284,12 @@ void jvec(std::string& o, const double* x, size_t n, const char* fmt = "%.6g") {
   o += ']';
 }
 
+void jints(std::string& o, const std::vector<int>& x) {
+  o += '[';
+  for (size_t i = 0; i < x.size(); ++i) o += (i ? "," : "") + std::to_string(x[i]);
+  o += ']';
+}
+
 // the smallest of 1, 2, 5 x 10^k that is >= x
 double nice_ceil(double x) {
   if (!(x > 0) || !std::isfinite(x)) return 1.0;
@@ -283,7 +307,27 @@ std::string replace_once(std::string s, const std::string& key, const std::strin
 
 }  // namespace
 
-std::string view_page(const System& sys, const ViewFrames& vf, const std::string& three_js, const std::string& csv_name) {
+std::string view_frame_json(const ViewFrames& vf, size_t i) {
+  std::string d = "{\"t\":";
+  jnum(d, vf.t[i], "%.9g");
+  d += ",\"status\":" + jstr(vf.status[i]) + ",\"sp\":";
+  jvec(d, vf.shape_pose[i].data(), vf.shape_pose[i].size());
+  d += ",\"seg\":";
+  jvec(d, vf.seg_ends[i].data(), vf.seg_ends[i].size());
+  d += ",\"w\":";
+  jvec(d, vf.wrench_W[i].data(), vf.wrench_W[i].size());
+  d += ",\"pj\":";
+  jvec(d, vf.pseudo_p[i].data(), vf.pseudo_p[i].size());
+  d += ",\"stress\":";
+  jvec(d, vf.stress[i].data(), vf.stress[i].size(), "%.9g");
+  d += ",\"indet\":";
+  jints(d, vf.indet[i]);
+  d += ",\"free\":" + jstr(vf.free[i]);
+  return d + "}";
+}
+
+std::string view_page(const System& sys, const ViewFrames& vf, const std::string& three_js, const std::string& source,
+                      bool live) {
   const Model& m = sys.model;
   Vec3 up = -m.gravity_W;
   up = up.norm() > 0 ? Vec3(up.normalized()) : Vec3(Vec3::UnitZ());
@@ -348,7 +392,10 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
 
   std::string d;
   d.reserve(vf.t.size() * (vf.shapes.size() * 7 + vf.segments.size() * 6 + vf.wrenches.size() * 9) * 11 + 4096);
-  d += "{\"scene\":" + jstr(sys.name) + ",\"csv\":" + jstr(csv_name) + ",\"up\":";
+  d += "{\"scene\":" + jstr(sys.name) + ",\"source\":" + jstr(source) + ",\"live\":" + (live ? "true" : "false") +
+       ",\"size\":";
+  jnum(d, size);
+  d += ",\"up\":";
   jvec(d, up.data(), 3);
   d += ",\"centre\":";
   jvec(d, centre.data(), 3);
@@ -380,6 +427,9 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
     d += (w ? ",{\"name\":" : "{\"name\":") + jstr(o.name) + ",\"kind\":" + jstr(wrench_kind_name(o.kind)) +
          ",\"frame\":" + jstr(o.frame) + ",\"by\":" + jstr(o.by) + "}";
   }
+  d += "],\"pseudos\":[";
+  for (size_t k = 0; k < vf.pseudos.size(); ++k)
+    d += (k ? ",{\"name\":" : "{\"name\":") + jstr(vf.pseudos[k].name) + ",\"unit\":" + jstr(vf.pseudos[k].unit) + "}";
   d += "],\"t\":";
   jvec(d, vf.t.data(), vf.t.size(), "%.9g");
   d += ",\"status\":[";
@@ -399,6 +449,23 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
     if (i) d += ',';
     jvec(d, vf.wrench_W[i].data(), vf.wrench_W[i].size());
   }
+  d += "],\"pj\":[";
+  for (size_t i = 0; i < vf.t.size(); ++i) {
+    if (i) d += ',';
+    jvec(d, vf.pseudo_p[i].data(), vf.pseudo_p[i].size());
+  }
+  d += "],\"stress\":[";
+  for (size_t i = 0; i < vf.t.size(); ++i) {
+    if (i) d += ',';
+    jvec(d, vf.stress[i].data(), vf.stress[i].size(), "%.9g");
+  }
+  d += "],\"indet\":[";
+  for (size_t i = 0; i < vf.t.size(); ++i) {
+    if (i) d += ',';
+    jints(d, vf.indet[i]);
+  }
+  d += "],\"free\":[";
+  for (size_t i = 0; i < vf.t.size(); ++i) d += (i ? "," : "") + jstr(vf.free[i]);
   d += "]}";
 
   // three.js inline: a "</script" in it would end the element early
@@ -410,21 +477,53 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
   return page;
 }
 
+bool read_three_js(const std::string& three_path, std::string* three) {
+  std::ifstream f(three_path, std::ios::binary);
+  if (!f) {
+    std::fprintf(stderr,
+                 "coopdyn view: cannot read three.js at '%s' (Debian: apt-get install libjs-three; or give its path "
+                 "with --three-js FILE)\n",
+                 three_path.c_str());
+    return false;
+  }
+  std::ostringstream ss;
+  ss << f.rdbuf();
+  *three = ss.str();
+  if (three->find("WebGLRenderer") == std::string::npos) {
+    std::fprintf(stderr, "coopdyn view: '%s' is not three.js (no WebGLRenderer in it)\n", three_path.c_str());
+    return false;
+  }
+  return true;
+}
+
 void register_view(Cli& cli) {
   Command& c = cli.add("view",
-                       "Write one self-contained HTML page (three.js inlined) that shows the scene in 3D over a sim CSV, "
-                       "with every end-effector, base, tip and wheel wrench as force and moment arrows.",
+                       "Show the scene in 3D with every end-effector, base, tip and wheel wrench as force and moment "
+                       "arrows: one self-contained HTML page (three.js inlined) of a sim CSV or a daemon log, or a live "
+                       "page served over HTTP and a WebSocket fed from the daemon's LCM outputs.",
                        cmd_view);
   scene_options(c, true);
-  c.value("--csv", "SIM.csv", "the run: a 'coopdyn sim --out' CSV of the same scene")->required();
-  c.value("--out", "VIEW.html", "the page to write")->required();
-  c.number("--max-frames", "N", "frames kept, evenly spaced (first and last always)", "2000");
+  CLI::Option* csv = c.value("--csv", "SIM.csv", "the run: a 'coopdyn sim --out' CSV of the same scene");
+  CLI::Option* log = c.value("--log", "RUN.lcmlog", "the run: an lcm-logger log of coopdynd running the same scene");
+  CLI::Option* live = c.flag("--live", "serve a live page fed from the daemon's LCM outputs (until SIGINT/SIGTERM)");
+  csv->excludes(log)->excludes(live);
+  log->excludes(live);
+  c.value("--out", "VIEW.html", "the page to write (--csv, --log)");
+  c.value("--channel", "NAME", "the output_t channel (--log, --live)", "COOPDYN_OUTPUT");
+  c.number("--max-frames", "N", "frames kept, evenly spaced (first and last always; --csv, --log)", "2000");
+  c.value("--listen", "HOST:PORT", "--live: the address to serve the page and its WebSocket on", "127.0.0.1:8765");
+  c.value("--lcm-url", "URL", "--live: the LCM URL of the daemon's outputs", kDefaultLcmUrl);
+  c.number("--rate", "HZ", "--live: frames sent to the page per second at most (the rest are skipped)", "50");
+  c.number("--queue", "N", "--live: frames queued per client at most; a client that falls behind loses the oldest", "32");
   c.value("--three-js", "FILE", "three.js to inline (Debian libjs-three)", "/usr/share/javascript/three/three.min.js");
 }
 
 int cmd_view(const Args& a) {
-  if (!a.has("csv") || !a.has("out")) {
-    std::fprintf(stderr, "coopdyn view: --scene FILE, --csv SIM.csv and --out VIEW.html are required\n");
+  const int sources = a.has("csv") + a.has("log") + a.has("live");
+  if (sources != 1 || (!a.has("live") && !a.has("out"))) {
+    std::fprintf(stderr,
+                 "coopdyn view: --scene FILE and one of --csv SIM.csv --out VIEW.html, --log RUN.lcmlog --out VIEW.html "
+                 "or --live are required\n");
     return 2;
   }
   System sys;
@@ -441,29 +540,32 @@ int cmd_view(const Args& a) {
       return 2;
     }
   }
-  const std::string three_path = a.get("three-js", "/usr/share/javascript/three/three.min.js");
   std::string three;
-  {
-    std::ifstream f(three_path, std::ios::binary);
-    if (!f) {
-      std::fprintf(stderr,
-                   "coopdyn view: cannot read three.js at '%s' (Debian: apt-get install libjs-three; or give its path "
-                   "with --three-js FILE)\n",
-                   three_path.c_str());
-      return 1;
+  if (!read_three_js(a.get("three-js", "/usr/share/javascript/three/three.min.js"), &three)) return 1;
+  const std::string channel = a.get("channel", "COOPDYN_OUTPUT");
+  if (a.has("live")) {
+    const double rate = std::strtod(a.get("rate", "50").c_str(), nullptr);
+    const int queue = std::atoi(a.get("queue", "32").c_str());
+    if (!(rate > 0) || queue < 1) {
+      std::fprintf(stderr, "coopdyn view: --rate must be > 0 and --queue >= 1\n");
+      return 2;
     }
-    std::ostringstream ss;
-    ss << f.rdbuf();
-    three = ss.str();
-    if (three.find("WebGLRenderer") == std::string::npos) {
-      std::fprintf(stderr, "coopdyn view: '%s' is not three.js (no WebGLRenderer in it)\n", three_path.c_str());
-      return 1;
-    }
+    return run_view_live(sys, three, a.get("listen", "127.0.0.1:8765"), a.get("lcm-url", kDefaultLcmUrl), channel,
+                         rate, queue);
   }
   std::string page;
   try {
-    const ViewFrames vf = read_view_frames(sys, a.get("csv"), max_frames);
-    page = view_page(sys, vf, three, a.get("csv"));
+    ViewFrames vf;
+    std::string source;
+    if (a.has("csv")) {
+      source = a.get("csv");
+      vf = read_view_frames(sys, source, max_frames);
+    } else {
+      source = a.get("log");
+      std::vector<ViewSample> samples = read_log_samples(sys, source, channel);
+      vf = view_frames_of(sys, samples, max_frames);
+    }
+    page = view_page(sys, vf, three, source);
     std::fprintf(stderr, "coopdyn view: %zu frames (t %g .. %g s), %zu shapes, %zu links, %zu wrenches\n", vf.t.size(),
                  vf.t.front(), vf.t.back(), vf.shapes.size(), vf.segments.size(), vf.wrenches.size());
   } catch (const std::runtime_error& e) {

@@ -1,6 +1,7 @@
-// coopdyn view: the scene in 3D over the run of a `coopdyn sim` CSV, as one self-contained HTML page
-// (three.js inlined). The geometry of every frame is computed here (forward kinematics of each
-// CSV row's q) and embedded as JSON; the page only draws it.
+// coopdyn view: the scene in 3D over a run, as one self-contained HTML page (three.js inlined), from
+// a `coopdyn sim` CSV, a daemon log (output_t messages, clients/view_log.cc) or live from the
+// daemon's LCM outputs (clients/view_live.cc). The geometry of every frame is computed here
+// (forward kinematics of each sample's q) and embedded as JSON; the page only draws it.
 #pragma once
 
 #include <array>
@@ -8,6 +9,10 @@
 #include <vector>
 
 #include "service/dynamics/system.h"
+
+namespace coopdyn::io {
+struct DecodedOutput;
+}
 
 namespace coopdyn::cli {
 
@@ -25,8 +30,14 @@ struct ViewFrames {
     int body_a = -1, body_b = -1;  // -1: the world
     Vec3 p_a = Vec3::Zero(), p_b = Vec3::Zero();  // in the body frames
   };
+  struct Pseudo {  // a pseudo-joint (METHOD s.4): its lock's generalized force is the stress there
+    std::string name, unit;  // the joint's name; "N*m" (revolute) or "N" (prismatic)
+    int body = -1;           // the body after the joint: its origin is the joint's place
+    int dof = -1;            // velocity index
+  };
   std::vector<Shape> shapes;
   std::vector<Segment> segments;
+  std::vector<Pseudo> pseudos;
   std::vector<int> wrenches;  // the outputs drawn as arrows (every one but the joint reactions)
   // per frame
   std::vector<double> t;
@@ -34,15 +45,61 @@ struct ViewFrames {
   std::vector<std::vector<double>> shape_pose;  // 7 per shape: position, quaternion x y z w
   std::vector<std::vector<double>> seg_ends;    // 6 per segment: both ends
   std::vector<std::vector<double>> wrench_W;    // 9 per drawn wrench: origin, force, moment (world)
+  std::vector<std::vector<double>> pseudo_p;    // 3 per pseudo-joint: its place (world)
+  std::vector<std::vector<double>> stress;      // 1 per pseudo-joint, N*m or N; empty: not in the source
+  std::vector<std::vector<int>> indet;          // 1 per drawn wrench: bit k, component k of [m; f] is
+                                                // not determined by the physics; empty: not in the source
+  std::vector<std::string> free;                // the free directions by class ("2 wheel_normal"); "" none
 };
+
+// One instant of a run, whatever its source: the state and the wrenches the page draws.
+struct ViewSample {
+  double t = 0;            // s, simulation time
+  std::string status;      // "ok" | "indeterminate" | "error"
+  Eigen::VectorXd q;       // (nq) in the scene's order
+  std::vector<Vec6> w;     // per drawn wrench (ViewFrames::wrenches): [moment; force] in its report frame
+  std::vector<double> stress;  // per pseudo-joint (ViewFrames::pseudos); empty: unknown (a sim CSV)
+  std::vector<int> indet;      // per drawn wrench, indeterminate_mask; empty: unknown
+  std::string free;            // the free directions by class, "" none
+};
+
+// The shapes, links and drawn wrenches of the scene, no frames yet.
+ViewFrames view_geometry(const System& sys);
+// Appends the frame of sample s to vf (normalises s.q). `data` is a workspace of sys.model.
+void add_view_frame(const System& sys, Data& data, ViewSample& s, ViewFrames* vf);
+// At most max_frames of the samples (evenly, the first and the last always), with their geometry.
+ViewFrames view_frames_of(const System& sys, std::vector<ViewSample>& samples, int max_frames);
+// Frame i as the JSON object the live page appends: {"t":..,"status":..,"sp":[..],"seg":[..],"w":[..]}.
+std::string view_frame_json(const ViewFrames& vf, size_t i);
 
 // Reads a `coopdyn sim` CSV written for `sys`: keeps at most max_frames rows (evenly, the first and
 // the last always) and computes their geometry. Throws std::runtime_error naming the file on a
 // missing column, a column of another scene, a malformed row or no rows.
 ViewFrames read_view_frames(const System& sys, const std::string& csv_path, int max_frames);
 
-// The page: `three_js` is the text of three.min.js, inlined.
+// The sample of one output_t of coopdynd running `sys` (`geo`: view_geometry(sys)): time, status,
+// q, the drawn wrenches, the stresses, the indeterminate components and the free directions. False,
+// with the reason in *why, when it is of another scene (other coordinates or wrenches, by name) or
+// its q is not a configuration of it. Used by --log and --live (clients/view_log.cc).
+bool sample_of_output(const System& sys, const ViewFrames& geo, const io::DecodedOutput& o, ViewSample* s, std::string* why);
+
+// Reads the output_t messages on `channel` of an lcm-logger file recorded from coopdynd running
+// `sys` (clients/view_log.cc). Throws std::runtime_error naming the file when it cannot be read,
+// holds no output_t on that channel (the message lists the channels it has), or its outputs are of
+// another scene (other coordinates or wrenches).
+std::vector<ViewSample> read_log_samples(const System& sys, const std::string& log_path, const std::string& channel);
+
+// The page: `three_js` is the text of three.min.js, inlined; `source` names the run (the file). A
+// live page (live = true) has vf's frames as a placeholder, opens a WebSocket to the server it was
+// loaded from and appends the frames it receives.
 std::string view_page(const System& sys, const ViewFrames& vf, const std::string& three_js,
-                      const std::string& csv_name);
+                      const std::string& source, bool live = false);
+
+// Reads and checks three.js; prints the reason (naming the file) and returns false when it cannot.
+bool read_three_js(const std::string& path, std::string* text);
+
+// coopdyn view --live (clients/view_live.cc): serves the live page and a WebSocket of frames.
+int run_view_live(const System& sys, const std::string& three_js, const std::string& listen,
+                  const std::string& lcm_url, const std::string& channel, double max_rate_hz, int queue_frames);
 
 }  // namespace coopdyn::cli

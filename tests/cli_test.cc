@@ -125,7 +125,9 @@ TEST(Cli, EverySubcommandHasHelpOnStdoutWithItsOptionsAndDefaults) {
       {"log", {"--in", "--out", "--no-plot", "--python PATH=/usr/bin/python3"}},
       {"control", {"--action", "reset_to_state", "--state", "--no-wait", "--channel C=COOPDYN_CONTROL"}},
       {"track", {"--duration S=6", "--radius M=0.05", "--period S=4", "--squeeze N=20", "--out"}},
-      {"view", {"--scene", "--csv", "--out", "--max-frames N=2000", "--three-js FILE=/usr/share/javascript/three/three.min.js"}},
+      {"view", {"--scene", "--csv", "--log", "--live", "--out", "--max-frames N=2000", "--channel NAME=COOPDYN_OUTPUT",
+                "--listen HOST:PORT=127.0.0.1:8765", "--lcm-url URL=udpm://239.255.76.67:7667?ttl=0", "--rate HZ=50",
+                "--queue N=32", "--three-js FILE=/usr/share/javascript/three/three.min.js"}},
       {"bench", {"--scene", "--min-time S=0.5", "--repetitions N=15", "--json", "--formulation"}},
   };
   for (const Case& c : cases) {

@@ -23,9 +23,21 @@
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
 #include <unistd.h>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+
+#include <atomic>
+#include <mutex>
+#include <thread>
+
 #include "service/algorithms/kinematics.h"
+#include "service/dynamics/wrenches.h"
+#include "service/io/codec.h"
+#include "tests/child_process.h"
 #include "service/constraints/constraints.h"
 #include "service/scene/scene.h"
 
@@ -266,7 +278,9 @@ bool is_moment_colour(const unsigned char* p) { return p[0] < 90 && p[1] > 200 &
 // The force-coloured pixels of the canvas form an arrow from the projection of its origin to the
 // projection of its tip: none before the origin or past the tip (a few pixels of antialiasing
 // aside), some at both ends, none far from the line between them.
-void expect_arrow_at(const Image& im, const Eigen::Vector2d& o, const Eigen::Vector2d& tip, const std::string& what) {
+bool is_indet_force_colour(const unsigned char* p) { return p[0] > 200 && p[1] > 90 && p[1] < 170 && p[2] < 60; }  // #ff8000
+void expect_arrow_at(const Image& im, const Eigen::Vector2d& o, const Eigen::Vector2d& tip, const std::string& what,
+                     bool (*is_colour)(const unsigned char*) = is_force_colour) {
   const int ch = im.h - kBarHeight;
   const Eigen::Vector2d axis = tip - o;
   const double L = axis.norm();
@@ -276,7 +290,7 @@ void expect_arrow_at(const Image& im, const Eigen::Vector2d& o, const Eigen::Vec
   int n = 0;
   for (int y = 0; y < ch; ++y)
     for (int x = 0; x < im.w; ++x) {
-      if (!is_force_colour(im.at(x, y))) continue;
+      if (!is_colour(im.at(x, y))) continue;
       const Eigen::Vector2d d = Eigen::Vector2d(x + 0.5, y + 0.5) - o;
       const double s = d.dot(u);
       smin = std::min(smin, s);
@@ -511,6 +525,625 @@ TEST(ViewBrowser, Plays) {
   // 3 s of virtual time at speed 0.25: about 0.75 s of the run (less: loading takes part of it)
   EXPECT_GT(p.t, 0.05) << p.probe;
   EXPECT_LT(p.t, 0.8) << p.probe;
+}
+
+// ---------------------------------------------------------------------------------------------
+// From a daemon log: coopdynd runs over udpm on a private loopback port, this process receives its
+// messages (a real LCM round trip) and writes them with LCM's event-log API as lcm-logger would.
+
+std::string private_udpm_url(int offset) {
+  return "udpm://239.255.76.67:" + std::to_string(20000 + (getpid() * 11 + offset) % 30000) + "?ttl=0";
+}
+
+struct Received {
+  std::string channel;
+  std::vector<uint8_t> data;
+  int64_t utime;
+};
+
+// Runs coopdynd on `scene` at `rate` Hz for `duration` s and returns every message it published on
+// the output and stats channels, in arrival order; empty when LCM cannot start (no multicast route).
+std::vector<Received> record_daemon(const std::string& url, const std::string& scene, int rate, double duration,
+                                    std::string* daemon_err, const std::string& config = "") {
+  auto bus = daemon_test::try_bus(url);
+  if (!bus) return {};
+  std::mutex mu;
+  std::vector<Received> got;
+  for (const char* ch : {"COOPDYN_OUTPUT", "COOPDYN_STATS"})
+    bus->subscribe(ch, [&, ch](const void* d, int n, long long) {
+      std::lock_guard<std::mutex> lk(mu);
+      got.push_back({ch, std::vector<uint8_t>(static_cast<const uint8_t*>(d), static_cast<const uint8_t*>(d) + n),
+                     io::wall_us()});
+    });
+  bus->start();
+  char dur[32];
+  std::snprintf(dur, sizeof dur, "%g", duration);
+  const std::string cfg = daemon_test::tmp_path("view_cfg.yaml");
+  std::ofstream(cfg) << "stats_period_s: 0.1\n" << config;
+  daemon_test::Child d({COOPDYND_PATH, "--scene", scene_file(scene), "--config", cfg, "--lcm-url", url, "--rate",
+                        std::to_string(rate), "--duration", dur},
+                       "view_daemon");
+  EXPECT_EQ(d.wait(), 0) << daemon_test::slurp(d.err);
+  *daemon_err = daemon_test::slurp(d.err);
+  std::remove(cfg.c_str());
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  bus->stop();
+  std::lock_guard<std::mutex> lk(mu);
+  return got;
+}
+
+void write_log(const std::string& path, const std::vector<Received>& msgs) {
+  lcm::LogFile log(path, "w");
+  ASSERT_TRUE(log.good()) << path;
+  int64_t n = 0;
+  for (const Received& r : msgs) {
+    lcm::LogEvent ev{};
+    ev.eventnum = n++;
+    ev.timestamp = r.utime;
+    ev.channel = r.channel;
+    ev.datalen = static_cast<int32_t>(r.data.size());
+    ev.data = const_cast<uint8_t*>(r.data.data());
+    ASSERT_EQ(log.writeEvent(&ev), 0);
+  }
+}
+
+std::vector<double> numbers(const std::string& list) {  // "1,2.5,3" -> {1, 2.5, 3}
+  std::vector<double> out;
+  const char* p = list.c_str();
+  while (*p) {
+    char* end;
+    out.push_back(std::strtod(p, &end));
+    if (end == p) break;
+    p = *end == ',' ? end + 1 : end;
+  }
+  return out;
+}
+
+// The page of a recorded daemon log has one frame per output_t message: the message's simulation
+// time and status, and its wrenches turned into world axes with the message's own configuration
+// (this process's forward kinematics). It loads in Chromium without a JavaScript error.
+TEST(ViewLog, FramesAreTheDaemonsMessages) {
+  TempDir dir("log");
+  std::string derr;
+  const std::vector<Received> msgs = record_daemon(private_udpm_url(1), "two_puma_load", 200, 0.5, &derr);
+  if (msgs.empty()) GTEST_SKIP() << "LCM over udpm unavailable (multicast route? ip route add 224.0.0.0/4 dev lo)";
+  std::vector<io::DecodedOutput> outs;
+  for (const Received& r : msgs) {
+    if (r.channel != "COOPDYN_OUTPUT") continue;
+    io::DecodedOutput o;
+    ASSERT_TRUE(io::decode_output(r.data.data(), static_cast<int>(r.data.size()), &o));
+    outs.push_back(std::move(o));
+  }
+  ASSERT_GE(outs.size(), 50u) << derr;  // 0.5 s at 200 Hz, less what loopback lost
+  const std::string log = dir / "run.lcmlog";
+  write_log(log, msgs);
+
+  std::string err;
+  ASSERT_EQ(run("'" + kBin + "' view --scene '" + scene_file("two_puma_load") + "' --log '" + log + "' --out '" +
+                    dir / "v.html" + "'",
+                dir / "e", &err),
+            0)
+      << err;
+  const std::string page = slurp(dir / "v.html");
+  const std::vector<double> t = numbers(between(page, "\"t\":[", "]"));
+  ASSERT_EQ(t.size(), outs.size());
+  const std::string all_w = between(page, "\"wrench\":[[", "]],\"pj\"");
+  std::vector<std::vector<double>> w;
+  for (size_t at = 0, next; at < all_w.size(); at = next + 3) {
+    next = all_w.find("],[", at);
+    if (next == std::string::npos) next = all_w.size();
+    w.push_back(numbers(all_w.substr(at, next - at)));
+  }
+  ASSERT_EQ(w.size(), outs.size());
+  const System sys = load_scene(scene_file("two_puma_load"));
+  std::vector<int> drawn;
+  for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k)
+    if (sys.wrenches.outputs[k].kind != WrenchKind::kJoint) drawn.push_back(static_cast<int>(k));
+  Data data(sys.model);
+  int checked = 0;
+  double fmax = 0;
+  for (size_t i = 0; i < outs.size(); ++i) {
+    const io::DecodedOutput& o = outs[i];
+    EXPECT_NEAR(t[i], o.sim_time, 1e-8 * (1 + o.sim_time)) << "frame " << i;
+    ASSERT_EQ(w[i].size(), 9 * drawn.size());
+    Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(o.q.data(), static_cast<Eigen::Index>(o.q.size()));
+    normalize_configuration(sys.model, q);
+    forward_kinematics(sys.model, data, q, Eigen::VectorXd::Zero(sys.model.nv()));
+    for (size_t j = 0; j < drawn.size(); ++j) {
+      const Transform X = wrench_frame_pose(sys, data, drawn[j]);
+      const Vec3 f = X.R * Vec3(o.wrench[drawn[j]][3], o.wrench[drawn[j]][4], o.wrench[drawn[j]][5]);
+      const Vec3 m = X.R * Vec3(o.wrench[drawn[j]][0], o.wrench[drawn[j]][1], o.wrench[drawn[j]][2]);
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_NEAR(w[i][9 * j + k], X.p[k], 1e-5 * (1 + X.p.norm())) << o.wrench_names[drawn[j]];
+        EXPECT_NEAR(w[i][9 * j + 3 + k], f[k], 1e-5 * (1 + f.norm())) << o.wrench_names[drawn[j]] << " frame " << i;
+        EXPECT_NEAR(w[i][9 * j + 6 + k], m[k], 1e-5 * (1 + m.norm())) << o.wrench_names[drawn[j]] << " frame " << i;
+      }
+      fmax = std::max(fmax, f.norm());
+      ++checked;
+    }
+  }
+  EXPECT_GT(fmax, 10) << "the wrenches compared are not all zero";
+  EXPECT_EQ(checked, static_cast<int>(outs.size() * drawn.size()));
+  EXPECT_NE(page.find("\"source\":\"" + log + "\""), std::string::npos);
+
+  // bad input: another scene, another channel, a missing log, a file that is not a log
+  EXPECT_EQ(run("'" + kBin + "' view --scene '" + scene_file("four_bar") + "' --log '" + log + "' --out '" + dir / "x.html" + "'",
+                dir / "e", &err),
+            1);
+  EXPECT_NE(err.find(log + ": output_t 1 on channel 'COOPDYN_OUTPUT'"), std::string::npos) << err;
+  EXPECT_NE(err.find("scene 'four_bar'"), std::string::npos) << err;
+  EXPECT_NE(err.find("another scene"), std::string::npos) << err;
+  EXPECT_EQ(run("'" + kBin + "' view --scene '" + scene_file("two_puma_load") + "' --log '" + log +
+                    "' --channel COOPDYN_STATS --out '" + dir / "x.html" + "'",
+                dir / "e", &err),
+            1);
+  EXPECT_NE(err.find(log + ": no coopdyn.output_t messages on channel 'COOPDYN_STATS'"), std::string::npos) << err;
+  EXPECT_NE(err.find("COOPDYN_OUTPUT (coopdyn.output_t, " + std::to_string(outs.size()) + ")"), std::string::npos) << err;
+  EXPECT_NE(err.find("COOPDYN_STATS (coopdyn.loop_stats_t"), std::string::npos) << err;
+  EXPECT_EQ(run("'" + kBin + "' view --scene '" + scene_file("two_puma_load") + "' --log '" + dir / "none.lcmlog" +
+                    "' --out '" + dir / "x.html" + "'",
+                dir / "e", &err),
+            1);
+  EXPECT_NE(err.find("cannot read '" + dir / "none.lcmlog" + "' as an LCM log"), std::string::npos) << err;
+  EXPECT_EQ(run("'" + kBin + "' view --scene '" + scene_file("two_puma_load") + "' --log '" + scene_file("two_puma_load") +
+                    "' --out '" + dir / "x.html" + "'",
+                dir / "e", &err),
+            1);
+  EXPECT_NE(err.find(scene_file("two_puma_load") + ": no coopdyn.output_t messages"), std::string::npos) << err;
+  std::ofstream(dir / "broken.yaml") << "name: broken\nrobots: [\n";
+  EXPECT_EQ(run("'" + kBin + "' view --scene '" + dir / "broken.yaml" + "' --log '" + log + "' --out '" + dir / "x.html" + "'",
+                dir / "e", &err),
+            1);
+  EXPECT_NE(err.find(dir / "broken.yaml"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir / "x.html"));
+
+  const std::string chromium = find_chromium();
+  if (chromium.empty() || !fs::exists(kThree)) {
+    std::printf("[  SKIPPED ] the browser part: Chromium or three.js not installed\n");
+    return;
+  }
+  const Browse b = browse(chromium, dir / "v.html", "frame=20&paused=1", dir, "v", false);
+  ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
+  const PageState p = page_state(b.dom);
+  EXPECT_EQ(p.title, "coopdyn view: two_puma_load") << "a JavaScript error, or the page did not finish";
+  EXPECT_TRUE(p.ready);
+  EXPECT_EQ(p.frame, 20);
+  EXPECT_NEAR(p.t, outs[20].sim_time, 1e-8);
+}
+
+// Decoded outputs of a recorded run, and its log.
+std::vector<io::DecodedOutput> outputs_of(const std::vector<Received>& msgs) {
+  std::vector<io::DecodedOutput> outs;
+  for (const Received& r : msgs) {
+    io::DecodedOutput o;
+    if (r.channel == "COOPDYN_OUTPUT" && io::decode_output(r.data.data(), static_cast<int>(r.data.size()), &o))
+      outs.push_back(std::move(o));
+  }
+  return outs;
+}
+
+// Stresses as colours: each pseudo-joint of the four-bar is a ball at the joint whose colour is the
+// page's map of the message's stress (grey at 0, pure red / blue at the largest positive / negative
+// stress of that joint over the run), computed here from the messages; the ball is where this
+// process's forward kinematics of the message's q projects.
+TEST(ViewLog, StressColoursOnThePseudoJoints) {
+  REQUIRE_BROWSER();
+  TempDir dir("stress");
+  std::string derr;
+  // no torque (not the default hold): the four-bar falls and its stresses change
+  const std::vector<Received> msgs =
+      record_daemon(private_udpm_url(4), "four_bar", 200, 0.5, &derr, "safe_torque:\n  policy: zero\n");
+  if (msgs.empty()) GTEST_SKIP() << "LCM over udpm unavailable (multicast route? ip route add 224.0.0.0/4 dev lo)";
+  const std::vector<io::DecodedOutput> outs = outputs_of(msgs);
+  ASSERT_GE(outs.size(), 50u) << derr;
+  write_log(dir / "run.lcmlog", msgs);
+  std::string err;
+  ASSERT_EQ(run("'" + kBin + "' view --scene '" + scene_file("four_bar") + "' --log '" + dir / "run.lcmlog" + "' --out '" +
+                    dir / "v.html" + "'",
+                dir / "e", &err),
+            0)
+      << err;
+  const System sys = load_scene(scene_file("four_bar"));
+  const Model& m = sys.model;
+  ASSERT_EQ(m.pseudo_dofs.size(), 2u);
+  std::vector<double> smax(m.pseudo_dofs.size(), 0.0);
+  std::vector<std::vector<double>> st(outs.size());
+  for (size_t i = 0; i < outs.size(); ++i)
+    for (size_t k = 0; k < m.pseudo_dofs.size(); ++k) {
+      const auto& names = outs[i].stress_names;
+      const auto it = std::find(names.begin(), names.end(), m.v_names[m.pseudo_dofs[k]]);
+      ASSERT_NE(it, names.end()) << m.v_names[m.pseudo_dofs[k]];
+      st[i].push_back(outs[i].stress[static_cast<size_t>(it - names.begin())]);
+      smax[k] = std::max(smax[k], std::abs(st[i][k]));
+    }
+  auto expected = [&](double s, double mx) {  // the page's map
+    const double r = mx > 0 ? std::min(1.0, std::abs(s) / mx) : 0;
+    return s >= 0 ? Vec3(128 + 127 * r, 128 - 128 * r, 128 - 128 * r) : Vec3(128 - 128 * r, 128 - 128 * r, 128 + 127 * r);
+  };
+  // the frames of the smallest and the largest |stress| of the first pseudo-joint
+  size_t frames[2] = {0, 0};
+  for (size_t i = 0; i < outs.size(); ++i) {
+    if (std::abs(st[i][0]) < std::abs(st[frames[0]][0])) frames[0] = i;
+    if (std::abs(st[i][0]) > std::abs(st[frames[1]][0])) frames[1] = i;
+  }
+  std::vector<Vec3> seen;
+  for (size_t i : frames) {
+    const Browse b = browse(chromium, dir / "v.html", "frame=" + std::to_string(i) + "&paused=1", dir, "f" + std::to_string(i), true);
+    ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
+    const PageState p = page_state(b.dom);
+    ASSERT_EQ(p.title, "coopdyn view: four_bar");
+    ASSERT_EQ(p.frame, static_cast<int>(i));
+    Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(outs[i].q.data(), static_cast<Eigen::Index>(outs[i].q.size()));
+    Data data(m);
+    forward_kinematics(m, data, q, Eigen::VectorXd::Zero(m.nv()));
+    for (size_t k = 0; k < m.pseudo_dofs.size(); ++k) {
+      const Vec3 x = data.X_WB[m.dof_body[m.pseudo_dofs[k]]].p;
+      const Eigen::Vector2d px = project(p, b.shot.w, b.shot.h - kBarHeight, x);
+      const Vec3 want = expected(st[i][k], smax[k]);
+      Vec3 got = Vec3::Zero();  // the mean of 3 x 3 pixels at the projection
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const unsigned char* c = b.shot.at(static_cast<int>(px.x()) + dx, static_cast<int>(px.y()) + dy);
+          got += Vec3(c[0], c[1], c[2]) / 9;
+        }
+      EXPECT_LT((got - want).cwiseAbs().maxCoeff(), 12)
+          << m.v_names[m.pseudo_dofs[k]] << " at frame " << i << ": stress " << st[i][k] << " of max " << smax[k]
+          << ", expected colour " << want.transpose() << ", got " << got.transpose() << " at " << px.transpose();
+      seen.push_back(want);
+    }
+  }
+  // the map told the frames apart (else the check above could not tell a stress from a constant)
+  EXPECT_GT((seen[0] - seen[2]).cwiseAbs().maxCoeff() + (seen[1] - seen[3]).cwiseAbs().maxCoeff(), 40)
+      << "the stresses barely changed over the run";
+}
+
+// Indeterminate components highlighted: on the two-wheel vehicle (a rigid axle, over-constrained)
+// a wheel's contact force with components the physics does not determine is drawn orange, not
+// magenta, where its projection says; the status shows the free directions.
+TEST(ViewLog, IndeterminateForceIsHighlighted) {
+  REQUIRE_BROWSER();
+  TempDir dir("indet");
+  std::string derr;
+  const std::vector<Received> msgs = record_daemon(private_udpm_url(5), "two_wheel_vehicle", 200, 0.3, &derr);
+  if (msgs.empty()) GTEST_SKIP() << "LCM over udpm unavailable (multicast route? ip route add 224.0.0.0/4 dev lo)";
+  const std::vector<io::DecodedOutput> outs = outputs_of(msgs);
+  ASSERT_GE(outs.size(), 20u) << derr;
+  write_log(dir / "run.lcmlog", msgs);
+  std::string err;
+  ASSERT_EQ(run("'" + kBin + "' view --scene '" + scene_file("two_wheel_vehicle") + "' --log '" + dir / "run.lcmlog" +
+                    "' --out '" + dir / "v.html" + "'",
+                dir / "e", &err),
+            0)
+      << err;
+  const System sys = load_scene(scene_file("two_wheel_vehicle"));
+  // a frame and a drawn wrench with an indeterminate force component and a force long enough to see
+  const size_t i = outs.size() / 2;
+  const io::DecodedOutput& o = outs[i];
+  int pick = -1;
+  double fbest = 0;
+  for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k) {
+    if (sys.wrenches.outputs[k].kind == WrenchKind::kJoint || !(o.indeterminate_mask[k] & 0x38)) continue;
+    const double f = Vec3(o.wrench[k][3], o.wrench[k][4], o.wrench[k][5]).norm();
+    if (f > fbest) fbest = f, pick = static_cast<int>(k);
+  }
+  ASSERT_GE(pick, 0) << "no indeterminate force in the vehicle's output (status " << o.status << ")";
+  ASSERT_FALSE(o.free_class.empty());
+  const std::string name = sys.wrenches.outputs[static_cast<size_t>(pick)].name;
+  const Browse b = browse(chromium, dir / "v.html", "frame=" + std::to_string(i) + "&paused=1&wrench=" + name, dir, "v", true);
+  ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
+  const PageState p = page_state(b.dom);
+  ASSERT_EQ(p.title, "coopdyn view: two_wheel_vehicle");
+  ASSERT_EQ(p.frame, static_cast<int>(i));
+  const std::string status = between(b.dom, "<span id=\"status\" class=\"indeterminate\">", "</span>");
+  EXPECT_EQ(status.rfind("indeterminate (free: ", 0), 0u) << b.dom.substr(b.dom.find("id=\"status\""), 120);
+  Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(o.q.data(), static_cast<Eigen::Index>(o.q.size()));
+  Data data(sys.model);
+  forward_kinematics(sys.model, data, q, Eigen::VectorXd::Zero(sys.model.nv()));
+  const Transform X = wrench_frame_pose(sys, data, pick);
+  const Vec3 f = X.R * Vec3(o.wrench[pick][3], o.wrench[pick][4], o.wrench[pick][5]);
+  const double w = b.shot.w, h = b.shot.h - kBarHeight;
+  const Eigen::Vector2d po = project(p, w, h, X.p), tip = project(p, w, h, X.p + f / p.force_scale);
+  expect_arrow_at(b.shot, po, tip, name + " (indeterminate) at frame " + std::to_string(i), is_indet_force_colour);
+  int magenta = 0;
+  for (int y = 0; y < b.shot.h - kBarHeight; ++y)
+    for (int x = 0; x < b.shot.w; ++x) magenta += is_force_colour(b.shot.at(x, y));
+  EXPECT_EQ(magenta, 0) << "an indeterminate force drawn in the determinate colour";
+}
+
+// ---------------------------------------------------------------------------------------------
+// Live: coopdynd over udpm on a private loopback port, `coopdyn view --live` as its own process
+// serving the page and its WebSocket on 127.0.0.1 (port 0: the one it prints).
+
+// A TCP connection to 127.0.0.1:port (rcvbuf > 0: that receive buffer, set before connecting).
+int tcp_connect(int port, int rcvbuf = 0) {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  if (fd < 0) return -1;
+  if (rcvbuf > 0) setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
+  timeval tv{5, 0};
+  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(static_cast<uint16_t>(port));
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+    close(fd);
+    return -1;
+  }
+  return fd;
+}
+bool send_all(int fd, const std::string& s) { return ::send(fd, s.data(), s.size(), MSG_NOSIGNAL) == static_cast<ssize_t>(s.size()); }
+// Reads up to the end of the HTTP head (and whatever came with it).
+std::string read_head(int fd) {
+  std::string got;
+  char buf[4096];
+  while (got.find("\r\n\r\n") == std::string::npos) {
+    const ssize_t n = recv(fd, buf, sizeof buf, 0);
+    if (n <= 0) break;
+    got.append(buf, static_cast<size_t>(n));
+  }
+  return got;
+}
+std::string http_get(int port, const std::string& path) {
+  const int fd = tcp_connect(port);
+  if (fd < 0) return "";
+  send_all(fd, "GET " + path + " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n");
+  std::string got;
+  char buf[65536];
+  for (ssize_t n; (n = recv(fd, buf, sizeof buf, 0)) > 0;) got.append(buf, static_cast<size_t>(n));
+  close(fd);
+  return got;
+}
+// A WebSocket client at the handshake: returns the socket after the server's 101, or -1.
+int ws_connect(int port, int rcvbuf) {
+  const int fd = tcp_connect(port, rcvbuf);
+  if (fd < 0) return -1;
+  send_all(fd, "GET /ws HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+               "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n");
+  if (read_head(fd).rfind("HTTP/1.1 101", 0) != 0) {
+    close(fd);
+    return -1;
+  }
+  return fd;
+}
+long rss_kib(pid_t pid) {
+  std::ifstream f("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(f, line))
+    if (line.rfind("VmRSS:", 0) == 0) return std::atol(line.c_str() + 6);
+  return -1;
+}
+
+// A running daemon and a live viewer of it, and what the test receives from the daemon.
+struct LiveRig {
+  std::string url;
+  std::unique_ptr<io::LcmBus> bus;
+  std::unique_ptr<daemon_test::Child> daemon, viewer;
+  int port = -1;
+  std::mutex mu;
+  std::vector<double> sim_t;               // output_t sim_time, as received
+  std::vector<std::pair<int64_t, int64_t>> stats;  // loop_stats_t (utime, tick)
+  std::string skip;
+
+  LiveRig(int offset, const std::vector<std::string>& viewer_extra, const std::string& daemon_rate = "1000") {
+    if (!COOPDYN_VIEW_LIVE) {
+      skip = "coopdyn view --live is not built (Debian: libwebsocketpp-dev libasio-dev)";
+      return;
+    }
+    url = private_udpm_url(offset);
+    bus = daemon_test::try_bus(url);
+    if (!bus) {
+      skip = "LCM over udpm unavailable (multicast route? ip route add 224.0.0.0/4 dev lo)";
+      return;
+    }
+    bus->subscribe("COOPDYN_OUTPUT", [this](const void* d, int n, long long) {
+      io::DecodedOutput o;
+      if (!io::decode_output(d, n, &o)) return;
+      std::lock_guard<std::mutex> lk(mu);
+      sim_t.push_back(o.sim_time);
+    });
+    bus->subscribe("COOPDYN_STATS", [this](const void* d, int n, long long) {
+      io::StatsFrame st;
+      if (!io::decode_stats(d, n, &st)) return;
+      std::lock_guard<std::mutex> lk(mu);
+      stats.emplace_back(st.utime, st.tick);
+    });
+    bus->start();
+    const std::string cfg = daemon_test::tmp_path("live_cfg.yaml");
+    std::ofstream(cfg) << "stats_period_s: 0.25\n";
+    daemon = std::make_unique<daemon_test::Child>(
+        std::vector<std::string>{COOPDYND_PATH, "--scene", scene_file("two_puma_load"), "--config", cfg, "--lcm-url", url,
+                                 "--rate", daemon_rate, "--duration", "60"},
+        "live_daemon");
+    std::vector<std::string> args{kBin, "view", "--scene", scene_file("two_puma_load"), "--live", "--listen",
+                                  "127.0.0.1:0", "--lcm-url", url};
+    args.insert(args.end(), viewer_extra.begin(), viewer_extra.end());
+    viewer = std::make_unique<daemon_test::Child>(args, "live_viewer");
+    for (int i = 0; i < 200 && port < 0; ++i) {  // its address, once it listens
+      std::this_thread::sleep_for(std::chrono::milliseconds(25));
+      const std::string err = daemon_test::slurp(viewer->err);
+      const size_t at = err.find("serving http://127.0.0.1:");
+      if (at != std::string::npos) port = std::atoi(err.c_str() + at + 25);
+    }
+  }
+  ~LiveRig() {
+    if (bus) bus->stop();
+  }
+  // ticks per second of the daemon from its loop_stats_t between wall times [t0, t1] (us)
+  double tick_rate(int64_t t0, int64_t t1) {
+    std::lock_guard<std::mutex> lk(mu);
+    const std::pair<int64_t, int64_t>* a = nullptr;
+    const std::pair<int64_t, int64_t>* b = nullptr;
+    for (const auto& s : stats) {
+      if (s.first >= t0 && !a) a = &s;
+      if (s.first <= t1) b = &s;
+    }
+    if (!a || !b || b->first <= a->first) return NAN;
+    return static_cast<double>(b->second - a->second) / (static_cast<double>(b->first - a->first) * 1e-6);
+  }
+};
+
+// The live page in Chromium connects, receives the daemon's frames and shows the simulation time
+// advancing: the time it shows is later than the first it received, and both are times the daemon
+// published.
+TEST(ViewLive, BrowserReceivesFramesAndTimeAdvances) {
+  REQUIRE_BROWSER();
+  TempDir dir("live");
+  LiveRig rig(2, {});
+  if (!rig.skip.empty()) GTEST_SKIP() << rig.skip;
+  ASSERT_GT(rig.port, 0) << daemon_test::slurp(rig.viewer->err);
+  const std::string index = http_get(rig.port, "/");
+  ASSERT_EQ(index.rfind("HTTP/1.1 200", 0), 0u) << index.substr(0, 200);
+  EXPECT_NE(index.find("\"live\":true"), std::string::npos);
+  EXPECT_EQ(http_get(rig.port, "/nothing").rfind("HTTP/1.1 404", 0), 0u);
+
+  std::string cmd = "timeout 60 '" + chromium +
+                    "' --headless --no-sandbox --disable-gpu --use-angle=swiftshader --enable-unsafe-swiftshader"
+                    " --hide-scrollbars --mute-audio --no-first-run --user-data-dir='" + dir / "profile" +
+                    "' --window-size=900,600 --virtual-time-budget=4000 --dump-dom 'http://127.0.0.1:" +
+                    std::to_string(rig.port) + "/' > '" + dir / "dom.html" + "'";
+  std::string log;
+  ASSERT_EQ(run(cmd, dir / "chromium.log", &log), 0) << log.substr(0, 3000);
+  const std::string dom = slurp(dir / "dom.html");
+  const PageState p = page_state(dom);
+  EXPECT_EQ(p.title, "coopdyn view: two_puma_load") << "a JavaScript error, or the page did not finish";
+  const std::string live = between(dom, "<span id=\"live\">", "</span>");
+  EXPECT_EQ(live.rfind("live: connected, ", 0), 0u) << live;
+  const long received = std::atol(live.c_str() + std::string("live: connected, ").size());
+  EXPECT_GE(received, 5) << live;
+  const double first_t = num_after(p.probe, "\"first_t\":");
+  ASSERT_TRUE(std::isfinite(first_t)) << p.probe;
+  // the time text shows the newest frame received (playing follows it)
+  const double shown = std::strtod(p.time_text.c_str() + 4, nullptr);
+  EXPECT_GT(shown, first_t + 0.01) << p.time_text << " " << p.probe;
+  {
+    std::lock_guard<std::mutex> lk(rig.mu);
+    ASSERT_FALSE(rig.sim_t.empty());
+    auto near = [&](double t) {
+      return std::any_of(rig.sim_t.begin(), rig.sim_t.end(), [&](double x) { return std::abs(x - t) < 5e-4; });
+    };
+    EXPECT_TRUE(near(first_t)) << first_t << " is not a time the daemon published";
+    EXPECT_TRUE(near(shown)) << shown << " is not a time the daemon published";
+  }
+  rig.viewer->signal(SIGTERM);
+  EXPECT_EQ(rig.viewer->wait(std::chrono::seconds(5)), 0) << daemon_test::slurp(rig.viewer->err);
+  rig.daemon->signal(SIGTERM);
+  EXPECT_EQ(rig.daemon->wait(std::chrono::seconds(5)), 0);
+}
+
+// A WebSocket client that connects and never reads: the daemon's tick rate is the same with it as
+// without it, the viewer drops that client's frames (counted) instead of queueing them, its memory
+// stays bounded, and a client that reads goes on receiving.
+TEST(ViewLive, ClientThatNeverReadsChangesNothing) {
+  TempDir dir("slow");
+  // every output framed and sent (--rate 1000): ~2.5 MB/s for each client, what a queue without
+  // bound would grow by
+  // the daemon at 500 Hz: a sanitizer build of it holds that from the start
+  LiveRig rig(3, {"--rate", "1000"}, "500");
+  if (!rig.skip.empty()) GTEST_SKIP() << rig.skip;
+  ASSERT_GT(rig.port, 0) << daemon_test::slurp(rig.viewer->err);
+  auto stat = [&](const char* key) {
+    const std::string s = http_get(rig.port, "/stats");
+    return num_after(s, std::string("\"") + key + "\":");
+  };
+  std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+  const int64_t a0 = io::wall_us();
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+  const int64_t a1 = io::wall_us();
+
+  // a reader that keeps reading, and a client that never reads (a small receive buffer)
+  const double framed0 = stat("framed");
+  const int reader = ws_connect(rig.port, 0);
+  ASSERT_GE(reader, 0);
+  std::atomic<long> read_bytes{0};
+  std::atomic<bool> stop{false};
+  std::thread rd([&] {
+    char buf[65536];
+    while (!stop) {
+      const ssize_t n = recv(reader, buf, sizeof buf, 0);
+      if (n > 0) read_bytes += n;
+      else if (n == 0) break;
+    }
+  });
+  const int sleeper = ws_connect(rig.port, 4096);
+  ASSERT_GE(sleeper, 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+  const long rss1 = rss_kib(rig.viewer->pid);
+  const double dropped1 = stat("dropped"), framed1 = stat("framed");
+  const long read1 = read_bytes;
+  const int64_t b0 = io::wall_us();
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+  const int64_t b1 = io::wall_us();
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  const long rss2 = rss_kib(rig.viewer->pid);
+  const double dropped2 = stat("dropped"), queued = stat("queued"), clients = stat("clients"), framed = stat("framed");
+  const long read2 = read_bytes;
+  stop = true;
+  shutdown(reader, SHUT_RDWR);
+  rd.join();
+  close(reader);
+
+  const double rate_without = rig.tick_rate(a0, a1), rate_with = rig.tick_rate(b0, b1);
+  std::printf("daemon tick rate: %.1f Hz without the client that never reads, %.1f Hz with it; viewer RSS %ld -> %ld KiB "
+              "over 4 s; frames dropped for it %.0f of %.0f framed; the reader got %ld bytes in 4 s\n",
+              rate_without, rate_with, rss1, rss2, dropped2, framed, read2 - read1);
+  ASSERT_TRUE(std::isfinite(rate_without) && std::isfinite(rate_with)) << "no loop_stats_t received";
+#if defined(__SANITIZE_ADDRESS__)
+  const double tol = 0.05;  // a sanitizer build's daemon jitters more
+#else
+  const double tol = 0.02;
+#endif
+  EXPECT_NEAR(rate_with, rate_without, tol * rate_without);
+  EXPECT_NEAR(rate_without, 500, 25);
+  EXPECT_EQ(clients, 2);
+  EXPECT_GT(dropped2 - dropped1, 500) << "the client that never reads was not dropped from";
+  EXPECT_LE(queued, 2 * 32) << "more queued than the per-client bound";
+  // what a queue without bound would have grown by over [rss1, rss2]: the frames framed then, at the
+  // size the reader received them
+  const double frame_bytes = static_cast<double>(read2) / std::max(1.0, framed - framed0);  // (the reader drops none, or
+                                                                                          // this is less)
+  const double unbounded_kib = (framed - framed1) * frame_bytes / 1024;
+  EXPECT_GT(unbounded_kib, 1000) << "too few frames to judge the memory bound";
+#if defined(__SANITIZE_ADDRESS__)
+  std::printf("(AddressSanitizer: freed memory is quarantined, the viewer's RSS is not judged)\n");
+#else
+  EXPECT_LT(rss2 - rss1, 0.3 * unbounded_kib) << "the viewer's memory grew (KiB) while a client did not read";
+#endif
+  EXPECT_GT(read2 - read1, 500 * 1024) << "the reading client was starved";
+  close(sleeper);
+  rig.viewer->signal(SIGTERM);
+  EXPECT_EQ(rig.viewer->wait(std::chrono::seconds(5)), 0) << daemon_test::slurp(rig.viewer->err);
+  rig.daemon->signal(SIGTERM);
+  EXPECT_EQ(rig.daemon->wait(std::chrono::seconds(5)), 0);
+}
+
+// Bad command lines of the new sources: one source at a time, --out for a file, a usable --listen
+// (a malformed one, a port already taken: the error names it), exit status 2 for usage, 1 for the rest.
+TEST(ViewErrors, SourcesAndListenAddress) {
+  TempDir dir("usage");
+  const std::string v = "'" + kBin + "' view --scene '" + scene_file("unicycle") + "' ";
+  std::string err;
+  EXPECT_EQ(run(v + "--csv a.csv --log b.lcmlog --out x.html", dir / "e", &err), 2);
+  EXPECT_NE(err.find("--csv excludes --log"), std::string::npos) << err;
+  EXPECT_EQ(run(v + "--log b.lcmlog", dir / "e", &err), 2);
+  EXPECT_NE(err.find("--out VIEW.html"), std::string::npos) << err;
+  EXPECT_EQ(run(v + "--live --log b.lcmlog", dir / "e", &err), 2);
+  if (!COOPDYN_VIEW_LIVE) return;
+  EXPECT_EQ(run(v + "--live --listen nonsense --lcm-url memq://", dir / "e", &err), 2);
+  EXPECT_NE(err.find("--listen 'nonsense': expected HOST:PORT"), std::string::npos) << err;
+  // a port this process holds
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  ASSERT_GE(fd, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  ASSERT_EQ(listen(fd, 1), 0);
+  socklen_t len = sizeof a;
+  getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
+  const std::string taken = "127.0.0.1:" + std::to_string(ntohs(a.sin_port));
+  EXPECT_EQ(run(v + "--live --listen " + taken + " --lcm-url memq://", dir / "e", &err), 1);
+  EXPECT_NE(err.find("cannot listen on " + taken), std::string::npos) << err;
+  close(fd);
 }
 
 }  // namespace

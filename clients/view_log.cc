@@ -1,0 +1,112 @@
+// coopdyn view --log: the frames of a daemon log, from its output_t messages (read with the
+// clients' one log reader, clients/lcm_log.h).
+#include <algorithm>
+#include <map>
+#include <stdexcept>
+#include <string>
+
+#include "clients/lcm_log.h"
+#include "clients/view.h"
+#include "service/io/codec.h"
+
+namespace coopdyn::cli {
+
+namespace {
+std::string joined(const std::vector<std::string>& v, size_t max = 6) {
+  std::string s;
+  for (size_t i = 0; i < v.size() && i < max; ++i) s += (i ? ", " : "") + v[i];
+  if (v.size() > max) s += ", ...";
+  return s;
+}
+}  // namespace
+
+bool sample_of_output(const System& sys, const ViewFrames& geo, const io::DecodedOutput& o, ViewSample* r, std::string* why) {
+  const Model& m = sys.model;
+  const auto& outs = sys.wrenches.outputs;
+  bool same_wrenches = o.wrench_names.size() == outs.size();
+  for (size_t k = 0; same_wrenches && k < outs.size(); ++k) same_wrenches = o.wrench_names[k] == outs[k].name;
+  if (o.q_names != m.q_names) {
+    *why = "has " + std::to_string(o.q_names.size()) + " coordinates (" + joined(o.q_names) + "), scene '" + sys.name +
+           "' has " + std::to_string(m.nq()) + " (" + joined(m.q_names) + "): it was recorded with another scene";
+    return false;
+  }
+  if (!same_wrenches) {
+    std::vector<std::string> names;
+    for (const WrenchOutput& w : outs) names.push_back(w.name);
+    *why = "has " + std::to_string(o.wrench_names.size()) + " wrenches (" + joined(o.wrench_names) + "), scene '" +
+           sys.name + "' reports " + std::to_string(outs.size()) + " (" + joined(names) +
+           "): it was recorded with another scene or formulation";
+    return false;
+  }
+  if (o.q.size() != o.q_names.size() || o.wrench.size() != outs.size() || o.indeterminate_mask.size() != outs.size() ||
+      o.stress.size() != o.stress_names.size()) {
+    *why = "sizes do not match its names";
+    return false;
+  }
+  r->t = o.sim_time;
+  r->status = o.status == 0 ? "ok" : o.status == 1 ? "indeterminate" : "error";
+  r->q = Eigen::Map<const Eigen::VectorXd>(o.q.data(), static_cast<Eigen::Index>(o.q.size()));
+  if (!configuration_valid(m, r->q)) {
+    *why = "not a valid configuration of scene '" + sys.name + "'";
+    return false;
+  }
+  r->w.clear();
+  r->indet.clear();
+  for (int k : geo.wrenches) {
+    r->w.push_back(Eigen::Map<const Vec6>(o.wrench[static_cast<size_t>(k)].data()));
+    r->indet.push_back(o.indeterminate_mask[static_cast<size_t>(k)] & 0x3f);
+  }
+  r->stress.clear();
+  for (const auto& p : geo.pseudos) {
+    const auto it = std::find(o.stress_names.begin(), o.stress_names.end(), p.name);
+    if (it == o.stress_names.end()) {
+      r->stress.clear();  // a formulation that does not report it: no colours rather than wrong ones
+      break;
+    }
+    r->stress.push_back(o.stress[static_cast<size_t>(it - o.stress_names.begin())]);
+  }
+  static const char* kFree[] = {"wheel_normal", "wheel_lateral", "wheel_longitudinal", "force", "moment", "lock", "mixed"};
+  int count[7] = {0, 0, 0, 0, 0, 0, 0};
+  for (int c : o.free_class)
+    if (c >= 0 && c < 7) ++count[c];
+  r->free.clear();
+  for (int c = 0; c < 7; ++c)
+    if (count[c]) r->free += (r->free.empty() ? "" : ", ") + std::to_string(count[c]) + " " + kFree[c];
+  return true;
+}
+
+std::vector<ViewSample> read_log_samples(const System& sys, const std::string& path, const std::string& channel) {
+  const ViewFrames geo = view_geometry(sys);
+  std::vector<ViewSample> out;
+  std::map<std::string, std::pair<io::MessageType, long>> seen;  // channel -> type of its first message, count
+  long undecodable = 0, n = 0;
+  io::DecodedOutput o;
+  std::string why;
+  read_lcm_log(path, [&](const LogMessage& ev) {
+    auto& s = seen[ev.channel];
+    if (s.second++ == 0) s.first = ev.type;
+    if (ev.channel != channel || ev.type != io::MessageType::kOutput) return true;
+    ++n;
+    if (!io::decode_output(ev.data, ev.len, &o)) {
+      ++undecodable;
+      return true;
+    }
+    ViewSample r;
+    if (!sample_of_output(sys, geo, o, &r, &why))
+      throw std::runtime_error(path + ": output_t " + std::to_string(n) + " on channel '" + channel + "' (tick " +
+                               std::to_string(o.tick) + ") " + why);
+    out.push_back(std::move(r));
+    return true;
+  });
+  if (out.empty()) {
+    std::string has;
+    for (const auto& [name, s] : seen)
+      has += (has.empty() ? "" : ", ") + name + " (" + io::type_name(s.first) + ", " + std::to_string(s.second) + ")";
+    throw std::runtime_error(path + ": no coopdyn.output_t messages on channel '" + channel + "'" +
+                             (undecodable ? " that decode (" + std::to_string(undecodable) + " did not)" : "") +
+                             "; the log has " + (has.empty() ? "no messages" : has));
+  }
+  return out;
+}
+
+}  // namespace coopdyn::cli
