@@ -267,7 +267,9 @@ TEST(Vehicle, LiftOffAndSlipAreReportedWhereTheFormulasSay) {
                               : c1.tangential[i] > 0.85 * c1.normal[i] ? ContactState::kSlip
                                                                         : ContactState::kOk;
     EXPECT_EQ(c1.state[i], want) << i;
-    if (c1.normal[i] > 0) EXPECT_NEAR(c1.utilisation[i], c1.friction_needed[i] / 0.85, 1e-15);
+    if (c1.normal[i] > 0) {
+      EXPECT_NEAR(c1.utilisation[i], c1.friction_needed[i] / 0.85, 1e-15);
+    }
   }
   std::printf("[ four_wheel_car ] R %.0f m: wheel %s lifts off first, at V* = %.3f m/s (a_y = %.3f g; the rigid no-slip "
               "model holds the car to the road far beyond mu = 0.85, which the report flags as slip first)\n",
