@@ -30,6 +30,10 @@ struct Args {
 void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const Eigen::VectorXd& q,
                      const Eigen::VectorXd& v, const Eigen::VectorXd& tau);
 
+// s as a JSON string literal: quotes, backslashes and control characters escaped, and "</" written
+// as "<\/" so that no name can close an inline <script> (coopdyn view).
+std::string json_string(const std::string& s);
+
 // One warning line on f per rolling contact the evaluation in ws finds sliding or lifting off
 // (contacts.h), prefixed with "t=T: " when t is finite; returns how many.
 int warn_contacts(std::FILE* f, const char* cmd, const System& sys, const Workspace& ws,

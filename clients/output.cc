@@ -40,6 +40,26 @@ void names(std::FILE* f, const std::vector<std::string>& v) {
 }
 }  // namespace
 
+std::string json_string(const std::string& s) {
+  std::string o = "\"";
+  for (size_t i = 0; i < s.size(); ++i) {
+    const unsigned char c = static_cast<unsigned char>(s[i]);
+    if (c == '"' || c == '\\') {
+      o += '\\';
+      o += static_cast<char>(c);
+    } else if (c < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", c);
+      o += buf;
+    } else if (c == '/' && i > 0 && s[i - 1] == '<') {
+      o += "\\/";
+    } else {
+      o += static_cast<char>(c);
+    }
+  }
+  return o + "\"";
+}
+
 void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const Eigen::VectorXd& q,
                      const Eigen::VectorXd& v, const Eigen::VectorXd& tau) {
   const Model& model = sys.model;
@@ -116,10 +136,9 @@ void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const
   // each free direction of the multipliers: its class, a reading, lambda along it and every
   // reported wrench it moves (per unit; any multiple may be added to the wrenches above)
   for (int dir = 0; dir < wd.num_free; ++dir) {
-    std::fprintf(f, "%s\n    {\"class\": \"%s\", \"reading\": \"", dir ? "," : "",
-                 free_class_name(wd.free_class[static_cast<size_t>(dir)]));
-    for (char ch : free_direction_reading(sys, wd, dir)) std::fprintf(f, ch == '"' || ch == '\\' ? "\\%c" : "%c", ch);
-    std::fprintf(f, "\", \"lambda\": ");
+    std::fprintf(f, "%s\n    {\"class\": \"%s\", \"reading\": %s", dir ? "," : "",
+                 free_class_name(wd.free_class[static_cast<size_t>(dir)]), json_string(free_direction_reading(sys, wd, dir)).c_str());
+    std::fprintf(f, ", \"lambda\": ");
     list(f, wd.free_lambda.col(dir).data(), static_cast<int>(wd.free_lambda.rows()));
     std::fprintf(f, ", \"wrenches\": [");
     bool first = true;

@@ -243,27 +243,6 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
 
 namespace {
 
-// JSON string: quotes, backslashes and control characters escaped, and "</" written as "<\/" so
-// that no name can close the inline <script>.
-std::string jstr(const std::string& s) {
-  std::string o = "\"";
-  for (size_t i = 0; i < s.size(); ++i) {
-    const unsigned char c = static_cast<unsigned char>(s[i]);
-    if (c == '"' || c == '\\') {
-      o += '\\';
-      o += static_cast<char>(c);
-    } else if (c < 0x20) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", c);
-      o += buf;
-    } else if (c == '/' && i > 0 && s[i - 1] == '<') {
-      o += "\\/";
-    } else {
-      o += static_cast<char>(c);
-    }
-  }
-  return o + "\"";
-}
 
 void jnum(std::string& o, double x, const char* fmt = "%.6g") {
   if (!std::isfinite(x)) {
@@ -310,7 +289,7 @@ std::string replace_once(std::string s, const std::string& key, const std::strin
 std::string view_frame_json(const ViewFrames& vf, size_t i) {
   std::string d = "{\"t\":";
   jnum(d, vf.t[i], "%.9g");
-  d += ",\"status\":" + jstr(vf.status[i]) + ",\"sp\":";
+  d += ",\"status\":" + json_string(vf.status[i]) + ",\"sp\":";
   jvec(d, vf.shape_pose[i].data(), vf.shape_pose[i].size());
   d += ",\"seg\":";
   jvec(d, vf.seg_ends[i].data(), vf.seg_ends[i].size());
@@ -322,7 +301,7 @@ std::string view_frame_json(const ViewFrames& vf, size_t i) {
   jvec(d, vf.stress[i].data(), vf.stress[i].size(), "%.9g");
   d += ",\"indet\":";
   jints(d, vf.indet[i]);
-  d += ",\"free\":" + jstr(vf.free[i]);
+  d += ",\"free\":" + json_string(vf.free[i]);
   return d + "}";
 }
 
@@ -392,7 +371,7 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
 
   std::string d;
   d.reserve(vf.t.size() * (vf.shapes.size() * 7 + vf.segments.size() * 6 + vf.wrenches.size() * 9) * 11 + 4096);
-  d += "{\"scene\":" + jstr(sys.name) + ",\"source\":" + jstr(source) + ",\"live\":" + (live ? "true" : "false") +
+  d += "{\"scene\":" + json_string(sys.name) + ",\"source\":" + json_string(source) + ",\"live\":" + (live ? "true" : "false") +
        ",\"size\":";
   jnum(d, size);
   d += ",\"up\":";
@@ -415,25 +394,25 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
   jnum(d, mscale);
   d += ",\"shapes\":[";
   for (size_t s = 0; s < vf.shapes.size(); ++s) {
-    d += (s ? ",{\"name\":" : "{\"name\":") + jstr(vf.shapes[s].name) + ",\"kind\":" + jstr(vf.shapes[s].kind) + ",\"size\":";
+    d += (s ? ",{\"name\":" : "{\"name\":") + json_string(vf.shapes[s].name) + ",\"kind\":" + json_string(vf.shapes[s].kind) + ",\"size\":";
     jvec(d, vf.shapes[s].size.data(), 3);
     d += "}";
   }
   d += "],\"segments\":[";
-  for (size_t s = 0; s < vf.segments.size(); ++s) d += (s ? "," : "") + jstr(vf.segments[s].name);
+  for (size_t s = 0; s < vf.segments.size(); ++s) d += (s ? "," : "") + json_string(vf.segments[s].name);
   d += "],\"wrenches\":[";
   for (size_t w = 0; w < vf.wrenches.size(); ++w) {
     const WrenchOutput& o = sys.wrenches.outputs[vf.wrenches[w]];
-    d += (w ? ",{\"name\":" : "{\"name\":") + jstr(o.name) + ",\"kind\":" + jstr(wrench_kind_name(o.kind)) +
-         ",\"frame\":" + jstr(o.frame) + ",\"by\":" + jstr(o.by) + "}";
+    d += (w ? ",{\"name\":" : "{\"name\":") + json_string(o.name) + ",\"kind\":" + json_string(wrench_kind_name(o.kind)) +
+         ",\"frame\":" + json_string(o.frame) + ",\"by\":" + json_string(o.by) + "}";
   }
   d += "],\"pseudos\":[";
   for (size_t k = 0; k < vf.pseudos.size(); ++k)
-    d += (k ? ",{\"name\":" : "{\"name\":") + jstr(vf.pseudos[k].name) + ",\"unit\":" + jstr(vf.pseudos[k].unit) + "}";
+    d += (k ? ",{\"name\":" : "{\"name\":") + json_string(vf.pseudos[k].name) + ",\"unit\":" + json_string(vf.pseudos[k].unit) + "}";
   d += "],\"t\":";
   jvec(d, vf.t.data(), vf.t.size(), "%.9g");
   d += ",\"status\":[";
-  for (size_t i = 0; i < vf.status.size(); ++i) d += (i ? "," : "") + jstr(vf.status[i]);
+  for (size_t i = 0; i < vf.status.size(); ++i) d += (i ? "," : "") + json_string(vf.status[i]);
   d += "],\"shape_pose\":[";
   for (size_t i = 0; i < vf.t.size(); ++i) {
     if (i) d += ',';
@@ -465,7 +444,7 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
     jints(d, vf.indet[i]);
   }
   d += "],\"free\":[";
-  for (size_t i = 0; i < vf.t.size(); ++i) d += (i ? "," : "") + jstr(vf.free[i]);
+  for (size_t i = 0; i < vf.t.size(); ++i) d += (i ? "," : "") + json_string(vf.free[i]);
   d += "]}";
 
   // three.js inline: a "</script" in it would end the element early

@@ -113,6 +113,12 @@ struct ConstraintData {
   std::vector<double> rr_arm;
 };
 
+// A rolling spec's wrench on its wheel at P in C ([moment; force], w[5] = the normal force N)
+// carries the rolling-resistance moment about y_C: w[1] = rr_arm N. Nothing for other kinds.
+inline void set_rolling_resistance_moment(const ConstraintSet& set, const ConstraintData& cd, int s, double* w) {
+  if (set.specs[static_cast<size_t>(s)].kind == ConstraintKind::kRolling) w[1] = cd.rr_arm[static_cast<size_t>(s)] * w[5];
+}
+
 // Fills G, Gdot_v, err, Gv, gamma and X_RS after forward_kinematics(q, v).
 void constraint_rows(const Model& model, const Data& data, const ConstraintSet& set, const Eigen::VectorXd& q,
                      const Eigen::VectorXd& v, ConstraintData& cd);

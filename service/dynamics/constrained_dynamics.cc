@@ -479,10 +479,8 @@ Vec6 tip_wrench(const System& sys, const Workspace& ws, int spec, unsigned* inde
     w[ax] = ws.lambda[r0 + k];
     if (ws.qs.row_indeterminate[r0 + k]) mask |= 1u << ax;
   }
-  if (cs.specs[spec].kind == ConstraintKind::kRolling && ws.cd.rr_arm[spec] != 0.0) {
-    w[1] = ws.cd.rr_arm[spec] * w[5];  // the rolling-resistance moment about y_C
-    if (mask & (1u << 5)) mask |= 1u << 1;
-  }
+  set_rolling_resistance_moment(cs, ws.cd, spec, w.data());
+  if (ws.cd.rr_arm[spec] != 0.0 && (mask & (1u << 5))) mask |= 1u << 1;  // it moves with an indeterminate N
   if (indeterminate) *indeterminate = mask;
   return w;
 }

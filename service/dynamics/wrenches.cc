@@ -207,7 +207,7 @@ inline void spec_force(const ConstraintSet& cs, const ConstraintData& cd, const 
   double w[6] = {0, 0, 0, 0, 0, 0};
   const int r0 = cs.row_offset[s];
   for (int k = 0; k < cs.row_count[s]; ++k) w[cs.row_axis[s][k]] = lambda[r0 + k];
-  if (cs.specs[s].kind == ConstraintKind::kRolling) w[1] = cd.rr_arm[s] * w[5];  // rolling resistance (0 if none)
+  set_rolling_resistance_moment(cs, cd, s, w);
   const Mat3& R = cd.X_RS[s].R;
   const Vec3& p = cd.X_RS[s].p;
   const double f0 = R(0, 0) * w[3] + R(0, 1) * w[4] + R(0, 2) * w[5];
@@ -371,10 +371,8 @@ void compute_wrenches(const System& sys, const Workspace& ws, WrenchData& wd) {
         W[ax] = ws.lambda[r0 + r];
         if (ws.qs.row_indeterminate[r0 + r]) mask |= 1u << ax;
       }
-      if (cs.specs[o.spec].kind == ConstraintKind::kRolling && ws.cd.rr_arm[o.spec] != 0.0) {
-        W[1] = ws.cd.rr_arm[o.spec] * W[5];  // rolling resistance: the normal force ahead of P
-        if (mask & (1u << 5)) mask |= 1u << 1;
-      }
+      set_rolling_resistance_moment(cs, ws.cd, o.spec, W);
+      if (ws.cd.rr_arm[o.spec] != 0.0 && (mask & (1u << 5))) mask |= 1u << 1;  // it moves with an indeterminate N
       wd.indeterminate[k] = static_cast<uint8_t>(mask);
       continue;
     }
@@ -397,7 +395,7 @@ void compute_wrenches(const System& sys, const Workspace& ws, WrenchData& wd) {
       for (int c = 0; c < 6; ++c) FW[6 * k + c] = 0.0;
       const int r0 = cs.row_offset[o.spec];
       for (int r = 0; r < cs.row_count[o.spec]; ++r) FW[6 * k + cs.row_axis[o.spec][r]] = dlam[r0 + r];
-      if (cs.specs[o.spec].kind == ConstraintKind::kRolling) FW[6 * k + 1] = ws.cd.rr_arm[o.spec] * FW[6 * k + 5];
+      set_rolling_resistance_moment(cs, ws.cd, o.spec, FW + 6 * k);
     }
     if (set.pass.empty()) continue;
     for (size_t j = 0; j < set.pass_specs.size(); ++j) spec_force(cs, ws.cd, dlam, set.pass_specs[j], wd.dF_spec[j].data());
