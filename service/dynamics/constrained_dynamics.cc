@@ -103,6 +103,17 @@ Workspace::Workspace(const System& sys)
   eig_w.setZero(m);
   tmp_m.setZero(m);
   tmp_m2.setZero(m);
+  for (const System::NominalBase& nb : sys.nominal_bases) {
+    int dof = -1;
+    for (int d = 0; d < n; ++d)
+      if (sys.model.dof_body[d] == nb.body) dof = d;
+    if (dof >= 0 && nb.spec >= 0 && cs.row_count[nb.spec] == 6) nominal_rows.emplace_back(dof, cs.row_offset[nb.spec]);
+  }
+  if (!nominal_rows.empty()) {
+    Qn.setZero(m, m);
+    kept_rows.assign(m, 0);
+    qn_tmp.setZero(m);
+  }
   // Eigen's default LLT leaves its info unset, which a copy of the workspace reads (UBSan: "invalid
   // value for type ComputationInfo"): every workspace computes it once, sized where it is used
   d4_llt.compute(Eigen::MatrixXd::Identity(0, 0));
@@ -147,12 +158,95 @@ bool inputs_valid(const System& sys, const Eigen::VectorXd& q, const Eigen::Vect
          tau.allFinite();
 }
 
+// The condition of Q with each nominal base-link direction eliminated (System::nominal_bases). In
+// the weld's six rows that direction is u = G's column of joint 1 (the base link's motion about
+// joint 1 in the weld frame, constant): a Householder reflection H (H u = |u| e_0, up to sign) of
+// those rows, Q <- H Q H, makes row r0 the only one carrying the nominal inertia's ~1/I eigenvalue,
+// and it is dropped. What remains is the Q of the rows that do no work on joint 1 (the five of a
+// revolute bearing at the base), whose dependence on the nominal inertia is O(I) (the base link's
+// inertia in the other DOFs' motion) instead of 1/I. Its condition is measured as QSolver's rank
+// path does, by the pivot ratio of a diagonally pivoted Cholesky stopped at rank_tol.
+double condition_without_nominal(const System& sys, Workspace& ws) {
+  const int m = sys.constraints.rows;
+  const Eigen::MatrixXd& G = ws.cd.G;
+  Eigen::MatrixXd& A = ws.Qn;
+  A = ws.Q;
+  double* a = A.data();  // column-major, leading dimension m; raw loops: the sizes are small
+  for (int i = 0; i < m; ++i) ws.kept_rows[i] = 1;
+  for (const auto& [dof, r0] : ws.nominal_rows) {
+    Vec6 w = G.block<6, 1>(r0, dof);
+    const double un = w.norm();
+    if (!(un > 0.0) || !std::isfinite(un)) continue;
+    int single = -1;  // u along one axis of the weld frame (joint 1 on a base axis): just drop that row
+    for (int k = 0; k < 6; ++k)
+      if (w[k] != 0.0) single = single == -1 ? k : -2;
+    if (single >= 0) {
+      ws.kept_rows[r0 + single] = 0;
+      continue;
+    }
+    w /= un;
+    w[0] += w[0] >= 0 ? 1.0 : -1.0;  // H = I - 2 w w^T / w^T w maps u to -sign(u_0) |u| e_0
+    w *= std::sqrt(2.0 / w.squaredNorm());  // H = I - w w^T
+    for (int j = 0; j < m; ++j) {  // A <- H A (rows r0..r0+5)
+      double* c = a + static_cast<size_t>(j) * m + r0;
+      double t = 0.0;
+      for (int k = 0; k < 6; ++k) t += w[k] * c[k];
+      for (int k = 0; k < 6; ++k) c[k] -= t * w[k];
+    }
+    for (int i = 0; i < m; ++i) {  // A <- A H (columns r0..r0+5)
+      double t = 0.0;
+      for (int k = 0; k < 6; ++k) t += a[static_cast<size_t>(r0 + k) * m + i] * w[k];
+      for (int k = 0; k < 6; ++k) a[static_cast<size_t>(r0 + k) * m + i] -= t * w[k];
+    }
+    ws.kept_rows[r0] = 0;
+  }
+  // compact the kept rows and columns into the top-left k x k corner (leading dimension m)
+  int k = 0;
+  for (int j = 0; j < m; ++j) {
+    if (!ws.kept_rows[j]) continue;
+    const double* src = a + static_cast<size_t>(j) * m;
+    double* dst = a + static_cast<size_t>(k) * m;
+    int l = 0;
+    for (int i = 0; i < m; ++i)
+      if (ws.kept_rows[i]) dst[l++] = src[i];
+    ++k;
+  }
+  // pivoted Cholesky of the corner, right-looking on the full symmetric trailing block
+  auto at = [&](int i, int j) -> double& { return a[static_cast<size_t>(j) * m + i]; };
+  double qmax = 0.0;
+  for (int i = 0; i < k; ++i) qmax = std::max(qmax, at(i, i));
+  if (!(qmax > 0.0)) return std::numeric_limits<double>::infinity();
+  const double tol = sys.options.rank_tol * qmax;
+  double first = 0.0, last = 0.0;
+  for (int j = 0; j < k; ++j) {
+    int p = j;
+    for (int i = j + 1; i < k; ++i)
+      if (at(i, i) > at(p, p)) p = i;
+    const double d = at(p, p);
+    if (!(d > tol) || !std::isfinite(d)) break;
+    if (p != j) {  // symmetric swap of j and p in the trailing block
+      for (int i = j; i < k; ++i) std::swap(at(i, j), at(i, p));
+      for (int i = j; i < k; ++i) std::swap(at(j, i), at(p, i));
+    }
+    if (j == 0) first = d;
+    last = d;
+    const double inv = 1.0 / d;
+    for (int c = j + 1; c < k; ++c) {
+      const double f = at(j, c) * inv;
+      double* col = a + static_cast<size_t>(c) * m;
+      const double* cj = a + static_cast<size_t>(j) * m;
+      for (int i = j + 1; i < k; ++i) col[i] -= f * cj[i];
+    }
+  }
+  return last > 0.0 ? first / last : std::numeric_limits<double>::infinity();
+}
+
 // Solves Q x = b through ws.qs; with factor, factors ws.Q first and records rank and condition.
 void solve_q(const System& sys, Workspace& ws, const Eigen::VectorXd& b, Eigen::VectorXd& x, bool factor) {
   if (factor) {
     const QFactorInfo fi = ws.qs.factor(ws.Q, sys.options, sys.constraints.row_compliance);
     ws.diag.rank = fi.rank;
-    ws.diag.condition = fi.condition;
+    ws.diag.condition = ws.nominal_rows.empty() ? fi.condition : condition_without_nominal(sys, ws);
   }
   ws.qs.solve(b, x);
 }

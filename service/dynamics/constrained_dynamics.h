@@ -9,6 +9,7 @@
 // and is flagged per row. Nothing here allocates after the Workspace is built, logs or throws.
 #pragma once
 
+#include <utility>
 #include <vector>
 
 #include <Eigen/Cholesky>
@@ -42,7 +43,8 @@ struct Diagnostics {
   int rows = 0;            // constraint rows
   int rank = 0;            // numerical rank of Q
   int indeterminate = 0;   // rows - rank: directions of lambda the physics leaves free
-  double condition = 1.0;  // condition estimate of Q on its range (pivot ratio on the fast path)
+  double condition = 1.0;  // condition estimate of Q on its range (pivot ratio; without the
+                           // nominal base-link directions of System::nominal_bases, see there)
   double residual = 0.0;   // max |G vdot - gamma|
   Status status = Status::kOk;
   Reason reason = Reason::kNone;
@@ -75,6 +77,11 @@ struct Workspace {
   std::vector<std::pair<int, int>> y_sweep;  // (spec, DOF) in model.dof_elim_order, specs interleaved
   std::vector<std::vector<std::pair<int, int>>> pair_ranges;  // index s * nspecs + t
   QSolver qs;                     // Q lambda = b: fast path, rank, indeterminate rows, rule
+  // the condition without the nominal base-link directions (System::nominal_bases)
+  std::vector<std::pair<int, int>> nominal_rows;  // (velocity index of joint 1, first row of the weld)
+  Eigen::MatrixXd Qn;                             // (rows x rows) work copy of Q
+  std::vector<int> kept_rows;                     // (rows)
+  Eigen::VectorXd qn_tmp;                         // (rows)
   Eigen::MatrixXd eig_A, eig_V;  // (rows x rows) SVD baseline's eigen-decomposition of Q_r
   Eigen::VectorXd eig_w;         // (rows)
   Eigen::VectorXd tmp_m, tmp_m2;  // (rows)

@@ -63,6 +63,16 @@ struct System {
   Eigen::VectorXd tau_limit;  // (nv) |tau| allowed per DOF (commands above are rejected); inf = none,
                               // 0 = unactuated (load platform, floating root, pseudo-joint unless declared)
   WrenchSet wrenches;         // what is reported as wrenches (wrench_outputs.h); compiled
+  // The arms' base links in the mobile-platform form whose joint 1 has no armature: the base link
+  // carries a nominal inertia (no mass) only so that M stays regular for joint 1, which moves
+  // nothing else; the weld of spec `spec` holds it, so that inertia does no work and the results do
+  // not depend on it, but it puts an eigenvalue ~1 / inertia into Q. The condition diagnostic is
+  // measured with that direction (G's column of joint 1 in the weld's rows) eliminated.
+  struct NominalBase {
+    int body = -1;  // the base link (its joint is joint 1 reversed)
+    int spec = -1;  // the base weld
+  };
+  std::vector<NominalBase> nominal_bases;
   std::vector<std::string> warnings;  // what the loader left out or found missing (a URDF link without
                                       // mass, links off the arm's chain); printed by every client
 };

@@ -191,6 +191,7 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
         outs.push_back(o);
       }
       std::vector<WrenchOutput> arm_joints;
+      int nominal_body = -1;  // the base link, when only its nominal inertia gives joint 1 a mass
       for (int i = n; i >= 1; --i) {
         const ChainJoint& cj = J[i - 1];
         const int link_i = parent;  // the tree parent of joint i reversed is link i's side
@@ -207,6 +208,7 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
         const Inertia I = i > 1 ? J[i - 2].I.transformed(cj.X_origin.inverse()) : Inertia(0.0, Vec3::Zero(), 1e-3 * Mat3::Identity());
         const std::string body = s.name + "." + (i > 1 ? J[i - 2].link_name : s.robot->base_link);
         parent = B.add(body, parent, X_PJ, j, I, {s.q[i - 1]}, {s.v[i - 1]}, cj.tau_limit, s.node);
+        if (i == 1 && !held && cj.armature == 0.0) nominal_body = parent;
         // the reaction of link i-1 on link i is the tree's reaction negated, framed in link i: the
         // joint frame of the reversed joint (X_PJ without a held joint's motion)
         arm_joints.push_back(joint_output(s.name + "." + cj.name, s.name + "." + cj.link_name, body, parent, true, link_i,
@@ -223,6 +225,7 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
       w.X_WA_target = s.X_W_base;
       w.compliance = s.compliance;
       cs.specs.push_back(w);
+      if (nominal_body >= 0) B.sys.nominal_bases.push_back({nominal_body, static_cast<int>(cs.specs.size()) - 1});
       WrenchOutput o;
       o.name = o.frame = s.name + ".base";
       o.by = "world";
