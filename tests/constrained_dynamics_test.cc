@@ -539,3 +539,60 @@ TEST(ConstrainedDynamics, ConditionDoesNotDependOnTheNominalBaseInertia) {
   }
   std::filesystem::remove_all(dir);
 }
+
+// Compliance on the grasps (issue 13): in the classic form an arm's `compliance` weights its grasp
+// weld's rows, and the compliance rule's split of the indeterminate forces is the elastic solution
+// of the load resting on two springs of stiffness K_i = C_i^-1 at the grasps, the arms rigid in
+// those directions (Menabrea: the rigid-support split minimizing lambda^T C lambda is the one of
+// least complementary energy). planar_arms_load at rest: the out-of-plane rows (wx, wy, vz of each
+// grasp) carry the load's weight and are free; solved here independently as a 3-DOF spring problem
+// for the load's small displacement (wx, wy, vz) and compared with the solver's multipliers.
+TEST(ConstrainedDynamics, GraspComplianceSplitIsTheElasticSolution) {
+  System sys = load("planar_arms_load", Formulation::kClassic);
+  sys.options.redundancy = Redundancy::kCompliance;
+  Workspace ws(sys);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(sys.model.nv());
+  const Diagnostics d = evaluate(sys, ws, sys.q0, zero, zero);
+  ASSERT_EQ(d.status, Status::kIndeterminate);
+  ASSERT_EQ(d.indeterminate, 3);
+  const ConstraintSet& cs = sys.constraints;
+  ASSERT_EQ(cs.specs.size(), 2u);
+  const int L = sys.model.body_index("load");
+  ASSERT_GE(L, 0);
+  const int sel[3] = {0, 1, 5};  // wx, wy, vz: of the grasp frames and of the load frame
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  std::vector<Eigen::Matrix3d> B(2), K(2);
+  for (int i = 0; i < 2; ++i) {
+    const ConstraintSpec& s = cs.specs[i];
+    for (int k = 0; k < 6; ++k)  // the free rows are the out-of-plane ones, and only they
+      EXPECT_EQ(ws.qs.row_indeterminate[cs.row_offset[i] + k] != 0, k == 0 || k == 1 || k == 5) << s.name << " row " << k;
+    ASSERT_EQ(sys.model.frames[s.frame_b].body, L);
+    const Mat6 Ad = sys.model.frames[s.frame_b].X_BF.inverse().motion_matrix();  // load twist -> grasp frame
+    K[i].setZero();
+    for (int r = 0; r < 3; ++r) {
+      K[i](r, r) = 1.0 / s.compliance[sel[r]];
+      for (int c = 0; c < 3; ++c) B[i](r, c) = Ad(sel[r], sel[c]);
+    }
+    A += B[i].transpose() * K[i] * B[i];
+  }
+  // the load's weight about its origin, in load coordinates (the load frame is level)
+  const Inertia& I = sys.model.bodies[L].inertia;
+  const Mat3 R_WL = ws.data.X_WB[L].R;
+  ASSERT_LT((R_WL - Mat3::Identity()).norm(), 1e-12);
+  const Vec3 f = I.m * sys.model.gravity_W, n = I.c.cross(f);
+  const Eigen::Vector3d W(n.x(), n.y(), f.z());
+  // the springs' wrench on the load is -K B delta each; the load's wrench on the end-effector is
+  // lambda_i = +K B delta, and the load balances: sum B^T (-lambda_i) + W = 0
+  const Eigen::Vector3d delta = A.ldlt().solve(W);
+  double total = 0.0;
+  for (int i = 0; i < 2; ++i) {
+    const Eigen::Vector3d lam_elastic = K[i] * B[i] * delta;
+    Eigen::Vector3d lam;
+    for (int r = 0; r < 3; ++r) lam[r] = ws.lambda[cs.row_offset[i] + sel[r]];
+    std::printf("grasp %d: solver (%.9g, %.9g, %.9g), springs (%.9g, %.9g, %.9g)\n", i, lam[0], lam[1], lam[2],
+                lam_elastic[0], lam_elastic[1], lam_elastic[2]);
+    EXPECT_LT((lam - lam_elastic).norm(), 1e-8 * (1 + lam.norm()));
+    total += lam[2];
+  }
+  EXPECT_NEAR(total, I.m * sys.model.gravity_W.z(), 1e-8) << "the load presses on the end-effectors with its weight";
+}
