@@ -30,7 +30,7 @@ struct ViewFrames {
     int body_a = -1, body_b = -1;  // -1: the world
     Vec3 p_a = Vec3::Zero(), p_b = Vec3::Zero();  // in the body frames
   };
-  struct Pseudo {  // a pseudo-joint (METHOD s.4): its lock's generalized force is the stress there
+  struct Pseudo {  // a pseudo-joint (the paper's (22)-(26)): its lock's generalized force is the stress there
     std::string name, unit;  // the joint's name; "N*m" (revolute) or "N" (prismatic)
     int body = -1;           // the body after the joint: its origin is the joint's place
     int dof = -1;            // velocity index

@@ -1,4 +1,4 @@
-// Wheels (METHOD s.7-9, issue 3): the rolling constraint's rows against finite differences, its
+// Wheels (the paper's (27)-(54)-9, issue 3): the rolling constraint's rows against finite differences, its
 // contact frame, statics of the two-wheeled vehicle (34.335 N per wheel), passive straight rolling,
 // the steady turn (lateral forces = m v^2 / R, external wrenches = momentum rate), the rolling disk
 // in steady circular motion against the classical thin-disk relation, and the rigid-axle
@@ -166,7 +166,7 @@ TEST(Wheel, RollingRowsAndTheirDerivativeMatchFiniteDifferences) {
 }
 
 TEST(Wheel, VehicleAtRestCarries34335NPerWheel) {
-  // statics (METHOD s.8, s.9): each wheel carries (3 + 3 + 1) kg * 9.81 / 2 = 34.335 N, no
+  // statics (the paper's results section; invariants): each wheel carries (3 + 3 + 1) kg * 9.81 / 2 = 34.335 N, no
   // tangential force; the rigid axle's lateral redundancy is detected and flagged
   const System sys = load("two_wheel_vehicle");
   EXPECT_NEAR(total_mass(sys.model), 7.0, 1e-15);

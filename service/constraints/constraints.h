@@ -23,9 +23,9 @@ namespace coopdyn {
 
 enum class ConstraintKind {
   kWeld,  // tip frame A held to the world (target pose) or to frame B; any subset of the 6 axes of A
-  kLock,  // one pseudo-joint DOF held at its initial value (METHOD s.4)
+  kLock,  // one pseudo-joint DOF held at its initial value (the paper's (22)-(26))
   // A rigid disk of radius r rolling without slip on a ground plane {x : n.x = d} (by default
-  // z = 0, n = z_W), METHOD s.7. The wheel centre is the origin of `body`, `axle` (unit, body
+  // z = 0, n = z_W), the paper's (27)-(54). The wheel centre is the origin of `body`, `axle` (unit, body
   // coordinates) its spin axis. The contact point P is the lowest point of the rim: p_WP = p_WB -
   // r d, with d the unit vector of the wheel plane closest to the ground normal n,
   // d = (n - (n.a) a) / |n - (n.a) a|, a = R_WB axle. Contact frame C, R_WC = [x_C y_C n]:

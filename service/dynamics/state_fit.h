@@ -14,7 +14,7 @@
 //     vehicle must give the chassis pose from its own estimator; its twist then follows from the
 //     wheel spins. Omitted velocities get tau 0, so velocities of actuated floating DOFs (a scene
 //     that declares the load actuated) may not be omitted.
-//   - pseudo-joints (METHOD s.4): joints the real structure lacks, locked at their initial value;
+//   - pseudo-joints (the paper's (22)-(26)): joints the real structure lacks, locked at their initial value;
 //     omitted, they are set to it exactly (q0, v = 0, tau = 0).
 //
 // Position fit: Gauss-Newton on the holonomic rows' position error e(q) over the omitted tangent

@@ -40,7 +40,7 @@ struct Joint {
   Vec3 axis2 = Vec3::UnitX();
   std::string name;
   double armature = 0.0;  // rotor inertia reflected at the joint (kg*m^2 or kg), added to M
-  bool pseudo = false;  // a joint the real structure lacks; locked by computed torques (METHOD s.4)
+  bool pseudo = false;  // a joint the real structure lacks; locked by computed torques (the paper's (22)-(26))
   int nq = 0, nv = 0;
   int axis_z = 0;  // revolute: +1 / -1 when axis is exactly +z / -z (the DH case: a cheaper kinematics step)
   int idx_q = 0, idx_v = 0;  // first coordinate in q and in v

@@ -168,7 +168,7 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
     }
   }
   if (mobile_platform) {
-    // the load is the root; each arm hangs from it last link first (METHOD s.3). Body B_k of the
+    // the load is the root; each arm hangs from it last link first (the paper's (12)-(18)). Body B_k of the
     // reversed chain is link k's frame moved to joint k+1 (link_k * X_origin_{k+1}), so that joint
     // k+1 reversed is a plain motion about -axis at the origin of its parent.
     const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, load_limit, load);

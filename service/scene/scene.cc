@@ -118,7 +118,7 @@ System load_scene_string(const std::string& text, const std::string& file, const
                                    "(its arms are rooted at the world with free tips in every formulation)");
     if (has_arms && !root["load"]) sys.options.formulation = Formulation::kClassic;  // what the tree is: no platform
     if (has_arms) {
-      // the SVD baseline is the paper's, in its classic setting (METHOD s.6): arms rooted at the world
+      // the SVD baseline is the paper's, in its classic setting (the paper's (19)-(21)): arms rooted at the world
       build_arms(B, root, robots,
                  sys.options.formulation != Formulation::kClassic && sys.options.formulation != Formulation::kSvdBaseline);
     } else {
