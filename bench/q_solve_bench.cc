@@ -1,4 +1,5 @@
-// Cost of the Q solve (over-constrained systems, beyond the paper: README): factor + one solve of Q lambda = b, Q = G M^-1 G^T symmetric PSD.
+// Cost of the Q solve (over-constrained systems: README): factor + one solve of Q lambda = b,
+// Q = G M^-1 G^T symmetric PSD.
 //   QSolve/jacobi/m/k     the former rank path: cyclic Jacobi eigen-decomposition + 1/eigenvalue
 //                         on the range (reproduced here so that it stays measurable)
 //   QSolve/qsolver/m/k    QSolver::factor + solve: k = 0 is the Cholesky fast path, k > 0 the

@@ -1,4 +1,4 @@
-// The SVD baseline as the paper states it (the paper's (19)-(21), (19)-(21)) against the mobile-platform
+// The SVD baseline as the paper states it (its (19)-(21)) against the mobile-platform
 // method, where the paper makes its claims. Writes two CSVs and prints the summary tables of
 // bench/README.md ("The SVD baseline, measured").
 //

@@ -1,4 +1,4 @@
-// Constrained dynamics: the README's invariants (What the tests check) on every scene, agreement of the formulations,
+// Constrained dynamics: the README's invariants on every scene, agreement of the formulations,
 // pseudo-joint identities, statics, momentum balance, over-constrained handling.
 #include <gtest/gtest.h>
 

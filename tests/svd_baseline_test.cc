@@ -1,4 +1,4 @@
-// The SVD baseline as the paper states it (the paper's (19)-(21), (19)-(21)), checked against an independent
+// The SVD baseline as the paper states it (its (19)-(21)), checked against an independent
 // SVD and against the mobile-platform method.
 #include <gtest/gtest.h>
 

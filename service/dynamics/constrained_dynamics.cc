@@ -103,12 +103,8 @@ Workspace::Workspace(const System& sys)
   eig_w.setZero(m);
   tmp_m.setZero(m);
   tmp_m2.setZero(m);
-  for (const System::NominalBase& nb : sys.nominal_bases) {
-    int dof = -1;
-    for (int d = 0; d < n; ++d)
-      if (sys.model.dof_body[d] == nb.body) dof = d;
-    if (dof >= 0 && nb.spec >= 0 && cs.row_count[nb.spec] == 6) nominal_rows.emplace_back(dof, cs.row_offset[nb.spec]);
-  }
+  for (const System::NominalBase& nb : sys.nominal_bases)  // joint 1 reversed: one DOF, a 6-row weld
+    if (cs.row_count[nb.spec] == 6) nominal_rows.emplace_back(sys.model.bodies[nb.body].joint.idx_v, cs.row_offset[nb.spec]);
   if (!nominal_rows.empty()) {
     Qn.setZero(m, m);
     kept_rows.assign(m, 0);

@@ -1,10 +1,11 @@
-// Constrained forward dynamics with constraint-force estimation (the paper's (12)-(18)-6).
+// Constrained forward dynamics with constraint-force estimation (the paper's (12)-(26), and
+// over-constrained systems beyond it).
 //
 //   M vdot + h = tau + G^T lambda,   G vdot = gamma
 //   Q lambda = gamma - G M^-1 (tau - h),   Q = G M^-1 G^T       (paper (16)-(18))
 //
 // with M = L^T L factored tree-sparsely, Y = G L^-1, Q = Y Y^T. Q is solved by Cholesky when it is
-// well conditioned, else by a symmetric eigen-decomposition that reveals the rank (over-constrained systems, beyond the paper: README): the
+// well conditioned, else by a factorization that reveals the rank (README: over-constrained systems): the
 // accelerations stay exact and finite, the indeterminate part of lambda follows the scene's rule
 // and is flagged per row. Nothing here allocates after the Workspace is built, logs or throws.
 #pragma once

@@ -1,4 +1,5 @@
-// The solve of Q lambda = b, Q = G M^-1 G^T symmetric positive semi-definite (over-constrained systems, beyond the paper: README).
+// The solve of Q lambda = b, Q = G M^-1 G^T symmetric positive semi-definite (over-constrained
+// systems, beyond the paper: README).
 //
 // factor() takes the Cholesky fast path when every pivot of Q is >= fast_tol * the largest;
 // otherwise it reveals the rank, flags the rows of lambda the physics leaves free and prepares the
