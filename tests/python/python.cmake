@@ -1,0 +1,18 @@
+# Python: the generated types and the log reader against the C++ codec (tests/python/*_test.py), run
+# by the python3 found for lcmtypes/ (Debian's /usr/bin/python3 when present) with no packages beyond
+# the standard library. The C++ side is lcm_interop_helper. Included at the end of tests/CMakeLists.txt.
+if(NOT COOPDYN_PYTHON3)
+  message(WARNING "python3 not found (Debian: python3): the Python tests are not run")
+  return()
+endif()
+add_executable(lcm_interop_helper ${CMAKE_CURRENT_LIST_DIR}/lcm_interop_helper.cc)
+target_link_libraries(lcm_interop_helper PRIVATE coopdyn_runtime coopdyn_scene)
+target_include_directories(lcm_interop_helper PRIVATE ${PROJECT_SOURCE_DIR})
+add_dependencies(lcm_interop_helper coopdyn_lcmtypes_python)
+
+set(py_env PYTHONPATH=${COOPDYN_PYTHON_DIR} COOPDYN_SOURCE_DIR=${PROJECT_SOURCE_DIR}
+    COOPDYN_INTEROP_HELPER=$<TARGET_FILE:lcm_interop_helper>)
+foreach(t python_types)
+  add_test(NAME python.${t} COMMAND ${COOPDYN_PYTHON3} -B ${CMAKE_CURRENT_LIST_DIR}/${t}_test.py -v)
+  set_tests_properties(python.${t} PROPERTIES ENVIRONMENT "${py_env}" LABELS python TIMEOUT 120)
+endforeach()
