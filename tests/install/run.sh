@@ -4,9 +4,10 @@
 # built against the installed package twice, with find_package(coopdyn CONFIG) (CMakeLists.txt here)
 # and with pkg-config --cflags --libs coopdyn, and each build runs and checks the physics.
 # Offline; about 30-60 s (two compiles of client.cc).
-# usage: run.sh BUILD_DIR CMAKE CXX LIBDIR
+# The installed Python package (generated types and log reader) is imported and used by PYTHON.
+# usage: run.sh BUILD_DIR CMAKE CXX LIBDIR [PYTHON PYTHON_DIR]
 set -euo pipefail
-build=$1 cmake=$2 cxx=$3 libdir=$4
+build=$1 cmake=$2 cxx=$3 libdir=$4 python=${5:-} pydir=${6:-}
 src=$(cd "$(dirname "$0")" && pwd)
 work=$(mktemp -d "${TMPDIR:-/tmp}/coopdyn-install-test.XXXXXX")
 trap 'rm -rf "$work"' EXIT
@@ -31,6 +32,26 @@ echo "== the installed binaries"
 "$prefix/bin/coopdynd" --version
 "$prefix/bin/coopdyn" eval --scene "$scene" > "$work/eval.json" || fail "installed coopdyn eval on the installed scene"
 grep -q '"status": "ok"' "$work/eval.json" || fail "installed coopdyn eval: status not ok"
+
+if [ -n "$python" ]; then
+  echo "== the installed Python package ($pydir)"
+  for f in "$pydir"/coopdyn/__init__.py "$pydir"/coopdyn/output_t.py "$pydir"/coopdyn/lcmlog.py \
+           share/coopdyn/examples/python/log_wrenches.py share/coopdyn/examples/python/live_client.py; do
+    [ -e "$prefix/$f" ] || fail "$f not installed"
+  done
+  # a message through the installed types and the installed log reader, with nothing but the prefix on the path
+  PYTHONPATH=$prefix/$pydir "$python" -B -c '
+import io, sys, coopdyn
+from coopdyn import lcmlog
+assert coopdyn.__file__.startswith(sys.argv[1]), coopdyn.__file__
+m = coopdyn.torque_command_t(); m.num_names, m.names, m.num_torques, m.tau = 1, ["arm1.q2"], 1, [0.1]
+f = io.BytesIO(); lcmlog.write(f, [(0, 1, "COOPDYN_COMMAND", m.encode())])
+open(sys.argv[2], "wb").write(f.getvalue())
+(e,) = lcmlog.read(sys.argv[2])
+d = lcmlog.decode(e.data)
+assert (list(d.names), list(d.tau)) == (["arm1.q2"], [0.1]), (d.names, d.tau)
+print("coopdyn package:", coopdyn.__file__)' "$prefix/$pydir" "$work/one.lcmlog" || fail "the installed Python package"
+fi
 
 echo "== find_package(coopdyn CONFIG): configure, build, run"
 quiet "$cmake" -S "$src" -B "$work/client" -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_CXX_COMPILER="$cxx"

@@ -12,7 +12,16 @@ add_dependencies(lcm_interop_helper coopdyn_lcmtypes_python)
 
 set(py_env PYTHONPATH=${COOPDYN_PYTHON_DIR} COOPDYN_SOURCE_DIR=${PROJECT_SOURCE_DIR}
     COOPDYN_INTEROP_HELPER=$<TARGET_FILE:lcm_interop_helper>)
-foreach(t python_types)
+foreach(t python_types lcmlog)
   add_test(NAME python.${t} COMMAND ${COOPDYN_PYTHON3} -B ${CMAKE_CURRENT_LIST_DIR}/${t}_test.py -v)
   set_tests_properties(python.${t} PROPERTIES ENVIRONMENT "${py_env}" LABELS python TIMEOUT 120)
 endforeach()
+# the live example against coopdynd over udpm; skipped (exit 77) without the lcm Python module
+add_test(NAME python.live_client COMMAND ${COOPDYN_PYTHON3} -B ${CMAKE_CURRENT_LIST_DIR}/live_client_test.py)
+set_tests_properties(python.live_client PROPERTIES ENVIRONMENT "${py_env};COOPDYND=$<TARGET_FILE:coopdynd>"
+                     SKIP_RETURN_CODE 77 LABELS "python;daemon" TIMEOUT 60)
+# the same against the daemon through tests/python/udpm/lcm.py (LCM's udpm format in pure Python), never skipped
+add_test(NAME python.live_client_udpm COMMAND ${COOPDYN_PYTHON3} -B ${CMAKE_CURRENT_LIST_DIR}/live_client_test.py
+                                              --udpm-stand-in)
+set_tests_properties(python.live_client_udpm PROPERTIES ENVIRONMENT "${py_env};COOPDYND=$<TARGET_FILE:coopdynd>"
+                     LABELS "python;daemon" TIMEOUT 60)

@@ -1,0 +1,88 @@
+"""Reads LCM event logs (the files lcm-logger and coopdyn's tests write) in pure Python.
+
+An LCM log is a stream of records, each (big-endian)
+
+    uint32 sync 0xEDA1DA01 | int64 event number | int64 timestamp (us since the epoch, when logged)
+    | int32 channel length | int32 data length | channel (not NUL-terminated) | data
+
+where data is one encoded message (its first 8 bytes the type's fingerprint). Installed as
+coopdyn.lcmlog next to the generated message types; needs only the standard library.
+
+    from coopdyn import lcmlog
+    for e in lcmlog.read("run.lcmlog", channel="COOPDYN_OUTPUT"):
+        msg = lcmlog.decode(e.data)        # a coopdyn.output_t (None: not a coopdyn type)
+"""
+import collections
+import struct
+
+SYNC = 0xEDA1DA01
+_HEADER = struct.Struct(">IqqII")  # sync, event number, timestamp, channel length, data length
+HEADER_BYTES = _HEADER.size       # 28
+MAX_CHANNEL = 255                  # LCM allows 63; anything far longer is a corrupt header
+
+Event = collections.namedtuple("Event", "eventnum timestamp channel data")
+
+
+class LogError(ValueError):
+    """A file that is not an LCM log, or a damaged record; the message names the file and byte offset."""
+
+
+def read(path, channel=None):
+    """Yields the log's events (Event: eventnum, timestamp in us, channel str, data bytes) in file order,
+    only those on `channel` if given. Raises LogError naming the file and offset for a bad sync word, a
+    channel name that is not text, or a record cut short (e.g. a logger killed while writing)."""
+    with open(path, "rb") as f:
+        offset = 0
+        while True:
+            head = f.read(_HEADER.size)
+            if not head:
+                return
+            if len(head) < _HEADER.size:
+                raise LogError("%s: byte %d: truncated record header (%d of %d bytes)"
+                               % (path, offset, len(head), _HEADER.size))
+            sync, eventnum, timestamp, clen, dlen = _HEADER.unpack(head)
+            if sync != SYNC:
+                raise LogError("%s: byte %d: not an LCM log record (sync word 0x%08X, expected 0x%08X)"
+                               % (path, offset, sync, SYNC))
+            if clen > MAX_CHANNEL:
+                raise LogError("%s: byte %d: channel length %d: a damaged record" % (path, offset, clen))
+            body = f.read(clen + dlen)
+            if len(body) < clen + dlen:
+                raise LogError("%s: byte %d: event %d cut short (%d of %d bytes)"
+                               % (path, offset, eventnum, len(body), clen + dlen))
+            try:
+                name = body[:clen].decode("utf-8")
+            except UnicodeDecodeError:
+                raise LogError("%s: byte %d: channel name is not text" % (path, offset)) from None
+            if channel is None or name == channel:
+                yield Event(eventnum, timestamp, name, body[clen:])
+            offset += _HEADER.size + clen + dlen
+
+
+def write(f, events):
+    """Writes events (Event or (eventnum, timestamp, channel, data)) to the binary file f in the same
+    format, for tests and for cutting logs."""
+    for eventnum, timestamp, name, data in events:
+        c = name.encode("utf-8")
+        f.write(_HEADER.pack(SYNC, eventnum, timestamp, len(c), len(data)))
+        f.write(c)
+        f.write(data)
+
+
+def types():
+    """{fingerprint bytes: class} of the coopdyn message types."""
+    import coopdyn
+    return {t._get_packed_fingerprint(): t for t in (coopdyn.output_t, coopdyn.loop_stats_t, coopdyn.torque_command_t,
+                                                     coopdyn.measured_state_t, coopdyn.control_t)}
+
+
+_TYPES = None
+
+
+def decode(data):
+    """The coopdyn message in data (by its fingerprint), decoded; None if it is another type."""
+    global _TYPES
+    if _TYPES is None:
+        _TYPES = types()
+    t = _TYPES.get(bytes(data[:8]))
+    return t.decode(data) if t else None

@@ -1,0 +1,153 @@
+"""coopdyn.lcmlog, the pure-Python LCM log reader, on a log the daemon's loop wrote.
+
+lcm_interop_helper write-log runs coopdynd's loop (runtime::ServiceLoop, its OutputEncoder and
+StatsEncoder) for 40 ticks with a bus that records every published message with LCM's C event-log
+API, and a torque command sent to the loop; it also writes what the C++ codec decodes from each event.
+Here the log is read back in Python and decoded with the generated types: the events (number,
+timestamp, channel) and every field of every message equal the C++ values, doubles bit for bit, and
+re-encoding in Python gives the logged bytes back. Damaged logs give errors naming the file and the
+byte. The example log_wrenches.py prints the same doubles by name.
+"""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import unittest
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import interop  # noqa: E402
+from interop import same  # noqa: E402
+
+from coopdyn import lcmlog  # noqa: E402
+import coopdyn  # noqa: E402
+
+EXAMPLES = os.path.join(interop.SOURCE_DIR, "clients", "python", "examples")
+
+
+class LcmLog(unittest.TestCase):
+    logs = {}
+
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory(prefix="coopdyn-lcmlog-")
+        # two_puma_load: the wrench outputs of the two arms; four_wheel_car: contacts and free directions
+        for scene in ("two_puma_load", "four_wheel_car"):
+            log = os.path.join(cls.tmp.name, scene + ".lcmlog")
+            expect = os.path.join(cls.tmp.name, scene + ".json")
+            interop.helper("write-log", interop.scene_path(scene), log, expect, 40)
+            with open(expect) as f:
+                cls.logs[scene] = (log, json.load(f)["events"])
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def test_every_event_and_field_equals_the_cpp_side(self):
+        for scene, (log, want) in self.logs.items():
+            got = list(lcmlog.read(log))
+            self.assertEqual(len(got), len(want), scene)
+            kinds = {}
+            for e, w in zip(got, want):
+                where = "%s event %d" % (scene, w["eventnum"])
+                self.assertEqual((e.eventnum, e.timestamp, e.channel), (w["eventnum"], w["timestamp"], w["channel"]),
+                                 where)
+                m = lcmlog.decode(e.data)
+                self.assertIsNotNone(m, where)
+                self.assertEqual(m.encode(), e.data, where + ": Python re-encodes the logged bytes")
+                kinds[type(m).__name__] = kinds.get(type(m).__name__, 0) + 1
+                msg = w["message"]
+                if w["type"] == "output_t":
+                    self.assertIsInstance(m, coopdyn.output_t, where)
+                    self.assertEqual(len(msg), 48)
+                    for k, v in msg.items():
+                        same(self, getattr(m, k), v, "%s: %s" % (where, k))
+                elif w["type"] == "loop_stats_t":
+                    self.assertIsInstance(m, coopdyn.loop_stats_t, where)
+                    for k, v in msg.items():
+                        if k in ("lateness_us", "compute_us"):
+                            py = [getattr(m, "%s_%s_us" % (k[:-3], p)) for p in ("p50", "p99", "p999", "max")]
+                        else:
+                            py = getattr(m, k)
+                        same(self, py, v, "%s: %s" % (where, k))
+                else:
+                    self.assertIsInstance(m, coopdyn.torque_command_t, where)
+                    self.assertEqual((m.utime, m.seq, m.names), (msg["utime"], msg["seq"], msg["names"]), where)
+                    same(self, m.tau, msg["tau"], where + ": tau")
+            self.assertEqual(kinds, {"output_t": 40, "loop_stats_t": 4, "torque_command_t": 1}, scene)
+            # what the test is about: the physics is there (non-zero wrenches, the command applied)
+            outs = [lcmlog.decode(e.data) for e in got if e.channel == "COOPDYN_OUTPUT"]
+            self.assertTrue(any(abs(x) > 1 for x in outs[-1].wrench[0]), scene)
+            self.assertEqual([o.input_seq for o in outs[-3:]], [7, 7, 7], scene)
+        car = [lcmlog.decode(e.data) for e in lcmlog.read(self.logs["four_wheel_car"][0], "COOPDYN_OUTPUT")]
+        self.assertGreater(car[0].num_free, 0)
+        self.assertEqual(car[0].contact_names, ["fl", "fr", "rl", "rr"])
+
+    def test_channel_filter(self):
+        log, want = self.logs["two_puma_load"]
+        got = [e.eventnum for e in lcmlog.read(log, channel="COOPDYN_STATS")]
+        self.assertEqual(got, [w["eventnum"] for w in want if w["channel"] == "COOPDYN_STATS"])
+
+    def test_damaged_logs_name_the_file_and_byte(self):
+        log, want = self.logs["two_puma_load"]
+        with open(log, "rb") as f:
+            data = f.read()
+        events = list(lcmlog.read(log))
+        last = len(data) - (lcmlog.HEADER_BYTES + len(events[-1].channel) + len(events[-1].data))
+        cut = os.path.join(self.tmp.name, "cut.lcmlog")
+        with open(cut, "wb") as f:
+            f.write(data[:-5])
+        with self.assertRaises(lcmlog.LogError) as e:
+            list(lcmlog.read(cut))
+        self.assertEqual(str(e.exception), "%s: byte %d: event %d cut short (%d of %d bytes)" % (
+            cut, last, events[-1].eventnum, len(events[-1].channel) + len(events[-1].data) - 5,
+            len(events[-1].channel) + len(events[-1].data)))
+        with open(cut, "wb") as f:
+            f.write(data[:10])
+        with self.assertRaisesRegex(lcmlog.LogError, "^%s: byte 0: truncated record header" % cut):
+            list(lcmlog.read(cut))
+        scene = interop.scene_path("two_puma_load")
+        with self.assertRaisesRegex(lcmlog.LogError, "^%s: byte 0: not an LCM log record" % scene):
+            list(lcmlog.read(scene))
+        # a good prefix is read before the error: the reader is a stream
+        with open(cut, "wb") as f:
+            lcmlog.write(f, events[:3])
+            f.write(b"\x00" * 30)
+        n = 0
+        at = sum(lcmlog.HEADER_BYTES + len(e.channel) + len(e.data) for e in events[:3])
+        with self.assertRaisesRegex(lcmlog.LogError, "^%s: byte %d: not an LCM log record" % (cut, at)):
+            for _ in lcmlog.read(cut):
+                n += 1
+        self.assertEqual(n, 3)
+
+    def test_write_read_identity(self):
+        log, _ = self.logs["four_wheel_car"]
+        copy = os.path.join(self.tmp.name, "copy.lcmlog")
+        with open(copy, "wb") as f:
+            lcmlog.write(f, lcmlog.read(log))
+        with open(log, "rb") as a, open(copy, "rb") as b:
+            self.assertEqual(a.read(), b.read())
+
+    def test_log_wrenches_example_prints_the_doubles_by_name(self):
+        log, want = self.logs["two_puma_load"]
+        r = subprocess.run([sys.executable, "-B", os.path.join(EXAMPLES, "log_wrenches.py"), log, "--wrench", "arm2.ee"],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        lines = r.stdout.splitlines()
+        self.assertEqual(lines[0], "sim_time_s name frame by mx_N*m my_N*m mz_N*m fx_N fy_N fz_N")
+        outs = [w["message"] for w in want if w["type"] == "output_t"]
+        self.assertEqual(len(lines) - 1, len(outs))
+        for line, o in zip(lines[1:], outs):
+            f = line.split()
+            k = o["wrench_names"].index("arm2.ee")
+            self.assertEqual(f[1:4], ["arm2.ee", o["wrench_frames"][k], o["wrench_by"][k]])
+            same(self, float(f[0]), o["sim_time"], "sim_time")
+            same(self, [float(x) for x in f[4:]], o["wrench"][k], "arm2.ee")
+        r = subprocess.run([sys.executable, "-B", os.path.join(EXAMPLES, "log_wrenches.py"), log, "--wrench", "nope"],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+        self.assertEqual(r.returncode, 1)
+        self.assertIn("no output_t wrenches on COOPDYN_OUTPUT named nope (the log has arm1.ee", r.stderr)
+
+
+if __name__ == "__main__":
+    unittest.main()
