@@ -80,6 +80,7 @@ void register_control(Cli& cli);
 void register_track(Cli& cli);
 void register_view(Cli& cli);
 void register_bench(Cli& cli);
+void register_spy(Cli& cli);
 int cmd_eval(const Args& a);
 int cmd_track(const Args& a);
 int cmd_control(const Args& a);
@@ -88,5 +89,6 @@ int cmd_send(const Args&);
 int cmd_log(const Args&);
 int cmd_view(const Args&);  // clients/view.cc
 int cmd_bench(const Args& a);  // clients/bench.cc
+int cmd_spy(const Args& a);    // clients/spy.cc
 
 }  // namespace coopdyn::cli

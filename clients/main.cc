@@ -9,7 +9,7 @@ int main(int argc, char** argv) {
   using namespace coopdyn::cli;
   CLI::App app{"coopdyn " COOPDYN_VERSION
                ": constrained dynamics of cooperating manipulators, offline (eval, sim, bench) and as clients of "
-               "coopdynd (send, log, control, track)",
+               "coopdynd (send, log, control, track, view, spy)",
                "coopdyn"};
   app.set_version_flag("--version", "coopdyn " COOPDYN_VERSION, "print the version and exit");
   app.require_subcommand(1);
@@ -28,6 +28,7 @@ int main(int argc, char** argv) {
   register_track(cli);
   register_view(cli);
   register_bench(cli);
+  register_spy(cli);
   if (argc < 2) {  // no command: the usage, as an error
     std::cerr << app.help();
     return 2;

@@ -29,12 +29,15 @@ target_compile_definitions(coopdyn_fuzz_tests PRIVATE COOPDYN_SOURCE_DIR="${PROJ
 target_include_directories(coopdyn_fuzz_tests PRIVATE ${PROJECT_SOURCE_DIR})
 gtest_discover_tests(coopdyn_fuzz_tests DISCOVERY_TIMEOUT 60 PROPERTIES LABELS fuzz TIMEOUT 300)
 
-# The command lines of coopdyn and coopdynd, run as processes (tests/cli_test.cc).
-add_executable(coopdyn_cli_tests ${CMAKE_CURRENT_LIST_DIR}/cli_test.cc)
+# The command lines of coopdyn and coopdynd, run as processes (tests/cli_test.cc), and coopdyn spy
+# (tests/spy_test.cc: the java command, and lcm-spy itself where a JDK and the jars are installed).
+add_executable(coopdyn_cli_tests ${CMAKE_CURRENT_LIST_DIR}/cli_test.cc ${CMAKE_CURRENT_LIST_DIR}/spy_test.cc)
 target_link_libraries(coopdyn_cli_tests PRIVATE coopdyn_io yaml-cpp GTest::gtest GTest::gtest_main)
 target_compile_definitions(coopdyn_cli_tests PRIVATE
   COOPDYN_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
   COOPDYN_PROJECT_VERSION="${PROJECT_VERSION}"
+  COOPDYN_LCM_JAR="${COOPDYN_LCM_JAR_PATH}"
+  COOPDYN_TYPES_JAR="${CMAKE_BINARY_DIR}/coopdyn_types.jar"
   COOPDYND_PATH="$<TARGET_FILE:coopdynd>"
   COOPDYN_PATH="$<TARGET_FILE:coopdyn>")
 target_include_directories(coopdyn_cli_tests PRIVATE ${PROJECT_SOURCE_DIR})
