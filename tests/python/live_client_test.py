@@ -10,6 +10,7 @@ import os
 import re
 import subprocess
 import sys
+import tempfile
 
 SOURCE_DIR = os.environ["COOPDYN_SOURCE_DIR"]
 EXAMPLE = os.path.join(SOURCE_DIR, "clients", "python", "examples", "live_client.py")
@@ -34,10 +35,12 @@ def main(stand_in):
         return 77
     url = "udpm://239.255.76.67:%d?ttl=0" % (20000 + (os.getpid() * 13) % 30000)
     scene = os.path.join(SOURCE_DIR, "config", "scenes", "two_puma_load.yaml")
+    daemon_log = tempfile.TemporaryFile(mode="w+")
     daemon = subprocess.Popen([os.environ["COOPDYND"], "--scene", scene, "--lcm-url", url, "--rate", "500",
-                               "--duration", "6"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+                               "--duration", "30"], stdout=daemon_log, stderr=subprocess.STDOUT)
     try:
-        r = subprocess.run([sys.executable, "-B", EXAMPLE, "--lcm-url", url, "--add", "arm1.q2=2.5", "--duration", "1"],
+        r = subprocess.run([sys.executable, "-B", EXAMPLE, "--lcm-url", url, "--add", "arm1.q2=2.5", "--duration", "1",
+                            "--wait", "20"],
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True, timeout=30, env=env)
     finally:
         daemon.terminate()
@@ -46,7 +49,8 @@ def main(stand_in):
     sys.stderr.write(r.stderr)
     m = re.search(r"sent (\d+) commands, received (\d+) outputs, (\d+) applied our torques exactly", r.stdout)
     if r.returncode != 0 or not m:
-        print("FAILED: the example exited %d" % r.returncode)
+        daemon_log.seek(0)
+        print("FAILED: the example exited %d; the daemon's log:\n%s" % (r.returncode, daemon_log.read()))
         return 1
     sent, outputs, applied = map(int, m.groups())
     # 100 commands/s for 1 s; the daemon at 500 Hz applies each from the tick after it arrives

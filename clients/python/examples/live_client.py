@@ -44,6 +44,8 @@ def main():
                    help="add DELTA (N*m or N) to joint NAME's torque (repeatable)")
     p.add_argument("--rate", type=float, default=100.0, help="commands per second (default: %(default)s)")
     p.add_argument("--duration", type=float, default=2.0, help="seconds to run (default: %(default)s)")
+    p.add_argument("--wait", type=float, default=2.0, help="seconds to wait for the daemon's first output "
+                                                            "(default: %(default)s)")
     a = p.parse_args()
 
     lc = lcm.LCM(a.lcm_url)
@@ -53,12 +55,12 @@ def main():
         latest.append(coopdyn.output_t.decode(data))
 
     lc.subscribe(a.output_channel, on_output)
-    deadline = time.time() + 2.0
+    deadline = time.time() + a.wait
     while not latest and time.time() < deadline:
         lc.handle_timeout(100)
     if not latest:
-        sys.exit("live_client.py: no output_t on %s at %s within 2 s: is coopdynd running (build/bin/coopdynd "
-                 "--scene ...) on that URL?" % (a.output_channel, a.lcm_url))
+        sys.exit("live_client.py: no output_t on %s at %s within %g s: is coopdynd running (build/bin/coopdynd "
+                 "--scene ...) on that URL?" % (a.output_channel, a.lcm_url, a.wait))
     first = latest[-1]
     names = [n for n, t in zip(first.v_names, first.tau) if t != 0.0]
     tau = {n: t for n, t in zip(first.v_names, first.tau) if t != 0.0}
