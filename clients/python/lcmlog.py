@@ -70,10 +70,17 @@ def write(f, events):
 
 
 def types():
-    """{fingerprint bytes: class} of the coopdyn message types."""
+    """{fingerprint bytes: class} of the coopdyn message types; output_v1_t is output_t as logs
+    recorded before message version 2 carry it (wrenches as [mx my mz fx fy fz] lists)."""
     import coopdyn
-    return {t._get_packed_fingerprint(): t for t in (coopdyn.output_t, coopdyn.loop_stats_t, coopdyn.torque_command_t,
-                                                     coopdyn.measured_state_t, coopdyn.control_t)}
+    return {t._get_packed_fingerprint(): t for t in (coopdyn.output_t, coopdyn.output_v1_t, coopdyn.loop_stats_t,
+                                                     coopdyn.torque_command_t, coopdyn.measured_state_t,
+                                                     coopdyn.control_t)}
+
+
+def components(w):
+    """[mx, my, mz, fx, fy, fz] of a wrench of either output_t version (a wrench_t or a 6-list)."""
+    return [w.mx, w.my, w.mz, w.fx, w.fy, w.fz] if hasattr(w, "mx") else list(w)
 
 
 _TYPES = None

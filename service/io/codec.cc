@@ -360,6 +360,18 @@ Reject ControlDecoder::decode(const void* data, int len, ControlSlot& out) {
 }
 
 // ---------------------------------------------------------------------------------------------
+namespace {
+// output_t's wrench_t fields in the order of a WrenchData row [mx my mz fx fy fz]
+constexpr double coopdyn::wrench_t::*kWrenchComponent[6] = {&coopdyn::wrench_t::mx, &coopdyn::wrench_t::my,
+                                                            &coopdyn::wrench_t::mz, &coopdyn::wrench_t::fx,
+                                                            &coopdyn::wrench_t::fy, &coopdyn::wrench_t::fz};
+coopdyn::wrench_t zero_wrench() {
+  coopdyn::wrench_t w;
+  for (auto c : kWrenchComponent) w.*c = 0.0;
+  return w;
+}
+}  // namespace
+
 struct OutputEncoder::Impl {
   const System& sys;
   coopdyn::output_t msg;
@@ -377,14 +389,15 @@ struct OutputEncoder::Impl {
       msg.wrench_kind.push_back(static_cast<int8_t>(o.kind));
       msg.constrained_mask.push_back(static_cast<int8_t>(o.constrained));
     }
-    msg.wrench.assign(outs.size(), std::vector<double>(6, 0.0));
+    msg.version = coopdyn::output_t::VERSION;
+    msg.wrench.assign(outs.size(), zero_wrench());
     msg.indeterminate_mask.assign(outs.size(), 0);
     msg.wrench_measured.assign(outs.size(), 0);
-    msg.wrench_residual.assign(outs.size(), std::vector<double>(6, 0.0));
+    msg.wrench_residual.assign(outs.size(), zero_wrench());
     // free directions: sized for the most there can be (every row), sent as the first num_free
     const int rows = s.constraints.rows;
     msg.free_class.assign(static_cast<size_t>(rows), 0);
-    msg.free_direction.assign(static_cast<size_t>(rows), std::vector<std::vector<double>>(outs.size(), std::vector<double>(6, 0.0)));
+    msg.free_direction.assign(static_cast<size_t>(rows), std::vector<coopdyn::wrench_t>(outs.size(), zero_wrench()));
     msg.num_contacts = static_cast<int32_t>(contacts.spec.size());
     for (int k : contacts.spec) msg.contact_names.push_back(s.constraints.specs[static_cast<size_t>(k)].name);
     msg.contact_normal.assign(contacts.spec.size(), 0.0);
@@ -417,9 +430,9 @@ struct OutputEncoder::Impl {
     msg.rows = msg.rank = msg.indeterminate = 0;
     msg.num_free = 0;
     msg.condition = msg.residual = 0;
-    for (auto& w : msg.wrench) std::fill(w.begin(), w.end(), 0.0);
+    for (auto& w : msg.wrench) w = zero_wrench();
     std::fill(msg.indeterminate_mask.begin(), msg.indeterminate_mask.end(), 0);
-    for (auto& w : msg.wrench_residual) std::fill(w.begin(), w.end(), 0.0);
+    for (auto& w : msg.wrench_residual) w = zero_wrench();
     std::fill(msg.stress.begin(), msg.stress.end(), 0.0);
     std::fill(msg.vdot.begin(), msg.vdot.end(), 0.0);
     std::fill(msg.contact_normal.begin(), msg.contact_normal.end(), 0.0);
@@ -490,26 +503,27 @@ int OutputEncoder::encode(const OutputFrame& f, uint8_t* buf, int cap, bool* san
       const WrenchData& wd = *f.wrenches;
       for (size_t t = 0; t < o.wrench.size(); ++t) {
         for (int k = 0; k < 6; ++k) {
-          o.wrench[t][k] = wd.W[t][k];
+          o.wrench[t].*kWrenchComponent[k] = wd.W[t][k];
           ok = ok && std::isfinite(wd.W[t][k]);
         }
         o.indeterminate_mask[t] = static_cast<int8_t>(wd.indeterminate[t]);
         for (int d = 0; d < wd.num_free; ++d)
           for (int k = 0; k < 6; ++k) {
             const double x = wd.free_W(6 * static_cast<Eigen::Index>(t) + k, d);
-            o.free_direction[static_cast<size_t>(d)][t][static_cast<size_t>(k)] = x;
+            o.free_direction[static_cast<size_t>(d)][t].*kWrenchComponent[k] = x;
             ok = ok && std::isfinite(x);
           }
         const bool meas = f.measured && t < f.measured->has_wrench.size() && f.measured->has_wrench[t];
         for (int k = 0; k < 6; ++k) {
-          o.wrench_residual[t][k] = meas ? f.measured->wrench[t][k] - wd.W[t][k] : 0.0;
-          ok = ok && std::isfinite(o.wrench_residual[t][k]);
+          const double r = meas ? f.measured->wrench[t][k] - wd.W[t][k] : 0.0;
+          o.wrench_residual[t].*kWrenchComponent[k] = r;
+          ok = ok && std::isfinite(r);
         }
       }
       o.num_free = wd.num_free;
       for (int d = 0; d < wd.num_free; ++d) o.free_class[static_cast<size_t>(d)] = static_cast<int8_t>(wd.free_class[static_cast<size_t>(d)]);
     } else {
-      for (auto& w : o.wrench) std::fill(w.begin(), w.end(), 0.0);
+      for (auto& w : o.wrench) w = zero_wrench();
       std::fill(o.indeterminate_mask.begin(), o.indeterminate_mask.end(), 0);
       o.num_free = 0;
     }

@@ -33,6 +33,8 @@ def bits(x):
 def same(test, py, cpp, where):
     """py (decoded or encoded by Python) equals cpp (the helper's JSON) exactly: doubles bit for bit
     (hex strings in cpp), integers and strings by value, lists element by element."""
+    if hasattr(py, "mx"):  # a wrench_t: its named fields in the order of the C++ [6] array
+        py = [py.mx, py.my, py.mz, py.fx, py.fy, py.fz]
     if isinstance(cpp, list):
         test.assertIsInstance(py, (list, tuple), where)
         test.assertEqual(len(py), len(cpp), where + ": length")

@@ -77,7 +77,8 @@ class LcmLog(unittest.TestCase):
             self.assertEqual(kinds, {"output_t": 40, "loop_stats_t": 4, "torque_command_t": 1}, scene)
             # what the test is about: the physics is there (non-zero wrenches, the command applied)
             outs = [lcmlog.decode(e.data) for e in got if e.channel == "COOPDYN_OUTPUT"]
-            self.assertTrue(any(abs(x) > 1 for x in outs[-1].wrench[0]), scene)
+            self.assertTrue(any(abs(x) > 1 for x in lcmlog.components(outs[-1].wrench[0])), scene)
+            self.assertEqual({o.version for o in outs}, {coopdyn.output_t.VERSION}, scene)
             self.assertEqual([o.input_seq for o in outs[-3:]], [7, 7, 7], scene)
         car = [lcmlog.decode(e.data) for e in lcmlog.read(self.logs["four_wheel_car"][0], "COOPDYN_OUTPUT")]
         self.assertGreater(car[0].num_free, 0)
@@ -127,6 +128,41 @@ class LcmLog(unittest.TestCase):
             lcmlog.write(f, lcmlog.read(log))
         with open(log, "rb") as a, open(copy, "rb") as b:
             self.assertEqual(a.read(), b.read())
+
+    def test_coopdyn_log_reads_logs_of_both_output_versions(self):
+        # the daemon's log rewritten with every output_t in the layout before version 2 (output_v1_t):
+        # coopdyn log writes the same CSVs from both, byte for byte
+        log, want = self.logs["four_wheel_car"]
+        old_log = os.path.join(self.tmp.name, "v1.lcmlog")
+        events = []
+        for e in lcmlog.read(log):
+            m = lcmlog.decode(e.data)
+            if isinstance(m, coopdyn.output_t):
+                old = coopdyn.output_v1_t()
+                for k in old.__slots__:
+                    v = getattr(m, k)
+                    if k in ("wrench", "wrench_residual"):
+                        v = [lcmlog.components(w) for w in v]
+                    elif k == "free_direction":
+                        v = [[lcmlog.components(w) for w in d] for d in v]
+                    setattr(old, k, v)
+                self.assertNotEqual(old.encode()[:8], e.data[:8])
+                e = e._replace(data=old.encode())
+            events.append(e)
+        with open(old_log, "wb") as f:
+            lcmlog.write(f, events)
+        self.assertIsInstance(lcmlog.decode(next(lcmlog.read(old_log, "COOPDYN_OUTPUT")).data), coopdyn.output_v1_t)
+        csv = {}
+        for name, path in (("new", log), ("old", old_log)):
+            out = os.path.join(self.tmp.name, name + "_csv")
+            r = subprocess.run([os.environ["COOPDYN"], "log", "--in", path, "--out", out, "--no-plot"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            with open(os.path.join(out, "COOPDYN_OUTPUT.csv")) as f:
+                csv[name] = f.read()
+        self.assertEqual(csv["old"], csv["new"])
+        self.assertIn("fl.fz", csv["new"])
+        self.assertGreaterEqual(csv["new"].count("\n"), 41)
 
     def test_log_wrenches_example_prints_the_doubles_by_name(self):
         log, want = self.logs["two_puma_load"]

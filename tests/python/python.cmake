@@ -8,10 +8,10 @@ endif()
 add_executable(lcm_interop_helper ${CMAKE_CURRENT_LIST_DIR}/lcm_interop_helper.cc)
 target_link_libraries(lcm_interop_helper PRIVATE coopdyn_runtime coopdyn_scene)
 target_include_directories(lcm_interop_helper PRIVATE ${PROJECT_SOURCE_DIR})
-add_dependencies(lcm_interop_helper coopdyn_lcmtypes_python)
+add_dependencies(lcm_interop_helper coopdyn_lcmtypes_python coopdyn)
 
 set(py_env PYTHONPATH=${COOPDYN_PYTHON_DIR} COOPDYN_SOURCE_DIR=${PROJECT_SOURCE_DIR}
-    COOPDYN_INTEROP_HELPER=$<TARGET_FILE:lcm_interop_helper>)
+    COOPDYN_INTEROP_HELPER=$<TARGET_FILE:lcm_interop_helper> COOPDYN=$<TARGET_FILE:coopdyn>)
 foreach(t python_types lcmlog)
   add_test(NAME python.${t} COMMAND ${COOPDYN_PYTHON3} -B ${CMAKE_CURRENT_LIST_DIR}/${t}_test.py -v)
   set_tests_properties(python.${t} PROPERTIES ENVIRONMENT "${py_env}" LABELS python TIMEOUT 120)

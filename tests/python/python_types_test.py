@@ -18,6 +18,8 @@ import interop  # noqa: E402
 from interop import same  # noqa: E402
 
 import coopdyn  # noqa: E402  (PYTHONPATH: the build tree's python/ or an installed site-packages)
+from coopdyn import lcmlog  # noqa: E402
+from coopdyn.lcmlog import components  # noqa: E402
 
 SCENE = "two_puma_load"
 # doubles that a text round trip would get wrong: -0.0, a subnormal, the largest, infinities, 0.1
@@ -50,8 +52,8 @@ class PythonTypes(unittest.TestCase):
 
     def test_package_needs_no_lcm_module(self):
         self.assertNotIn("lcm", sys.modules)
-        for t in (coopdyn.output_t, coopdyn.torque_command_t, coopdyn.measured_state_t, coopdyn.control_t,
-                  coopdyn.loop_stats_t):
+        for t in (coopdyn.output_t, coopdyn.output_v1_t, coopdyn.wrench_t, coopdyn.torque_command_t,
+                  coopdyn.measured_state_t, coopdyn.control_t, coopdyn.loop_stats_t):
             m = t()
             self.assertEqual(t.decode(m.encode()).encode(), m.encode(), t.__name__)
 
@@ -129,6 +131,7 @@ class PythonTypes(unittest.TestCase):
     def test_output_every_field(self):
         r = self.rng
         m = coopdyn.output_t()
+        m.version = coopdyn.output_t.VERSION
         m.utime, m.tick, m.sim_time = 1764750000123456, 2 ** 33 + 1, 12.345678901234567
         m.mode, m.status, m.reason, m.input = 1, 1, coopdyn.output_t.REASON_CLOSURE, coopdyn.output_t.INPUT_STATE
         m.input_seq, m.input_utime, m.paused = 77, 1764750000000001, 1
@@ -143,12 +146,12 @@ class PythonTypes(unittest.TestCase):
         m.wrench_names, m.wrench_frames, m.wrench_by = ["arm1.ee", "arm2.base", "fl"], ["a", "b", "fl.contact"], \
             ["load.arm1", "world", "ground"]
         m.wrench_kind = [0, 1, 2]
-        m.wrench = [[r.uniform(-100, 100) for _ in range(6)] for _ in range(nw)]
-        m.wrench[2] = list(ODD[:6])
+        m.wrench = [wrench([r.uniform(-100, 100) for _ in range(6)]) for _ in range(nw)]
+        m.wrench[2] = wrench(ODD[:6])
         m.constrained_mask, m.indeterminate_mask, m.wrench_measured = [63, 7, 56], [0, 1, 56], [1, 0, 0]
-        m.wrench_residual = [[r.gauss(0, 1) for _ in range(6)] for _ in range(nw)]
+        m.wrench_residual = [wrench([r.gauss(0, 1) for _ in range(6)]) for _ in range(nw)]
         m.num_free, m.free_class = 2, [coopdyn.output_t.FREE_FORCE, coopdyn.output_t.FREE_MIXED]
-        m.free_direction = [[[r.uniform(-1, 1) for _ in range(6)] for _ in range(nw)] for _ in range(2)]
+        m.free_direction = [[wrench([r.uniform(-1, 1) for _ in range(6)]) for _ in range(nw)] for _ in range(2)]
         m.contact_status, m.num_contacts = 1, 2
         m.contact_names, m.contact_normal = ["fl", "fr"], [3210.193, -1.0]
         m.contact_friction_needed, m.contact_utilisation, m.contact_state = [0.5, -1.0], [0.5 / 0.85, -1.0], [1, 2]
@@ -159,10 +162,25 @@ class PythonTypes(unittest.TestCase):
         (d,) = self.decode(m)
         self.assertEqual(d["reject"], "")
         o = d["message"]
-        self.assertEqual(set(o), set(m.__slots__) - {"num_constraints", "num_wrenches", "num_free", "num_contacts",
-                                                      "num_stresses", "nq", "nv"})
+        self.assertEqual(set(o), set(m.__slots__) - {"version", "num_constraints", "num_wrenches", "num_free",
+                                                      "num_contacts", "num_stresses", "nq", "nv"})
         for k in o:
             same(self, getattr(m, k), o[k], k)
+        # the same message in the layout logs had before version 2 (output_v1_t's fingerprint, that of
+        # the old output_t: wrenches as 6-arrays) decodes in C++ to the same values
+        old = coopdyn.output_v1_t()
+        for k in old.__slots__:
+            v = getattr(m, k)
+            if k in ("wrench", "wrench_residual"):
+                v = [components(w) for w in v]
+            elif k == "free_direction":
+                v = [[components(w) for w in d] for d in v]
+            setattr(old, k, v)
+        self.assertNotEqual(old.encode()[:8], m.encode()[:8])
+        (d1,) = self.decode(old)
+        self.assertEqual(d1["reject"], "")
+        self.assertEqual(d1["message"], o)
+        self.assertIsInstance(lcmlog.decode(old.encode()), coopdyn.output_v1_t)
 
     def test_loop_stats(self):
         m = coopdyn.loop_stats_t()
@@ -185,6 +203,12 @@ class PythonTypes(unittest.TestCase):
             else:
                 py = getattr(m, k)
             same(self, py, o[k], k)
+
+
+def wrench(c):
+    w = coopdyn.wrench_t()
+    w.mx, w.my, w.mz, w.fx, w.fy, w.fz = c
+    return w
 
 
 def interop_now():

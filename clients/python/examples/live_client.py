@@ -102,7 +102,7 @@ def main():
         if latest and time.time() - last_print >= 1.0:
             last_print = time.time()
             m = latest[-1]
-            ee = ["%s [%s]" % (n, " ".join("%.4g" % x for x in w))
+            ee = ["%s [%.4g %.4g %.4g %.4g %.4g %.4g]" % (n, w.mx, w.my, w.mz, w.fx, w.fy, w.fz)
                   for n, w, k in zip(m.wrench_names, m.wrench, m.wrench_kind) if k == m.KIND_END_EFFECTOR]
             print("t %.3f s  input %d (seq %d)  %s %.6g  %s" % (m.sim_time, m.input, m.input_seq, names[0],
                                                                dict(zip(m.v_names, m.tau))[names[0]], "  ".join(ee)))

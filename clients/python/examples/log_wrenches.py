@@ -45,9 +45,10 @@ def main():
             for k, name in enumerate(m.wrench_names):
                 if a.wrench and name not in a.wrench:
                     continue
+                w = lcmlog.components(m.wrench[k])  # either output_t version (old logs: 6-lists)
                 print("%r %s %s %s %s" % (m.sim_time, name, m.wrench_frames[k], m.wrench_by[k],
-                                          " ".join(repr(x) for x in m.wrench[k])))
-                rows.append((m.sim_time, name, m.wrench[k]))
+                                          " ".join(repr(x) for x in w)))
+                rows.append((m.sim_time, name, w))
     except (OSError, lcmlog.LogError) as e:
         sys.exit("log_wrenches.py: %s" % e)
     if not rows:
