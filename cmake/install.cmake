@@ -5,6 +5,8 @@
 #   P/include/coopdyn/clients/cooperative_controller.h
 #   P/include/coopdyn/coopdyn/*.hpp            the generated C++ LCM types
 #   P/share/coopdyn/                           coopdynd.yaml, scenes/, robots/ (and java/coopdyn_types.jar if built)
+#   P/share/coopdyn/examples/python/           log_wrenches.py, live_client.py
+#   P/lib/pythonX.Y/site-packages/coopdyn/     the Python package: generated types and lcmlog (lcmtypes/, clients/python/)
 #   P/lib/cmake/coopdyn/                       find_package(coopdyn CONFIG): coopdyn::coopdyn and its parts
 #   P/lib/pkgconfig/coopdyn.pc                 pkg-config --cflags --libs coopdyn
 # Included from the top-level CMakeLists.txt after the targets are defined.

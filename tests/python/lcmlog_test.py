@@ -183,6 +183,20 @@ class LcmLog(unittest.TestCase):
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
         self.assertEqual(r.returncode, 1)
         self.assertIn("no output_t wrenches on COOPDYN_OUTPUT named nope (the log has arm1.ee", r.stderr)
+        # --plot: a PNG where matplotlib is installed, else an error saying what to install
+        png = os.path.join(self.tmp.name, "wrenches.png")
+        r = subprocess.run([sys.executable, "-B", os.path.join(EXAMPLES, "log_wrenches.py"), log, "--plot", png,
+                            "--wrench", "arm1.ee"],
+                           stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, universal_newlines=True)
+        try:
+            import matplotlib  # noqa: F401
+        except ImportError:
+            self.assertEqual(r.returncode, 1)
+            self.assertIn("--plot needs matplotlib (Debian: apt install python3-matplotlib)", r.stderr)
+        else:
+            self.assertEqual(r.returncode, 0, r.stderr)
+            with open(png, "rb") as f:
+                self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
 
 
 if __name__ == "__main__":

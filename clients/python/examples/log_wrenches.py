@@ -75,10 +75,10 @@ def plot(rows, path):
     for c, ax in enumerate(axes):
         ax.set_ylabel("%s [%s]" % (COMPONENTS[c], UNITS[c]))
         ax.grid(True, alpha=0.3)
-    axes[0].legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.0, 1.0))
+    axes[0].legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
     axes[-1].set_xlabel("sim_time [s]")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    fig.subplots_adjust(left=0.12, right=0.78, top=0.98, bottom=0.05, hspace=0.12)
+    fig.savefig(path, dpi=100, bbox_inches="tight")
     print("wrote %s" % path, file=sys.stderr)
 
 
