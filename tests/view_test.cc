@@ -1046,8 +1046,9 @@ TEST(ViewLog, ContactReportIsTheMessages) {
   std::printf("largest utilisation of the car held at rest: %.3g\n", umax);
 }
 
-// The ground as declared: a unicycle on an inclined plane {normal, point} off the origin; the
-// page's grid (three.js's own vertices, in the world) lies in that plane with its normal, not at z = 0.
+// The ground as declared: a unicycle on an inclined plane {normal, point, mu} off the origin; the
+// page's grid (three.js's own vertices, in the world) lies in that plane with its normal, not at
+// z = 0, and the page reports the friction a disk rolling down it needs.
 TEST(ViewGround, InclinedGridLiesOnThePlane) {
   REQUIRE_BROWSER();
   TempDir dir("incline");
@@ -1089,11 +1090,15 @@ TEST(ViewGround, InclinedGridLiesOnThePlane) {
     span = std::max(span, (x - point).norm());
   }
   EXPECT_GT(span, 1) << "the grid is a plane, not a point";
-  // the wheel rolled down the slope on it: the contact of the last row is on the plane too, below
-  // where it started
+  // the wheel rolled down the slope on it, below where it started, and the contact report the page
+  // shows is the rolling disk's on a slope of angle th: friction needed f_t / f_n = tan(th) / 3
+  // (I = m r^2 / 2), here 0.3 / 3 = 0.1, utilisation 0.1 / mu = 0.2
   const auto row = csv_row(dir / "i.csv", 0.5);
   ASSERT_FALSE(row.empty());
   EXPECT_LT(std::stod(row.at("q:wheel.z")), c.z() - 1e-3);
+  EXPECT_EQ(probe_num(p.probe, "{\"name\":\"wheel\",\"utilisation\"", "utilisation"), std::stod(row.at("wheel.utilisation")));
+  EXPECT_NEAR(probe_num(p.probe, "{\"name\":\"wheel\",\"utilisation\"", "friction_needed"), 0.1, 1e-5) << p.probe;
+  EXPECT_NEAR(probe_num(p.probe, "{\"name\":\"wheel\",\"utilisation\"", "utilisation"), 0.2, 2e-5) << p.probe;
 }
 
 // The plot of one wrench: a click on its arrow selects it (the click's place is this process's
