@@ -2,6 +2,7 @@
 #include "clients/view.h"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -16,6 +17,8 @@
 #include "clients/cli.h"
 #include "clients/common.h"
 #include "service/algorithms/kinematics.h"
+#include "service/constraints/constraints.h"
+#include "service/dynamics/contacts.h"
 #include "service/dynamics/wrenches.h"
 #include "service/scene/scene.h"
 
@@ -107,6 +110,21 @@ ViewFrames view_geometry(const System& sys) {
   }
   for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k)
     if (sys.wrenches.outputs[k].kind != WrenchKind::kJoint) vf->wrenches.push_back(static_cast<int>(k));
+  // the rolling contacts in the contact report's order (ContactData::spec) and the distinct planes
+  // they roll on: the scene's `ground`, or a wheel's own
+  const ContactData cd(sys);
+  for (int s : cd.spec) {
+    const ConstraintSpec& c = sys.constraints.specs[static_cast<size_t>(s)];
+    vf->contacts.push_back({c.name, s, c.mu});
+    const int k = static_cast<int>(vf->contacts.size()) - 1;
+    auto same = [&](const ViewFrames::Ground& g) { return (g.n - c.ground_n).norm() < 1e-12 && std::abs(g.d - c.ground_d) < 1e-12; };
+    auto it = std::find_if(vf->grounds.begin(), vf->grounds.end(), same);
+    if (it == vf->grounds.end()) {
+      vf->grounds.push_back({c.ground_n, c.ground_d, {}});
+      it = vf->grounds.end() - 1;
+    }
+    it->contacts.push_back(k);
+  }
   for (int dof : m.pseudo_dofs) {
     ViewFrames::Pseudo p;
     p.dof = dof;
@@ -116,6 +134,22 @@ ViewFrames view_geometry(const System& sys) {
     vf->pseudos.push_back(p);
   }
   return out;
+}
+
+void ViewFrames::clear_frames() {
+  t.clear();
+  status.clear();
+  shape_pose.clear();
+  seg_ends.clear();
+  wrench_W.clear();
+  wrench_F.clear();
+  contact_p.clear();
+  contact_u.clear();
+  contact_state.clear();
+  pseudo_p.clear();
+  stress.clear();
+  indet.clear();
+  free.clear();
 }
 
 void add_view_frame(const System& sys, Data& data, ViewSample& row, ViewFrames* vf) {
@@ -147,6 +181,17 @@ void add_view_frame(const System& sys, Data& data, ViewSample& row, ViewFrames* 
     const Vec3& x = data.X_WB[p.body].p;
     pp.insert(pp.end(), {x.x(), x.y(), x.z()});
   }
+  std::vector<double> wf, cp;
+  for (const Vec6& w : row.w) wf.insert(wf.end(), w.data(), w.data() + 6);
+  for (const auto& c : vf->contacts) {
+    const Vec3 x = rolling_contact_frame(m, data, sys.constraints.specs[static_cast<size_t>(c.spec)]).p;
+    cp.insert(cp.end(), {x.x(), x.y(), x.z()});
+  }
+  const bool contacts_known = row.contact_u.size() == 2 * vf->contacts.size() && row.contact_state.size() == vf->contacts.size();
+  vf->wrench_F.push_back(std::move(wf));
+  vf->contact_p.push_back(std::move(cp));
+  vf->contact_u.push_back(contacts_known ? row.contact_u : std::vector<double>{});
+  vf->contact_state.push_back(contacts_known ? row.contact_state : std::vector<int>{});
   vf->shape_pose.push_back(std::move(sp));
   vf->seg_ends.push_back(std::move(se));
   vf->wrench_W.push_back(std::move(ww));
@@ -202,6 +247,11 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
     c_w.push_back(c);
   }
 
+  // the contact report of each wheel (clients/sim.cc writes it for every rolling contact)
+  std::vector<std::array<int, 3>> c_c;
+  for (const auto& c : geo.contacts)
+    c_c.push_back({need(c.name + ".utilisation"), need(c.name + ".friction_needed"), need(c.name + ".contact")});
+
   std::vector<ViewSample> rows;
   int ln = 1;
   while (std::getline(in, line)) {
@@ -234,6 +284,16 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
       for (int j = 0; j < 6; ++j) w[j] = num(c[j]);
       r.w.push_back(w);
     }
+    for (const auto& c : c_c) {
+      r.contact_u.push_back(num(c[0]));
+      r.contact_u.push_back(num(c[1]));
+      const std::string& st = cells[c[2]];
+      const int code = st == "ok" ? 0 : st == "slip" ? 1 : st == "lift_off" ? 2 : -1;
+      if (code < 0)
+        throw std::runtime_error(where + ": unknown contact state '" + st + "' in column '" + head[c[2]] +
+                                 "' (ok, slip or lift_off)");
+      r.contact_state.push_back(code);
+    }
     if (!configuration_valid(m, r.q)) throw std::runtime_error(where + ": not a valid configuration of scene '" + sys.name + "'");
     rows.push_back(std::move(r));
   }
@@ -259,6 +319,22 @@ void jvec(std::string& o, const double* x, size_t n, const char* fmt = "%.6g") {
   for (size_t i = 0; i < n; ++i) {
     if (i) o += ',';
     jnum(o, x[i], fmt);
+  }
+  o += ']';
+}
+
+// the source's numbers as they are: shortest round-trip (the page's plot and contact report show
+// what the CSV or the message said, to the last bit)
+void jexact(std::string& o, const std::vector<double>& x) {
+  o += '[';
+  char buf[32];
+  for (size_t i = 0; i < x.size(); ++i) {
+    if (i) o += ',';
+    if (!std::isfinite(x[i])) {
+      o += '0';
+      continue;
+    }
+    o.append(buf, std::to_chars(buf, buf + sizeof buf, x[i]).ptr);
   }
   o += ']';
 }
@@ -302,6 +378,14 @@ std::string view_frame_json(const ViewFrames& vf, size_t i) {
   d += ",\"indet\":";
   jints(d, vf.indet[i]);
   d += ",\"free\":" + json_string(vf.free[i]);
+  d += ",\"wf\":";
+  jexact(d, vf.wrench_F[i]);
+  d += ",\"cp\":";
+  jvec(d, vf.contact_p[i].data(), vf.contact_p[i].size());
+  d += ",\"cu\":";
+  jexact(d, vf.contact_u[i]);
+  d += ",\"cs\":";
+  jints(d, vf.contact_state[i]);
   return d + "}";
 }
 
@@ -346,18 +430,58 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
       grow(o + Vec3(x[6], x[7], x[8]) / mscale, 0);
     }
 
-  // ground: the rolling plane z = 0 of the wheels, else below everything, normal to gravity
-  bool rolling = false;
-  for (const auto& c : sys.constraints.specs) rolling |= c.kind == ConstraintKind::kRolling;
   const Vec3 centre = 0.5 * (lo + hi);
-  double lowest = std::numeric_limits<double>::infinity();
-  for (int c = 0; c < 8; ++c) {
-    const Vec3 p((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(), (c & 4) ? hi.z() : lo.z());
-    lowest = std::min(lowest, p.dot(up));
-  }
-  const double ground_h = rolling ? 0.0 : lowest - 0.05 * size;
-  const Vec3 ground_o = centre - (centre.dot(up) - ground_h) * up;
   const double radius = 0.5 * std::max(0.2, (hi - lo).norm());
+
+  // grounds: each plane the wheels roll on as declared (the scene's `ground`, a wheel's own), a grid
+  // in that plane about the scene's centre (a wheel's own plane: about its wheels' contacts, over the
+  // run); without wheels, a plane normal to gravity below everything
+  struct GroundOut {
+    Vec3 o, n, e1;
+    double size;
+  };
+  std::vector<GroundOut> grounds;
+  auto in_plane_axis = [](const Vec3& n) {  // the world axis least along n, made normal to it
+    int a = 0;
+    for (int k = 1; k < 3; ++k)
+      if (std::abs(n[k]) < std::abs(n[a]) - 1e-12) a = k;
+    const Vec3 e = Vec3::Unit(a) - n[a] * n;
+    return Vec3(e.normalized());
+  };
+  size_t main_plane = 0;
+  for (size_t g = 0; g < vf.grounds.size(); ++g)
+    if (vf.grounds[g].contacts.size() > vf.grounds[main_plane].contacts.size()) main_plane = g;
+  for (size_t g = 0; g < vf.grounds.size(); ++g) {
+    const ViewFrames::Ground& gr = vf.grounds[g];
+    Vec3 c = centre;
+    double gsize = nice_ceil(2.5 * radius);
+    if (g != main_plane) {
+      Vec3 clo = Vec3::Constant(std::numeric_limits<double>::infinity()), chi = -clo;
+      double r = 0;
+      for (int k : gr.contacts) {
+        r = std::max(r, sys.constraints.specs[static_cast<size_t>(vf.contacts[k].spec)].radius);
+        for (const auto& cp : vf.contact_p) {
+          const Vec3 p(cp[3 * k], cp[3 * k + 1], cp[3 * k + 2]);
+          clo = clo.cwiseMin(p);
+          chi = chi.cwiseMax(p);
+        }
+      }
+      if ((clo.array() <= chi.array()).all()) {
+        c = 0.5 * (clo + chi);
+        gsize = nice_ceil((chi - clo).norm() + 8 * r);
+      }
+    }
+    grounds.push_back({c - (gr.n.dot(c) - gr.d) * gr.n, gr.n, in_plane_axis(gr.n), gsize});
+  }
+  if (grounds.empty()) {
+    double lowest = std::numeric_limits<double>::infinity();
+    for (int c = 0; c < 8; ++c) {
+      const Vec3 p((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(), (c & 4) ? hi.z() : lo.z());
+      lowest = std::min(lowest, p.dot(up));
+    }
+    const double ground_h = lowest - 0.05 * size;
+    grounds.push_back({centre - (centre.dot(up) - ground_h) * up, up, in_plane_axis(up), nice_ceil(2.5 * radius)});
+  }
 
   // camera: along the world axis (normal to up) in which the scene is thinnest, a little from the
   // side and above; the page moves it back to fit the window
@@ -382,11 +506,19 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
   jnum(d, radius);
   d += ",\"view_dir\":";
   jvec(d, dir.data(), 3);
-  d += ",\"fov\":40,\"ground\":{\"origin\":";
-  jvec(d, ground_o.data(), 3);
-  d += ",\"size\":";
-  jnum(d, nice_ceil(2.5 * radius));
-  d += "},\"link_radius\":";
+  d += ",\"fov\":40,\"grounds\":[";
+  for (size_t g = 0; g < grounds.size(); ++g) {
+    d += g ? ",{\"origin\":" : "{\"origin\":";
+    jvec(d, grounds[g].o.data(), 3, "%.9g");
+    d += ",\"normal\":";
+    jvec(d, grounds[g].n.data(), 3, "%.17g");
+    d += ",\"e1\":";
+    jvec(d, grounds[g].e1.data(), 3, "%.17g");
+    d += ",\"size\":";
+    jnum(d, grounds[g].size);
+    d += "}";
+  }
+  d += "],\"link_radius\":";
   jnum(d, std::clamp(0.012 * size, 0.004, 0.04));
   d += ",\"force_scale\":";
   jnum(d, fscale);
@@ -405,6 +537,21 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
     const WrenchOutput& o = sys.wrenches.outputs[vf.wrenches[w]];
     d += (w ? ",{\"name\":" : "{\"name\":") + json_string(o.name) + ",\"kind\":" + json_string(wrench_kind_name(o.kind)) +
          ",\"frame\":" + json_string(o.frame) + ",\"by\":" + json_string(o.by) + "}";
+  }
+  d += "],\"contacts\":[";
+  for (size_t k = 0; k < vf.contacts.size(); ++k) {
+    const ViewFrames::Contact& c = vf.contacts[k];
+    const int body = sys.constraints.specs[static_cast<size_t>(c.spec)].body;
+    int shape = -1;
+    for (size_t s = 0; s < vf.shapes.size(); ++s)
+      if (vf.shapes[s].body == body && vf.shapes[s].kind == "wheel") shape = static_cast<int>(s);
+    d += (k ? ",{\"name\":" : "{\"name\":") + json_string(c.name) + ",\"mu\":";
+    jnum(d, c.mu, "%.17g");
+    d += ",\"shape\":" + std::to_string(shape) + ",\"radius\":";
+    jnum(d, sys.constraints.specs[static_cast<size_t>(c.spec)].radius);
+    d += ",\"normal\":";
+    jvec(d, sys.constraints.specs[static_cast<size_t>(c.spec)].ground_n.data(), 3, "%.17g");
+    d += "}";
   }
   d += "],\"pseudos\":[";
   for (size_t k = 0; k < vf.pseudos.size(); ++k)
@@ -445,6 +592,26 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
   }
   d += "],\"free\":[";
   for (size_t i = 0; i < vf.t.size(); ++i) d += (i ? "," : "") + json_string(vf.free[i]);
+  d += "],\"wrench_F\":[";
+  for (size_t i = 0; i < vf.t.size(); ++i) {
+    if (i) d += ',';
+    jexact(d, vf.wrench_F[i]);
+  }
+  d += "],\"contact_p\":[";
+  for (size_t i = 0; i < vf.t.size(); ++i) {
+    if (i) d += ',';
+    jvec(d, vf.contact_p[i].data(), vf.contact_p[i].size());
+  }
+  d += "],\"contact_u\":[";
+  for (size_t i = 0; i < vf.t.size(); ++i) {
+    if (i) d += ',';
+    jexact(d, vf.contact_u[i]);
+  }
+  d += "],\"contact_state\":[";
+  for (size_t i = 0; i < vf.t.size(); ++i) {
+    if (i) d += ',';
+    jints(d, vf.contact_state[i]);
+  }
   d += "]}";
 
   // three.js inline: a "</script" in it would end the element early

@@ -35,9 +35,21 @@ struct ViewFrames {
     int body = -1;           // the body after the joint: its origin is the joint's place
     int dof = -1;            // velocity index
   };
+  struct Contact {  // a wheel's rolling contact (service/dynamics/contacts.h), in constraint order
+    std::string name;  // the rolling constraint's name (its wrench's, its CSV columns' NAME.*)
+    int spec = -1;     // index in sys.constraints.specs
+    double mu = 0;     // friction coefficient; 0: none given (no utilisation)
+  };
+  struct Ground {  // a plane the wheels roll on {x : n . x = d}, in the world
+    Vec3 n = Vec3::UnitZ();
+    double d = 0;
+    std::vector<int> contacts;  // the contacts on it (indices into `contacts`)
+  };
   std::vector<Shape> shapes;
   std::vector<Segment> segments;
   std::vector<Pseudo> pseudos;
+  std::vector<Contact> contacts;
+  std::vector<Ground> grounds;  // the distinct planes of the contacts (none without wheels)
   std::vector<int> wrenches;  // the outputs drawn as arrows (every one but the joint reactions)
   // per frame
   std::vector<double> t;
@@ -45,11 +57,20 @@ struct ViewFrames {
   std::vector<std::vector<double>> shape_pose;  // 7 per shape: position, quaternion x y z w
   std::vector<std::vector<double>> seg_ends;    // 6 per segment: both ends
   std::vector<std::vector<double>> wrench_W;    // 9 per drawn wrench: origin, force, moment (world)
+  std::vector<std::vector<double>> wrench_F;    // 6 per drawn wrench: [moment; force] in its report frame,
+                                                // the source's numbers (the page's plot)
+  std::vector<std::vector<double>> contact_p;   // 3 per contact: its point on the ground (world)
+  std::vector<std::vector<double>> contact_u;   // 2 per contact: utilisation |f_t| / (mu f_n) and the
+                                                // friction needed |f_t| / f_n (-1: undefined, as in
+                                                // contacts.h); empty: not in the source
+  std::vector<std::vector<int>> contact_state;  // 1 per contact: ContactState (0 ok, 1 slip, 2 lift_off);
+                                                // empty: not in the source
   std::vector<std::vector<double>> pseudo_p;    // 3 per pseudo-joint: its place (world)
   std::vector<std::vector<double>> stress;      // 1 per pseudo-joint, N*m or N; empty: not in the source
   std::vector<std::vector<int>> indet;          // 1 per drawn wrench: bit k, component k of [m; f] is
                                                 // not determined by the physics; empty: not in the source
   std::vector<std::string> free;                // the free directions by class ("2 wheel_normal"); "" none
+  void clear_frames();                          // the per-frame vectors emptied, the geometry kept
 };
 
 // One instant of a run, whatever its source: the state and the wrenches the page draws.
@@ -61,6 +82,9 @@ struct ViewSample {
   std::vector<double> stress;  // per pseudo-joint (ViewFrames::pseudos); empty: unknown (a sim CSV)
   std::vector<int> indet;      // per drawn wrench, indeterminate_mask; empty: unknown
   std::string free;            // the free directions by class, "" none
+  std::vector<double> contact_u;  // per contact (ViewFrames::contacts): utilisation, friction needed;
+                                  // empty: unknown
+  std::vector<int> contact_state;  // per contact, ContactState; empty: unknown
 };
 
 // The shapes, links and drawn wrenches of the scene, no frames yet.
@@ -69,7 +93,7 @@ ViewFrames view_geometry(const System& sys);
 void add_view_frame(const System& sys, Data& data, ViewSample& s, ViewFrames* vf);
 // At most max_frames of the samples (evenly, the first and the last always), with their geometry.
 ViewFrames view_frames_of(const System& sys, std::vector<ViewSample>& samples, int max_frames);
-// Frame i as the JSON object the live page appends: {"t":..,"status":..,"sp":[..],"seg":[..],"w":[..]}.
+// Frame i as the JSON object the live page appends: {"t":..,"status":..,"sp":[..],"seg":[..],"w":[..],..}.
 std::string view_frame_json(const ViewFrames& vf, size_t i);
 
 // Reads a `coopdyn sim` CSV written for `sys`: keeps at most max_frames rows (evenly, the first and

@@ -219,15 +219,7 @@ int run_view_live(const System& sys, const std::string& three_js, const std::str
       return;
     }
     last_ns = recv_ns;
-    frame_vf.t.clear();
-    frame_vf.status.clear();
-    frame_vf.shape_pose.clear();
-    frame_vf.seg_ends.clear();
-    frame_vf.wrench_W.clear();
-    frame_vf.pseudo_p.clear();
-    frame_vf.stress.clear();
-    frame_vf.indet.clear();
-    frame_vf.free.clear();
+    frame_vf.clear_frames();
     add_view_frame(sys, data, s, &frame_vf);
     auto json = std::make_shared<const std::string>(view_frame_json(frame_vf, 0));
     ++count.framed;

@@ -65,6 +65,23 @@ bool sample_of_output(const System& sys, const ViewFrames& geo, const io::Decode
     }
     r->stress.push_back(o.stress[static_cast<size_t>(it - o.stress_names.begin())]);
   }
+  // the contact report (output_t contact_*), by name: a message without it leaves it unknown
+  r->contact_u.clear();
+  r->contact_state.clear();
+  const size_t nc = o.contact_names.size();
+  const bool contacts_sized = o.contact_utilisation.size() == nc && o.contact_friction_needed.size() == nc && o.contact_state.size() == nc;
+  for (const auto& c : geo.contacts) {
+    const auto it = std::find(o.contact_names.begin(), o.contact_names.end(), c.name);
+    if (!contacts_sized || it == o.contact_names.end()) {
+      r->contact_u.clear();
+      r->contact_state.clear();
+      break;
+    }
+    const size_t k = static_cast<size_t>(it - o.contact_names.begin());
+    r->contact_u.push_back(o.contact_utilisation[k]);
+    r->contact_u.push_back(o.contact_friction_needed[k]);
+    r->contact_state.push_back(o.contact_state[k] >= 0 && o.contact_state[k] <= 2 ? o.contact_state[k] : 0);
+  }
   static const char* kFree[] = {"wheel_normal", "wheel_lateral", "wheel_longitudinal", "force", "moment", "lock", "mixed"};
   int count[7] = {0, 0, 0, 0, 0, 0, 0};
   for (int c : o.free_class)

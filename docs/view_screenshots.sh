@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Screenshots of every shipped scene in `coopdyn view` (README "3D view"): 1 s of `coopdyn sim`
-# (the inputs below), the page, and headless Chromium (software WebGL) at t = 0.5 s, paused.
+# (the inputs below), the page, and headless Chromium (software WebGL) at t = 0.5 s, paused; and the
+# plot of arm1's end-effector wrench in two_puma_load at 0.7 s.
 #   bash docs/view_screenshots.sh [build/bin] [docs/views]
 set -euo pipefail
 bin=${1:-build/bin}; out=${2:-docs/views}
@@ -22,3 +23,9 @@ for f in config/scenes/*.yaml; do
     --virtual-time-budget=3000 --screenshot="$out/view_$s.png" "file://$tmp/$s.html#t=0.5&paused=1" 2>/dev/null
   echo "$out/view_$s.png"
 done
+# the plot of a selected wrench: arm1's end-effector wrench of the falling arms (README "3D view")
+timeout 120 "$chromium" --headless --no-sandbox --disable-gpu --use-angle=swiftshader --enable-unsafe-swiftshader \
+  --hide-scrollbars --mute-audio --no-first-run --user-data-dir="$tmp/profile" --window-size=1100,600 \
+  --virtual-time-budget=3000 --screenshot="$out/view_two_puma_load_plot.png" \
+  "file://$tmp/two_puma_load.html#t=0.7&paused=1&wrench=arm1.ee" 2>/dev/null
+echo "$out/view_two_puma_load_plot.png"

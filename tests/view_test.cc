@@ -48,7 +48,6 @@ namespace fs = std::filesystem;
 const std::string kSrc = COOPDYN_SOURCE_DIR;
 const std::string kBin = COOPDYN_BIN;
 const char kThree[] = "/usr/share/javascript/three/three.min.js";
-constexpr int kBarHeight = 58;  // the page's control bar (#bar in clients/view_page.html), below the canvas
 
 std::string scene_file(const std::string& name) { return kSrc + "/config/scenes/" + name + ".yaml"; }
 
@@ -184,7 +183,20 @@ struct PageState {
   std::string title, time_text, probe, error;
   bool ready = false;
   int frame = -1;
-  double t = NAN, force_scale = NAN, fov = NAN, canvas_w = NAN;
+  double t = NAN, force_scale = NAN, fov = NAN;
+  double canvas_x = NAN, canvas_y = NAN, canvas_w = NAN, canvas_h = NAN;  // the 3D canvas in the page, CSS px
+  double window_w = NAN, window_h = NAN;                                  // the page's viewport
+  // Headless Chromium lays the page out for --dump-dom in a viewport shorter than its screenshot
+  // (900 x 457 for --window-size=900,600; the screenshot is 900 x 600, after a resize event): the
+  // state as the screenshot shows it, where the 3D canvas takes the extra height (the bar and the
+  // panel keep theirs; the camera does not depend on the canvas's size).
+  PageState in_shot(const Image& shot) const {
+    PageState s = *this;
+    s.canvas_h += shot.h - window_h;
+    s.window_w = shot.w;
+    s.window_h = shot.h;
+    return s;
+  }
   Vec3 eye, target, up;
 };
 PageState page_state(const std::string& dom) {
@@ -198,21 +210,38 @@ PageState page_state(const std::string& dom) {
   s.t = num_after(s.probe, "\"t\":");
   s.force_scale = num_after(s.probe, "\"force_scale\":");
   s.fov = num_after(s.probe, "\"fov\":");
-  s.canvas_w = num_after(s.probe, "\"width\":");
+  const std::string canvas = between(s.probe, "\"canvas\":{", "}");
+  s.canvas_x = num_after(canvas, "\"left\":");
+  s.canvas_y = num_after(canvas, "\"top\":");
+  s.canvas_w = num_after(canvas, "\"width\":");
+  s.canvas_h = num_after(canvas, "\"height\":");
+  const std::string window = between(s.probe, "\"window\":{", "}");
+  s.window_w = num_after(window, "\"width\":");
+  s.window_h = num_after(window, "\"height\":");
   s.eye = vec_after(s.probe, "\"eye\":[");
   s.target = vec_after(s.probe, "\"target\":[");
   s.up = vec_after(s.probe, "\"up\":[");
   return s;
 }
 
-// Pinhole projection as three.js's PerspectiveCamera.lookAt(target) with camera.up: pixel (x right,
-// y down) in a canvas of w x h CSS pixels.
-Eigen::Vector2d project(const PageState& c, double w, double h, const Vec3& p) {
+// Pinhole projection as three.js's PerspectiveCamera.lookAt(target) with camera.up: the pixel of
+// the page (x right, y down) where p falls in the page's 3D canvas (its rectangle from the probe).
+Eigen::Vector2d project(const PageState& c, const Vec3& p) {
+  const double w = c.canvas_w, h = c.canvas_h;
   const Vec3 z = (c.eye - c.target).normalized(), x = c.up.cross(z).normalized(), y = z.cross(x);
   const Vec3 d = p - c.eye;
   const double depth = -d.dot(z), f = 1.0 / std::tan(c.fov * M_PI / 360.0);
   const double nx = f * d.dot(x) / (depth * (w / h)), ny = f * d.dot(y) / depth;
-  return {(nx + 1) / 2 * w, (1 - ny) / 2 * h};
+  return {c.canvas_x + (nx + 1) / 2 * w, c.canvas_y + (1 - ny) / 2 * h};
+}
+
+// The pixels of the screenshot inside the page's 3D canvas that are of a colour.
+int count_in_canvas(const Image& im, const PageState& p, bool (*is_colour)(const unsigned char*)) {
+  int n = 0;
+  for (int y = static_cast<int>(p.canvas_y); y < std::min<int>(im.h, static_cast<int>(p.canvas_y + p.canvas_h)); ++y)
+    for (int x = static_cast<int>(p.canvas_x); x < std::min<int>(im.w, static_cast<int>(p.canvas_x + p.canvas_w)); ++x)
+      n += is_colour(im.at(x, y));
+  return n;
 }
 
 // The CSV row at time t: every column by name.
@@ -279,17 +308,16 @@ bool is_moment_colour(const unsigned char* p) { return p[0] < 90 && p[1] > 200 &
 // projection of its tip: none before the origin or past the tip (a few pixels of antialiasing
 // aside), some at both ends, none far from the line between them.
 bool is_indet_force_colour(const unsigned char* p) { return p[0] > 200 && p[1] > 90 && p[1] < 170 && p[2] < 60; }  // #ff8000
-void expect_arrow_at(const Image& im, const Eigen::Vector2d& o, const Eigen::Vector2d& tip, const std::string& what,
-                     bool (*is_colour)(const unsigned char*) = is_force_colour) {
-  const int ch = im.h - kBarHeight;
+void expect_arrow_at(const Image& im, const PageState& p, const Eigen::Vector2d& o, const Eigen::Vector2d& tip,
+                     const std::string& what, bool (*is_colour)(const unsigned char*) = is_force_colour) {
   const Eigen::Vector2d axis = tip - o;
   const double L = axis.norm();
   ASSERT_GT(L, 30) << what << ": the projected arrow is too short to judge (" << L << " px)";
   const Eigen::Vector2d u = axis / L;
   double smin = INFINITY, smax = -INFINITY, dmax = 0;
   int n = 0;
-  for (int y = 0; y < ch; ++y)
-    for (int x = 0; x < im.w; ++x) {
+  for (int y = static_cast<int>(p.canvas_y); y < std::min<int>(im.h, static_cast<int>(p.canvas_y + p.canvas_h)); ++y)
+    for (int x = static_cast<int>(p.canvas_x); x < std::min<int>(im.w, static_cast<int>(p.canvas_x + p.canvas_w)); ++x) {
       if (!is_colour(im.at(x, y))) continue;
       const Eigen::Vector2d d = Eigen::Vector2d(x + 0.5, y + 0.5) - o;
       const double s = d.dot(u);
@@ -352,6 +380,21 @@ TEST(ViewErrors, NameTheFile) {
   }
   EXPECT_EQ(view(scene_file("unicycle"), dir / "bad.csv", dir / "a.html", dir / "e", &err, three), 1);
   EXPECT_NE(err.find(dir / "bad.csv" + ":2: bad number"), std::string::npos) << err;
+
+  {  // a contact state that is none of ok, slip, lift_off; the contact report's columns missing
+    std::string body = csv.substr(csv.find('\n') + 1);
+    const size_t at = body.find(",-1,ok,ok,");
+    ASSERT_NE(at, std::string::npos) << body.substr(0, body.find('\n'));
+    body.replace(at, 10, ",-1,skid,ok,");
+    std::ofstream(dir / "state.csv") << header << "\n" << body;
+    std::string h = header;
+    h.replace(h.find(",wheel.utilisation"), 18, ",wheel.utilization");
+    std::ofstream(dir / "nocontact.csv") << h << csv.substr(csv.find('\n'));
+  }
+  EXPECT_EQ(view(scene_file("unicycle"), dir / "state.csv", dir / "a.html", dir / "e", &err, three), 1);
+  EXPECT_NE(err.find(dir / "state.csv" + ":2: unknown contact state 'skid' in column 'wheel.contact'"), std::string::npos) << err;
+  EXPECT_EQ(view(scene_file("unicycle"), dir / "nocontact.csv", dir / "a.html", dir / "e", &err, three), 1);
+  EXPECT_NE(err.find(dir / "nocontact.csv" + ":1: no column 'wheel.utilisation'"), std::string::npos) << err;
 
   std::ofstream(dir / "empty.csv") << header << "\n";
   EXPECT_EQ(view(scene_file("unicycle"), dir / "empty.csv", dir / "a.html", dir / "e", &err, three), 1);
@@ -443,10 +486,10 @@ TEST(ViewBrowser, ForceArrowWhereProjected) {
   ASSERT_EQ(view(scene_file("two_puma_load"), dir / "p.csv", dir / "p.html", dir / "e", &err), 0) << err;
   const Browse b = browse(chromium, dir / "p.html", "t=0.7&paused=1&wrench=arm1.ee", dir, "p", true);
   ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
-  const PageState p = page_state(b.dom);
+  const PageState p = page_state(b.dom).in_shot(b.shot);
   ASSERT_EQ(p.title, "coopdyn view: two_puma_load");
   ASSERT_DOUBLE_EQ(p.t, 0.7);
-  ASSERT_EQ(p.canvas_w, b.shot.w);
+  ASSERT_LT(p.canvas_w, b.shot.w) << "the plot's panel beside the 3D view while a wrench is selected";
   ASSERT_GT(p.force_scale, 0);
   EXPECT_NE(b.dom.find("force <span id=\"fscale\">1 m = " + between(p.probe, "\"force_scale\":", ",") + " N</span>"), std::string::npos)
       << "the scale shown is not the one drawn";
@@ -454,15 +497,12 @@ TEST(ViewBrowser, ForceArrowWhereProjected) {
   const System sys = load_scene(scene_file("two_puma_load"));
   const WorldForce wf = world_force(sys, dir / "p.csv", 0.7, "arm1.ee");
   EXPECT_GT(wf.force.norm(), 800);
-  const double w = b.shot.w, h = b.shot.h - kBarHeight;
-  const Eigen::Vector2d o = project(p, w, h, wf.origin), tip = project(p, w, h, wf.origin + wf.force / p.force_scale);
-  expect_arrow_at(b.shot, o, tip, "arm1.ee at t=0.7");
+  const Eigen::Vector2d o = project(p, wf.origin), tip = project(p, wf.origin + wf.force / p.force_scale);
+  expect_arrow_at(b.shot, p, o, tip, "arm1.ee at t=0.7");
   // the moment arrow, in its own colour, when it is long enough to see
   const double moment_scale = num_after(p.probe, "\"moment_scale\":");
-  const double lm = (project(p, w, h, wf.origin + wf.moment / moment_scale) - o).norm();
-  int cyan = 0;
-  for (int y = 0; y < b.shot.h - kBarHeight; ++y)
-    for (int x = 0; x < b.shot.w; ++x) cyan += is_moment_colour(b.shot.at(x, y));
+  const double lm = (project(p, wf.origin + wf.moment / moment_scale) - o).norm();
+  const int cyan = count_in_canvas(b.shot, p, is_moment_colour);
   if (lm > 15) {
     EXPECT_GT(cyan, 10) << "no moment arrow (" << lm << " px long)";
   }
@@ -486,7 +526,7 @@ TEST(ViewBrowser, TimeSliderChangesFrame) {
     const Browse& br = k == 0 ? b0 : b;
     const int frame = k == 0 ? 40 : 160;
     ASSERT_TRUE(br.ok) << br.log.substr(0, 3000);
-    const PageState p = page_state(br.dom);
+    const PageState p = page_state(br.dom).in_shot(br.shot);
     ASSERT_EQ(p.title, "coopdyn view: unicycle");
     EXPECT_EQ(p.frame, frame);
     const double t = frame * 0.005;
@@ -496,13 +536,10 @@ TEST(ViewBrowser, TimeSliderChangesFrame) {
     EXPECT_EQ(p.time_text, text);
     const WorldForce wf = world_force(sys, dir / "u.csv", t, "wheel");
     EXPECT_NEAR(wf.force.z(), 3 * 9.81, 0.5);  // the wheel's weight, up, at the contact point
-    const double w = br.shot.w, h = br.shot.h - kBarHeight;
-    const Eigen::Vector2d o = project(p, w, h, wf.origin), tip = project(p, w, h, wf.origin + wf.force / p.force_scale);
-    expect_arrow_at(br.shot, o, tip, "wheel at frame " + std::to_string(frame));
+    const Eigen::Vector2d o = project(p, wf.origin), tip = project(p, wf.origin + wf.force / p.force_scale);
+    expect_arrow_at(br.shot, p, o, tip, "wheel at frame " + std::to_string(frame));
     tips.push_back(tip);
-    int cyan = 0;
-    for (int y = 0; y < br.shot.h - kBarHeight; ++y)
-      for (int x = 0; x < br.shot.w; ++x) cyan += is_moment_colour(br.shot.at(x, y));
+    const int cyan = count_in_canvas(br.shot, p, is_moment_colour);
     EXPECT_EQ(cyan, 0) << "a moment arrow for a point contact";
   }
   ASSERT_EQ(tips.size(), 2u);
@@ -775,7 +812,7 @@ TEST(ViewLog, StressColoursOnThePseudoJoints) {
   for (size_t i : frames) {
     const Browse b = browse(chromium, dir / "v.html", "frame=" + std::to_string(i) + "&paused=1", dir, "f" + std::to_string(i), true);
     ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
-    const PageState p = page_state(b.dom);
+    const PageState p = page_state(b.dom).in_shot(b.shot);
     ASSERT_EQ(p.title, "coopdyn view: four_bar");
     ASSERT_EQ(p.frame, static_cast<int>(i));
     Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(outs[i].q.data(), static_cast<Eigen::Index>(outs[i].q.size()));
@@ -783,7 +820,7 @@ TEST(ViewLog, StressColoursOnThePseudoJoints) {
     forward_kinematics(m, data, q, Eigen::VectorXd::Zero(m.nv()));
     for (size_t k = 0; k < m.pseudo_dofs.size(); ++k) {
       const Vec3 x = data.X_WB[m.dof_body[m.pseudo_dofs[k]]].p;
-      const Eigen::Vector2d px = project(p, b.shot.w, b.shot.h - kBarHeight, x);
+      const Eigen::Vector2d px = project(p, x);
       const Vec3 want = expected(st[i][k], smax[k]);
       Vec3 got = Vec3::Zero();  // the mean of 3 x 3 pixels at the projection
       for (int dy = -1; dy <= 1; ++dy)
@@ -836,7 +873,7 @@ TEST(ViewLog, IndeterminateForceIsHighlighted) {
   const std::string name = sys.wrenches.outputs[static_cast<size_t>(pick)].name;
   const Browse b = browse(chromium, dir / "v.html", "frame=" + std::to_string(i) + "&paused=1&wrench=" + name, dir, "v", true);
   ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
-  const PageState p = page_state(b.dom);
+  const PageState p = page_state(b.dom).in_shot(b.shot);
   ASSERT_EQ(p.title, "coopdyn view: two_wheel_vehicle");
   ASSERT_EQ(p.frame, static_cast<int>(i));
   const std::string status = between(b.dom, "<span id=\"status\" class=\"indeterminate\">", "</span>");
@@ -846,13 +883,365 @@ TEST(ViewLog, IndeterminateForceIsHighlighted) {
   forward_kinematics(sys.model, data, q, Eigen::VectorXd::Zero(sys.model.nv()));
   const Transform X = wrench_frame_pose(sys, data, pick);
   const Vec3 f = X.R * Vec3(o.wrench[pick][3], o.wrench[pick][4], o.wrench[pick][5]);
-  const double w = b.shot.w, h = b.shot.h - kBarHeight;
-  const Eigen::Vector2d po = project(p, w, h, X.p), tip = project(p, w, h, X.p + f / p.force_scale);
-  expect_arrow_at(b.shot, po, tip, name + " (indeterminate) at frame " + std::to_string(i), is_indet_force_colour);
-  int magenta = 0;
-  for (int y = 0; y < b.shot.h - kBarHeight; ++y)
-    for (int x = 0; x < b.shot.w; ++x) magenta += is_force_colour(b.shot.at(x, y));
+  const Eigen::Vector2d po = project(p, X.p), tip = project(p, X.p + f / p.force_scale);
+  expect_arrow_at(b.shot, p, po, tip, name + " (indeterminate) at frame " + std::to_string(i), is_indet_force_colour);
+  const int magenta = count_in_canvas(b.shot, p, is_force_colour);
   EXPECT_EQ(magenta, 0) << "an indeterminate force drawn in the determinate colour";
+}
+
+// ---------------------------------------------------------------------------------------------
+// The contact report, the plot of a wrench and the ground as declared.
+
+// Numbers of the probe's JSON after `"key":` inside the object that starts at `from`.
+double probe_num(const std::string& probe, const std::string& from, const std::string& key) {
+  const size_t at = probe.find(from);
+  return at == std::string::npos ? NAN : num_after(probe.substr(at), "\"" + key + "\":");
+}
+std::string probe_str(const std::string& probe, const std::string& from, const std::string& key) {
+  const size_t at = probe.find(from);
+  return at == std::string::npos ? "" : between(probe.substr(at), "\"" + key + "\":\"", "\"");
+}
+
+// The page's colour of a contact within its friction (utilisation u in [0, 1)): HSL hue 120 deg
+// (green) at 0 to 55 deg (yellow) at 1, saturation 0.8, lightness 0.45 (three.js Color.setHSL).
+Vec3 utilisation_colour(double u) {
+  const double h = (120 - 65 * std::min(u, 1.0)) / 360, s = 0.8, l = 0.45;
+  const double p = l <= 0.5 ? l * (1 + s) : l + s - l * s, q = 2 * l - p;
+  auto hue = [&](double t) {
+    t = t - std::floor(t);
+    if (t < 1.0 / 6) return q + (p - q) * 6 * t;
+    if (t < 0.5) return p;
+    if (t < 2.0 / 3) return q + (p - q) * 6 * (2.0 / 3 - t);
+    return q;
+  };
+  return 255 * Vec3(hue(h + 1.0 / 3), hue(h), hue(h - 1.0 / 3));
+}
+bool is_slip_colour(const unsigned char* p) { return p[0] > 200 && p[1] < 50 && p[2] < 50; }  // #ff0000
+
+// The car driven hard on its left rear wheel alone: that wheel needs more friction than mu = 0.85
+// and slips, the others do not. The page reports each wheel's utilisation, friction needed and
+// state as the CSV's row has them (the same doubles), colours each contact's disc by that
+// utilisation where this process's projection of the contact point says (red for the slipping
+// wheel, the green-to-yellow map of the CSV's utilisation for the others), has red nowhere else,
+// and names the slipping wheel in its status row.
+TEST(ViewContacts, SlippingWheelHighlightedWhereProjected) {
+  REQUIRE_BROWSER();
+  TempDir dir("slip");
+  ASSERT_EQ(run("'" + kBin + "' sim --scene '" + scene_file("four_wheel_car") +
+                    "' --duration 0.3 --dt 0.01 --torque rl_spin:constant:2000 --out '" + dir / "c.csv" + "'",
+                dir / "sim.err"),
+            0)
+      << slurp(dir / "sim.err");
+  std::string err;
+  ASSERT_EQ(view(scene_file("four_wheel_car"), dir / "c.csv", dir / "c.html", dir / "e", &err), 0) << err;
+  const double t = 0.2;
+  const auto row = csv_row(dir / "c.csv", t);
+  ASSERT_FALSE(row.empty());
+  const std::vector<std::string> wheels = {"fl", "fr", "rl", "rr"};
+  for (const auto& w : wheels) EXPECT_EQ(row.at(w + ".contact"), w == "rl" ? "slip" : "ok") << w << " at t=" << t;
+
+  const Browse b = browse(chromium, dir / "c.html", "t=0.2&paused=1", dir, "c", true);
+  ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
+  const PageState p = page_state(b.dom).in_shot(b.shot);
+  ASSERT_EQ(p.title, "coopdyn view: four_wheel_car");
+  ASSERT_DOUBLE_EQ(p.t, t);
+  for (const auto& w : wheels) {
+    const std::string at = "{\"name\":\"" + w + "\",\"utilisation\"";
+    EXPECT_EQ(probe_num(p.probe, at, "utilisation"), std::stod(row.at(w + ".utilisation"))) << w << ": " << p.probe;
+    EXPECT_EQ(probe_num(p.probe, at, "friction_needed"), std::stod(row.at(w + ".friction_needed"))) << w;
+    EXPECT_EQ(probe_str(p.probe, at, "state"), row.at(w + ".contact")) << w;
+  }
+  EXPECT_EQ(between(b.dom, "<span id=\"cwarn\" class=\"bad\">", "</span>"), "slipping: rl");
+
+  // where each contact projects: its disc's colour about there (the disc's pixels within its
+  // projected radius of the point, of which the contact's and the axle's arrows, drawn over it,
+  // cover a part)
+  const System sys = load_scene(scene_file("four_wheel_car"));
+  const Model& m = sys.model;
+  Eigen::VectorXd q(m.nq());
+  for (int i = 0; i < m.nq(); ++i) q[i] = std::stod(row.at("q:" + m.q_names[i]));
+  Data data(m);
+  forward_kinematics(m, data, q, Eigen::VectorXd::Zero(m.nv()));
+  Eigen::Vector2d rl_centre;
+  double rl_reach = 0;
+  for (const ConstraintSpec& c : sys.constraints.specs) {
+    if (c.kind != ConstraintKind::kRolling) continue;
+    const Transform X = rolling_contact_frame(m, data, c);
+    const Vec3 right = (p.up.cross(p.eye - p.target)).normalized();  // the camera's, in the flat ground
+    const Eigen::Vector2d at = project(p, X.p);
+    const double reach = (project(p, X.p + 0.6 * c.radius * right) - at).norm();  // the disc's radius
+    const double u = std::stod(row.at(c.name + ".utilisation"));
+    const Vec3 want = c.name == "rl" ? Vec3(255, 0, 0) : utilisation_colour(u);
+    int match = 0;
+    for (int y = static_cast<int>(at.y() - reach); y <= static_cast<int>(at.y() + reach); ++y)
+      for (int x = static_cast<int>(at.x() - reach); x <= static_cast<int>(at.x() + reach); ++x) {
+        if ((Eigen::Vector2d(x + 0.5, y + 0.5) - at).norm() > reach) continue;
+        const unsigned char* q = b.shot.at(x, y);
+        match += (Vec3(q[0], q[1], q[2]) - want).cwiseAbs().maxCoeff() < 12;
+      }
+    EXPECT_GT(match, 20) << c.name << " (utilisation " << u << "): no disc of colour " << want.transpose()
+                         << " within " << reach << " px of " << at.transpose();
+    if (c.name == "rl") {
+      const Vec3 centre = X.p + c.radius * X.R.col(2);
+      rl_centre = project(p, centre);
+      for (int k = 0; k < 3; ++k)
+        rl_reach = std::max(rl_reach, 1.6 * (project(p, centre + c.radius * Vec3::Unit(k)) - rl_centre).norm());
+    }
+  }
+  // red (the disc and the wheel) about the slipping wheel only
+  int near = 0, far = 0;
+  for (int y = static_cast<int>(p.canvas_y); y < static_cast<int>(p.canvas_y + p.canvas_h); ++y)
+    for (int x = static_cast<int>(p.canvas_x); x < static_cast<int>(p.canvas_x + p.canvas_w); ++x)
+      if (is_slip_colour(b.shot.at(x, y))) ((Eigen::Vector2d(x + 0.5, y + 0.5) - rl_centre).norm() < rl_reach ? near : far)++;
+  EXPECT_GT(near, 50) << "the slipping wheel is not red";
+  EXPECT_EQ(far, 0) << "red away from the slipping wheel (within " << rl_reach << " px of " << rl_centre.transpose() << ")";
+}
+
+// From a daemon log: each frame's contact report is the message's (output_t contact_*, the same
+// doubles), by name.
+TEST(ViewLog, ContactReportIsTheMessages) {
+  TempDir dir("logcontacts");
+  std::string derr;
+  const std::vector<Received> msgs = record_daemon(private_udpm_url(5), "four_wheel_car", 200, 0.3, &derr);
+  if (msgs.empty()) GTEST_SKIP() << "LCM over udpm unavailable (multicast route? ip route add 224.0.0.0/4 dev lo)";
+  const std::vector<io::DecodedOutput> outs = outputs_of(msgs);
+  ASSERT_GE(outs.size(), 20u) << derr;
+  write_log(dir / "run.lcmlog", msgs);
+  std::string err;
+  ASSERT_EQ(run("'" + kBin + "' view --scene '" + scene_file("four_wheel_car") + "' --log '" + dir / "run.lcmlog" +
+                    "' --out '" + dir / "v.html" + "'",
+                dir / "e", &err),
+            0)
+      << err;
+  const std::string page = slurp(dir / "v.html");
+  const std::vector<std::string> names = {"fl", "fr", "rl", "rr"};
+  for (size_t k = 0; k < names.size(); ++k)
+    EXPECT_NE(page.find("{\"name\":\"" + names[k] + "\",\"mu\":0.84999999999999998"), std::string::npos) << names[k];
+  auto frames_of = [&](const std::string& key) {
+    std::vector<std::vector<double>> out;
+    const std::string all = between(page, "\"" + key + "\":[[", "]]");
+    for (size_t at = 0, next; at < all.size(); at = next + 3) {
+      next = all.find("],[", at);
+      if (next == std::string::npos) next = all.size();
+      out.push_back(numbers(all.substr(at, next - at)));
+    }
+    return out;
+  };
+  const auto cu = frames_of("contact_u"), cs = frames_of("contact_state");
+  ASSERT_EQ(cu.size(), outs.size());
+  ASSERT_EQ(cs.size(), outs.size());
+  double umax = 0;
+  for (size_t i = 0; i < outs.size(); ++i) {
+    const io::DecodedOutput& o = outs[i];
+    ASSERT_EQ(cu[i].size(), 2 * names.size()) << "frame " << i;
+    for (size_t k = 0; k < names.size(); ++k) {
+      const size_t j = static_cast<size_t>(std::find(o.contact_names.begin(), o.contact_names.end(), names[k]) - o.contact_names.begin());
+      ASSERT_LT(j, o.contact_names.size()) << names[k];
+      EXPECT_EQ(cu[i][2 * k], o.contact_utilisation[j]) << names[k] << " frame " << i;
+      EXPECT_EQ(cu[i][2 * k + 1], o.contact_friction_needed[j]) << names[k] << " frame " << i;
+      EXPECT_EQ(cs[i][k], o.contact_state[j]) << names[k] << " frame " << i;
+      umax = std::max(umax, o.contact_utilisation[j]);
+    }
+  }
+  std::printf("largest utilisation of the car held at rest: %.3g\n", umax);
+}
+
+// The ground as declared: a unicycle on an inclined plane {normal, point, mu} off the origin; the
+// page's grid (three.js's own vertices, in the world) lies in that plane with its normal, not at
+// z = 0, and the page reports the friction a disk rolling down it needs.
+TEST(ViewGround, InclinedGridLiesOnThePlane) {
+  REQUIRE_BROWSER();
+  TempDir dir("incline");
+  const Vec3 n = Vec3(-0.3, 0, 1).normalized(), point(0.5, 0, 0.1);
+  const double r = 0.25;
+  const Vec3 c = point + r * n;  // the wheel's centre, its axle along y: its lowest rim point on the plane
+  std::ofstream(dir / "incline.yaml") << "name: incline\ngravity: [0, 0, -9.81]\nformulation: mobile_platform\n"
+                                         "stabilization: {baumgarte: {alpha: 20, beta: 100}}\n"
+                                         "ground: {normal: [-0.3, 0, 1], point: [0.5, 0, 0.1], mu: 0.5}\n"
+                                         "bodies:\n  - name: wheel\n    parent: world\n"
+                                         "    joint: {type: floating, name: wheel, q: {xyz: ["
+                                      << c.x() << ", 0, " << c.z() << "]}}\n"
+                                         "    mass: 3.0\n    inertia: [0.046875, 0.09375, 0.046875, 0, 0, 0]\n"
+                                         "constraints:\n  - {name: wheel, type: rolling, body: wheel, axle: [0, 1, 0], radius: 0.25}\n";
+  ASSERT_EQ(run("'" + kBin + "' sim --scene '" + dir / "incline.yaml" + "' --duration 0.5 --dt 0.01 --out '" + dir / "i.csv" + "'",
+                dir / "sim.err"),
+            0)
+      << slurp(dir / "sim.err");
+  std::string err;
+  ASSERT_EQ(view(dir / "incline.yaml", dir / "i.csv", dir / "i.html", dir / "e", &err), 0) << err;
+  const Browse b = browse(chromium, dir / "i.html", "t=0.5&paused=1", dir, "i", false);
+  ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
+  const PageState p = page_state(b.dom);
+  ASSERT_EQ(p.title, "coopdyn view: incline");
+  const std::string g = between(p.probe, "\"grounds\":[", ",\"plot\"");
+  ASSERT_NE(g.find("\"vertices\":"), std::string::npos) << p.probe;
+  EXPECT_EQ(g.find("\"normal\":"), g.rfind("\"normal\":")) << "one plane, one grid: " << g;
+  const Vec3 gn = vec_after(g, "\"normal\":[");
+  EXPECT_LT((gn - n).norm(), 1e-9) << "the grid's normal " << gn.transpose();
+  std::string verts = g.substr(g.find("\"vertices\":") + 11);
+  verts.erase(std::remove_if(verts.begin(), verts.end(), [](char ch) { return ch == '[' || ch == ']' || ch == '{' || ch == '}'; }),
+              verts.end());
+  const std::vector<double> v = numbers(verts);
+  ASSERT_EQ(v.size(), 12u) << verts;
+  double span = 0;
+  for (int k = 0; k < 4; ++k) {
+    const Vec3 x(v[3 * k], v[3 * k + 1], v[3 * k + 2]);
+    EXPECT_NEAR(n.dot(x - point), 0, 1e-6) << "grid vertex " << x.transpose() << " off the plane";
+    span = std::max(span, (x - point).norm());
+  }
+  EXPECT_GT(span, 1) << "the grid is a plane, not a point";
+  // the wheel rolled down the slope on it, below where it started, and the contact report the page
+  // shows is the rolling disk's on a slope of angle th: friction needed f_t / f_n = tan(th) / 3
+  // (I = m r^2 / 2), here 0.3 / 3 = 0.1, utilisation 0.1 / mu = 0.2
+  const auto row = csv_row(dir / "i.csv", 0.5);
+  ASSERT_FALSE(row.empty());
+  EXPECT_LT(std::stod(row.at("q:wheel.z")), c.z() - 1e-3);
+  EXPECT_EQ(probe_num(p.probe, "{\"name\":\"wheel\",\"utilisation\"", "utilisation"), std::stod(row.at("wheel.utilisation")));
+  EXPECT_NEAR(probe_num(p.probe, "{\"name\":\"wheel\",\"utilisation\"", "friction_needed"), 0.1, 1e-5) << p.probe;
+  EXPECT_NEAR(probe_num(p.probe, "{\"name\":\"wheel\",\"utilisation\"", "utilisation"), 0.2, 2e-5) << p.probe;
+}
+
+// The plot of one wrench: a click on its arrow selects it (the click's place is this process's
+// projection of the arrow), the plot's series are the CSV's six columns of that wrench (the same
+// doubles), and its white cursor stands where the frame's time maps on the plot's axes, following
+// the time slider.
+TEST(ViewPlot, ClickedWrenchPlottedWithACursorOnTheSlider) {
+  REQUIRE_BROWSER();
+  TempDir dir("plot");
+  // with zero torque the arms fall and pull the box apart: 855 N on arm1's end-effector at 0.7 s
+  ASSERT_EQ(sim("two_puma_load", 0.8, 0.005, dir / "p.csv", dir / "sim.err"), 0) << slurp(dir / "sim.err");
+  std::string err;
+  ASSERT_EQ(view(scene_file("two_puma_load"), dir / "p.csv", dir / "p.html", dir / "e", &err), 0) << err;
+  const System sys = load_scene(scene_file("two_puma_load"));
+  const int f1 = 140, f2 = 40;  // frames (0.005 s apart)
+  const Browse a = browse(chromium, dir / "p.html", "slider=" + std::to_string(f1) + "&paused=1", dir, "a", false);
+  ASSERT_TRUE(a.ok) << a.log.substr(0, 3000);
+  const PageState pa = page_state(a.dom);
+  ASSERT_EQ(pa.title, "coopdyn view: two_puma_load");
+  EXPECT_EQ(pa.probe.find("\"plot\":null") != std::string::npos, true) << "no plot before a wrench is picked";
+  // a point on arm1.ee's force arrow 8 px or more from every other arrow drawn
+  const double moment_scale = num_after(pa.probe, "\"moment_scale\":");
+  auto seg_dist = [](const Eigen::Vector2d& x, const Eigen::Vector2d& a0, const Eigen::Vector2d& a1) {
+    const Eigen::Vector2d d = a1 - a0;
+    const double s = d.squaredNorm() > 0 ? std::clamp((x - a0).dot(d) / d.squaredNorm(), 0.0, 1.0) : 0.0;
+    return (x - a0 - s * d).norm();
+  };
+  std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> others;
+  Eigen::Vector2d o1, t1;
+  for (const WrenchOutput& w : sys.wrenches.outputs) {
+    if (w.kind == WrenchKind::kJoint) continue;
+    const WorldForce wf = world_force(sys, dir / "p.csv", f1 * 0.005, w.name);
+    const Eigen::Vector2d o = project(pa, wf.origin), tf = project(pa, wf.origin + wf.force / pa.force_scale);
+    if (w.name == "arm1.ee") o1 = o, t1 = tf;
+    else others.emplace_back(o, tf);
+    others.emplace_back(o, project(pa, wf.origin + wf.moment / moment_scale));
+  }
+  ASSERT_GT((t1 - o1).norm(), 30);
+  Eigen::Vector2d click(-1, -1);
+  for (double s = 0.3; s <= 0.95 && click.x() < 0; s += 0.05) {
+    const Eigen::Vector2d x = o1 + s * (t1 - o1);
+    if (std::all_of(others.begin(), others.end(), [&](const auto& sg) { return seg_dist(x, sg.first, sg.second) > 12; })) click = x;
+  }
+  ASSERT_GE(click.x(), 0) << "no point of arm1.ee's force arrow clear of the others";
+  char hash[128];
+  std::snprintf(hash, sizeof hash, "slider=%d&paused=1&plotdata=1&click=%.1f,%.1f", f1, click.x() - pa.canvas_x,
+                click.y() - pa.canvas_y);
+  auto second = std::async(std::launch::async, [&] {
+    return browse(chromium, dir / "p.html", "slider=" + std::to_string(f2) + "&paused=1&wrench=arm1.ee", dir, "c", true);
+  });
+  const Browse b = browse(chromium, dir / "p.html", hash, dir, "b", true);
+  const Browse c = second.get();
+  ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
+  ASSERT_TRUE(c.ok) << c.log.substr(0, 3000);
+  const PageState pb = page_state(b.dom);
+  ASSERT_EQ(pb.title, "coopdyn view: two_puma_load");
+  ASSERT_EQ(between(pb.probe, "\"wrench\":\"", "\""), "arm1.ee") << "the click did not pick arm1.ee's arrow";
+
+  // the series: every row's six columns
+  std::vector<std::vector<double>> series;
+  {
+    const std::string values = between(b.dom, "\"values\":[[", "]]}");
+    for (size_t at = 0, next; at < values.size(); at = next + 3) {
+      next = values.find("],[", at);
+      if (next == std::string::npos) next = values.size();
+      series.push_back(numbers(values.substr(at, next - at)));
+    }
+  }
+  ASSERT_EQ(series.size(), 6u);
+  std::ifstream f(dir / "p.csv");
+  std::string line;
+  std::getline(f, line);
+  std::vector<std::string> head;
+  {
+    std::stringstream ss(line);
+    std::string h;
+    while (std::getline(ss, h, ',')) head.push_back(h);
+  }
+  const char* comp[6] = {"mx", "my", "mz", "fx", "fy", "fz"};
+  std::vector<size_t> col;
+  for (const char* cn : comp)
+    col.push_back(static_cast<size_t>(std::find(head.begin(), head.end(), std::string("arm1.ee.") + cn) - head.begin()));
+  std::vector<double> times;
+  size_t rows = 0;
+  while (std::getline(f, line)) {
+    std::stringstream ss(line);
+    std::vector<std::string> cells;
+    std::string cell;
+    while (std::getline(ss, cell, ',')) cells.push_back(cell);
+    times.push_back(std::stod(cells[0]));
+    for (int j = 0; j < 6; ++j) {
+      ASSERT_LT(rows, series[j].size());
+      EXPECT_EQ(series[j][rows], std::stod(cells[col[j]])) << "arm1.ee." << comp[j] << " at row " << rows + 1;
+    }
+    ++rows;
+  }
+  for (int j = 0; j < 6; ++j) EXPECT_EQ(series[j].size(), rows) << comp[j];
+
+  // the cursor: at the frame's time on the axes the probe gives, white in the screenshot there and
+  // nowhere else on the plot (the screenshot's viewport is taller than the DOM's, see in_shot: the
+  // panel's width and the moment axes' top are the same in both, their height larger in the shot)
+  for (const Browse* br : {&b, &c}) {
+    const PageState ps = page_state(br->dom).in_shot(br->shot);
+    const int frame = br == &b ? f1 : f2;
+    ASSERT_EQ(ps.frame, frame);
+    const std::string plot = ps.probe.substr(ps.probe.find("\"plot\":{"));
+    // (the page's times are the CSV's to 9 digits)
+    EXPECT_NEAR(probe_num(plot, "\"plot\"", "cursor_t"), times[frame], 1e-9);
+    EXPECT_NEAR(probe_num(plot, "\"plot\"", "t0"), times.front(), 1e-9);
+    EXPECT_NEAR(probe_num(plot, "\"plot\"", "t1"), times.back(), 1e-9);
+    // two axes, moments (N*m) above forces (N), on one time axis
+    const std::string axes = between(plot, "\"axes\":[", "]");
+    const size_t split = axes.find("},{");
+    ASSERT_NE(split, std::string::npos) << axes;
+    const std::string ax1 = axes.substr(0, split), ax2 = axes.substr(split);
+    const double left = num_after(ax1, "\"left\":"), width = num_after(ax1, "\"width\":");
+    const double top1 = num_after(ax1, "\"top\":"), h1 = num_after(ax1, "\"height\":");
+    const double top2 = num_after(ax2, "\"top\":"), h2 = num_after(ax2, "\"height\":");
+    EXPECT_EQ(num_after(ax2, "\"left\":"), left);
+    EXPECT_EQ(num_after(ax2, "\"width\":"), width);
+    EXPECT_EQ(between(ax2, "\"unit\":\"", "\""), "N");
+    EXPECT_GT(top2, top1 + h1);
+    EXPECT_EQ(h2, h1);
+    ASSERT_GT(width, 100);
+    ASSERT_GT(h1, 40);
+    EXPECT_GE(left, ps.canvas_x + ps.canvas_w) << "the plot beside the 3D view";
+    const double x = left + (times[frame] - times.front()) / (times.back() - times.front()) * width;
+    EXPECT_NEAR(probe_num(plot, "\"plot\"", "cursor_x"), x, 1e-6);
+    auto white_in_column = [&](int px) {
+      int n = 0;
+      for (int y = static_cast<int>(top1) + 2; y < static_cast<int>(top1 + h1) - 2; ++y) {
+        const unsigned char* q = br->shot.at(px, y);
+        n += q[0] > 240 && q[1] > 240 && q[2] > 240;
+      }
+      return n;
+    };
+    const int cx = static_cast<int>(std::floor(x + 0.5));  // the page draws it at Math.round(x) + 0.5
+    EXPECT_GT(white_in_column(cx), 0.9 * (h1 - 4)) << "no cursor at x = " << x << " (frame " << frame << ")";
+    for (int px = static_cast<int>(left) + 2; px < static_cast<int>(left + width) - 2; ++px)
+      if (std::abs(px - cx) > 1) {
+        EXPECT_LT(white_in_column(px), 0.2 * h1) << "white at x = " << px << ", the cursor is at " << x;
+      }
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1005,7 +1394,7 @@ TEST(ViewLive, BrowserReceivesFramesAndTimeAdvances) {
                     "' --headless --no-sandbox --disable-gpu --use-angle=swiftshader --enable-unsafe-swiftshader"
                     " --hide-scrollbars --mute-audio --no-first-run --user-data-dir='" + dir / "profile" +
                     "' --window-size=900,600 --virtual-time-budget=4000 --dump-dom 'http://127.0.0.1:" +
-                    std::to_string(rig.port) + "/' > '" + dir / "dom.html" + "'";
+                    std::to_string(rig.port) + "/#wrench=arm1.ee' > '" + dir / "dom.html" + "'";
   std::string log;
   ASSERT_EQ(run(cmd, dir / "chromium.log", &log), 0) << log.substr(0, 3000);
   const std::string dom = slurp(dir / "dom.html");
@@ -1020,6 +1409,12 @@ TEST(ViewLive, BrowserReceivesFramesAndTimeAdvances) {
   // the time text shows the newest frame received (playing follows it)
   const double shown = std::strtod(p.time_text.c_str() + 4, nullptr);
   EXPECT_GT(shown, first_t + 0.01) << p.time_text << " " << p.probe;
+  // the plot of the selected wrench grew with the frames, its cursor on the newest
+  const std::string plot = between(p.probe, "\"plot\":{", "\"axes\"");
+  EXPECT_EQ(between(plot, "\"wrench\":\"", "\""), "arm1.ee") << p.probe;
+  EXPECT_EQ(num_after(plot, "\"n\":"), num_after(p.probe, "\"received\":")) << p.probe;  // (one render)
+  EXPECT_EQ(num_after(plot, "\"cursor_t\":"), p.t) << p.probe;
+  EXPECT_EQ(num_after(plot, "\"t0\":"), first_t) << p.probe;
   {
     std::lock_guard<std::mutex> lk(rig.mu);
     ASSERT_FALSE(rig.sim_t.empty());
