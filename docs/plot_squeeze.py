@@ -42,16 +42,15 @@ u = grasp["arm2"][1] - grasp["arm1"][1]
 u /= np.linalg.norm(u)
 
 t, s, net, tau = [], [], [], []
-if True:
-    for row in coopdyn_csv.read(csv_path).dicts():
-        fL = {}
-        for arm, (R_LE, _) in grasp.items():
-            f_ee = np.array([float(row[f"{arm}.ee.{k}"]) for k in ("fx", "fy", "fz")])
-            fL[arm] = -(R_LE @ f_ee)  # the arm's force on the load, load frame
-        t.append(float(row["t"]))
-        s.append(0.5 * (fL["arm1"] - fL["arm2"]) @ u)
-        net.append((fL["arm1"] + fL["arm2"]) @ u)
-        tau.append(float(row["tau:arm1.q1"]))
+for row in coopdyn_csv.read(csv_path).dicts():
+    fL = {}
+    for arm, (R_LE, _) in grasp.items():
+        f_ee = np.array([float(row[f"{arm}.ee.{k}"]) for k in ("fx", "fy", "fz")])
+        fL[arm] = -(R_LE @ f_ee)  # the arm's force on the load, load frame
+    t.append(float(row["t"]))
+    s.append(0.5 * (fL["arm1"] - fL["arm2"]) @ u)
+    net.append((fL["arm1"] + fL["arm2"]) @ u)
+    tau.append(float(row["tau:arm1.q1"]))
 
 fig, ax = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
 ax[0].plot(t, s, label="squeeze (f1 - f2).u / 2")
