@@ -739,7 +739,11 @@ TEST_F(DaemonProcess, ReferenceControllerTracksTheLoadAndHoldsTheSqueeze) {
   std::ifstream f(csv);
   std::string line;
   std::getline(f, line);
-  ASSERT_EQ(line.rfind("t,ref_x,ref_y,ref_z,x,y,z,position_error_m,orientation_error_rad,squeeze_n", 0), 0u) << line;
+  ASSERT_EQ(line.rfind("# coopdyn track CSV 1: scene two_puma_load", 0), 0u) << line;
+  std::getline(f, line);
+  ASSERT_EQ(line, "# units: s,m,m,m,m,m,m,m,rad,N,N,N,1,text,1,1");
+  std::getline(f, line);
+  ASSERT_EQ(line.rfind("t,ref_x,ref_y,ref_z,x,y,z,position_error,orientation_error,squeeze,", 0), 0u) << line;
   std::vector<double> pos, rot, sq;
   long rows = 0, sync = 0;
   double t_max = 0;
@@ -747,7 +751,12 @@ TEST_F(DaemonProcess, ReferenceControllerTracksTheLoadAndHoldsTheSqueeze) {
     std::vector<double> c;
     std::stringstream ss(line);
     std::string x;
-    while (std::getline(ss, x, ',')) c.push_back(std::stod(x));
+    while (std::getline(ss, x, ',')) {
+      if (c.size() == 13) {  // status, a word
+        EXPECT_TRUE(x == "ok" || x == "indeterminate" || x == "error") << x;
+      }
+      c.push_back(c.size() == 13 ? 0.0 : std::stod(x));
+    }
     ASSERT_EQ(c.size(), 16u) << line;
     ++rows;
     t_max = std::max(t_max, c[0]);
