@@ -9,12 +9,17 @@ Reads bench/results/accuracy_<scene>.csv (written by accuracy_sweep), writes
   bench/README.md                      the generated part of "Error against run time", between the
                                        markers <!-- accuracy:begin --> and <!-- accuracy:end -->
 
-Usage: plot_accuracy.py REPO_ROOT [--seconds S] [--machine TEXT]
+Usage: plot_accuracy.py REPO_ROOT [--seconds S] [--machine TEXT] [--scenes SCENE...] [--plots-only]
+  --scenes: re-plot only these (the summary and the table are rebuilt from every scene's CSV, so the
+            other scenes' parts come out unchanged); without --seconds the "Last regenerated" line is
+            kept as it was
+  --plots-only: the PNGs only (bench/README.md and the summary CSV untouched)
 """
 import argparse
 import csv
 import math
 import os
+import re
 import sys
 
 import matplotlib
@@ -32,6 +37,28 @@ STYLE = {"mobile_platform": ("-", "o"), "classic": ("--", "s"), "pseudo_joint": 
 # SI units) and wrench error relative to the largest reference force component
 TOLERANCES = [("1e-3 / 1e-2", 1e-3, 1e-2), ("1e-6 / 1e-5", 1e-6, 1e-5)]
 FLOOR = 1e-16  # errors below are drawn at the floor (log axes)
+plt.rcParams.update({"font.size": 12, "axes.titlesize": 12, "axes.labelsize": 12, "legend.fontsize": 11,
+                     "xtick.labelsize": 11, "ytick.labelsize": 11})
+
+
+def step_text(dt_ms):
+    """A step readably: 4 ms, 0.125 ms, 1.95 us (= 4 ms / 2048)."""
+    if dt_ms >= 0.1:
+        return f"{dt_ms:g} ms"
+    text = f"{dt_ms * 1e3:.3g} \u00b5s"
+    k = 4.0 / dt_ms
+    if abs(k - round(k)) < 1e-6 * k:
+        text += f" (4 ms / {round(k)})"
+    return text
+
+
+def reference_text(ref):
+    """'rk4@0.00195312ms/classic' -> 'RK4 at a 1.95 us step (4 ms / 2048), classic form'."""
+    m = re.fullmatch(r"(\w+)@([0-9.eE+-]+)ms(?:/(\w+))?", ref.strip())
+    if not m:
+        return ref
+    integ, dt, form = m.group(1), float(m.group(2)), m.group(3)
+    return f"{integ.upper() if integ == 'rk4' else integ} at a {step_text(dt)} step" + (f", {form} form" if form else "")
 
 
 def fnum(s):
@@ -57,10 +84,18 @@ def plot_scene(scene, rows, out_png):
               ("wrench_err", "tip wrench error: max |F - F*| (N, N*m)")]
     if any(fnum(r["stress_err"]) for r in sweep if r["status"] == "ok"):
         panels.append(("stress_err", "pseudo-joint stress error (N*m, N)"))
-    fig, axes = plt.subplots(1, len(panels), figsize=(6 * len(panels), 5))
+    # two panels side by side, or three in a 2 x 2 grid; the legend below them, never over the data
+    ncol = 2
+    nrow = (len(panels) + 1) // 2
+    fig, grid = plt.subplots(nrow, ncol, figsize=(13, 5.6 * nrow + 1.8), squeeze=False)
+    axes = [a for row in grid for a in row]
+    for a in axes[len(panels):]:
+        a.axis("off")
     errors = []
+    handles = {}
     for ax, (key, label) in zip(axes, panels):
-        labeled = False  # step labels on the first RK4 curve only
+        labeled = False  # step labels on the first RK4 curve only, where they do not collide
+        placed = []
         for form in FORMULATIONS:
             for integ in INTEGRATORS:
                 pts = [r for r in sweep if r["formulation"] == form and r["integrator"] == integ]
@@ -68,34 +103,47 @@ def plot_scene(scene, rows, out_png):
                     continue
                 ok = [r for r in pts if r["status"] == "ok"]
                 if key == "state_err":
-                    errors += [f"{form}/{integ} @ {r['dt_ms']} ms: {r['error_reason']} at {r['error_time_s']} s"
+                    errors += [f"{form}/{integ} @ {float(r['dt_ms']):g} ms: {r['error_reason']} at {r['error_time_s']} s"
                                for r in pts if r["status"] != "ok"]
                 if not ok:
                     continue
                 xs = [float(r["cpu_s_per_sim_s"]) for r in ok]
                 ys = [max(float(r[key]), FLOOR) for r in ok]
                 ls, mk = STYLE[form]
-                ax.plot(xs, ys, linestyle=ls, marker=mk, color=COLOR[integ], markersize=4, label=f"{form} / {integ}")
+                (h,) = ax.plot(xs, ys, linestyle=ls, marker=mk, color=COLOR[integ], markersize=5, lw=1.4)
+                handles[f"{form} / {integ}"] = h
                 if integ == "rk4" and not labeled:
                     labeled = True
                     for r, x, y in zip(ok, xs, ys):
-                        ax.annotate(f"{float(r['dt_ms']):g} ms", (x, y), textcoords="offset points", xytext=(4, 4),
-                                    fontsize=7, color=COLOR[integ])
+                        lx, ly = math.log10(x), math.log10(y)
+                        if any(abs(lx - px) < 0.45 and abs(ly - py) < 0.3 for px, py in placed):
+                            continue  # would overlap a label already placed
+                        placed.append((lx, ly))
+                        ax.annotate(step_text(float(r["dt_ms"])), (x, y), textcoords="offset points", xytext=(5, -13),
+                                    fontsize=10, color=COLOR[integ],
+                                    bbox=dict(boxstyle="round,pad=0.1", fc="white", ec="none", alpha=0.8))
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("CPU time per simulated second (s)")
-        ax.set_ylabel(label)
+        ax.set_title(label)
         ax.grid(True, which="major", alpha=0.4)
         ax.grid(True, which="minor", alpha=0.1)
     ref = [r for r in rows if r["role"] in ("reference", "reference_2x")]
-    answer = "analytic answer" if not ref else f"reference {sweep[0]['reference']}"
-    fig.suptitle(f"{scene}: {sweep[0]['scenario']}, {float(sweep[0]['duration_s']):g} s simulated, against the {answer}\n"
-                 f"steps 0.125-4 ms (labels on the RK4 curve); errors at common samples every 4 ms", fontsize=10)
-    axes[-1].legend(fontsize=7, loc="best")
+    answer = "the analytic answer" if not ref else f"a reference run, {reference_text(sweep[0]['reference'])}"
+    fig.suptitle(f"{scene}: {sweep[0]['scenario']}, {float(sweep[0]['duration_s']):g} s simulated, against {answer}\n"
+                 f"steps 0.125-4 ms (labelled on the RK4 curve); errors at common samples every 4 ms", fontsize=13)
+    legend_ax = axes[len(panels)] if len(panels) < len(axes) else None
+    if legend_ax is not None:  # the free cell of the grid
+        legend_ax.legend(list(handles.values()), list(handles.keys()), loc="center", fontsize=12, frameon=False,
+                         title="formulation / integrator")
+        bottom = 0.04
+    else:
+        fig.legend(list(handles.values()), list(handles.keys()), loc="lower center", ncol=3, fontsize=11, frameon=False)
+        bottom = 0.06 + 0.045 * math.ceil(len(handles) / 3)
     if errors:
-        fig.text(0.01, 0.01, "error status (not plotted): " + "; ".join(errors)[:400], fontsize=7, color="tab:red")
-    fig.tight_layout(rect=(0, 0.03, 1, 0.93))
-    fig.savefig(out_png, dpi=110)
+        fig.text(0.01, 0.005, "error status (not plotted): " + "; ".join(errors)[:300], fontsize=9, color="tab:red")
+    fig.tight_layout(rect=(0, bottom, 1, 0.92))
+    fig.savefig(out_png, dpi=90)
     plt.close(fig)
 
 
@@ -137,6 +185,8 @@ def main():
     ap.add_argument("root")
     ap.add_argument("--seconds", type=float, default=None, help="wall time of the whole regeneration")
     ap.add_argument("--machine", default="")
+    ap.add_argument("--scenes", nargs="*", default=None, help="re-plot only these scenes")
+    ap.add_argument("--plots-only", action="store_true", help="write the PNGs only")
     a = ap.parse_args()
     res = os.path.join(a.root, "bench", "results")
     docs = os.path.join(a.root, "docs")
@@ -156,7 +206,8 @@ def main():
         sweep = [r for r in rows if r["role"] == "sweep"]
         if not sweep:
             continue
-        plot_scene(scene, rows, os.path.join(docs, f"accuracy_{scene}.png"))
+        if a.scenes is None or scene in a.scenes:
+            plot_scene(scene, rows, os.path.join(docs, f"accuracy_{scene}.png"))
         refs2 = [r for r in rows if r["role"] == "reference_2x"]
         conv = "; ".join(f"{r['formulation']}: {g(fnum(r['state_err']))} / {g(fnum(r['wrench_rel_err']))}" for r in refs2)
         answer = "analytic" if not refs2 else f"RK4 at {float(refs2[0]['dt_ms']) / 2:.4g} ms"
@@ -180,6 +231,9 @@ def main():
         md_summary.append(f"| {scene} | {answer} | {conv if refs2 else '-'} | {skipped or '-'} | " + " | ".join(cells) + " |")
         tables += [""] + scene_table(scene, rows)
 
+    if a.plots_only:
+        print("wrote the plots in docs/")
+        return
     keys = ["scene", "scenario", "duration_s", "answer", "reference_2x_vs_reference", "not_swept", "tol_state",
             "tol_wrench_rel", "formulation", "integrator", "dt_ms", "cpu_s_per_sim_s", "state_err", "wrench_err",
             "wrench_rel_err", "constraint_drift", "energy_drift_J"]
@@ -189,12 +243,15 @@ def main():
         for s in summary:
             w.writerow({k: s.get(k, "") for k in keys})
 
+    readme = os.path.join(a.root, "bench", "README.md")
+    text = open(readme).read()
     block = ["<!-- accuracy:begin (generated by bench/accuracy.sh; edits here are overwritten) -->", ""]
     if a.seconds is not None:
         block += [f"Last regenerated in {a.seconds:.0f} s wall time{(' on ' + a.machine) if a.machine else ''}.", ""]
+    else:  # a partial run: the whole run's line stays
+        m = re.search(r"^Last regenerated in .*$", text, re.M)
+        block += [m.group(0), ""] if m else []
     block += md_summary + tables + ["", "<!-- accuracy:end -->"]
-    readme = os.path.join(a.root, "bench", "README.md")
-    text = open(readme).read()
     b, e = text.find("<!-- accuracy:begin"), text.find("<!-- accuracy:end -->")
     if b < 0 or e < 0:
         text = text.rstrip("\n") + "\n\n## Error against run time\n\n" + "\n".join(block) + "\n"

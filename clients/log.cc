@@ -1,19 +1,34 @@
 // coopdyn log: an lcm-logger file -> one CSV per channel (coopdyn types), a per-channel summary
-// (type, count, rate), and PNG plots of the wrenches (joint reactions apart) and the loop timing when matplotlib is
-// available (/usr/bin/python3 with python3-matplotlib; optional: the CSVs never need it).
+// (type, count, rate), and PNG plots of the wrenches (joint reactions apart) and the loop timing when
+// matplotlib is available (/usr/bin/python3 with python3-matplotlib; optional: the CSVs never need it).
+//
+// The output_t channel's CSV is the per-step schema of clients/step_csv.h, the one `coopdyn sim
+// --out` writes (t first, the scene's names, codes as words, a units line), then the columns only a
+// daemon has (log_time, utime, tick, mode, input, ...). The other channels' CSVs follow the same
+// rules: names without units, the units in a '# units:' line, coordinates by the scene's names
+// (commands sent without names get them from the outputs or --scene). --in FILE.csv plots a per-step
+// CSV (a sim's) with the same plotter (clients/log_plot.py, compiled in).
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cerrno>
+#include <charconv>
+#include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <map>
 #include <memory>
 #include <string>
 
 #include "clients/cli.h"
 #include "clients/lcm_log.h"
+#include "clients/step_csv.h"
+#include "service/dynamics/contacts.h"
 #include "service/io/codec.h"
+#include "service/scene/scene.h"
 
 namespace coopdyn::cli {
 
@@ -24,83 +39,184 @@ struct Channel {
   std::FILE* f = nullptr;
   long count = 0, bad = 0;
   int64_t first_us = 0, last_us = 0;
+  std::vector<std::string> q_names, v_names, wrench_names, stress_names, contact_names;  // output_t: the first's
+  int action_col = -1;  // control_t: the action's column, written as a word
 };
 
-// Plots from the CSVs: argv = outdir output.csv stats.csv ('' when absent).
-const char* kPlotScript = R"PY(
-import csv, sys
-import matplotlib
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
-out, out_csv, stats_csv = sys.argv[1], sys.argv[2], sys.argv[3]
-def read(path):
-    with open(path) as f:
-        r = csv.reader(f)
-        head = next(r)
-        cols = {h: [] for h in head}
-        for row in r:
-            if len(row) != len(head): continue
-            for h, x in zip(head, row): cols[h].append(float(x))
-        return head, cols
-made = []
-if out_csv:
-    head, c = read(out_csv)
-    t = c["sim_time"]
-    kind_names = {0: "load on the end-effector", 1: "world on the base", 2: "on the constrained tip",
-                  3: "through the axle, at the wheel centre", 4: "joint reaction, on the link after the joint"}
-    wrenches = [(h[:-5], int(c[h][0]) if c[h] else 2) for h in head if h.endswith(".kind")]
-    stresses = [h for h in head if h.startswith("stress:")]
-    def panels_of(selected):
-        panels = []  # (title, unit, [(label, column)]); all-zero panels (a wheel's moments) are left out
-        for w, kind in selected:
-            for what, comps, unit in (("moment", ("mx", "my", "mz"), "N*m"), ("force", ("fx", "fy", "fz"), "N")):
-                cols = [(k, w + "." + k) for k in comps]
-                if any(x != 0 for _, col in cols for x in c[col]):
-                    panels.append((f"{w}: {what}, {kind_names.get(kind, '')} (in frame {w if kind != 2 else 'of the tip'})", unit, cols))
-        return panels
-    def figure(panels, path):
-        fig, axes = plt.subplots(max(len(panels), 1), 1, figsize=(10, 2.6 * max(len(panels), 1)), sharex=True, squeeze=False)
-        for ax, (title, unit, cols) in zip((a[0] for a in axes), panels):
-            for label, col in cols: ax.plot(t, c[col], label=label)
-            ax.set_ylabel(unit); ax.set_title(title); ax.legend(loc="upper right"); ax.grid(True)
-        axes[-1][0].set_xlabel("simulation time [s]")
-        fig.tight_layout(); fig.savefig(path, dpi=90); made.append(path); plt.close(fig)
-    panels = panels_of([w for w in wrenches if w[1] != 4])
-    if stresses:
-        panels.append(("pseudo-joint stresses", "N*m or N", [(s[7:], s) for s in stresses]))
-    figure(panels, out + "/wrenches.png")
-    joints = [w for w in wrenches if w[1] == 4]
-    if joints:
-        figure(panels_of(joints), out + "/reactions.png")
-if stats_csv:
-    head, c = read(stats_csv)
-    t = [x - c["log_time"][0] for x in c["log_time"]]
-    fig, axes = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
-    for ax, what in zip(axes, ("lateness", "compute")):
-        for p in ("p50", "p99", "p999", "max"):
-            ax.plot(t, c[f"{what}_{p}_us"], marker=".", label=p.replace("p999", "p99.9"))
-        ax.set_yscale("log"); ax.set_ylabel("us"); ax.grid(True, which="both"); ax.legend(loc="upper right")
-        ax.set_title("wake-up lateness" if what == "lateness" else "compute time per tick")
-    axes[-1].set_xlabel("time [s] (each point: one stats window)")
-    fig.tight_layout(); fig.savefig(out + "/timing.png", dpi=90); made.append(out + "/timing.png")
-for m in made: print("coopdyn log: wrote " + m)
-)PY";
+const char* kPlotScript =
+#include "log_plot.inc"
+    ;
 
 std::string shell_quote(const std::string& s) {
   std::string o = "'";
   for (char c : s) o += c == '\'' ? std::string("'\\''") : std::string(1, c);
   return o + "'";
 }
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  size_t a = 0;
+  for (size_t b; (b = s.find(',', a)) != std::string::npos; a = b + 1) out.push_back(s.substr(a, b - a));
+  out.push_back(s.substr(a));
+  return out;
+}
+
+// The names and units of a channel other than output_t, from io::to_csv's header: the same naming
+// rules as the per-step CSV (units out of the names, coordinates by name: 'tau:3' of a command sent
+// without names becomes the scene's fourth velocity name).
+CsvColumns other_columns(io::MessageType type, const std::string& header, const StepSchema* scene, int* action_col) {
+  std::map<std::string, std::string> unit_of;  // "q:NAME" -> unit
+  if (scene) {
+    for (size_t i = 0; i < scene->q_names.size(); ++i) unit_of["q:" + scene->q_names[i]] = scene->q_units[i];
+    for (size_t i = 0; i < scene->v_names.size(); ++i) {
+      unit_of["v:" + scene->v_names[i]] = scene->v_units[i];
+      unit_of["tau:" + scene->v_names[i]] = scene->tau_units[i];
+    }
+  }
+  CsvColumns c;
+  c.add("log_time", "s");
+  *action_col = -1;
+  const std::vector<std::string> h = split(header);
+  for (size_t k = 0; k < h.size(); ++k) {
+    std::string n = h[k];
+    const auto colon = n.find(':');
+    if (colon != std::string::npos && scene) {  // a coordinate given by its index: the scene's name
+      const std::string what = n.substr(0, colon), idx = n.substr(colon + 1);
+      const std::vector<std::string>& names = what == "q" ? scene->q_names : scene->v_names;
+      if (!idx.empty() && idx.find_first_not_of("0123456789") == std::string::npos && std::stoul(idx) < names.size())
+        n = what + ":" + names[std::stoul(idx)];
+    }
+    std::string unit = "1";
+    if (n == "utime" || n == "input_utime") unit = "us";
+    else if (n.size() > 3 && n.compare(n.size() - 3, 3, "_us") == 0) n.resize(n.size() - 3), unit = "us";
+    else if (colon != std::string::npos) {
+      const auto it = unit_of.find(n);
+      const std::string what = n.substr(0, colon);
+      unit = it != unit_of.end() ? it->second : what == "q" ? "rad or m" : what == "v" ? "rad/s or m/s" : "N*m or N";
+    }
+    if (type == io::MessageType::kControl && n == "action") *action_col = static_cast<int>(k), unit = "text";
+    c.add(n, unit);
+  }
+  return c;
+}
+
+void write_header(std::FILE* f, const std::string& what, const CsvColumns& c) {
+  std::fprintf(f, "# coopdyn log CSV %s: %s (docs/conventions.md)\n# units: ", kStepCsvVersion, what.c_str());
+  for (size_t i = 0; i < c.units.size(); ++i) std::fprintf(f, "%s%s", i ? "," : "", c.units[i].c_str());
+  std::fprintf(f, "\n");
+  for (size_t i = 0; i < c.names.size(); ++i) std::fprintf(f, "%s%s", i ? "," : "", c.names[i].c_str());
+  std::fprintf(f, "\n");
+}
+
+// The output_t columns only a daemon has, after the shared ones.
+void add_log_columns(const StepSchema& s, CsvColumns* c) {
+  c->add("log_time", "s");
+  c->add("utime", "us");
+  c->add("tick", "1");
+  c->add("mode", "text");
+  c->add("input", "text");
+  c->add("input_seq", "1");
+  c->add("input_utime", "us");
+  c->add("paused", "1");
+  c->add("control_seq", "1");
+  c->add("control_action", "text");
+  c->add("control_result", "text");
+  c->add("state_fitted", "bits");
+  c->add("fit_iterations", "1");
+  c->add("closure_position", "m");
+  c->add("closure_orientation", "rad");
+  c->add("closure_linear_velocity", "m/s");
+  c->add("closure_angular_velocity", "rad/s");
+  for (const char* n : {"closure_position_at", "closure_orientation_at", "closure_linear_velocity_at", "closure_angular_velocity_at"})
+    c->add(n, "text");
+  for (const auto& w : s.wrenches) c->add(w.name + ".indeterminate_mask", "bits");
+}
+
+void write_output_row(CsvLine& l, const io::DecodedOutput& o, double log_time, std::FILE* f) {
+  l.clear();
+  l.num(o.sim_time);
+  for (const auto* x : {&o.q, &o.v, &o.tau, &o.vdot})
+    for (double y : *x) l.sep(), l.num(y);
+  for (const auto& w : o.wrench)
+    for (double y : w) l.sep(), l.num(y);
+  for (double y : o.stress) l.sep(), l.num(y);
+  for (size_t k = 0; k < o.contact_names.size(); ++k) {
+    l.sep(), l.num(o.contact_friction_needed[k]);
+    l.sep(), l.num(o.contact_utilisation[k]);
+    l.sep(), l.text(contact_state_name(static_cast<ContactState>(o.contact_state[k])));
+  }
+  l.sep(), l.text(o.status >= 0 && o.status <= 2 ? status_name(static_cast<Status>(o.status)) : "unknown");
+  l.sep(), l.text(reason_key(o.reason));
+  l.sep(), l.integer(o.rows);
+  l.sep(), l.integer(o.rank);
+  l.sep(), l.integer(o.indeterminate);
+  l.sep(), l.num(o.condition);
+  l.sep(), l.num(o.residual);
+  l.sep(), l.num(log_time);
+  l.sep(), l.integer(o.utime);
+  l.sep(), l.integer(o.tick);
+  l.sep(), l.text(mode_key(o.mode));
+  l.sep(), l.text(input_key(o.input));
+  l.sep(), l.integer(o.input_seq);
+  l.sep(), l.integer(o.input_utime);
+  l.sep(), l.integer(o.paused);
+  l.sep(), l.integer(o.control_seq);
+  l.sep(), l.text(control_action_key(o.control_action));
+  l.sep(), l.text(control_result_key(o.control_result));
+  l.sep(), l.integer(o.state_fitted);
+  l.sep(), l.integer(o.fit_iterations);
+  for (double y : o.closure) l.sep(), l.num(y);
+  for (int c : o.closure_constraint) {  // the constraint's name, empty if none
+    l.sep();
+    if (c >= 0 && c < static_cast<int>(o.constraint_names.size())) l.text(o.constraint_names[static_cast<size_t>(c)].c_str());
+  }
+  for (int m : o.indeterminate_mask) l.sep(), l.integer(m);
+  l.end();
+  l.write(f);
+}
+
+// Runs the plotter (clients/log_plot.py) on a per-step CSV and a stats CSV ('' when none).
+int plot(const Args& a, const std::string& out, const std::string& steps_csv, const std::string& stats_csv) {
+  std::fflush(stdout);  // the table before the plotter's own lines
+  const std::string py = a.get("python", "/usr/bin/python3");
+  if (std::system((shell_quote(py) + " -c 'import matplotlib' >/dev/null 2>&1").c_str()) != 0) {
+    std::printf(
+        "coopdyn log: no PNG plots: %s cannot import matplotlib (Debian: apt-get install python3-matplotlib); "
+        "the CSVs above are complete\n",
+        py.c_str());
+    return 0;
+  }
+  const std::string script = out + "/.plot.py";
+  if (std::FILE* f = std::fopen(script.c_str(), "w")) {
+    std::fputs(kPlotScript, f);
+    std::fclose(f);
+  }
+  const int rc = std::system((shell_quote(py) + " " + shell_quote(script) + " " + shell_quote(out) + " " +
+                              shell_quote(steps_csv) + " " + shell_quote(stats_csv))
+                                 .c_str());
+  std::remove(script.c_str());
+  if (rc != 0) std::printf("coopdyn log: plotting failed (exit %d); the CSVs are complete\n", rc);
+  return 0;
+}
+
+bool ends_with(const std::string& s, const std::string& x) {
+  return s.size() >= x.size() && s.compare(s.size() - x.size(), x.size(), x) == 0;
+}
 }  // namespace
 
 void register_log(Cli& cli) {
   Command& c = cli.add("log",
                        "Convert an lcm-logger log to one CSV per channel and plot the wrenches, reactions and timing "
-                       "(PNG, when python3 has matplotlib).",
+                       "(PNG, when python3 has matplotlib); or plot a per-step CSV (a coopdyn sim --out file).",
                        cmd_log);
-  c.value("--in", "FILE.lcmlog", "the log")->required();
-  c.value("--out", "DIR", "directory for the CSVs and plots (default: the log's path without its extension, then _csv)");
+  c.value("--in", "FILE", "the log (FILE.lcmlog), or a per-step CSV (FILE.csv) to plot")->required();
+  c.value("--out", "DIR",
+          "directory for the CSVs and plots (default: the input's path without its extension, then _csv)");
+  c.value("--scene", "FILE",
+          "the run's scene: exact units of its joints and names for commands sent without names (default: from "
+          "the log's outputs)");
   c.flag("--no-plot", "CSVs only");
+  c.flag("--progress", "report progress on stderr (default: only when stderr is a terminal)");
   c.value("--python", "PATH", "the Python that plots", "/usr/bin/python3");
 }
 
@@ -117,19 +233,87 @@ int cmd_log(const Args& a) {
     if (dot != std::string::npos && dot > out.rfind('/') + 1) out = out.substr(0, dot);
     out += "_csv";
   }
+  if (ends_with(in, ".csv")) {  // a per-step CSV: plots only
+    std::ifstream f(in);
+    CsvHeader h;
+    std::string err;
+    if (!f || !read_step_csv_header(f, in, &h, &err)) {
+      std::fprintf(stderr, "coopdyn log: %s\n", f ? err.c_str() : ("cannot read '" + in + "'").c_str());
+      return 1;
+    }
+    if (h.names.empty() || h.names[0] != "t" || h.units.empty()) {
+      std::fprintf(stderr, "coopdyn log: %s:%d: not a per-step CSV (expected a '# units:' line and t first)\n", in.c_str(),
+                   h.line_no);
+      return 1;
+    }
+    if (a.has("no-plot")) return 0;
+    if (mkdir(out.c_str(), 0755) != 0 && errno != EEXIST) {
+      std::fprintf(stderr, "coopdyn log: cannot create directory '%s'\n", out.c_str());
+      return 1;
+    }
+    return plot(a, out, in, "");
+  }
+  std::unique_ptr<System> sys;
+  if (a.has("scene")) {
+    sys = std::make_unique<System>();
+    if (const int rc = load_cli_scene(a, "log", sys.get())) return rc;
+  }
+  // the scene's names for the channels that may come before the first output (commands without
+  // names): from --scene, else from the log's first output_t
+  std::unique_ptr<StepSchema> names;
+  io::DecodedOutput o;
+  try {
+    if (sys) names = std::make_unique<StepSchema>(step_schema(*sys, "log"));
+    else
+      read_lcm_log(in, [&](const LogMessage& ev) {
+        if (ev.type != io::MessageType::kOutput || !io::decode_output(ev.data, ev.len, &o)) return true;
+        names = std::make_unique<StepSchema>();
+        std::string err;
+        step_schema_from_names("", o.q_names, o.v_names, o.wrench_names, o.wrench_kind, o.wrench_frames, o.wrench_by,
+                               o.stress_names, o.contact_names, nullptr, names.get(), &err);
+        return false;
+      });
+  } catch (const std::runtime_error& e) {
+    std::fprintf(stderr, "coopdyn log: %s\n", e.what());
+    return 1;
+  }
+  struct stat st_in{};
+  stat(in.c_str(), &st_in);
+  const double total_bytes = static_cast<double>(st_in.st_size);
+  const bool progress = a.has("progress") || isatty(STDERR_FILENO);
+  const bool tty = isatty(STDERR_FILENO);
+  using clock = std::chrono::steady_clock;
+  const clock::time_point t_start = clock::now();
+  clock::time_point next_report = t_start + std::chrono::milliseconds(tty ? 200 : 1000);
+  bool reported = false;
+  double bytes = 0;
+  long messages = 0;
+
   std::map<std::string, Channel> chans;
   int64_t t_first = -1;
   std::string header, row;
   bool made_dir = false, write_failed = false;
+  std::string failure;
+  std::unique_ptr<CsvLine> line;
   try {
     read_lcm_log(in, [&](const LogMessage& ev) {
       if (!made_dir) {  // once the log reads: a missing log makes no directory
         made_dir = true;
         if (mkdir(out.c_str(), 0755) != 0 && errno != EEXIST) {
-          std::fprintf(stderr, "coopdyn log: cannot create directory '%s'\n", out.c_str());
+          failure = "cannot create directory '" + out + "'";
           write_failed = true;
           return false;
         }
+      }
+      bytes += 28.0 + static_cast<double>(ev.channel.size()) + ev.len;  // an event's header, channel and data
+      if (progress && (++messages & 255) == 0 && clock::now() >= next_report) {
+        const double wall = std::chrono::duration<double>(clock::now() - t_start).count();
+        const double frac = total_bytes > 0 ? std::min(1.0, bytes / total_bytes) : 1.0;
+        std::fprintf(stderr, "%scoopdyn log: %ld messages (%.0f %% of the log), %.1f s wall, %.0f s left%s", tty ? "\r" : "",
+                     messages, 100 * frac, wall, frac > 0 ? wall * (1 - frac) / frac : 0.0, tty ? "" : "\n");
+        std::fflush(stderr);
+        reported = true;
+        next_report = clock::now() + std::chrono::milliseconds(tty ? 200 : 1000);
       }
       if (t_first < 0) t_first = ev.timestamp_us;
       Channel& c = chans[ev.channel];
@@ -139,34 +323,81 @@ int cmd_log(const Args& a) {
       }
       ++c.count;
       c.last_us = ev.timestamp_us;
+      const double log_time = static_cast<double>(ev.timestamp_us - t_first) * 1e-6;
+      auto open = [&]() {
+        c.path = out + "/" + ev.channel + ".csv";
+        c.f = std::fopen(c.path.c_str(), "w");
+        if (!c.f) {
+          failure = "cannot write '" + c.path + "'";
+          write_failed = true;
+        }
+        return c.f != nullptr;
+      };
       if (c.type == io::MessageType::kUnknown) return true;
+      if (c.type == io::MessageType::kOutput) {
+        if (!io::decode_output(ev.data, ev.len, &o)) {
+          ++c.bad;
+          return true;
+        }
+        if (!c.f) {
+          StepSchema s;
+          std::string err;
+          if (!step_schema_from_names(sys ? sys->name : "", o.q_names, o.v_names, o.wrench_names, o.wrench_kind, o.wrench_frames,
+                                      o.wrench_by, o.stress_names, o.contact_names, sys.get(), &s, &err)) {
+            failure = in + ": channel " + ev.channel + ": " + err;
+            write_failed = true;
+            return false;
+          }
+          if (s.scene.empty()) s.scene = "(not in the log; --scene names it)";
+          if (!open()) return false;
+          CsvColumns cols = shared_step_columns(s);
+          add_log_columns(s, &cols);
+          write_step_csv_header(c.f, s, cols);
+          line = std::make_unique<CsvLine>(cols.names.size());
+          c.q_names = o.q_names, c.v_names = o.v_names, c.wrench_names = o.wrench_names;
+          c.stress_names = o.stress_names, c.contact_names = o.contact_names;
+        } else if (o.q_names != c.q_names || o.v_names != c.v_names || o.wrench_names != c.wrench_names ||
+                   o.stress_names != c.stress_names || o.contact_names != c.contact_names) {
+          ++c.bad;  // a different scene mid-log: its rows do not fit these columns
+          return true;
+        }
+        write_output_row(*line, o, log_time, c.f);
+        return true;
+      }
       if (!io::to_csv(c.type, ev.data, ev.len, &header, &row)) {
         ++c.bad;
         return true;
       }
       if (!c.f) {
-        c.path = out + "/" + ev.channel + ".csv";
-        c.f = std::fopen(c.path.c_str(), "w");
-        if (!c.f) {
-          std::fprintf(stderr, "coopdyn log: cannot write '%s'\n", c.path.c_str());
-          write_failed = true;
-          return false;
-        }
+        if (!open()) return false;
         c.header = header;
-        std::fprintf(c.f, "log_time,%s\n", header.c_str());
+        write_header(c.f, ev.channel + " (" + io::type_name(c.type) + ")", other_columns(c.type, header, names.get(), &c.action_col));
       }
       if (header != c.header) {  // a different scene mid-log: its rows do not fit these columns
         ++c.bad;
         return true;
       }
-      std::fprintf(c.f, "%.6f,%s\n", static_cast<double>(ev.timestamp_us - t_first) * 1e-6, row.c_str());
+      if (c.action_col >= 0) {  // control_t's action as a word
+        std::vector<std::string> cells = split(row);
+        cells[static_cast<size_t>(c.action_col)] = control_action_key(std::atoi(cells[static_cast<size_t>(c.action_col)].c_str()));
+        row.clear();
+        for (size_t k = 0; k < cells.size(); ++k) row += (k ? "," : "") + cells[k];
+      }
+      char lt[32];
+      *std::to_chars(lt, lt + sizeof lt - 1, log_time).ptr = 0;
+      std::fprintf(c.f, "%s,%s\n", lt, row.c_str());
       return true;
     });
   } catch (const std::runtime_error& e) {
     std::fprintf(stderr, "coopdyn log: %s\n", e.what());
     return 1;
   }
+  if (reported && tty) std::fprintf(stderr, "\n");
+  if (progress)
+    std::fprintf(stderr, "coopdyn log: %ld messages in %.2f s wall\n", messages,
+                 std::chrono::duration<double>(clock::now() - t_start).count());
   if (write_failed) {
+    std::fprintf(stderr, "coopdyn log: %s\n", failure.c_str());
     for (auto& [name, c] : chans)
       if (c.f) std::fclose(c.f);
     return 1;
@@ -183,27 +414,8 @@ int cmd_log(const Args& a) {
     if (c.type == io::MessageType::kOutput && out_csv.empty()) out_csv = c.path;
     if (c.type == io::MessageType::kLoopStats && stats_csv.empty()) stats_csv = c.path;
   }
-  if (a.has("no-plot") || (out_csv.empty() && stats_csv.empty())) return 0;
-  std::fflush(stdout);  // the table before the plotter's own lines
-  const std::string py = a.get("python", "/usr/bin/python3");
-  if (std::system((shell_quote(py) + " -c 'import matplotlib' >/dev/null 2>&1").c_str()) != 0) {
-    std::printf(
-        "coopdyn log: no PNG plots: %s cannot import matplotlib (Debian: apt-get install python3-matplotlib); "
-        "the CSVs above are complete\n",
-        py.c_str());
-    return 0;
-  }
-  const std::string script = out + "/.plot.py";
-  if (std::FILE* f = std::fopen(script.c_str(), "w")) {
-    std::fputs(kPlotScript, f);
-    std::fclose(f);
-  }
-  const int rc = std::system((shell_quote(py) + " " + shell_quote(script) + " " + shell_quote(out) + " " +
-                              shell_quote(out_csv) + " " + shell_quote(stats_csv))
-                                 .c_str());
-  std::remove(script.c_str());
-  if (rc != 0) std::printf("coopdyn log: plotting failed (exit %d); the CSVs are complete\n", rc);
-  return 0;
+  if (a.has("no-plot") || out_csv.empty()) return 0;
+  return plot(a, out, out_csv, stats_csv);
 }
 
 }  // namespace coopdyn::cli

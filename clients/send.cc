@@ -18,6 +18,7 @@
 #include <unordered_map>
 
 #include "clients/cli.h"
+#include "clients/step_csv.h"
 #include "service/io/codec.h"
 #include "service/io/lcm_bus.h"
 #include "service/scene/scene.h"
@@ -48,11 +49,9 @@ bool read_states(const std::string& path, StateTable* st, std::string* err) {
     return out;
   };
   std::string line;
-  if (!std::getline(f, line)) {
-    *err = path + ": empty";
-    return false;
-  }
-  const auto head = split(line);
+  CsvHeader hdr;  // the per-step CSV's comment and units lines, then its header (clients/step_csv.h)
+  if (!read_step_csv_header(f, path, &hdr, err)) return false;
+  const auto& head = hdr.names;
   std::vector<int> qc, vc, tc;
   int tcol = -1;
   for (size_t i = 0; i < head.size(); ++i) {
@@ -63,10 +62,10 @@ bool read_states(const std::string& path, StateTable* st, std::string* err) {
     else if (h.rfind("tau:", 0) == 0) tc.push_back(static_cast<int>(i));
   }
   if (tcol < 0 || qc.empty() || vc.empty() || tc.size() != vc.size()) {
-    *err = path + ":1: expected the columns of 'coopdyn sim --out': t, q:..., v:..., tau:...";
+    *err = path + ":" + std::to_string(hdr.line_no) + ": expected the columns of 'coopdyn sim --out': t, q:..., v:..., tau:...";
     return false;
   }
-  int ln = 1;
+  int ln = hdr.line_no;
   while (std::getline(f, line)) {
     ++ln;
     const auto cells = split(line);

@@ -1,10 +1,12 @@
 // coopdyn sim: fixed-step simulation to CSV (time, state, wrenches, stresses, diagnostics).
 //
-// Numbers are written by std::to_chars in their shortest round-trip form (strtod reads back the
-// exact double, like %.17g, in fewer characters) into one line buffer, one fwrite per row; the
-// diagnostics keep %.3g (to_chars with precision 3, the same text). --every N writes every N-th
-// step (rows t = 0, N dt, 2 N dt, ...: row k is row k N of the full run, bit for bit; a step that
-// fails is written too) and skips the wrenches of the steps not written. Progress goes to stderr when it is a terminal, or on --progress.
+// The CSV is the per-step schema of clients/step_csv.h (docs/conventions.md), the columns every
+// source shares plus position_error. Numbers are written by std::to_chars in their shortest
+// round-trip form (strtod reads back the exact double, like %.17g, in fewer characters) into one
+// line buffer, one fwrite per row. --every N writes every N-th step (rows t = 0, N dt, 2 N dt, ...:
+// row k is row k N of the full run, bit for bit; a step that fails is written too) and skips the
+// wrenches of the steps not written. Progress goes to stderr when it is a terminal, or on
+// --progress.
 #include <unistd.h>
 
 #include <charconv>
@@ -16,6 +18,7 @@
 #include <vector>
 
 #include "clients/cli.h"
+#include "clients/step_csv.h"
 #include "service/dynamics/contacts.h"
 #include "service/dynamics/integrators.h"
 #include "service/dynamics/wrenches.h"
@@ -23,38 +26,6 @@
 
 namespace coopdyn::cli {
 
-namespace {
-
-// A CSV line assembled in a buffer sized once for the scene's columns.
-class Line {
- public:
-  explicit Line(size_t columns) : buf_(columns * 32 + 64) {}
-  void clear() { n_ = 0; }
-  void num(double x) {  // shortest round-trip
-    char* p = buf_.data() + n_;
-    n_ = std::to_chars(p, buf_.data() + buf_.size(), x).ptr - buf_.data();
-  }
-  void num3(double x) {  // as %.3g
-    char* p = buf_.data() + n_;
-    n_ = std::to_chars(p, buf_.data() + buf_.size(), x, std::chars_format::general, 3).ptr - buf_.data();
-  }
-  void integer(int x) {
-    char* p = buf_.data() + n_;
-    n_ = std::to_chars(p, buf_.data() + buf_.size(), x).ptr - buf_.data();
-  }
-  void text(const char* s) {
-    while (*s) buf_[n_++] = *s++;
-  }
-  void sep() { buf_[n_++] = ','; }
-  void end() { buf_[n_++] = '\n'; }
-  void write(std::FILE* f) const { std::fwrite(buf_.data(), 1, n_, f); }
-
- private:
-  std::vector<char> buf_;
-  size_t n_ = 0;
-};
-
-}  // namespace
 
 void register_sim(Cli& cli) {
   Command& c = cli.add("sim",
@@ -123,28 +94,19 @@ int cmd_sim(const Args& a) {
   static std::vector<char> iobuf(1 << 16);  // outlives stdout's last flush at exit
   std::setvbuf(out, iobuf.data(), _IOFBF, iobuf.size());
   const Model& model = sys.model;
-  static const char* comp[6] = {"mx", "my", "mz", "fx", "fy", "fz"};
-  std::fprintf(out, "t");
-  for (const auto& n : model.q_names) std::fprintf(out, ",q:%s", n.c_str());
-  for (const auto& n : model.v_names) std::fprintf(out, ",v:%s", n.c_str());
-  for (const auto& n : model.v_names) std::fprintf(out, ",tau:%s", n.c_str());
-  for (const auto& n : model.v_names) std::fprintf(out, ",vdot:%s", n.c_str());
-  for (const WrenchOutput& o : sys.wrenches.outputs)
-    for (int k = 0; k < 6; ++k) std::fprintf(out, ",%s.%s", o.name.c_str(), comp[k]);
-  for (int d : model.pseudo_dofs) std::fprintf(out, ",stress:%s", model.v_names[d].c_str());
   ContactData cts(sys);  // per rolling contact: friction needed, utilisation, state (contacts.h)
-  for (int s : cts.spec) {
-    const char* n = sys.constraints.specs[static_cast<size_t>(s)].name.c_str();
-    std::fprintf(out, ",%s.friction_needed,%s.utilisation,%s.contact", n, n, n);
-  }
   std::vector<ContactState> last_state(cts.spec.size(), ContactState::kOk);
-  std::fprintf(out, ",status,rank,residual,position_error\n");
+  // the per-step CSV schema (clients/step_csv.h): the shared columns, then position_error
+  const StepSchema schema = step_schema(sys, "sim");
+  CsvColumns cols = shared_step_columns(schema);
+  cols.add("position_error", "m or rad");
+  write_step_csv_header(out, schema, cols);
 
   Stepper st(sys);
   WrenchData wd(sys);
   Eigen::VectorXd q = sys.q0, v = sys.v0, tau(model.nv());
   Eigen::VectorXd q_prev(model.nq()), v_prev(model.nv());
-  Line line(1 + model.nq() + 3 * model.nv() + 6 * sys.wrenches.outputs.size() + model.pseudo_dofs.size() + 4);
+  CsvLine line(cols.names.size());
   const long steps = std::lround(T / h);
   const bool progress = a.has("progress") || isatty(STDERR_FILENO);
   const bool tty = isatty(STDERR_FILENO);
@@ -187,14 +149,14 @@ int cmd_sim(const Args& a) {
         line.sep(), line.num(cts.utilisation[k]);
         line.sep(), line.text(contact_state_name(cts.state[k]));
       }
-      line.sep();
-      line.text(status_name(d.status));
-      line.sep();
-      line.integer(d.rank);
-      line.sep();
-      line.num3(d.residual);
-      line.sep();
-      line.num3(st.ws.cd.err.size() ? st.ws.cd.err.cwiseAbs().maxCoeff() : 0.0);
+      line.sep(), line.text(status_name(d.status));
+      line.sep(), line.text(reason_key(static_cast<int>(d.reason)));
+      line.sep(), line.integer(d.rows);
+      line.sep(), line.integer(d.rank);
+      line.sep(), line.integer(d.indeterminate);
+      line.sep(), line.num(std::isfinite(d.condition) ? d.condition : -1.0);  // -1: infinite, as output_t
+      line.sep(), line.num(d.residual);
+      line.sep(), line.num(st.ws.cd.err.size() ? st.ws.cd.err.cwiseAbs().maxCoeff() : 0.0);
       line.end();
       line.write(out);
     }

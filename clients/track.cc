@@ -84,8 +84,11 @@ int cmd_track(const Args& a) {
       std::fprintf(stderr, "coopdyn track: cannot write '%s'\n", a.get("out").c_str());
       return 1;
     }
-    std::fprintf(csv, "t,ref_x,ref_y,ref_z,x,y,z,position_error_m,orientation_error_rad,squeeze_n,squeeze_target_n,"
-                      "squeeze_set_n,saturated,status,input_seq,in_sync\n");
+    // the naming rules of the per-step CSV (docs/conventions.md): units in a '# units:' line, words for codes
+    std::fprintf(csv, "# coopdyn track CSV 1: scene %s, one row per command (docs/conventions.md)\n", sys.name.c_str());
+    std::fprintf(csv, "# units: s,m,m,m,m,m,m,m,rad,N,N,N,1,text,1,1\n");
+    std::fprintf(csv, "t,ref_x,ref_y,ref_z,x,y,z,position_error,orientation_error,squeeze,squeeze_target,"
+                      "squeeze_set,saturated,status,input_seq,in_sync\n");
   }
   std::mutex mu;
   std::condition_variable cv;
@@ -173,10 +176,11 @@ int cmd_track(const Args& a) {
       }
       if (csv) {
         const Vec3& p = ctl->load_position();
-        std::fprintf(csv, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%d,%d,%lld,%d\n", t, pr.x(),
+        std::fprintf(csv, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%d,%s,%lld,%d\n", t, pr.x(),
                      pr.y(), pr.z(), p.x(), p.y(), p.z(), ctl->position_error(), ctl->orientation_error(), s,
-                     ctl->squeeze_target(), opt.squeeze, ctl->saturated() ? 1 : 0, o.status, static_cast<long long>(o.input_seq),
-                     in_sync ? 1 : 0);
+                     ctl->squeeze_target(), opt.squeeze, ctl->saturated() ? 1 : 0,
+                     o.status >= 0 && o.status <= 2 ? status_name(static_cast<Status>(o.status)) : "unknown",
+                     static_cast<long long>(o.input_seq), in_sync ? 1 : 0);
       }
     }
     ob->stop();

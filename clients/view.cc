@@ -16,6 +16,7 @@
 
 #include "clients/cli.h"
 #include "clients/common.h"
+#include "clients/step_csv.h"
 #include "service/algorithms/kinematics.h"
 #include "service/constraints/constraints.h"
 #include "service/dynamics/contacts.h"
@@ -220,14 +221,16 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot open '" + path + "'");
   std::string line;
-  if (!std::getline(in, line) || line.empty()) throw std::runtime_error(path + ": empty file (expected a `coopdyn sim` CSV)");
-  const std::vector<std::string> head = split_csv(line);
+  CsvHeader hdr;  // the per-step CSV's comment and units lines, then its header (clients/step_csv.h)
+  std::string err;
+  if (!read_step_csv_header(in, path, &hdr, &err)) throw std::runtime_error(err + " (expected a `coopdyn sim` CSV)");
+  const std::vector<std::string>& head = hdr.names;
   std::map<std::string, int> col;
   for (size_t i = 0; i < head.size(); ++i) col[head[i]] = static_cast<int>(i);
   auto need = [&](const std::string& name) {
     auto it = col.find(name);
     if (it == col.end())
-      throw std::runtime_error(path + ":1: no column '" + name + "', which scene '" + sys.name +
+      throw std::runtime_error(path + ":" + std::to_string(hdr.line_no) + ": no column '" + name + "', which scene '" + sys.name +
                                "' needs: is this a `coopdyn sim` CSV of that scene?");
     return it->second;
   };
@@ -236,7 +239,7 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
   for (const auto& n : m.q_names) c_q.push_back(need("q:" + n));
   for (const auto& h : head)
     if (h.rfind("q:", 0) == 0 && std::find(m.q_names.begin(), m.q_names.end(), h.substr(2)) == m.q_names.end())
-      throw std::runtime_error(path + ":1: column '" + h + "' is not a coordinate of scene '" + sys.name +
+      throw std::runtime_error(path + ":" + std::to_string(hdr.line_no) + ": column '" + h + "' is not a coordinate of scene '" + sys.name +
                                "': the CSV was written for another scene");
   const ViewFrames geo = view_geometry(sys);
   static const char* comp[6] = {"mx", "my", "mz", "fx", "fy", "fz"};
@@ -253,7 +256,7 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
     c_c.push_back({need(c.name + ".utilisation"), need(c.name + ".friction_needed"), need(c.name + ".contact")});
 
   std::vector<ViewSample> rows;
-  int ln = 1;
+  int ln = hdr.line_no;
   while (std::getline(in, line)) {
     ++ln;
     if (line.empty()) continue;

@@ -13,22 +13,23 @@ against the simulator's at the same states, and the closure residual of each fit
 The daemon saw no load pose or twist: it fitted them (state_fit.h). Rows are matched on the joint
 angles, which round-trip exactly through both CSVs.
 """
-import csv, sys
+import sys
 import numpy as np
 import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+import coopdyn_csv  # docs/coopdyn_csv.py: the per-step CSV of either source
 
 sim_path, out_path, png = sys.argv[1], sys.argv[2], sys.argv[3]
-sim = list(csv.DictReader(open(sim_path)))
+sim = coopdyn_csv.read(sim_path).dicts()
 joints = [k for k in sim[0] if k.startswith("q:arm")]
 key = lambda r: tuple(float(r[j]) for j in joints)
 by_q = {key(r): r for r in sim}
 wrench_cols = [k for k in sim[0] if k.split(".")[-1] in ("mx", "my", "mz", "fx", "fy", "fz") and (".ee." in k or ".base." in k)]
 t, est1, sim1, est2, sim2, diff, clo_p, clo_r, clo_v = [], [], [], [], [], [], [], [], []
 seen = set()
-for r in csv.DictReader(open(out_path)):
-    if r["input"] != "3" or r["status"] == "2" or r["input_seq"] in seen:
+for r in coopdyn_csv.read(out_path).dicts():
+    if r["input"] != "state" or r["status"] == "error" or r["input_seq"] in seen:
         continue
     seen.add(r["input_seq"])
     s = by_q.get(key(r))
@@ -38,8 +39,8 @@ for r in csv.DictReader(open(out_path)):
     est1.append(float(r["arm1.ee.fz"])); sim1.append(float(s["arm1.ee.fz"]))
     est2.append(float(r["arm2.ee.fz"])); sim2.append(float(s["arm2.ee.fz"]))
     diff.append(max(abs(float(r[c]) - float(s[c])) / (1 + abs(float(s[c]))) for c in wrench_cols))
-    clo_p.append(float(r["closure_position_m"])); clo_r.append(float(r["closure_orientation_rad"]))
-    clo_v.append(float(r["closure_linear_velocity_mps"]))
+    clo_p.append(float(r["closure_position"])); clo_r.append(float(r["closure_orientation"]))
+    clo_v.append(float(r["closure_linear_velocity"]))
 o = np.argsort(t)
 A = lambda x: np.array(x)[o]
 t = A(t)

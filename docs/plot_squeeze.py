@@ -12,11 +12,12 @@ the load is its negative; both are taken into the load frame with the grasp rota
 from arm 1's grasp to arm 2's, the squeeze (internal force) is s = (f1 - f2) . u / 2, positive when
 the arms press the load between them, and the net force along u is (f1 + f2) . u.
 """
-import csv, json, sys
+import json, sys
 import numpy as np
 import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+import coopdyn_csv  # docs/coopdyn_csv.py: the per-step CSV of either source
 
 ev_path, csv_path, out = sys.argv[1], sys.argv[2], sys.argv[3]
 ev = json.load(open(ev_path))
@@ -41,16 +42,15 @@ u = grasp["arm2"][1] - grasp["arm1"][1]
 u /= np.linalg.norm(u)
 
 t, s, net, tau = [], [], [], []
-with open(csv_path) as f:
-    for row in csv.DictReader(f):
-        fL = {}
-        for arm, (R_LE, _) in grasp.items():
-            f_ee = np.array([float(row[f"{arm}.ee.{k}"]) for k in ("fx", "fy", "fz")])
-            fL[arm] = -(R_LE @ f_ee)  # the arm's force on the load, load frame
-        t.append(float(row["t"]))
-        s.append(0.5 * (fL["arm1"] - fL["arm2"]) @ u)
-        net.append((fL["arm1"] + fL["arm2"]) @ u)
-        tau.append(float(row["tau:arm1.q1"]))
+for row in coopdyn_csv.read(csv_path).dicts():
+    fL = {}
+    for arm, (R_LE, _) in grasp.items():
+        f_ee = np.array([float(row[f"{arm}.ee.{k}"]) for k in ("fx", "fy", "fz")])
+        fL[arm] = -(R_LE @ f_ee)  # the arm's force on the load, load frame
+    t.append(float(row["t"]))
+    s.append(0.5 * (fL["arm1"] - fL["arm2"]) @ u)
+    net.append((fL["arm1"] + fL["arm2"]) @ u)
+    tau.append(float(row["tau:arm1.q1"]))
 
 fig, ax = plt.subplots(2, 1, figsize=(9, 5.5), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
 ax[0].plot(t, s, label="squeeze (f1 - f2).u / 2")

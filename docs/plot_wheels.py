@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """Plots the contact wrenches of the two-wheeled vehicle like the paper's Fig. 12-14.
 
-Input: the CSV of `coopdyn sim` on config/scenes/two_wheel_vehicle.yaml. The figures in docs/ were
-made with (from the repository root):
+Input: a per-step CSV of config/scenes/two_wheel_vehicle.yaml (docs/conventions.md): the one of
+`coopdyn sim --out`, or the COOPDYN_OUTPUT.csv that `coopdyn log` makes of a daemon's log (time is
+then the daemon's t). The figures in docs/ were made with (from the repository root):
 
   build/bin/coopdyn sim --scene config/scenes/two_wheel_vehicle.yaml --duration 2 --dt 0.001 \
       --torque left_spin:pulse:1.0:0:0.5 --out /tmp/wheels.csv
@@ -13,7 +14,6 @@ OUTDIR/wheels_right.png (Fig. 14): per wheel the moments mx, my, mz and forces f
 ground exerts on the wheel at its contact point, in its contact frame (x heading, y lateral left,
 z up), against time. Needs matplotlib (Debian: apt-get install python3-matplotlib).
 """
-import csv
 import sys
 
 import matplotlib
@@ -21,17 +21,18 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+import coopdyn_csv  # noqa: E402  (docs/coopdyn_csv.py, beside this script)
+
 
 def main():
     if len(sys.argv) != 3:
         sys.exit("usage: plot_wheels.py SIM.csv OUTDIR")
     path, outdir = sys.argv[1], sys.argv[2]
-    with open(path) as f:
-        rows = list(csv.DictReader(f))
-    t = [float(r["t"]) for r in rows]
-
-    def col(name):
-        return [float(r[name]) for r in rows]
+    run = coopdyn_csv.read(path)
+    t = run.col("t")
+    col = run.col
+    on = t[col("tau:left_spin") != 0]
+    pulse = f"{on[0]:g}-{t[t > on[-1]][0]:g} s" if len(on) and (t > on[-1]).any() else "none"
 
     fig, axes = plt.subplots(2, 1, figsize=(6, 4), sharex=True)
     for ax, j in zip(axes, ["left_spin", "right_spin"]):
@@ -39,7 +40,7 @@ def main():
         ax.set_ylabel(j.replace("_spin", "") + " torque [N m]")
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("time [s]")
-    fig.suptitle("Inputs (paper Fig. 12): 1 N m on the left wheel, 0-0.5 s")
+    fig.suptitle(f"Inputs (paper Fig. 12): 1 N m on the left wheel, {pulse}")
     fig.tight_layout()
     fig.savefig(f"{outdir}/wheels_input.png", dpi=110)
 
@@ -57,8 +58,9 @@ def main():
                 ax.set_ylim(34.330, 34.340)
             ax.grid(alpha=0.3)
         axes[-1].set_xlabel("time [s]")
-        fig.suptitle(f"{wheel.capitalize()} wheel: ground on wheel at the contact point,\n"
-                     f"contact frame (paper Fig. {fig_no})", fontsize=10)
+        frame = run.wrenches.get(wheel, {}).get("frame", wheel + ".contact")
+        fig.suptitle(f"{wheel.capitalize()} wheel: the ground on the wheel at its contact point,\n"
+                     f"in its contact frame {frame} (paper Fig. {fig_no})", fontsize=10)
         fig.tight_layout()
         fig.savefig(f"{outdir}/wheels_{wheel}.png", dpi=110)
 

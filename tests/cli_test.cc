@@ -122,7 +122,7 @@ TEST(Cli, EverySubcommandHasHelpOnStdoutWithItsOptionsAndDefaults) {
                "JOINT:pulse:VALUE:T0:T1"}},
       {"send", {"--torque", "--states", "--joints-only", "--rate HZ=100", "--lcm-url URL=udpm://239.255.76.67:7667?ttl=0",
                 "--measure-latency", "--no-check"}},
-      {"log", {"--in", "--out", "--no-plot", "--python PATH=/usr/bin/python3"}},
+      {"log", {"--in", "--out", "--scene", "--no-plot", "--progress", "--python PATH=/usr/bin/python3"}},
       {"control", {"--action", "reset_to_state", "--state", "--no-wait", "--channel C=COOPDYN_CONTROL"}},
       {"track", {"--duration S=6", "--radius M=0.05", "--period S=4", "--squeeze N=20", "--out"}},
       {"view", {"--scene", "--csv", "--log", "--live", "--out", "--max-frames N=2000", "--channel NAME=COOPDYN_OUTPUT",
@@ -178,7 +178,8 @@ TEST(Cli, OldFlagsKeepTheirMeaning) {
   ASSERT_EQ(r.rc, 0) << r.err;
   std::istringstream csv(r.out);
   std::string header, first;
-  ASSERT_TRUE(std::getline(csv, header) && std::getline(csv, first));
+  while (std::getline(csv, header) && !header.empty() && header[0] == '#') {}  // the comment and units lines
+  ASSERT_TRUE(std::getline(csv, first));
   const std::vector<std::string> h = split(header), v = split(first);
   ASSERT_EQ(h.size(), v.size());
   int seen = 0;

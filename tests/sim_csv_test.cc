@@ -36,7 +36,8 @@ void expect_rows_reproduce(const std::string& scene, const std::vector<std::stri
   const int nq = sys.model.nq(), nv = sys.model.nv();
   std::ifstream f(csv);
   std::string line;
-  ASSERT_TRUE(std::getline(f, line));
+  while (std::getline(f, line) && !line.empty() && line[0] == '#') {}  // the comment and units lines
+  ASSERT_FALSE(line.empty());
   const std::vector<std::string> head = split(line);
   std::map<std::string, int> col;
   for (size_t i = 0; i < head.size(); ++i) col[head[i]] = static_cast<int>(i);
@@ -107,10 +108,12 @@ TEST(SimCsv, EveryNWritesEveryNthRowOfTheFullRunExactly) {
     err_b = slurp(sim.err);
   }
   const std::vector<std::string> F = lines_of(full), D = lines_of(dec);
-  ASSERT_EQ(F.size(), 1u + 101u);  // header + steps 0..100
-  ASSERT_EQ(D.size(), 1u + 100u / 7 + 1);
-  EXPECT_EQ(D[0], F[0]);
-  for (size_t k = 1; k < D.size(); ++k) EXPECT_EQ(D[k], F[1 + (k - 1) * 7]) << "row " << k - 1;
+  size_t h = 0;  // the header's index, after the comment and units lines
+  while (h < F.size() && F[h][0] == '#') ++h;
+  ASSERT_EQ(F.size(), h + 1 + 101u);  // comments, header, steps 0..100
+  ASSERT_EQ(D.size(), h + 1 + 100u / 7 + 1);
+  for (size_t k = 0; k <= h; ++k) EXPECT_EQ(D[k], F[k]);
+  for (size_t k = h + 1; k < D.size(); ++k) EXPECT_EQ(D[k], F[h + 1 + (k - h - 1) * 7]) << "row " << k - h - 1;
   EXPECT_EQ(split(D.back())[0], "0.196");  // t of step 98
   EXPECT_EQ(err_a, "") << "no progress unless asked or on a terminal";
   EXPECT_NE(err_b.find("100 steps in"), std::string::npos) << err_b;

@@ -248,7 +248,7 @@ int count_in_canvas(const Image& im, const PageState& p, bool (*is_colour)(const
 std::map<std::string, std::string> csv_row(const std::string& csv, double t) {
   std::ifstream f(csv);
   std::string line;
-  std::getline(f, line);
+  while (std::getline(f, line) && !line.empty() && line[0] == '#') {}  // the comment and units lines
   std::vector<std::string> head;
   {
     std::stringstream ss(line);
@@ -358,45 +358,56 @@ TEST(ViewErrors, NameTheFile) {
 
   // a missing wrench column, a short row, a bad number, no rows, no file
   const std::string csv = slurp(dir / "u.csv");
-  const std::string header = csv.substr(0, csv.find('\n'));
+  // the comment and units lines, then the header at line hl (clients/step_csv.h)
+  size_t pos = 0;
+  int hl = 1;
+  while (csv[pos] == '#') pos = csv.find('\n', pos) + 1, ++hl;
+  const std::string pre = csv.substr(0, pos), header = csv.substr(pos, csv.find('\n', pos) - pos);
+  const std::string rest = csv.substr(csv.find('\n', pos));  // from the header's newline
+  const std::string at_header = ":" + std::to_string(hl), at_row1 = ":" + std::to_string(hl + 1);
   {
     std::string h = header;
     const size_t at = h.find(",wheel.fz");
     ASSERT_NE(at, std::string::npos) << header;
     h.replace(at, 9, ",wheel.FZ");
-    std::ofstream(dir / "nocol.csv") << h << csv.substr(csv.find('\n'));
+    std::ofstream(dir / "nocol.csv") << pre << h << rest;
   }
   EXPECT_EQ(view(scene_file("unicycle"), dir / "nocol.csv", dir / "a.html", dir / "e", &err, three), 1);
-  EXPECT_NE(err.find(dir / "nocol.csv" + ":1: no column 'wheel.fz'"), std::string::npos) << err;
+  EXPECT_NE(err.find(dir / "nocol.csv" + at_header + ": no column 'wheel.fz'"), std::string::npos) << err;
 
-  std::ofstream(dir / "short.csv") << header << "\n" << csv.substr(csv.find('\n') + 1, 20) << "\n";
+  std::ofstream(dir / "short.csv") << pre << header << "\n" << rest.substr(1, 20) << "\n";
   EXPECT_EQ(view(scene_file("unicycle"), dir / "short.csv", dir / "a.html", dir / "e", &err, three), 1);
-  EXPECT_NE(err.find(dir / "short.csv" + ":2:"), std::string::npos) << err;
+  EXPECT_NE(err.find(dir / "short.csv" + at_row1 + ":"), std::string::npos) << err;
 
   {
-    std::string body = csv.substr(csv.find('\n') + 1);
+    std::string body = rest.substr(1);
     body.replace(body.find(','), 1, ",x");  // the first q of the first row
-    std::ofstream(dir / "bad.csv") << header << "\n" << body;
+    std::ofstream(dir / "bad.csv") << pre << header << "\n" << body;
   }
   EXPECT_EQ(view(scene_file("unicycle"), dir / "bad.csv", dir / "a.html", dir / "e", &err, three), 1);
-  EXPECT_NE(err.find(dir / "bad.csv" + ":2: bad number"), std::string::npos) << err;
+  EXPECT_NE(err.find(dir / "bad.csv" + at_row1 + ": bad number"), std::string::npos) << err;
 
   {  // a contact state that is none of ok, slip, lift_off; the contact report's columns missing
-    std::string body = csv.substr(csv.find('\n') + 1);
+    std::string body = rest.substr(1);
     const size_t at = body.find(",-1,ok,ok,");
     ASSERT_NE(at, std::string::npos) << body.substr(0, body.find('\n'));
     body.replace(at, 10, ",-1,skid,ok,");
-    std::ofstream(dir / "state.csv") << header << "\n" << body;
+    std::ofstream(dir / "state.csv") << pre << header << "\n" << body;
     std::string h = header;
     h.replace(h.find(",wheel.utilisation"), 18, ",wheel.utilization");
-    std::ofstream(dir / "nocontact.csv") << h << csv.substr(csv.find('\n'));
+    std::ofstream(dir / "nocontact.csv") << pre << h << rest;
   }
   EXPECT_EQ(view(scene_file("unicycle"), dir / "state.csv", dir / "a.html", dir / "e", &err, three), 1);
-  EXPECT_NE(err.find(dir / "state.csv" + ":2: unknown contact state 'skid' in column 'wheel.contact'"), std::string::npos) << err;
+  EXPECT_NE(err.find(dir / "state.csv" + at_row1 + ": unknown contact state 'skid' in column 'wheel.contact'"), std::string::npos) << err;
   EXPECT_EQ(view(scene_file("unicycle"), dir / "nocontact.csv", dir / "a.html", dir / "e", &err, three), 1);
-  EXPECT_NE(err.find(dir / "nocontact.csv" + ":1: no column 'wheel.utilisation'"), std::string::npos) << err;
+  EXPECT_NE(err.find(dir / "nocontact.csv" + at_header + ": no column 'wheel.utilisation'"), std::string::npos) << err;
 
-  std::ofstream(dir / "empty.csv") << header << "\n";
+  // a units line that does not match the header
+  std::ofstream(dir / "units.csv") << "# units: s\n" << header << rest;
+  EXPECT_EQ(view(scene_file("unicycle"), dir / "units.csv", dir / "a.html", dir / "e", &err, three), 1);
+  EXPECT_NE(err.find(dir / "units.csv" + ":1: 1 units for "), std::string::npos) << err;
+
+  std::ofstream(dir / "empty.csv") << pre << header << "\n";
   EXPECT_EQ(view(scene_file("unicycle"), dir / "empty.csv", dir / "a.html", dir / "e", &err, three), 1);
   EXPECT_NE(err.find(dir / "empty.csv" + ": no rows"), std::string::npos) << err;
 

@@ -1,0 +1,232 @@
+#include "clients/step_csv.h"
+
+#include <sstream>
+
+namespace coopdyn::cli {
+
+namespace {
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string cell;
+  while (std::getline(ss, cell, ',')) out.push_back(cell);
+  if (!s.empty() && s.back() == ',') out.emplace_back();
+  return out;
+}
+// A floating joint's coordinate by its suffix (NAME.x .. NAME.qz, NAME.wx .. NAME.vz); "" otherwise.
+const char* floating_q_unit(const std::string& n, const std::vector<std::string>& all) {
+  const auto dot = n.rfind('.');
+  if (dot == std::string::npos) return "";
+  const std::string base = n.substr(0, dot), s = n.substr(dot + 1);
+  bool floating = false;
+  for (const auto& o : all) floating = floating || o == base + ".qw";
+  if (!floating) return "";
+  if (s == "x" || s == "y" || s == "z") return "m";
+  if (s == "qw" || s == "qx" || s == "qy" || s == "qz") return "1";
+  return "";
+}
+int floating_v_kind(const std::string& n, const std::vector<std::string>& all) {  // 1 angular, 2 linear, 0 not
+  const auto dot = n.rfind('.');
+  if (dot == std::string::npos) return 0;
+  const std::string base = n.substr(0, dot), s = n.substr(dot + 1);
+  int have = 0;
+  for (const auto& o : all) have += o == base + ".wx" || o == base + ".vz";
+  if (have != 2) return 0;
+  if (s == "wx" || s == "wy" || s == "wz") return 1;
+  if (s == "vx" || s == "vy" || s == "vz") return 2;
+  return 0;
+}
+}  // namespace
+
+StepSchema step_schema(const System& sys, const std::string& source) {
+  const Model& m = sys.model;
+  StepSchema s;
+  s.scene = sys.name;
+  s.source = source;
+  s.q_names = m.q_names;
+  s.v_names = m.v_names;
+  s.q_units.resize(static_cast<size_t>(m.nq()));
+  s.v_units.resize(static_cast<size_t>(m.nv()));
+  s.tau_units.resize(static_cast<size_t>(m.nv()));
+  s.vdot_units.resize(static_cast<size_t>(m.nv()));
+  for (const Body& b : m.bodies) {
+    const Joint& j = b.joint;
+    for (int k = 0; k < j.nq; ++k) {
+      const char* u = j.type == JointType::kPrismatic ? "m" : j.type == JointType::kFloating ? (k < 3 ? "m" : "1") : "rad";
+      s.q_units[static_cast<size_t>(j.idx_q + k)] = u;
+    }
+    for (int k = 0; k < j.nv; ++k) {
+      // floating: [w; v] in the body frame; prismatic: a translation; the rest rotations
+      const bool linear = j.type == JointType::kPrismatic || (j.type == JointType::kFloating && k >= 3);
+      const size_t i = static_cast<size_t>(j.idx_v + k);
+      s.v_units[i] = linear ? "m/s" : "rad/s";
+      s.tau_units[i] = linear ? "N" : "N*m";
+      s.vdot_units[i] = linear ? "m/s^2" : "rad/s^2";
+    }
+  }
+  for (const WrenchOutput& o : sys.wrenches.outputs) s.wrenches.push_back({o.name, wrench_kind_name(o.kind), o.frame, o.by});
+  for (int d : m.pseudo_dofs) {
+    s.stress_names.push_back(m.v_names[static_cast<size_t>(d)]);
+    s.stress_units.push_back(s.tau_units[static_cast<size_t>(d)]);
+  }
+  for (const ConstraintSpec& c : sys.constraints.specs)
+    if (c.kind == ConstraintKind::kRolling) s.contact_names.push_back(c.name);
+  return s;
+}
+
+bool step_schema_from_names(const std::string& scene, const std::vector<std::string>& q_names,
+                            const std::vector<std::string>& v_names, const std::vector<std::string>& wrench_names,
+                            const std::vector<int>& wrench_kinds, const std::vector<std::string>& wrench_frames,
+                            const std::vector<std::string>& wrench_by, const std::vector<std::string>& stress_names,
+                            const std::vector<std::string>& contact_names, const System* sys, StepSchema* out,
+                            std::string* err) {
+  if (sys) {
+    *out = step_schema(*sys, "log");
+    auto same = [&](const char* what, const std::vector<std::string>& a, const std::vector<std::string>& b) {
+      if (a == b) return true;
+      *err = std::string("the log's ") + what + " are not those of scene '" + sys->name + "'";
+      for (size_t i = 0; i < std::max(a.size(), b.size()); ++i)
+        if (i >= a.size() || i >= b.size() || a[i] != b[i]) {
+          *err += " (entry " + std::to_string(i) + ": log '" + (i < a.size() ? a[i] : "") + "', scene '" +
+                  (i < b.size() ? b[i] : "") + "')";
+          break;
+        }
+      return false;
+    };
+    std::vector<std::string> wn;
+    for (const auto& w : out->wrenches) wn.push_back(w.name);
+    return same("coordinates q", q_names, out->q_names) && same("velocities v", v_names, out->v_names) &&
+           same("wrenches", wrench_names, wn) && same("stresses", stress_names, out->stress_names) &&
+           same("contacts", contact_names, out->contact_names);
+  }
+  StepSchema& s = *out;
+  s = StepSchema{};
+  s.scene = scene;
+  s.source = "log";
+  s.q_names = q_names;
+  s.v_names = v_names;
+  for (const auto& n : q_names) {
+    const char* u = floating_q_unit(n, q_names);
+    s.q_units.push_back(*u ? u : "rad or m");
+  }
+  for (const auto& n : v_names) {
+    const int k = floating_v_kind(n, v_names);
+    s.v_units.push_back(k == 1 ? "rad/s" : k == 2 ? "m/s" : "rad/s or m/s");
+    s.tau_units.push_back(k == 1 ? "N*m" : k == 2 ? "N" : "N*m or N");
+    s.vdot_units.push_back(k == 1 ? "rad/s^2" : k == 2 ? "m/s^2" : "rad/s^2 or m/s^2");
+  }
+  static const char* kinds[5] = {"end_effector", "base", "tip", "axle", "joint"};
+  for (size_t i = 0; i < wrench_names.size(); ++i) {
+    const int k = i < wrench_kinds.size() ? wrench_kinds[i] : -1;
+    s.wrenches.push_back({wrench_names[i], k >= 0 && k < 5 ? kinds[k] : "unknown", i < wrench_frames.size() ? wrench_frames[i] : "",
+                          i < wrench_by.size() ? wrench_by[i] : ""});
+  }
+  s.stress_names = stress_names;
+  for (const auto& n : stress_names) {
+    size_t i = 0;
+    while (i < v_names.size() && v_names[i] != n) ++i;
+    s.stress_units.push_back(i < v_names.size() ? s.tau_units[i] : "N*m or N");
+  }
+  s.contact_names = contact_names;
+  return true;
+}
+
+CsvColumns shared_step_columns(const StepSchema& s) {
+  static const char* comp[6] = {"mx", "my", "mz", "fx", "fy", "fz"};
+  CsvColumns c;
+  c.add("t", "s");
+  for (size_t i = 0; i < s.q_names.size(); ++i) c.add("q:" + s.q_names[i], s.q_units[i]);
+  for (size_t i = 0; i < s.v_names.size(); ++i) c.add("v:" + s.v_names[i], s.v_units[i]);
+  for (size_t i = 0; i < s.v_names.size(); ++i) c.add("tau:" + s.v_names[i], s.tau_units[i]);
+  for (size_t i = 0; i < s.v_names.size(); ++i) c.add("vdot:" + s.v_names[i], s.vdot_units[i]);
+  for (const auto& w : s.wrenches)
+    for (int k = 0; k < 6; ++k) c.add(w.name + "." + comp[k], k < 3 ? "N*m" : "N");
+  for (size_t i = 0; i < s.stress_names.size(); ++i) c.add("stress:" + s.stress_names[i], s.stress_units[i]);
+  for (const auto& n : s.contact_names) {
+    c.add(n + ".friction_needed", "1");
+    c.add(n + ".utilisation", "1");
+    c.add(n + ".contact", "text");
+  }
+  for (const char* n : {"status", "reason"}) c.add(n, "text");
+  for (const char* n : {"rows", "rank", "indeterminate", "condition"}) c.add(n, "1");
+  c.add("residual", "m/s^2 or rad/s^2");
+  return c;
+}
+
+void write_step_csv_header(std::FILE* f, const StepSchema& s, const CsvColumns& c) {
+  std::fprintf(f, "# coopdyn per-step CSV %s: scene %s, source %s (docs/conventions.md)\n", kStepCsvVersion,
+               s.scene.c_str(), s.source.c_str());
+  for (const auto& w : s.wrenches)
+    std::fprintf(f, "# wrench %s: kind %s, frame %s, by %s\n", w.name.c_str(), w.kind.c_str(), w.frame.c_str(), w.by.c_str());
+  std::fprintf(f, "# units: ");
+  for (size_t i = 0; i < c.units.size(); ++i) std::fprintf(f, "%s%s", i ? "," : "", c.units[i].c_str());
+  std::fprintf(f, "\n");
+  for (size_t i = 0; i < c.names.size(); ++i) std::fprintf(f, "%s%s", i ? "," : "", c.names[i].c_str());
+  std::fprintf(f, "\n");
+}
+
+bool read_step_csv_header(std::istream& in, const std::string& path, CsvHeader* h, std::string* err) {
+  *h = CsvHeader{};
+  std::string line, units_line;
+  bool have_units = false;
+  int units_at = 0;
+  while (std::getline(in, line)) {
+    ++h->line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] != '#') break;
+    const std::string body = line.substr(1);
+    h->comments.push_back(body);
+    const std::string key = " units: ";
+    if (body.compare(0, key.size(), key) == 0) {
+      units_line = body.substr(key.size());
+      have_units = true;
+      units_at = h->line_no;
+    }
+  }
+  if (line.empty() || line[0] == '#') {
+    *err = path + ": no header line (expected the column names)";
+    return false;
+  }
+  h->names = split(line);
+  if (have_units) {
+    h->units = split(units_line);
+    if (h->units.size() != h->names.size()) {
+      *err = path + ":" + std::to_string(units_at) + ": " + std::to_string(h->units.size()) + " units for " +
+             std::to_string(h->names.size()) + " columns";
+      return false;
+    }
+  }
+  return true;
+}
+
+const char* reason_key(int r) {
+  switch (r) {
+    case 0: return "none";
+    case 1: return "nonfinite_input";
+    case 2: return "mass_matrix_singular";
+    case 3: return "pseudo_block_singular";
+    case 4: return "nonfinite_result";
+    case 5: return "overconstrained";
+    case 6: return "diverged";
+    case 7: return "svd_dropped";
+    case 100: return "no_state";
+    case 101: return "state_stale";
+    case 102: return "closure";
+  }
+  return "unknown";
+}
+const char* input_key(int i) {
+  static const char* k[6] = {"command", "no_command", "command_expired", "state", "no_state", "state_expired"};
+  return i >= 0 && i < 6 ? k[i] : "unknown";
+}
+const char* mode_key(int m) { return m == 0 ? "simulate" : m == 1 ? "estimate" : "unknown"; }
+const char* control_action_key(int a) {
+  static const char* k[5] = {"reset", "reset_to_state", "pause", "resume", "clear_fault"};
+  return a == -1 ? "none" : a >= 0 && a < 5 ? k[a] : "unknown";
+}
+const char* control_result_key(int r) {
+  static const char* k[4] = {"none", "ok", "rejected_state", "not_applicable"};
+  return r >= -1 && r < 3 ? k[r + 1] : "unknown";
+}
+
+}  // namespace coopdyn::cli

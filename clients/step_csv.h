@@ -1,0 +1,119 @@
+// The one per-step CSV schema (docs/conventions.md, "Per-step CSV"): what `coopdyn sim --out` writes
+// for a simulated run and what `coopdyn log` writes for a daemon's output_t channel.
+//
+//   # coopdyn per-step CSV 1: scene NAME, source sim|log            (comment lines first)
+//   # wrench NAME: kind KIND, frame FRAME, by BY                     (one per reported wrench)
+//   # units: s,rad,...                                               (one unit per column)
+//   t,q:NAME...,v:NAME...,tau:NAME...,vdot:NAME...,W.mx..W.fz...,stress:NAME...,
+//     C.friction_needed,C.utilisation,C.contact...,status,reason,rows,rank,indeterminate,condition,
+//     residual, then the columns of one source only (sim: position_error; log: log_time, utime,
+//     tick, mode, input, ...)
+//
+// Names are the scene's (coordinates, wrench outputs, contacts), never positions; codes are words
+// (status ok, reason none, input command, ...); numbers are shortest round-trip (std::to_chars).
+// Readers skip the leading '#' lines (pandas: comment='#'); read_step_csv_header() returns the
+// names with their units.
+#pragma once
+
+#include <charconv>
+#include <cstdio>
+#include <istream>
+#include <string>
+#include <vector>
+
+#include "service/dynamics/constrained_dynamics.h"
+#include "service/dynamics/system.h"
+
+namespace coopdyn::cli {
+
+constexpr const char* kStepCsvVersion = "1";
+
+// The names (and units) a per-step CSV is made of, from a scene or from a daemon's output.
+struct StepSchema {
+  std::string scene, source;  // source: "sim" or "log"
+  std::vector<std::string> q_names, q_units, v_names, v_units, tau_units, vdot_units;
+  struct Wrench {
+    std::string name, kind, frame, by;
+  };
+  std::vector<Wrench> wrenches;
+  std::vector<std::string> stress_names, stress_units, contact_names;
+};
+
+// A scene's schema: units by joint type (revolute rad, prismatic m, floating m / 1 / rad/s / m/s).
+StepSchema step_schema(const System& sys, const std::string& source);
+
+// The schema of a daemon's outputs from their names. With sys (the run's scene), the names must be
+// the scene's (else false and *err says which differs) and the units are the scene's; without it a
+// floating joint's coordinates get theirs from their suffixes (.x m, .qw 1, .wx rad/s, .vx m/s)
+// and any other joint "rad or m" (the log does not say whether a joint is revolute or prismatic).
+bool step_schema_from_names(const std::string& scene, const std::vector<std::string>& q_names,
+                            const std::vector<std::string>& v_names, const std::vector<std::string>& wrench_names,
+                            const std::vector<int>& wrench_kinds, const std::vector<std::string>& wrench_frames,
+                            const std::vector<std::string>& wrench_by, const std::vector<std::string>& stress_names,
+                            const std::vector<std::string>& contact_names, const System* sys, StepSchema* out,
+                            std::string* err);
+
+// Column names with their units, in order.
+struct CsvColumns {
+  std::vector<std::string> names, units;
+  void add(const std::string& name, const std::string& unit) {
+    names.push_back(name);
+    units.push_back(unit);
+  }
+};
+
+// The columns every source writes, in this order: t ... residual.
+CsvColumns shared_step_columns(const StepSchema& s);
+
+// The comment lines, the units line and the header line.
+void write_step_csv_header(std::FILE* f, const StepSchema& s, const CsvColumns& c);
+
+// Reads the leading '#' lines and the header line of a CSV (a per-step CSV or any CSV without
+// them: units then empty). *line_no is the header's line number. False with *err on an empty file
+// or a units line whose count differs from the header's.
+struct CsvHeader {
+  std::vector<std::string> names, units;  // units: empty when the file has no units line
+  std::vector<std::string> comments;      // the '#' lines, without the '#'
+  int line_no = 0;
+};
+bool read_step_csv_header(std::istream& in, const std::string& path, CsvHeader* h, std::string* err);
+
+// Words for the codes (the CSV's text columns; the names of output_t's constants in lower case).
+const char* reason_key(int reason);         // Reason or the service's 100+: "none", "diverged", "no_state", ...
+const char* input_key(int input);           // io::Input: "command", "no_command", "command_expired", ...
+const char* mode_key(int mode);             // "simulate", "estimate"
+const char* control_action_key(int action); // "none" (-1), "reset", "reset_to_state", "pause", ...
+const char* control_result_key(int result); // "none", "ok", "rejected_state", "not_applicable"
+
+// A CSV line assembled in a buffer sized once (the row of a per-step CSV: no allocation per row).
+class CsvLine {
+ public:
+  explicit CsvLine(size_t columns) : buf_(columns * 32 + 64) {}
+  void clear() { n_ = 0; }
+  void num(double x) {  // shortest round-trip
+    reserve(32);
+    n_ = static_cast<size_t>(std::to_chars(buf_.data() + n_, buf_.data() + buf_.size(), x).ptr - buf_.data());
+  }
+  void integer(long long x) {
+    reserve(24);
+    n_ = static_cast<size_t>(std::to_chars(buf_.data() + n_, buf_.data() + buf_.size(), x).ptr - buf_.data());
+  }
+  void text(const char* s) {
+    while (*s) {
+      reserve(1);
+      buf_[n_++] = *s++;
+    }
+  }
+  void sep() { reserve(1), buf_[n_++] = ','; }
+  void end() { reserve(1), buf_[n_++] = '\n'; }
+  void write(std::FILE* f) const { std::fwrite(buf_.data(), 1, n_, f); }
+
+ private:
+  void reserve(size_t k) {  // grows only when a text cell is longer than the sizing assumed
+    if (n_ + k > buf_.size()) buf_.resize(2 * buf_.size() + k);
+  }
+  std::vector<char> buf_;
+  size_t n_ = 0;
+};
+
+}  // namespace coopdyn::cli
