@@ -161,7 +161,8 @@ int cmd_send(const Args& a) {
   std::vector<int> steer_locks;
   if (const int rc = load_cli_targets(a, "send", sys, &steer, &steer_locks)) return rc;
   std::vector<std::string> target_names;
-  for (int d : steer.dofs()) target_names.push_back(sys.model.v_names[static_cast<size_t>(d)]);
+  const std::vector<int> steer_dofs = steer.dofs();
+  for (int d : steer_dofs) target_names.push_back(sys.model.v_names[static_cast<size_t>(d)]);
   std::vector<double> targets(target_names.size());
   Eigen::VectorXd target_v(sys.model.nv());
   StateTable states;
@@ -283,7 +284,7 @@ int cmd_send(const Args& a) {
     } else {
       prof.eval(t, tau);
       steer.eval(t, target_v);
-      for (size_t k = 0; k < targets.size(); ++k) targets[k] = target_v[steer.dofs()[k]];
+      for (size_t k = 0; k < targets.size(); ++k) targets[k] = target_v[steer_dofs[k]];
       bytes = io::encode_torque_command(io::wall_us(), seq, no_names, std::vector<double>(tau.data(), tau.data() + tau.size()),
                                         target_names, targets);
     }
