@@ -59,8 +59,10 @@ void scene_options(Command& c, bool required) {
 }
 
 const char* const kProfileHelp =
-    "PROFILE: JOINT:constant:VALUE | JOINT:step:VALUE:T0 | JOINT:pulse:VALUE:T0:T1 | FILE.csv (header t,JOINT,...;\n"
-    "piecewise constant between rows). JOINT is a velocity coordinate of the scene (coopdyn eval lists them).";
+    "PROFILE: JOINT:constant:VALUE | JOINT:step:VALUE:T0 | JOINT:pulse:VALUE:T0:T1 | JOINT:ramp:VALUE:T0:T1 (0 until T0,\n"
+    "linear to VALUE at T1) | FILE.csv (header t,JOINT,...; piecewise constant between rows). JOINT is a velocity\n"
+    "coordinate of the scene (coopdyn eval lists them). --steer PROFILE: the position target (rad or m) of a locked\n"
+    "joint (a pseudo-joint with a target_limit, e.g. a car's fl_steer), the sum of its terms; 0 where none is on.";
 
 std::string show(double x) {
   char b[32];

@@ -39,17 +39,21 @@ std::string json_string(const std::string& s);
 int warn_contacts(std::FILE* f, const char* cmd, const System& sys, const Workspace& ws,
                   double t = std::numeric_limits<double>::quiet_NaN());
 
-// Torque profiles: "JOINT:constant:VALUE", "JOINT:step:VALUE:T0", "JOINT:pulse:VALUE:T0:T1", or a
-// CSV file "file.csv" whose header is "t,JOINT,..." (piecewise constant between rows).
+// Torque profiles: "JOINT:constant:VALUE", "JOINT:step:VALUE:T0", "JOINT:pulse:VALUE:T0:T1",
+// "JOINT:ramp:VALUE:T0:T1" (0 until T0, linear to VALUE at T1, then VALUE), or a CSV file
+// "file.csv" whose header is "t,JOINT,..." (piecewise constant between rows). The same profiles give
+// lock targets (--steer): the sum of the terms on a joint is its target.
 class TorqueProfile {
  public:
   // Throws std::runtime_error with the reason on a bad spec.
   void add(const System& sys, const std::string& spec);
   void eval(double t, Eigen::VectorXd& tau) const;  // tau must be sized nv; set, not accumulated
+  std::vector<int> dofs() const;                    // the velocity indices the profile names, ascending
+  std::vector<double> breakpoints() const;          // 0 and every time where a term changes
  private:
   struct Term {
     int dof;
-    int kind;  // 0 constant, 1 step, 2 pulse
+    int kind;  // 0 constant, 1 step, 2 pulse, 3 ramp
     double value, t0, t1;
   };
   std::vector<Term> terms_;
@@ -65,6 +69,10 @@ int velocity_index(const System& sys, const std::string& name);  // -1 if absent
 int load_cli_scene(const Args& a, const char* cmd, System* sys);
 // Adds every --torque PROFILE to *prof; prints the reason and returns 2 on a bad one, else 0.
 int load_cli_profile(const Args& a, const char* cmd, const System& sys, TorqueProfile* prof);
+// Adds every --steer PROFILE (lock targets, rad or m) to *prof and lists their lock specs in *locks
+// (parallel to prof->dofs()); each joint must be a pseudo-joint lock with a target_limit and the
+// profile within it (checked at the profile's breakpoints); prints the reason and returns 2 if not.
+int load_cli_targets(const Args& a, const char* cmd, const System& sys, TorqueProfile* prof, std::vector<int>* locks);
 
 // Reads q, v, tau (each optional) from a JSON or YAML state file in the scene's coordinate order;
 // prints the problem and returns false on a bad file.

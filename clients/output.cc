@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -247,6 +248,46 @@ int load_cli_profile(const Args& a, const char* cmd, const System& sys, TorquePr
   return 0;
 }
 
+int load_cli_targets(const Args& a, const char* cmd, const System& sys, TorqueProfile* prof, std::vector<int>* locks) {
+  try {
+    for (const auto& spec : a.all("steer")) prof->add(sys, spec);
+  } catch (const std::runtime_error& e) {
+    std::fprintf(stderr, "coopdyn %s: --steer: %s\n", cmd, e.what());
+    return 2;
+  }
+  locks->clear();
+  const std::vector<ConstraintSpec>& specs = sys.constraints.specs;
+  for (int d : prof->dofs()) {
+    int lock = -1;
+    for (size_t k = 0; k < specs.size(); ++k)
+      if (specs[k].kind == ConstraintKind::kLock && specs[k].dof == d) lock = static_cast<int>(k);
+    if (lock < 0 || specs[static_cast<size_t>(lock)].target_limit <= 0) {
+      std::fprintf(stderr, "coopdyn %s: --steer: '%s' is not a locked joint with a target_limit (a pseudo-joint whose "
+                   "scene entry declares target_limit; formulation pseudo_joint has no lock rows)\n", cmd,
+                   sys.model.v_names[static_cast<size_t>(d)].c_str());
+      return 2;
+    }
+    locks->push_back(lock);
+  }
+  // within the limits: the profiles are piecewise linear, so their extremes are at breakpoints
+  Eigen::VectorXd x(sys.model.nv());
+  for (double t : prof->breakpoints()) {
+    for (double tt : {t, std::nextafter(t, -HUGE_VAL)}) {
+      prof->eval(tt, x);
+      const std::vector<int> ds = prof->dofs();
+      for (size_t i = 0; i < ds.size(); ++i) {
+        const double lim = specs[static_cast<size_t>((*locks)[i])].target_limit;
+        if (!(std::abs(x[ds[i]]) <= lim)) {
+          std::fprintf(stderr, "coopdyn %s: --steer: '%s' reaches %g at t=%g, beyond its target_limit %g\n", cmd,
+                       sys.model.v_names[static_cast<size_t>(ds[i])].c_str(), x[ds[i]], tt, lim);
+          return 2;
+        }
+      }
+    }
+  }
+  return 0;
+}
+
 int velocity_index(const System& sys, const std::string& name) {
   const auto& n = sys.model.v_names;
   for (size_t i = 0; i < n.size(); ++i)
@@ -316,8 +357,13 @@ void TorqueProfile::add(const System& sys, const std::string& spec) {
     t.kind = 2;
     t.t0 = to_num(p[3], spec);
     t.t1 = to_num(p[4], spec);
+  } else if (p[1] == "ramp" && p.size() == 5) {
+    t.kind = 3;
+    t.t0 = to_num(p[3], spec);
+    t.t1 = to_num(p[4], spec);
+    if (!(t.t1 > t.t0)) throw std::runtime_error("profile '" + spec + "': a ramp needs T1 > T0");
   } else {
-    throw std::runtime_error("torque profile '" + spec + "': kinds are constant:V, step:V:T0, pulse:V:T0:T1");
+    throw std::runtime_error("profile '" + spec + "': kinds are constant:V, step:V:T0, pulse:V:T0:T1, ramp:V:T0:T1");
   }
   terms_.push_back(t);
 }
@@ -325,6 +371,10 @@ void TorqueProfile::add(const System& sys, const std::string& spec) {
 void TorqueProfile::eval(double t, Eigen::VectorXd& tau) const {
   tau.setZero();
   for (const Term& x : terms_) {
+    if (x.kind == 3) {
+      tau[x.dof] += t >= x.t1 ? x.value : t > x.t0 ? x.value * (t - x.t0) / (x.t1 - x.t0) : 0.0;
+      continue;
+    }
     const bool on = x.kind == 0 || (x.kind == 1 && t >= x.t0) || (x.kind == 2 && t >= x.t0 && t < x.t1);
     if (on) tau[x.dof] += x.value;
   }
@@ -335,4 +385,25 @@ void TorqueProfile::eval(double t, Eigen::VectorXd& tau) const {
   }
 }
 
+}  // namespace coopdyn::cli
+
+namespace coopdyn::cli {
+std::vector<int> TorqueProfile::dofs() const {
+  std::vector<int> d;
+  for (const Term& x : terms_) d.push_back(x.dof);
+  for (int x : csv_dofs_) d.push_back(x);
+  std::sort(d.begin(), d.end());
+  d.erase(std::unique(d.begin(), d.end()), d.end());
+  return d;
+}
+
+std::vector<double> TorqueProfile::breakpoints() const {
+  std::vector<double> b{0.0};
+  for (const Term& x : terms_) {
+    if (x.kind >= 1) b.push_back(x.t0);
+    if (x.kind >= 2) b.push_back(x.t1);
+  }
+  for (double t : csv_t_) b.push_back(t);
+  return b;
+}
 }  // namespace coopdyn::cli

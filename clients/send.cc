@@ -108,6 +108,7 @@ void register_send(Cli& cli) {
                        cmd_send);
   scene_options(c, true);
   c.repeated("--torque", "PROFILE", "torque commands; repeat to combine (see below)");
+  c.repeated("--steer", "PROFILE", "lock targets in the commands (a steer angle, rad); repeat to combine (see below)");
   c.value("--states", "SIM.csv", "replay the states of a coopdyn sim CSV as measured_state_t instead");
   c.flag("--joints-only", "with --states: leave out the floating bodies' coordinates (the daemon fits them)");
   c.number("--rate", "HZ", "messages per second, (0, 10000]", "100");
@@ -126,10 +127,14 @@ void register_send(Cli& cli) {
 
 int cmd_send(const Args& a) {
   const bool replay = a.has("states");
-  if (!a.has("scene") || (!a.has("torque") && !replay)) {
+  if (!a.has("scene") || (!a.has("torque") && !a.has("steer") && !replay)) {
     std::fprintf(stderr,
-                 "coopdyn send: --scene FILE and at least one --torque PROFILE (commands) or --states FILE.csv "
+                 "coopdyn send: --scene FILE and at least one --torque or --steer PROFILE (commands) or --states FILE.csv "
                  "(measured states, estimate mode) are required\n");
+    return 2;
+  }
+  if (replay && a.has("steer")) {
+    std::fprintf(stderr, "coopdyn send: --steer goes with commands, not with --states\n");
     return 2;
   }
   double rate = 100, duration = 2, t0 = 0;
@@ -151,6 +156,14 @@ int cmd_send(const Args& a) {
   if (const int rc = load_cli_scene(a, "send", &sys)) return rc;
   TorqueProfile prof;
   if (const int rc = load_cli_profile(a, "send", sys, &prof)) return rc;
+  TorqueProfile steer;
+  std::vector<int> steer_locks;
+  if (const int rc = load_cli_targets(a, "send", sys, &steer, &steer_locks)) return rc;
+  std::vector<std::string> target_names;
+  const std::vector<int> steer_dofs = steer.dofs();
+  for (int d : steer_dofs) target_names.push_back(sys.model.v_names[static_cast<size_t>(d)]);
+  std::vector<double> targets(target_names.size());
+  Eigen::VectorXd target_v(sys.model.nv());
   StateTable states;
   if (replay) {
     std::string err;
@@ -269,7 +282,10 @@ int cmd_send(const Args& a) {
                                         states.tau[r]);
     } else {
       prof.eval(t, tau);
-      bytes = io::encode_torque_command(io::wall_us(), seq, no_names, std::vector<double>(tau.data(), tau.data() + tau.size()));
+      steer.eval(t, target_v);
+      for (size_t k = 0; k < targets.size(); ++k) targets[k] = target_v[steer_dofs[k]];
+      bytes = io::encode_torque_command(io::wall_us(), seq, no_names, std::vector<double>(tau.data(), tau.data() + tau.size()),
+                                        target_names, targets);
     }
     if (measure) {
       std::lock_guard<std::mutex> lk(mu);

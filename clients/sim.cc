@@ -37,6 +37,7 @@ void register_sim(Cli& cli) {
   c.number("--dt", "H", "step, s")->required();
   c.value("--integrator", "NAME", "semi_implicit_euler, rk4 or implicit_euler", "rk4");
   c.repeated("--torque", "PROFILE", "applied torque; repeat to combine (see below)");
+  c.repeated("--steer", "PROFILE", "target of a locked joint (a steer angle, rad); repeat to combine (see below)");
   c.value("--out", "FILE.csv", "where to write the CSV (default: stdout)");
   c.number("--every", "N", "write every N-th step only (t = 0, N dt, 2 N dt, ...)", "1");
   c.flag("--progress", "report progress on stderr (default: only when stderr is a terminal)");
@@ -83,6 +84,10 @@ int cmd_sim(const Args& a) {
   if (const int rc = load_cli_scene(a, "sim", &sys)) return rc;
   TorqueProfile prof;
   if (const int rc = load_cli_profile(a, "sim", sys, &prof)) return rc;
+  TorqueProfile steer;
+  std::vector<int> steer_locks;  // lock spec of each of steer.dofs()
+  if (const int rc = load_cli_targets(a, "sim", sys, &steer, &steer_locks)) return rc;
+  const std::vector<int> steer_dofs = steer.dofs();
   std::FILE* out = stdout;
   if (a.has("out")) {
     out = std::fopen(a.get("out").c_str(), "w");
@@ -104,7 +109,7 @@ int cmd_sim(const Args& a) {
 
   Stepper st(sys);
   WrenchData wd(sys);
-  Eigen::VectorXd q = sys.q0, v = sys.v0, tau(model.nv());
+  Eigen::VectorXd q = sys.q0, v = sys.v0, tau(model.nv()), target(model.nv());
   Eigen::VectorXd q_prev(model.nq()), v_prev(model.nv());
   CsvLine line(cols.names.size());
   const long steps = std::lround(T / h);
@@ -118,6 +123,10 @@ int cmd_sim(const Args& a) {
   for (long i = 0; i <= steps; ++i) {
     const double t = i * h;
     prof.eval(t, tau);
+    if (!steer_dofs.empty()) {  // the locks' targets at the step's start, held over the step
+      steer.eval(t, target);
+      for (size_t k = 0; k < steer_dofs.size(); ++k) set_lock_target(st, steer_locks[k], target[steer_dofs[k]]);
+    }
     q_prev = q;  // no allocation: sized above
     v_prev = v;
     const Diagnostics& d = i < steps ? step(sys, st, integ, h, tau, q, v) : evaluate(sys, st.ws, q, v, tau);

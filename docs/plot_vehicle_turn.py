@@ -5,7 +5,8 @@ For a turn of radius R about a centre on the rear axle line, Ackermann steer ang
 from 0 up to past lift-off, writes each steady state (q, v) as a state file, runs `coopdyn eval`
 on it and plots the four normal loads and the friction each wheel needs against the lateral
 acceleration, with the textbook steady-state lines: lateral load transfer m a_y h / t split in
-proportion to the axles' roll stiffness (60 / 40 here).
+proportion to the axles' roll stiffness (60 / 40 here); and (docs/vehicle_turn_lateral.png) the
+lateral force of each axle against the bicycle model's m a_y b / L, m a_y a / L.
 
     /usr/bin/python3 docs/plot_vehicle_turn.py build/bin/coopdyn docs [R]
 """
@@ -38,6 +39,7 @@ open(scene, "w").write(text)
 
 ay, normal, need = [], {k: [] for k in ("fl", "fr", "rl", "rr")}, {k: [] for k in ("fl", "fr", "rl", "rr")}
 state = {k: [] for k in ("fl", "fr", "rl", "rr")}
+lateral = {"front": [], "rear": []}  # chassis-y force of each axle's contacts, N
 V = 0.0
 while V <= 23.0 + 1e-9:
     Om = V / R
@@ -49,6 +51,9 @@ while V <= 23.0 + 1e-9:
     out = subprocess.run([coopdyn, "eval", "--scene", scene, "--state", sf], capture_output=True, text=True, check=True)
     d = json.loads(out.stdout)
     ay.append(Om * Om * R / g)
+    fy = {w["name"]: w["force"][1] for w in d["wrenches"] if w["name"] in ("fl", "fr", "rl", "rr")}
+    lateral["front"].append(fy["fl"] * math.cos(dl) + fy["fr"] * math.cos(dr))
+    lateral["rear"].append(fy["rl"] + fy["rr"])
     for c in d["contacts"]:
         normal[c["name"]].append(c["normal"])
         need[c["name"]].append(c["friction_needed"] if c["friction_needed"] >= 0 else float("nan"))
@@ -88,3 +93,23 @@ fig.tight_layout()
 path = os.path.join(outdir, "vehicle_turn.png")
 fig.savefig(path, dpi=110)
 print("wrote", path)
+
+# lateral force per axle against the bicycle model (the whole car's m a_y split b / L, a / L)
+fig, ax = plt.subplots(figsize=(6.5, 4.8))
+ax.plot(ay, lateral["front"], color="tab:blue", lw=2, label="front axle (coopdyn, compliance rule)")
+ax.plot(ay, lateral["rear"], color="tab:red", lw=2, label="rear axle (coopdyn, compliance rule)")
+ax.plot(ay, [M * x * g * lr / L for x in ay], color="tab:blue", ls=":", lw=1.5, label="bicycle model m a_y b / L")
+ax.plot(ay, [M * x * g * lf / L for x in ay], color="tab:red", ls=":", lw=1.5, label="bicycle model m a_y a / L")
+ax.set_xlabel("lateral acceleration a_y / g (left turn, R = %g m)" % R)
+ax.set_ylabel("lateral force on the axle (chassis y), N")
+ax.set_title("steady turn: lateral force per axle", fontsize=11)
+ax.legend(fontsize=9, loc="upper left")
+ax.grid(alpha=0.3)
+fig.tight_layout()
+path = os.path.join(outdir, "vehicle_turn_lateral.png")
+fig.savefig(path, dpi=110)
+print("wrote", path)
+i = min(range(len(ay)), key=lambda k: abs(ay[k] - 12.0 ** 2 / R / g))
+print("at a_y = %.4f g: front %.2f N, rear %.2f N; bicycle %.2f N, %.2f N (front share %.4f, b / L %.4f)"
+      % (ay[i], lateral["front"][i], lateral["rear"][i], M * ay[i] * g * lr / L, M * ay[i] * g * lf / L,
+         lateral["front"][i] / (lateral["front"][i] + lateral["rear"][i]), lr / L))

@@ -12,6 +12,7 @@ add_executable(coopdynd_tests
   ${CMAKE_CURRENT_LIST_DIR}/sim_csv_test.cc
   ${CMAKE_CURRENT_LIST_DIR}/vehicle_test.cc
   ${CMAKE_CURRENT_LIST_DIR}/step_csv_test.cc
+  ${CMAKE_CURRENT_LIST_DIR}/vehicle_command_test.cc
 )
 target_link_libraries(coopdynd_tests PRIVATE coopdyn_runtime coopdyn_scene coopdyn_step_csv GTest::gtest GTest::gtest_main)
 target_compile_definitions(coopdynd_tests PRIVATE

@@ -1,5 +1,6 @@
 // The loop's step path allocates nothing: thousands of ServiceLoop::tick() calls (dynamics, input
-// handoff, watchdog, output and stats encoding, publish) of every scene in both modes, and run()
+// handoff, watchdog, lock targets of the commands, output and stats encoding, publish) of every
+// scene in both modes, and run()
 // with its absolute-deadline sleeps, under the counting heap. Inputs are offered between ticks
 // outside the count (the receive thread is not the loop).
 #define COOPDYN_COUNTING_ALLOCATOR_IMPL
@@ -31,7 +32,15 @@ TEST(LoopNoAllocation, TickOfEverySceneBothModes) {
       FakeBus bus;
       runtime::ServiceLoop loop(sys, cfg, bus);
       const Eigen::VectorXd tau = some_torque(sys, 1, 0.5);
-      const auto cmd = [&](int64_t seq) { return io::encode_torque_command(runtime::realtime_us(), seq, {}, stdvec(tau)); };
+      // commands carry lock targets where the scene lets them be commanded (a vehicle's steer
+      // angles), changing from one command to the next: the targets' path through the loop too
+      std::vector<std::string> tn;
+      for (const ConstraintSpec& sp : sys.constraints.specs)
+        if (sp.kind == ConstraintKind::kLock && sp.target_limit > 0) tn.push_back(sys.model.v_names[static_cast<size_t>(sp.dof)]);
+      const auto cmd = [&](int64_t seq) {
+        const double x = seq % 2 ? 0.02 : -0.01;
+        return io::encode_torque_command(runtime::realtime_us(), seq, {}, stdvec(tau), tn, std::vector<double>(tn.size(), x));
+      };
       // full states, joints-only states (the load's pose and twist fitted: state_fit.h) and states
       // that do not close (refused with REASON_CLOSURE), in turn
       const StateFitPlan plan = plan_state_fit(sys);

@@ -485,3 +485,65 @@ TEST(Vehicle, RollingResistanceSlowsACoastingCarAsTheEnergyBalanceSays) {
     EXPECT_NE(std::string(e.what()).find("mobile_platform and classic"), std::string::npos) << e.what();
   }
 }
+
+TEST(Vehicle, BrakingRampMovesLoadForwardAndTheStatusesTurnWhenTheFormulasSay) {
+  // Straight at 30 m/s, a braking torque rising as -k t on all four wheels (RK4, 1 ms steps, the
+  // torque held over each step as coopdyn sim does). The rigid no-slip car decelerates by
+  // a = (4 tau / r) / (M + 4 I / r^2) whatever its speed; the pitch moment of the inertial forces
+  // (sum m_i a h_i + 4 I a / r) moves Mp / L from the rear axle to the front (textbook m a h / L).
+  // Each rear wheel's normal force N0r + Mp / 2L and braking force (tau - I a / r) / r are affine
+  // in t: the rear wheels need mu = 0.85 at t_slip = mu N0r / (b + mu c) and lift off at
+  // t_lift = N0r / c. The contact report says slip from the first step at or after t_slip and
+  // lift_off from the first step at or after t_lift, not a step earlier.
+  const System sys = load("four_wheel_car");
+  const Model& m = sys.model;
+  const double k = 1500.0, V = 30.0, dt = 1e-3, M = kMc + 4 * kMw;
+  const double N0r = (kMc * kG * kLf / kL + 2 * kMw * kG) / 2, N0f = (kMc * kG * kLr / kL + 2 * kMw * kG) / 2;
+  Eigen::VectorXd q = sys.q0, v = Eigen::VectorXd::Zero(m.nv()), tau = Eigen::VectorXd::Zero(m.nv());
+  v[3] = V;
+  const char* spins[4] = {"fl_spin", "fr_spin", "rl_spin", "rr_spin"};
+  int dof[4];
+  for (int i = 0; i < 4; ++i) {
+    dof[i] = velocity_index_of(sys, spins[i]);
+    v[dof[i]] = V / kR;
+  }
+  // per unit time: deceleration, pitch moment, rear normal force lost (c), rear braking force (b)
+  const double a1 = -(4 * k / kR) / (M + 4 * kIspin / (kR * kR));
+  const double Mp1 = (kMc * kH + 4 * kMw * kR + 4 * kIspin / kR) * a1;
+  const double c = -Mp1 / kL / 2, b = (k + kIspin * a1 / kR) / kR;  // |fx| = (k t + I a / r) / r
+  // the front wheels, gaining load, need mu at t_front = mu N0f / (b - mu c)
+  const double t_slip = 0.85 * N0r / (b + 0.85 * c), t_lift = N0r / c, t_front = 0.85 * N0f / (b - 0.85 * c);
+  Stepper st(sys);
+  ContactData cts(sys);
+  long first_slip = -1, first_lift = -1;
+  double worst_transfer = 0;
+  for (long i = 0; i <= 1600; ++i) {
+    const double t = i * dt;
+    for (int w = 0; w < 4; ++w) tau[dof[w]] = -k * t;
+    ASSERT_NE(step(sys, st, Integrator::kRk4, dt, tau, q, v).status, Status::kError) << "t=" << t;
+    const Workspace& ws = st.ws;  // the evaluation at the step's start (t, the torque of t)
+    compute_contacts(sys, ws, cts);
+    const double a = a1 * t;
+    ASSERT_NEAR(ws.vdot[3], a, 1e-9 * (1 + std::abs(a))) << "t=" << t;
+    const Vec3 frl = contact(sys, ws, "rl"), ffl = contact(sys, ws, "fl");
+    worst_transfer = std::max({worst_transfer, std::abs(frl.z() - (N0r - c * t)), std::abs(ffl.z() - (N0f + c * t))});
+    EXPECT_NEAR(frl.x(), -b * t, 1e-9 * N0r) << "t=" << t;
+    const bool slip = cts.state[2] != ContactState::kOk, lift = cts.state[2] == ContactState::kLiftOff;
+    EXPECT_EQ(cts.state[2], cts.state[3]) << "t=" << t;  // left and right alike
+    EXPECT_EQ(cts.state[0], t >= t_front ? ContactState::kSlip : ContactState::kOk) << "t=" << t;
+    if (slip && first_slip < 0) first_slip = i;
+    if (lift && first_lift < 0) first_lift = i;
+    EXPECT_EQ(slip, t >= t_slip) << "t=" << t;
+    EXPECT_EQ(lift, t >= t_lift) << "t=" << t;
+  }
+  EXPECT_LT(worst_transfer, 1e-8 * N0f);
+  EXPECT_EQ(first_slip, static_cast<long>(std::ceil(t_slip / dt)));
+  EXPECT_EQ(first_lift, static_cast<long>(std::ceil(t_lift / dt)));
+  const double textbook = M * a1 * ((kMc * kH + 4 * kMw * kR) / M) / kL;  // per second of the ramp
+  std::printf("[ four_wheel_car ] braking -%.0f N*m/s per wheel from %.0f m/s: front gains %.3f N per m/s^2 of deceleration "
+              "(textbook m h / L %.3f, +%.2f %% the wheels' spin); rear wheels slip at t = %.4f s (a = %.3f m/s^2) and lift off "
+              "at t = %.4f s (a = %.3f m/s^2 = %.2f g), the front wheels slip at t = %.4f s, each the step the formula says; "
+              "%.2f m/s left\n",
+              k, V, Mp1 / a1 / kL, textbook / a1, 100 * (Mp1 / kL / textbook - 1), t_slip, a1 * t_slip, t_lift, a1 * t_lift,
+              -a1 * t_lift / kG, t_front, v[3]);
+}

@@ -88,6 +88,13 @@ ConstraintData::ConstraintData(const Model& model, const ConstraintSet& set) {
   J_b.setZero(6, model.nv());
   X_RS.assign(set.specs.size(), Transform());
   rr_arm.assign(set.specs.size(), 0.0);
+  lock_target.assign(set.specs.size(), 0.0);
+  reset_lock_targets(set, *this);
+}
+
+void reset_lock_targets(const ConstraintSet& set, ConstraintData& cd) {
+  for (size_t s = 0; s < set.specs.size(); ++s)
+    if (set.specs[s].kind == ConstraintKind::kLock) cd.lock_target[s] = set.specs[s].q_target;
 }
 
 namespace {
@@ -155,7 +162,7 @@ void constraint_rows(const Model& model, const Data& data, const ConstraintSet& 
     if (c.kind == ConstraintKind::kLock) {
       cd.G(r0, c.dof) = 1.0;
       cd.Gdot_v[r0] = 0.0;
-      cd.err[r0] = q[c.q_index] - c.q_target;
+      cd.err[r0] = q[c.q_index] - cd.lock_target[s];
       cd.Gv[r0] = v[c.dof];
       continue;
     }

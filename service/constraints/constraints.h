@@ -48,7 +48,10 @@ struct ConstraintSpec {
   std::array<bool, 6> axes{{true, true, true, true, true, true}};  // [wx wy wz vx vy vz] of A
   int dof = -1;                  // lock: velocity index
   int q_index = -1;              // lock: position index
-  double q_target = 0.0;         // lock: held position
+  double q_target = 0.0;         // lock: held position (the scene's); a workspace may hold it
+                                 // elsewhere (ConstraintData::lock_target, a commanded target)
+  double target_limit = 0.0;     // lock: |commanded target| allowed (rad or m; the joint's
+                                 // `target_limit`); 0 = the target cannot be commanded
   std::array<double, 6> compliance{{0, 0, 0, 0, 0, 0}};  // per axis (rad/(N*m), m/N), for the
                                                          // split of indeterminate forces only;
                                                          // rolling: entries 3..5 (x, y, z of C)
@@ -111,7 +114,17 @@ struct ConstraintData {
   // of normal force, -c_rr r sgn(u) (m); the ground's wrench on the wheel at P in C is
   // [0, rr_arm N, 0; fx, fy, N]
   std::vector<double> rr_arm;
+  // per spec (lock; unused otherwise): the position the lock row holds its joint at, rad or m.
+  // Starts at the spec's q_target (the scene's); a driver's command moves it (a steer angle,
+  // torque_command_t targets). The row's error is q - lock_target: with projection (integrators.h)
+  // the joint is at a new target after the next step, the velocity projected onto the constraints
+  // at the new angle; with Baumgarte stabilization only, it approaches the target as the response
+  // s^2 + alpha s + beta sets, its torque the lock's stress.
+  std::vector<double> lock_target;
 };
+
+// Sets every lock's target in cd back to the scene's (ConstraintSpec::q_target).
+void reset_lock_targets(const ConstraintSet& set, ConstraintData& cd);
 
 // A rolling spec's wrench on its wheel at P in C ([moment; force], w[5] = the normal force N)
 // carries the rolling-resistance moment about y_C: w[1] = rr_arm N. Nothing for other kinds.

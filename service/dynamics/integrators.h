@@ -47,8 +47,17 @@ struct Stepper {
 };
 
 // Projects (q, v) onto the constraint manifold (see SolverOptions::projection_iterations). Returns
-// the largest position error left. Allocation-free.
+// the largest position error left. A lock's error is measured from its target in st.ws_stage
+// (ConstraintData::lock_target, set_lock_target): a commanded target is reached at the projection
+// of the step after it is set. Allocation-free.
 double project_state(const System& sys, Stepper& st, Eigen::VectorXd& q, Eigen::VectorXd& v);
+
+// Sets the target of lock spec `spec` (ConstraintKind::kLock) in both of the stepper's workspaces,
+// rad or m. Allocation-free.
+inline void set_lock_target(Stepper& st, int spec, double target) {
+  st.ws.cd.lock_target[static_cast<size_t>(spec)] = target;
+  st.ws_stage.cd.lock_target[static_cast<size_t>(spec)] = target;
+}
 
 // Advances (q, v) by dt under tau. Returns the diagnostics of the evaluation at the start state;
 // on an error status, q and v are left unchanged. Projects afterwards if the scene asks.

@@ -36,7 +36,7 @@ static_assert(static_cast<int>(WrenchKind::kTip) == coopdyn::output_t::KIND_TIP,
 static_assert(static_cast<int>(WrenchKind::kAxle) == coopdyn::output_t::KIND_AXLE, "wrench kinds");
 static_assert(static_cast<int>(WrenchKind::kJoint) == coopdyn::output_t::KIND_JOINT, "wrench kinds");
 
-static_assert(static_cast<int>(Reject::kIncomplete) + 1 == kRejectKinds, "kRejectKinds counts every Reject");
+static_assert(static_cast<int>(Reject::kOverTargetLimit) + 1 == kRejectKinds, "kRejectKinds counts every Reject");
 
 const char* reject_key(Reject r) {
   switch (r) {
@@ -51,6 +51,8 @@ const char* reject_key(Reject r) {
     case Reject::kFuture: return "future_utime";
     case Reject::kUnactuated: return "unactuated";
     case Reject::kIncomplete: return "incomplete";
+    case Reject::kNotLocked: return "not_locked";
+    case Reject::kOverTargetLimit: return "over_target_limit";
   }
   return "?";
 }
@@ -68,6 +70,8 @@ const char* reject_name(Reject r) {
     case Reject::kFuture: return "utime in the future";
     case Reject::kUnactuated: return "force on an unactuated DOF";
     case Reject::kIncomplete: return "incomplete state";
+    case Reject::kNotLocked: return "target for a joint that is not a lock with a target_limit";
+    case Reject::kOverTargetLimit: return "target over target_limit";
   }
   return "?";
 }
@@ -158,10 +162,16 @@ struct CommandDecoder::Impl {
   const System& sys;
   NameMap v_index;
   std::vector<unsigned char> seen;
+  std::vector<int> lock_of_dof;  // (nv) the lock spec holding each DOF, -1: none
   coopdyn::torque_command_t msg;
-  explicit Impl(const System& s) : sys(s), v_index(index_of(s.model.v_names)), seen(s.model.nv()) {
+  explicit Impl(const System& s)
+      : sys(s), v_index(index_of(s.model.v_names)), seen(s.model.nv()), lock_of_dof(s.model.nv(), -1) {
     msg.names.reserve(s.model.nv());
     msg.tau.reserve(s.model.nv());
+    msg.target_names.reserve(s.model.nv());
+    msg.target.reserve(s.model.nv());
+    for (size_t k = 0; k < s.constraints.specs.size(); ++k)
+      if (s.constraints.specs[k].kind == ConstraintKind::kLock) lock_of_dof[s.constraints.specs[k].dof] = static_cast<int>(k);
   }
 };
 
@@ -171,13 +181,14 @@ CommandDecoder::~CommandDecoder() = default;
 Reject CommandDecoder::decode(const void* data, int len, CommandSlot& out) {
   Impl& m = *impl_;
   const int nv = m.sys.model.nv();
-  // layout: hash, utime, seq, num_names, names[], num_torques, tau[]
+  // layout: hash, utime, seq, num_names, names[], num_torques, tau[], num_targets, target_names[], target[]
   wire::Reader r(data, len);
   if (!r.hash(coopdyn::torque_command_t::getHash()) || !r.skip(16)) return Reject::kDecode;
-  int32_t num_names = 0, num_torques = 0;
-  if (!r.count(&num_names) || !r.strings(num_names) || !r.count(&num_torques) || !r.skip(8LL * num_torques))
+  int32_t num_names = 0, num_torques = 0, num_targets = 0;
+  if (!r.count(&num_names) || !r.strings(num_names) || !r.count(&num_torques) || !r.skip(8LL * num_torques) ||
+      !r.count(&num_targets) || !r.strings(num_targets) || !r.skip(8LL * num_targets))
     return Reject::kDecode;
-  if (num_names > 4 * nv + 16 || num_torques > 4 * nv + 16) return Reject::kCount;
+  if (num_names > 4 * nv + 16 || num_torques > 4 * nv + 16 || num_targets > 4 * nv + 16) return Reject::kCount;
   try {
     if (m.msg.decode(data, 0, len) < 0) return Reject::kDecode;
   } catch (...) {  // the generated decoder on hostile input; not reachable after the scan above
@@ -193,6 +204,25 @@ Reject CommandDecoder::decode(const void* data, int len, CommandSlot& out) {
     } else if (std::abs(out.tau[i]) > lim) {
       return Reject::kOverLimit;
     }
+  }
+  // lock targets: the scene's, then the named ones (each a lock with a target_limit, once, finite,
+  // within its limit)
+  const std::vector<ConstraintSpec>& specs = m.sys.constraints.specs;
+  if (out.lock_target.size() != static_cast<Eigen::Index>(specs.size()))  // a slot sized by its owner never is
+    out.lock_target.setZero(static_cast<Eigen::Index>(specs.size()));
+  for (size_t k = 0; k < specs.size(); ++k) out.lock_target[static_cast<Eigen::Index>(k)] = specs[k].q_target;
+  std::fill(m.seen.begin(), m.seen.end(), 0);
+  for (int i = 0; i < m.msg.num_targets; ++i) {
+    auto it = m.v_index.find(m.msg.target_names[static_cast<size_t>(i)]);
+    if (it == m.v_index.end()) return Reject::kUnknownName;
+    const int lock = m.lock_of_dof[static_cast<size_t>(it->second)];
+    if (lock < 0 || specs[static_cast<size_t>(lock)].target_limit <= 0) return Reject::kNotLocked;
+    if (m.seen[static_cast<size_t>(it->second)]) return Reject::kDuplicateName;
+    m.seen[static_cast<size_t>(it->second)] = 1;
+    const double x = m.msg.target[static_cast<size_t>(i)];
+    if (!std::isfinite(x)) return Reject::kNonFinite;
+    if (std::abs(x) > specs[static_cast<size_t>(lock)].target_limit) return Reject::kOverTargetLimit;
+    out.lock_target[lock] = x;
   }
   out.utime = m.msg.utime;
   out.seq = m.msg.seq;

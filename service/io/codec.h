@@ -113,9 +113,11 @@ class StatsEncoder {
 
 // --- for clients and tests (these allocate) ---
 
-// torque_command_t; names empty: tau in the scene's order.
+// torque_command_t; names empty: tau in the scene's order. target_names / targets: lock targets
+// (rad or m) by joint name; targets is padded with 0 or cut to target_names' size.
 std::vector<uint8_t> encode_torque_command(int64_t utime, int64_t seq, const std::vector<std::string>& names,
-                                           const std::vector<double>& tau);
+                                           const std::vector<double>& tau, const std::vector<std::string>& target_names = {},
+                                           const std::vector<double>& targets = {});
 // measured_state_t; empty name lists: scene order.
 std::vector<uint8_t> encode_measured_state(int64_t utime, int64_t seq, const std::vector<std::string>& q_names,
                                            const std::vector<double>& q, const std::vector<std::string>& v_names,

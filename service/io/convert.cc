@@ -128,7 +128,8 @@ bool decode_any_output(const void* data, int len, coopdyn::output_t* m) {
 }  // namespace
 
 std::vector<uint8_t> encode_torque_command(int64_t utime, int64_t seq, const std::vector<std::string>& names,
-                                           const std::vector<double>& tau) {
+                                           const std::vector<double>& tau, const std::vector<std::string>& target_names,
+                                           const std::vector<double>& targets) {
   coopdyn::torque_command_t m;
   m.utime = utime;
   m.seq = seq;
@@ -136,6 +137,10 @@ std::vector<uint8_t> encode_torque_command(int64_t utime, int64_t seq, const std
   m.names = names;
   m.num_torques = static_cast<int32_t>(tau.size());
   m.tau = tau;
+  m.num_targets = static_cast<int32_t>(target_names.size());
+  m.target_names = target_names;
+  m.target = targets;
+  m.target.resize(target_names.size(), 0.0);  // the encoder writes num_targets values
   return encode_msg(m);
 }
 
@@ -325,6 +330,10 @@ bool to_csv(MessageType t, const void* data, int len, std::string* header, std::
       for (int i = 0; i < m.num_torques; ++i) {
         *header += ",tau:" + (i < m.num_names ? m.names[i] : std::to_string(i));
         num(row, m.tau[i]);
+      }
+      for (int i = 0; i < m.num_targets; ++i) {
+        *header += ",target:" + m.target_names[static_cast<size_t>(i)];
+        num(row, m.target[static_cast<size_t>(i)]);
       }
       break;
     }

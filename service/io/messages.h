@@ -27,8 +27,10 @@ enum class Reject {
   kIncomplete,     // a measured state without coordinates the daemon cannot fit (state_fit.h: only the
                    // floating bodies' coordinates, all together, where the constraints fix them, and
                    // pseudo-joints may be omitted)
+  kNotLocked,      // a position target for a coordinate that is not a lock with a target_limit
+  kOverTargetLimit,  // |target| above the lock's target_limit
 };
-constexpr int kRejectKinds = 11;
+constexpr int kRejectKinds = 13;
 const char* reject_name(Reject r);
 const char* reject_key(Reject r);  // the same as one word (loop_stats_t reject_reasons, CSV columns)
 
@@ -39,6 +41,9 @@ struct CommandSlot {
   int64_t recv_ns = 0;  // CLOCK_MONOTONIC at receipt, ns
   int64_t id = 0;       // acceptance number (1, 2, ...), set by the inbox
   Eigen::VectorXd tau;  // (nv) N*m or N
+  // (constraint specs) the target of each lock spec, rad or m: the command's where it names the
+  // lock's joint, else the scene's (ConstraintSpec::q_target); unused entries of other kinds
+  Eigen::VectorXd lock_target;
 };
 
 // A validated measured state, in the scene's coordinate order. Sized once (nq, nv).

@@ -27,7 +27,11 @@ ServiceLoop::ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& b
       watchdog_ns_(cfg.watchdog_ns()),
       dt_(1.0 / cfg.rate_hz),
       stats_every_(std::max<int64_t>(1, std::llround(cfg.stats_period_s * cfg.rate_hz))),
-      commands_(sys, cfg.max_input_age_us(), [&](io::CommandSlot& s) { s.tau = Eigen::VectorXd::Zero(sys.model.nv()); }),
+      commands_(sys, cfg.max_input_age_us(),
+                [&](io::CommandSlot& s) {
+                  s.tau = Eigen::VectorXd::Zero(sys.model.nv());
+                  s.lock_target = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(sys.constraints.specs.size()));
+                }),
       states_(sys, cfg.max_input_age_us(),
               [&](io::StateSlot& s) {
                 s.q = sys.q0;
@@ -60,6 +64,9 @@ ServiceLoop::ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& b
   const Model& m = sys.model;
   for (int i = 0; i < m.nv(); ++i) actuated_[i] = std::isfinite(sys.tau_limit[i]) ? 1 : 0;
   for (int d : m.pseudo_dofs) actuated_[d] = 0;
+  for (size_t k = 0; k < sys.constraints.specs.size(); ++k)
+    if (sys.constraints.specs[k].kind == ConstraintKind::kLock && sys.constraints.specs[k].target_limit > 0)
+      locks_.push_back(static_cast<int>(k));
   zero_ = Eigen::VectorXd::Zero(m.nv());
   if (cfg.safe_torque == SafeTorque::kHold) hold_ = std::make_unique<HoldWorkspace>(sys, default_actuated(sys));
   last_input_ = cfg.mode == ServiceMode::kSimulate ? io::Input::kNoCommand : io::Input::kNoState;
@@ -163,8 +170,14 @@ void ServiceLoop::tick(long long now) {
       events_.push({EventCode::kCommandResumed, c.seq, 0, 0});
     }
     last_input_ = in;
-    if (in == io::Input::kCommand) tau_ = c.tau;
-    else safe_torque(q_, v_);
+    if (in == io::Input::kCommand) {
+      tau_ = c.tau;
+      for (int k : locks_) set_lock_target(stepper_, k, c.lock_target[k]);
+    } else {
+      safe_torque(q_, v_);
+      // no command, or it expired: every lock holds the scene's q again
+      for (int k : locks_) set_lock_target(stepper_, k, sys_.constraints.specs[static_cast<size_t>(k)].q_target);
+    }
     f.input = in;
     f.input_seq = have_cmd_ ? c.seq : -1;
     f.input_utime = have_cmd_ ? c.utime : -1;

@@ -2,10 +2,11 @@
 //
 // Each tick (tick(now)): take the newest input from the receive thread (triple buffer), apply the
 // watchdog, then
-//   simulate: one integrator step of dt = 1/rate under the command (or the safe torque); the
+//   simulate: one integrator step of dt = 1/rate under the command (or the safe torque), its lock
+//             targets (a steer angle; the scene's q without a fresh command) held by the lock rows; the
 //             published wrenches, stresses and accelerations are those of the step's start state,
 //             published together with that state (q, v) and tau, so any output can be reproduced
-//             offline by evaluate(q, v, tau);
+//             offline by evaluate(q, v, tau) with the lock targets of the command it used;
 //   estimate: the measured state completed (state_fit.h: the load's pose and twist fitted when only
 //             the joints were given), its closure residual checked against closure_tolerance,
 //             evaluate() there, no integration;
@@ -110,6 +111,7 @@ class ServiceLoop {
   Eigen::VectorXd q_, v_, tau_;      // (nq), (nv), (nv): simulated state, applied torque
   Eigen::VectorXd q_prev_, v_prev_;  // state at the start of the last step (what is published)
   std::vector<unsigned char> actuated_;  // (nv) finite tau_limit and not a pseudo-joint
+  std::vector<int> locks_;               // lock specs whose target a command may set (target_limit > 0)
   std::unique_ptr<HoldWorkspace> hold_;  // safe torque `hold` only
   io::OutputEncoder out_enc_;
   io::StatsEncoder stats_enc_;

@@ -1,4 +1,5 @@
 // `bodies` + `frames` + `constraints`: a tree of bodies closed by constraints.
+#include <cmath>
 #include <limits>
 
 #include "service/scene/builder.h"
@@ -81,7 +82,7 @@ void build_bodies(Builder& B, const YAML::Node& root, const std::map<std::string
     if (!jn.IsDefined() || jn.IsNull()) {
       j.type = JointType::kFixed;
     } else {
-      check_keys(c, jn, {"type", "axis", "axis2", "name", "pseudo", "q", "v", "armature", "tau_limit", "actuated"},
+      check_keys(c, jn, {"type", "axis", "axis2", "name", "pseudo", "q", "v", "armature", "tau_limit", "actuated", "target_limit"},
                  "joint of '" + name + "'");
       const std::string t = get_string(c, jn, "type", "");
       if (t == "fixed") j.type = JointType::kFixed;
@@ -125,7 +126,17 @@ void build_bodies(Builder& B, const YAML::Node& root, const std::map<std::string
       lim = actuated ? get_double(c, jn, "tau_limit", std::numeric_limits<double>::infinity(), "joint") : 0.0;
       if (!(lim >= 0)) fail(c, jn["tau_limit"], "body '" + name + "': tau_limit must be >= 0 (N*m or N; absent = no limit)");
     }
+    // a pseudo-joint's lock target may be commanded (torque_command_t targets: a steer angle)
+    // within |target| <= target_limit (rad or m); absent: it holds the scene's q
+    double target_lim = 0.0;
+    if (jn.IsDefined() && !jn.IsNull() && jn["target_limit"]) {
+      if (!j.pseudo) fail(c, jn["target_limit"], "body '" + name + "': target_limit applies to a pseudo-joint (its lock's commanded target)");
+      target_lim = get_double(c, jn, "target_limit", 0.0, "joint");
+      if (!(target_lim > 0) || !std::isfinite(target_lim))
+        fail(c, jn["target_limit"], "body '" + name + "': target_limit must be > 0 and finite (rad or m)");
+    }
     const int id = B.add(name, parent, X_PJ, j, I, jq, jv, lim, b);
+    if (target_lim > 0) B.target_limits.emplace_back(model.bodies[id].joint.idx_v, target_lim);
     if (j.type != JointType::kFloating)  // a floating joint transmits nothing
       B.sys.wrenches.outputs.push_back(joint_output(j.name.empty() ? name : j.name, name,
                                                     parent >= 0 ? model.bodies[parent].name : "world", id, false, id,

@@ -22,6 +22,7 @@ struct Builder {
   std::vector<unsigned char> q_given;  // (nq) the scene gave this coordinate's initial value
   std::vector<double> tau_lim;
   std::vector<int> q_floating_idx;
+  std::vector<std::pair<int, double>> target_limits;  // (velocity index, |target| allowed) of pseudo-joints
 
   // adds a body (Model::add_body) with its joint's initial q, v (missing entries 0, marked not given)
   // and torque limit; returns its index

@@ -4,6 +4,7 @@
 #include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
 #include <filesystem>
 #include <limits>
 #include <map>
@@ -141,6 +142,10 @@ System load_scene_string(const std::string& text, const std::string& file, const
         s.name = "lock:" + body.joint.name;
         s.q_index = body.joint.idx_q + (d - body.joint.idx_v);
         s.q_target = sys.q0[s.q_index];
+        for (const auto& tl : B.target_limits)
+          if (tl.first == d) s.target_limit = tl.second;
+        if (s.target_limit > 0 && std::abs(s.q_target) > s.target_limit)
+          throw SceneError(B.c.file + ": pseudo-joint '" + body.joint.name + "': its q is beyond its target_limit");
         sys.constraints.specs.push_back(s);
       }
     }

@@ -294,7 +294,8 @@ Layout layout_of(const std::string& s, bool state) {
     block(1);
     block(2);
   } else {
-    block(1);
+    block(1);  // torques
+    block(1);  // lock targets
   }
   return L;
 }
@@ -497,6 +498,11 @@ int write_corpus(const std::string& dir) {
     f.write(reinterpret_cast<const char*>(b.data()), static_cast<std::streamsize>(b.size()));
     std::printf("wrote %s (%zu bytes)\n", path.c_str(), b.size());
   };
+  {  // the car's drive torques with steer targets (lock targets by name)
+    save(dir + "/command/four_wheel_car.steer.bin",
+         io::encode_torque_command(1718000000000000LL, 3, {"rl_spin", "rr_spin"}, {120.0, 120.0}, {"fl_steer", "fr_steer"},
+                                   {0.0689, 0.0652}));
+  }
   for (const char* name : {"two_puma_load", "four_bar", "unicycle", "two_wheel_vehicle"}) {
     const System sys = load_scene(kSrc + "/config/scenes/" + name + ".yaml");
     const int nv = sys.model.nv();
@@ -543,6 +549,13 @@ std::string check_command(const System& sys, const io::CommandSlot& c) {
     if (std::abs(t) > lim) return "accepted command over tau_limit on " + sys.model.v_names[i];
     if (lim == 0 && t != 0) return "accepted command with force on unactuated " + sys.model.v_names[i];
   }
+  for (size_t k = 0; k < sys.constraints.specs.size(); ++k) {
+    const ConstraintSpec& sp = sys.constraints.specs[k];
+    if (sp.kind != ConstraintKind::kLock) continue;
+    const double x = c.lock_target[static_cast<Eigen::Index>(k)];
+    if (!std::isfinite(x)) return "accepted command with a non-finite target for " + sp.name;
+    if (x != sp.q_target && !(std::abs(x) <= sp.target_limit)) return "accepted command with a target over target_limit for " + sp.name;
+  }
   return "";
 }
 std::string check_state(const io::StateSlot& s) {
@@ -571,6 +584,8 @@ void fuzz_decoder(const char* target, const std::string& kind, bool state, long 
     const System& sys = systems.at(s.scene);
     DecoderRig<Decoder, Slot> r{&sys, std::make_unique<Decoder>(sys), {}, {}};
     r.slot.tau = r.again.tau = Eigen::VectorXd::Zero(sys.model.nv());
+    if constexpr (std::is_same_v<Slot, io::CommandSlot>)
+      r.slot.lock_target = r.again.lock_target = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(sys.constraints.specs.size()));
     if constexpr (std::is_same_v<Slot, io::StateSlot>) {
       r.slot.q = r.again.q = Eigen::VectorXd::Zero(sys.model.nq());
       r.slot.v = r.again.v = Eigen::VectorXd::Zero(sys.model.nv());
@@ -613,6 +628,8 @@ void fuzz_decoder(const char* target, const std::string& kind, bool state, long 
       const io::Reject rj2 = fresh.decode(g_input.data(), static_cast<int>(g_input.size()), r.again);
       if (rj2 != rj) return std::string("a fresh decoder answers ") + io::reject_name(rj2) + ", the reused one " + io::reject_name(rj);
       if (rj == io::Reject::kNone && r.again.tau != r.slot.tau) return "a fresh decoder decodes other torques";
+      if constexpr (std::is_same_v<Slot, io::CommandSlot>)
+        if (rj == io::Reject::kNone && r.again.lock_target != r.slot.lock_target) return "a fresh decoder decodes other targets";
     }
     return "";
   });
