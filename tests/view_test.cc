@@ -570,11 +570,12 @@ TEST(ViewBrowser, Plays) {
   const PageState p = page_state(b.dom);
   ASSERT_EQ(p.title, "coopdyn view: four_bar");
   EXPECT_NE(p.probe.find("\"playing\":true"), std::string::npos) << p.probe;
-  // It played for most of the 3 s of virtual time, and the run advanced at a quarter of the page's
-  // animation clock (Chromium's virtual-time budget does not bound that clock exactly: a loaded
-  // machine once gave 3.2 s of it). The frame shown is the last one at or before the run time.
+  // It played, and the run advanced at a quarter of the page's animation clock. How much of the
+  // 3 s of virtual time the animation clock gets is Chromium's, not the page's: 3.2 s on one loaded
+  // machine, 0.38 s on another (load average 12), so only "played at all" is asked of it: 100 ms, a
+  // run time of 25 ms, five frames. The frame shown is the last one at or before the run time.
   const double played_ms = num_after(p.probe, "\"played_ms\":"), played_sim = num_after(p.probe, "\"played_sim\":");
-  EXPECT_GT(played_ms, 1000) << p.probe;
+  EXPECT_GT(played_ms, 100) << p.probe;
   EXPECT_NEAR(played_sim, 0.25 * played_ms / 1000, 1e-9) << p.probe;
   EXPECT_LE(p.t, played_sim + 1e-12) << p.probe;
   EXPECT_GT(p.t, played_sim - 0.005 - 1e-12) << p.probe;
