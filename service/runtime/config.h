@@ -46,8 +46,9 @@ struct RealtimeOptions {
   int cpu = -1;             // pin the loop thread to this CPU; -1: no affinity. The receive thread
                             // and the receive process are then kept off this CPU
   bool mlockall = false;    // lock current and future pages (no page faults in the loop)
-  // Fixed-rate loop: sleep until spin_us before each deadline, then poll the clock to it (a busy
-  // wait: the loop's CPU is ~spin_us * rate_hz / 1e6 busier, 5 % for 50 us at 1 kHz); 0: off.
+  // Fixed-rate loop: wake spin_us before each deadline, evaluate the held state once (warming the
+  // caches and TLB after the sleep; the result is discarded) and poll the clock to the deadline (a
+  // busy wait: the loop's CPU is ~spin_us * rate_hz / 1e6 busier, 5 % for 50 us at 1 kHz); 0: off.
   // [0, 1000] us and below the period.
   int spin_us = 0;
   // Hold /dev/cpu_dma_latency at 0 while running (the PM QoS request cyclictest makes: no deep

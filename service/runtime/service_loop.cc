@@ -358,6 +358,15 @@ void ServiceLoop::record_timing(long long lateness_ns, long long compute_ns) {
   comp_all_.record(compute_ns);
 }
 
+void ServiceLoop::warm_up() {
+  // the tick's own workspace and state: the tick recomputes everything it publishes
+  if (cfg_.mode == ServiceMode::kSimulate) {
+    if (!faulted_.load(std::memory_order_relaxed)) evaluate(sys_, stepper_.ws, q_, v_, tau_);
+  } else {
+    evaluate(sys_, ws_, q_est_, v_est_, zero_);
+  }
+}
+
 void ServiceLoop::run_on_arrival(const std::atomic<bool>& stop, long long max_ticks) {
   const long long stats_ns = period_ns_ * stats_every_;
   long long now = io::monotonic_ns();
@@ -450,9 +459,11 @@ void ServiceLoop::run(const std::atomic<bool>& stop, long long max_ticks) {
       if (until == target && rc == 0) break;
     }
     if (stopped) break;
-    if (spin_ns > 0)
+    if (spin_ns > 0) {
+      warm_up();
       while (io::monotonic_ns() < next) {
       }
+    }
     const long long wake = io::monotonic_ns();
     tick(wake);
     const long long end = io::monotonic_ns();

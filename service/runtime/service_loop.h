@@ -15,7 +15,9 @@
 // loop_stats_t. tick() does not sleep, allocate, lock, log or throw; tests call it directly.
 // run() calls tick() at absolute deadlines (clock_nanosleep TIMER_ABSTIME on CLOCK_MONOTONIC),
 // records wake-up lateness and compute time, and applies the overrun policy; with
-// realtime.spin_us it sleeps to spin_us before each deadline and polls the clock from there.
+// realtime.spin_us it wakes spin_us before each deadline, evaluates the state it holds once (its
+// result is discarded: it brings the working set back into the caches and TLB after the sleep) and
+// polls the clock to the deadline.
 // Event-driven estimate mode (config trigger: arrival): run() sleeps on a doorbell the receive
 // thread rings after each accepted measured state and calls tick() as soon as it wakes, one output
 // per state taken; while no fresh state is held it ticks at rate_hz (the error status, as the
@@ -99,6 +101,7 @@ class ServiceLoop {
   void publish_stats();
   void fill_counters(io::StatsFrame& s) const;
   void run_on_arrival(const std::atomic<bool>& stop, long long max_ticks);
+  void warm_up();  // spin_us: one evaluation of the held state before the deadline (caches, TLB)
 
   const System& sys_;
   const ServiceConfig& cfg_;
