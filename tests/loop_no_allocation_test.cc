@@ -106,6 +106,17 @@ TEST(LoopNoAllocation, RunWithDeadlineSleeps) {
   EXPECT_EQ(allocations, 0);
   EXPECT_EQ(loop.ticks(), 300);
   EXPECT_EQ(loop.totals().window_ticks, 300);
+  // realtime.spin_us: the warm-up evaluation and the busy wait before each deadline, both modes
+  for (auto mode : {runtime::ServiceMode::kSimulate, runtime::ServiceMode::kEstimate}) {
+    runtime::ServiceConfig spin = cfg;
+    spin.mode = mode;
+    spin.realtime.spin_us = 100;
+    runtime::ServiceLoop spinning(sys, spin, bus);
+    AllocationCounter c;
+    spinning.run(stop, 100);
+    EXPECT_EQ(c.count(), 0);
+    EXPECT_EQ(spinning.ticks(), 100);
+  }
 }
 
 // The event-driven estimate path (trigger: arrival): run() waiting on the doorbell, a tick per
