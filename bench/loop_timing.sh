@@ -1,60 +1,97 @@
 #!/usr/bin/env bash
-# Loop timing of coopdynd, measured in place, next to cyclictest on the same machine.
+# Loop timing of coopdynd in place, next to cyclictest and the warm kernel, in one script and one
+# run: one Markdown table (bench/README.md, "Loop timing").
 #
-#   bench/loop_timing.sh [SECONDS=60] [BUILD_DIR=build] [SCENE=config/scenes/two_puma_load.yaml]
-#   RT=1 bench/loop_timing.sh ...   # both with SCHED_FIFO 80 (+ mlockall for the daemon); needs root
+#   bench/loop_timing.sh [SECONDS=20] [BUILD_DIR=build] [SCENE=config/scenes/two_puma_load.yaml]
+#   NETNS=NAME bench/loop_timing.sh ...   # run the udpm parts inside `ip netns exec NAME` (a private
+#                                         # namespace with lo up and a multicast route on it)
 #
-# 1. coopdynd at 1 kHz for SECONDS on a private udpm URL (ttl=0), while `coopdyn send` publishes a
-#    torque command at 100 Hz and measures the end-to-end latency (command publish -> first output
-#    whose input_seq is that command, received back by the sender). The daemon's summary line gives
-#    wake-up lateness and compute-time percentiles over every tick of the run.
-# 2. cyclictest (rt-tests) for SECONDS at the same 1000 us interval, one thread, the same policy;
-#    its histogram gives the same percentiles of wake-up latency.
+# Rows (each SECONDS long, at 1 kHz, over udpm on loopback, ttl=0):
+#   daemon rows: coopdynd on a private URL while `coopdyn send --measure-latency` publishes at
+#     100 Hz (torque commands in simulate mode, the states of a short `coopdyn sim` in estimate
+#     mode) and times each one from its publish to the first output carrying its seq. The
+#     daemon's summary gives wake-up lateness (wake-up minus the deadline; in the event-driven
+#     row, wake-up minus the state's receipt in the receive process) and compute (wake-up to the
+#     end of the tick: handoff, dynamics, wrenches, encoding, lcm_publish) over every tick.
+#   cyclictest rows: cyclictest -t 1 -i 1000 with the same policy (it holds /dev/cpu_dma_latency
+#     at 0 itself), percentiles from its histogram.
+#   warm: build/bin/loop_bench's ServiceLoop::tick() of the same scene (Google Benchmark, back to
+#     back, warm caches): the in-place compute p50 is given as a multiple of it.
+# Daemon variants: "rt" = SCHED_FIFO 80 + mlockall (needs root; refusals are logged); "+ tricks" =
+#   rt + /dev/cpu_dma_latency held at 0 + the loop pinned to CPU 1 with the receive thread and
+#   process on the others + inputs on their own port (lcm_url_in: the receive process never sees
+#   the daemon's own outputs); "+ spin 50" = that + realtime.spin_us 50.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-DUR=${1:-60}
-BUILD=${2:-build}
+DUR=${1:-20}
+BUILD=$(cd "${2:-build}" && pwd)
 SCENE=${3:-config/scenes/two_puma_load.yaml}
-RT=${RT:-0}
-URL="udpm://239.255.76.67:$((20000 + $$ % 20000))?ttl=0"
+NS=()
+[ -n "${NETNS:-}" ] && NS=(ip netns exec "$NETNS")
 TMP=$(mktemp -d)
 trap 'rm -rf "$TMP"' EXIT
+PORT=$((20000 + $$ % 20000))
+URL="udpm://239.255.76.67:$PORT?ttl=0"
+URL_IN="udpm://239.255.76.67:$((PORT + 1))?ttl=0"
 
 command -v cyclictest >/dev/null || { echo "cyclictest missing: apt-get install rt-tests" >&2; exit 1; }
-[ -x "$BUILD/bin/coopdynd" ] || { echo "build first: cmake --build $BUILD" >&2; exit 1; }
-if ! ip route show 224.0.0.0/4 2>/dev/null | grep -q .; then
-  echo "no multicast route: run 'ip route add 224.0.0.0/4 dev lo' as root" >&2; exit 1
+for b in coopdynd coopdyn loop_bench; do
+  [ -x "$BUILD/bin/$b" ] || { echo "build first: cmake --build $BUILD (missing bin/$b)" >&2; exit 1; }
+done
+if ! "${NS[@]}" ip route show 224.0.0.0/4 2>/dev/null | grep -q .; then
+  echo "no multicast route: 'ip route add 224.0.0.0/4 dev lo' as root, or NETNS=a namespace that has one" >&2; exit 1
 fi
-
-{
-  echo "rate_hz: 1000"
-  echo "stats_period_s: 1.0"
-  if [ "$RT" = 1 ]; then echo "realtime: {sched_fifo: true, priority: 80, mlockall: true}"; fi
-} > "$TMP/cfg.yaml"
-CT_POLICY=(); [ "$RT" = 1 ] && CT_POLICY=(-p 80 -m)
 
 echo "== machine: $(nproc) CPUs, $(uname -r), $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //')"
 echo "== load before: $(cut -d' ' -f1-3 /proc/loadavg)"
-echo "== coopdynd ${DUR} s at 1 kHz, scene $SCENE, RT=$RT"
-"$BUILD/bin/coopdynd" --scene "$SCENE" --config "$TMP/cfg.yaml" --lcm-url "$URL" --duration "$DUR" \
-  > "$TMP/daemon.out" 2> "$TMP/daemon.err" &
-DPID=$!
-sleep 1
+"$BUILD/bin/coopdyn" sim --scene "$SCENE" --duration 2 --dt 0.001 --out "$TMP/states.csv" 2>/dev/null
 joint=$("$BUILD/bin/coopdyn" eval --scene "$SCENE" | python3 -c 'import json,sys; print(json.load(sys.stdin)["coordinates"]["v"][-1])')
-"$BUILD/bin/coopdyn" send --scene "$SCENE" --lcm-url "$URL" --rate 100 --duration "$((DUR - 3))" \
-  --torque "$joint:constant:0.1" --measure-latency > "$TMP/send.out"
-wait $DPID
-grep -E "refused|SCHED_FIFO|mlockall|pinned" "$TMP/daemon.err" || true
-cat "$TMP/daemon.out"
-grep "latency" "$TMP/send.out"
 
-echo "== cyclictest ${DUR} s, interval 1000 us, 1 thread ${CT_POLICY[*]:-(SCHED_OTHER)}"
-cyclictest -q -t 1 -i 1000 -D "${DUR}s" -h 20000 --histfile="$TMP/ct.hist" "${CT_POLICY[@]}" > "$TMP/ct.out" 2>&1 || true
-python3 - "$TMP/ct.hist" <<'PY'
+# daemon ROW_NAME MODE EXTRA_YAML [trigger]
+daemon() {
+  local name=$1 mode=$2 extra=$3 trigger=${4:-tick} url_in=$URL
+  {
+    echo "rate_hz: 1000"
+    echo "mode: $mode"
+    [ "$mode" = estimate ] && echo "trigger: $trigger"
+    printf '%b\n' "$extra"
+  } > "$TMP/cfg.yaml"
+  grep -q "lcm_url_in" "$TMP/cfg.yaml" && url_in=$URL_IN
+  "${NS[@]}" "$BUILD/bin/coopdynd" --scene "$SCENE" --config "$TMP/cfg.yaml" --lcm-url "$URL" --duration "$DUR" \
+    > "$TMP/d.out" 2> "$TMP/d.err" &
+  local pid=$!
+  sleep 1
+  if [ "$mode" = simulate ]; then
+    "${NS[@]}" "$BUILD/bin/coopdyn" send --scene "$SCENE" --lcm-url "$url_in" --output-url "$URL" --rate 100 \
+      --duration "$((DUR - 3))" --torque "$joint:constant:0.1" --measure-latency > "$TMP/s.out" 2>&1 || true
+  else
+    "${NS[@]}" "$BUILD/bin/coopdyn" send --scene "$SCENE" --lcm-url "$url_in" --output-url "$URL" --rate 100 \
+      --duration "$((DUR - 3))" --states "$TMP/states.csv" --measure-latency > "$TMP/s.out" 2>&1 || true
+  fi
+  wait $pid
+  grep -E "refused|not held" "$TMP/d.err" | sed 's/^/   /' >&2 || true
+  python3 - "$name" "$TMP/d.out" "$TMP/s.out" >> "$TMP/rows" <<'PY'
+import re, sys
+name, d, s = sys.argv[1], open(sys.argv[2]).read(), open(sys.argv[3]).read()
+m = re.search(r"after (\d+) ticks.*?overruns (\d+).*lateness us p50 ([\d.]+) p99 ([\d.]+) p99.9 ([\d.]+) max ([\d.]+); "
+              r"compute us p50 ([\d.]+) p99 ([\d.]+) p99.9 ([\d.]+) max ([\d.]+)", d)
+l = re.search(r"over (\d+) commands: min ([\d.]+) us, p50 ([\d.]+) us, p99 ([\d.]+) us", s)
+if not m:
+    print(f"{name}|daemon summary missing|" + d.strip().replace("|", "/")[:200]); sys.exit()
+t, ov, lp50, lp99, lp999, lmax, cp50, cp99, cp999, cmax = m.groups()
+lat = f"{l.group(2)}|{l.group(3)}|{l.group(4)}|{l.group(1)}" if l else "|||0"
+print(f"{name}|{lp50}|{lp99}|{lp999}|{lmax}|{cp50}|{cp99}|{cp999}|{t}/{ov}|{lat}")
+PY
+}
+
+# cyclictest ROW_NAME [policy args]
+cyclic() {
+  local name=$1; shift
+  cyclictest -q -t 1 -i 1000 -D "${DUR}s" -h 20000 --histfile="$TMP/ct.hist" "$@" > "$TMP/ct.out" 2>&1 || true
+  python3 - "$name" "$TMP/ct.hist" >> "$TMP/rows" <<'PY'
 import sys
-counts = []
-over = 0
-for line in open(sys.argv[1]):
+counts, over, mx = [], 0, float("nan")
+for line in open(sys.argv[2]):
     if line.startswith("#"):
         if "Histogram Overflows" in line: over = int(line.split(":")[1].split()[0])
         if "Max Latencies" in line: mx = int(line.split(":")[1].split()[0])
@@ -67,7 +104,52 @@ def pct(q):
     for us, c in counts:
         s += c
         if s >= r: return us
-    return float("nan")
-print(f"cyclictest: {n} wake-ups: latency us p50 {pct(.5)} p99 {pct(.99)} p99.9 {pct(.999)} max {mx}")
+    return ">20000"  # beyond the histogram (20 ms)
+print(f"{sys.argv[1]}|{pct(.5)}|{pct(.99)}|{pct(.999)}|{mx}|||||||||")
 PY
+}
+
+RT="realtime: {sched_fifo: true, priority: 80, mlockall: true"
+TRICKS="$RT, cpu: 1, cpu_dma_latency_zero: true}\nlcm_url_in: \"$URL_IN\""
+: > "$TMP/rows"
+daemon "coopdynd simulate, SCHED_OTHER" simulate ""
+cyclic "cyclictest, SCHED_OTHER"
+daemon "coopdynd simulate, rt" simulate "$RT}"
+cyclic "cyclictest, SCHED_FIFO 80 -m" -p 80 -m
+daemon "coopdynd simulate, rt + tricks" simulate "$TRICKS"
+daemon "coopdynd simulate, rt + tricks + spin 50" simulate "$(printf '%s' "$TRICKS" | sed 's/cpu_dma_latency_zero: true}/cpu_dma_latency_zero: true, spin_us: 50}/')"
+daemon "coopdynd estimate at the tick, rt + tricks" estimate "$TRICKS" tick
+daemon "coopdynd estimate on arrival, rt + tricks" estimate "$TRICKS" arrival
+
+taskset -c 1 "$BUILD/bin/loop_bench" --benchmark_filter='BM_Tick/0/' --benchmark_min_time=0.5 \
+  --benchmark_format=csv 2>/dev/null > "$TMP/warm.csv" || true
 echo "== load after: $(cut -d' ' -f1-3 /proc/loadavg)"
+python3 - "$TMP/rows" "$TMP/warm.csv" <<'PY'
+import csv, sys
+warm, size = {}, {}
+head = None
+for r in csv.reader(open(sys.argv[2])):
+    if r and r[0] == "name": head = r
+    if head and r and r[0].startswith("BM_Tick/0/"):
+        k = "simulate" if r[0].endswith("/0") else "estimate"
+        warm[k] = float(r[head.index("cpu_time")])  # us
+        if "bytes/tick" in head and r[head.index("bytes/tick")]: size[k] = float(r[head.index("bytes/tick")])
+print("| 1 kHz, two_puma_load | lateness p50 | p99 | p99.9 | max | compute p50 | p99 | p99.9 | compute p50 / warm tick "
+      "| ticks / overruns | latency min | p50 | p99 | messages |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+for line in open(sys.argv[1]):
+    f = line.rstrip("\n").split("|")
+    f += [""] * (13 - len(f))
+    name = f[0]
+    ratio = ""
+    if f[5] and name.startswith("coopdynd"):
+        w = warm.get("simulate" if "simulate" in name else "estimate")
+        if w: ratio = f"{float(f[5]) / w:.2f}x"
+    us = lambda x: f"{x} µs" if x not in ("", "nan") else x
+    print(f"| {name} | {us(f[1])} | {us(f[2])} | {us(f[3])} | {us(f[4])} | {us(f[5])} | {us(f[6])} | {us(f[7])} | {ratio} "
+          f"| {f[8]} | {us(f[9])} | {us(f[10])} | {us(f[11])} | {f[12]} |")
+print()
+print("warm ServiceLoop::tick() (loop_bench, taskset -c 1): " +
+      ", ".join(f"{k} {v:.2f} µs" for k, v in sorted(warm.items())) +
+      "; output_t " + ", ".join(f"{k} {v:.0f} bytes" for k, v in sorted(size.items())))
+PY

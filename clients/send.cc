@@ -118,6 +118,8 @@ void register_send(Cli& cli) {
   c.value("--lcm-url", "URL", "LCM URL", kDefaultLcmUrl);
   c.value("--channel", "C", "channel to publish on (default: COOPDYN_COMMAND; with --states COOPDYN_STATE)");
   c.value("--output-channel", "C", "the daemon's output channel (read back, latency)", "COOPDYN_OUTPUT");
+  c.value("--output-url", "URL", "LCM URL of the daemon's outputs and stats, when its inputs come on another (its lcm_url_in; "
+          "default: --lcm-url)");
   c.value("--stats-channel", "C", "the daemon's loop_stats_t channel (read back)", "COOPDYN_STATS");
   c.flag("--measure-latency", "report the time from each command's publish to the first output that used it");
   c.flag("--no-check", "do not read back what the daemon did");
@@ -208,9 +210,10 @@ int cmd_send(const Args& a) {
   const bool measure = a.has("measure-latency");
   const bool quiet = a.has("quiet");
 
-  std::unique_ptr<io::LcmBus> bus;
+  std::unique_ptr<io::LcmBus> bus, out_bus;
   try {
     bus = std::make_unique<io::LcmBus>(url);
+    if (a.has("output-url") && a.get("output-url") != url) out_bus = std::make_unique<io::LcmBus>(a.get("output-url"));
   } catch (const std::exception& e) {
     std::fprintf(stderr, "coopdyn send: %s\n", e.what());
     return 1;
@@ -227,8 +230,9 @@ int cmd_send(const Args& a) {
   long long outputs = 0;
   io::StatsFrame stats_first, stats_last;
   long long stats_n = 0;
+  io::LcmBus& rx_bus = out_bus ? *out_bus : *bus;  // where the outputs are read back
   if (measure || check) {
-    bus->subscribe(out_channel, [&](const void* d, int n, long long recv_ns) {
+    rx_bus.subscribe(out_channel, [&](const void* d, int n, long long recv_ns) {
       io::DecodedOutput o;
       if (!io::decode_output(d, n, &o)) return;
       std::lock_guard<std::mutex> lk(mu);
@@ -243,14 +247,14 @@ int cmd_send(const Args& a) {
         sent_ns.erase(it);
       }
     });
-    bus->subscribe(a.get("stats-channel", "COOPDYN_STATS"), [&](const void* d, int n, long long) {
+    rx_bus.subscribe(a.get("stats-channel", "COOPDYN_STATS"), [&](const void* d, int n, long long) {
       io::StatsFrame st;
       if (!io::decode_stats(d, n, &st)) return;
       std::lock_guard<std::mutex> lk(mu);
       if (stats_n++ == 0) stats_first = st;
       stats_last = st;
     });
-    bus->start();
+    rx_bus.start();
   }
   std::signal(SIGINT, on_sigint);
   std::signal(SIGTERM, on_sigint);
@@ -315,7 +319,7 @@ int cmd_send(const Args& a) {
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
   }
-  bus->stop();
+  rx_bus.stop();
   if (!quiet)
     std::printf("coopdyn send: %lld %s on %s at %g Hz (seq %lld..%lld)\n", sent, replay ? "measured states" : "commands",
                 channel.c_str(), rate, seq0, seq0 + sent - 1);

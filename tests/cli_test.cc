@@ -121,7 +121,7 @@ TEST(Cli, EverySubcommandHasHelpOnStdoutWithItsOptionsAndDefaults) {
       {"sim", {"--scene", "--duration", "--dt", "--integrator NAME=rk4", "--torque", "--out", "--every N=1", "--progress",
                "JOINT:pulse:VALUE:T0:T1"}},
       {"send", {"--torque", "--states", "--joints-only", "--rate HZ=100", "--lcm-url URL=udpm://239.255.76.67:7667?ttl=0",
-                "--measure-latency", "--no-check"}},
+                "--measure-latency", "--no-check", "--output-url"}},
       {"log", {"--in", "--out", "--scene", "--no-plot", "--progress", "--python PATH=/usr/bin/python3"}},
       {"control", {"--action", "reset_to_state", "--state", "--no-wait", "--channel C=COOPDYN_CONTROL"}},
       {"track", {"--duration S=6", "--radius M=0.05", "--period S=4", "--squeeze N=20", "--out"}},
@@ -144,7 +144,7 @@ TEST(Cli, EverySubcommandHasHelpOnStdoutWithItsOptionsAndDefaults) {
   const Result d = run({COOPDYND_PATH, "--help"}, "help_d");
   EXPECT_EQ(d.rc, 0);
   EXPECT_EQ(d.err, "");
-  for (const char* o : {"--scene", "--config", "--lcm-url", "--mode", "--rate", "--duration", "--version"})
+  for (const char* o : {"--scene", "--config", "--lcm-url", "--mode", "--trigger WHEN=tick", "--rate", "--duration", "--version"})
     EXPECT_TRUE(has(d.out, o)) << d.out;
 }
 

@@ -38,6 +38,10 @@ TEST(DaemonConfig, ShippedConfigEqualsBuiltInDefaults) {
   EXPECT_FALSE(f.realtime.sched_fifo);
   EXPECT_FALSE(f.realtime.mlockall);
   EXPECT_EQ(f.realtime.cpu, -1);
+  EXPECT_EQ(f.realtime.spin_us, d.realtime.spin_us);
+  EXPECT_EQ(f.realtime.cpu_dma_latency_zero, d.realtime.cpu_dma_latency_zero);
+  EXPECT_EQ(f.trigger, Trigger::kTick);
+  EXPECT_EQ(f.trigger, d.trigger);
   EXPECT_EQ(f.period_ns(), 1000000);
   EXPECT_EQ(f.watchdog_ns(), 100000000);
 }
@@ -54,6 +58,12 @@ TEST(DaemonConfig, EveryBadValueNamesFileLineAndReason) {
       {"realtime: {sched_fifo: maybe}\n", "'sched_fifo' must be true or false"},
       {"rate: 1000\n", "t.yaml:1:1: unknown key 'rate' in the service config"},
       {"rate_hz: [1\n", "t.yaml:"},
+      {"trigger: arrival\n",
+       "t.yaml:1:10: trigger: arrival computes on arrival of a measured state and applies to mode estimate only"},
+      {"mode: estimate\ntrigger: always\n", "t.yaml:2:10: trigger must be tick or arrival"},
+      {"realtime: {spin_us: 1000}\n", "t.yaml:1:21: realtime.spin_us must be in [0, 1000] us and below the period (1000 us"},
+      {"rate_hz: 5000\nrealtime: {spin_us: 300}\n", "realtime.spin_us must be in [0, 1000] us and below the period (200 us"},
+      {"realtime: {cpu_dma_latency_zero: 0.5}\n", "'cpu_dma_latency_zero' must be true or false"},
   };
   for (const auto& [text, expect] : cases) {
     SCOPED_TRACE(text);
@@ -65,8 +75,13 @@ TEST(DaemonConfig, EveryBadValueNamesFileLineAndReason) {
     }
   }
   EXPECT_THROW(load_config("/no/such/coopdynd.yaml"), ConfigError);
-  const ServiceConfig c = load_config_string("mode: estimate\noverrun: {policy: skip}\n", "t.yaml");
+  const ServiceConfig c = load_config_string(
+      "mode: estimate\ntrigger: arrival\noverrun: {policy: skip}\nrealtime: {spin_us: 50, cpu_dma_latency_zero: true}\n",
+      "t.yaml");
   EXPECT_EQ(c.mode, ServiceMode::kEstimate);
+  EXPECT_EQ(c.trigger, Trigger::kArrival);
+  EXPECT_EQ(c.realtime.spin_us, 50);
+  EXPECT_TRUE(c.realtime.cpu_dma_latency_zero);
   EXPECT_EQ(c.overrun, OverrunPolicy::kSkip);
 }
 

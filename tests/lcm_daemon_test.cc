@@ -250,6 +250,79 @@ TEST_F(DaemonProcess, UdpmEstimateMeasuredStateInWrenchesOut) {
   if (outs.back().input == static_cast<int>(io::Input::kState)) expect_matches_coopdyn_eval(outs.back(), "est");
 }
 
+// Event-driven estimate mode (trigger: arrival) over udpm: every accepted measured state gets
+// exactly one output carrying its seq, equal to the offline evaluation; a state that does not close
+// gets one error output (REASON_CLOSURE); NaN, stale and out-of-order states are rejected as on the
+// fixed-rate path and get none; without a state (before the first, after the last expired) the
+// error status goes out at rate_hz.
+TEST_F(DaemonProcess, UdpmEstimateOnArrivalOneOutputPerStateEqualOffline) {
+  OutputSink sink;
+  sink.attach(*bus_);
+  bus_->start();
+  auto d = start_daemon({"--mode", "estimate", "--trigger", "arrival", "--rate", "200"});
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  EXPECT_NE(slurp(d->err).find("event-driven"), std::string::npos) << slurp(d->err);
+  Eigen::VectorXd v = sys_.v0;
+  for (int i = 0; i < v.size(); ++i) v[i] = 0.05 * std::sin(i + 1.0);
+  v = closing_velocity(sys_, sys_.q0, v);
+  const Eigen::VectorXd tau = some_torque(sys_, 4);
+  Eigen::VectorXd q_open = sys_.q0;
+  q_open[0] += 0.3;  // an arm joint 0.3 rad off: the arms disagree about the load
+  auto send = [&](int64_t seq, int64_t utime, const Eigen::VectorXd& q, const Eigen::VectorXd& vv) {
+    const auto b = io::encode_measured_state(utime, seq, sys_.model.q_names, stdvec(q), sys_.model.v_names, stdvec(vv), stdvec(tau));
+    bus_->publish("COOPDYN_STATE", b.data(), static_cast<int>(b.size()));
+  };
+  // lock-step, as a driver that waits for its wrenches: each state after the previous one's output
+  auto send_and_wait = [&](int64_t seq, const Eigen::VectorXd& q, const Eigen::VectorXd& vv) {
+    send(seq, io::wall_us(), q, vv);
+    ASSERT_TRUE(sink.wait_for([seq](const io::DecodedOutput& o) { return o.input_seq == seq; }, 5s)) << seq;
+  };
+  for (int seq = 1; seq <= 30; ++seq) send_and_wait(seq, seq == 15 ? q_open : sys_.q0, v * seq);
+  Eigen::VectorXd v_nan = v;
+  v_nan[3] = std::numeric_limits<double>::quiet_NaN();
+  send(31, io::wall_us(), sys_.q0, v_nan);               // NaN: rejected
+  send(32, io::wall_us() - 10'000'000, sys_.q0, v);      // stamped 10 s ago: rejected
+  send(5, io::wall_us(), sys_.q0, v);                    // out of order: dropped
+  std::this_thread::sleep_for(20ms);
+  for (int seq = 33; seq <= 40; ++seq) send_and_wait(seq, sys_.q0, v * seq);
+  // the watchdog (100 ms) expires the last state: the error status follows at the rate
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.input == static_cast<int>(io::Input::kStateExpired); }, 5s));
+  std::this_thread::sleep_for(100ms);
+  d->signal(SIGTERM);
+  EXPECT_EQ(d->wait(), 0) << slurp(d->err);
+  bus_->stop();
+  const std::string summary = slurp(d->out);
+  EXPECT_NE(summary.find("states received 41, accepted 38, rejected 2, out-of-order 1"), std::string::npos) << summary;
+  std::map<long long, int> per_seq;
+  int expired = 0, none = 0;
+  for (const auto& o : sink.snapshot()) {
+    if (o.input == static_cast<int>(io::Input::kStateExpired)) {
+      ++expired;
+      EXPECT_EQ(o.status, static_cast<int>(Status::kError));
+      continue;
+    }
+    if (o.input != static_cast<int>(io::Input::kState)) {
+      ++none;
+      EXPECT_EQ(o.status, static_cast<int>(Status::kError));
+      continue;
+    }
+    ++per_seq[o.input_seq];
+    if (o.input_seq == 15) {
+      EXPECT_EQ(o.status, static_cast<int>(Status::kError));
+      EXPECT_EQ(o.reason, io::kReasonClosure);
+      continue;
+    }
+    for (int i = 0; i < v.size(); ++i) ASSERT_EQ(o.v[i], v[i] * o.input_seq);
+    expect_matches_offline(sys_, o);
+  }
+  for (int seq = 1; seq <= 40; ++seq) {
+    if (seq == 31 || seq == 32) EXPECT_EQ(per_seq.count(seq), 0u) << "a rejected state was evaluated: seq " << seq;
+    else EXPECT_EQ(per_seq[seq], 1) << "outputs carrying seq " << seq;
+  }
+  EXPECT_GE(none, 1);     // before the first state, at 200 Hz
+  EXPECT_GE(expired, 5);  // >= 100 ms after the expiry at 200 Hz, less the scheduling slack
+}
+
 // Issue 10, item 2: at the lowest rate (1 Hz) SIGTERM right after a tick, and --duration, end the
 // daemon at once; before, the loop slept to its next deadline (1 s here, 1000 s at 0.001 Hz).
 TEST_F(DaemonProcess, LowestRateStopsAtOnceOnSigtermAndDuration) {

@@ -10,6 +10,10 @@
 
 #include <unistd.h>
 
+#include <atomic>
+#include <chrono>
+#include <thread>
+
 #include "service/io/lcm_bus.h"
 #include "service/runtime/service_loop.h"
 #include "tests/daemon_test_util.h"
@@ -111,6 +115,69 @@ TEST(LoopNoAllocation, RunWithDeadlineSleeps) {
   EXPECT_EQ(allocations, 0);
   EXPECT_EQ(loop.ticks(), 300);
   EXPECT_EQ(loop.totals().window_ticks, 300);
+  // realtime.spin_us: the warm-up evaluation and the busy wait before each deadline, both modes
+  for (auto mode : {runtime::ServiceMode::kSimulate, runtime::ServiceMode::kEstimate}) {
+    runtime::ServiceConfig spin = cfg;
+    spin.mode = mode;
+    spin.realtime.spin_us = 100;
+    runtime::ServiceLoop spinning(sys, spin, bus);
+    AllocationCounter c;
+    spinning.run(stop, 100);
+    EXPECT_EQ(c.count(), 0);
+    EXPECT_EQ(spinning.ticks(), 100);
+  }
+}
+
+// The event-driven estimate path (trigger: arrival): run() waiting on the doorbell, a tick per
+// state rung in (full states and states that do not close, in turn), the heartbeat ticks while the
+// state has expired, and the stats by wall time, under the counting heap on the loop's thread. The
+// states are offered and rung from another thread, as the receive thread does.
+TEST(LoopNoAllocation, RunOnArrivalOfStates) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  const System sys = load_scene(scene_path("two_puma_load"));
+  runtime::ServiceConfig cfg;
+  cfg.mode = runtime::ServiceMode::kEstimate;
+  cfg.trigger = runtime::Trigger::kArrival;
+  cfg.stats_period_s = 0.05;
+  cfg.watchdog_ms = 20;
+  FakeBus bus;
+  runtime::ServiceLoop loop(sys, cfg, bus);
+  const Eigen::VectorXd tau = some_torque(sys, 1, 0.5);
+  Eigen::VectorXd q_far = sys.q0;
+  q_far[0] += 0.3;
+  std::atomic<bool> stop{false};
+  std::atomic<long> allocations{-1};
+  std::thread loop_thread([&] {
+    AllocationCounter c;
+    loop.run(stop);
+    allocations = c.count();
+  });
+  int sent = 0;
+  for (int k = 0; k < 400; ++k) {
+    if (k < 150 || k >= 300) {  // 150 states, 150 ms of silence (expiry, heartbeats), 100 states
+      const auto b = io::encode_measured_state(runtime::realtime_us(), k + 1, {}, stdvec(k % 5 == 4 ? q_far : sys.q0), {},
+                                               stdvec(sys.v0), stdvec(tau));
+      if (loop.states().offer(b.data(), static_cast<int>(b.size()), io::monotonic_ns()) == runtime::Offer::kAccepted) {
+        loop.doorbell().ring();
+        ++sent;
+      }
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(60));
+  stop = true;
+  loop_thread.join();
+  EXPECT_EQ(allocations.load(), 0);
+  EXPECT_EQ(sent, 250);
+  EXPECT_GE(loop.expirations(), 1);
+  EXPECT_GT(loop.closure_rejections(), 0);
+  EXPECT_GE(bus.count("COOPDYN_STATS"), 4);
+  // at most one output per state, plus the heartbeats of the silences
+  EXPECT_GT(loop.ticks(), 100);
+  EXPECT_EQ(bus.count("COOPDYN_OUTPUT"), loop.ticks());
+  runtime::Event e;
+  while (loop.events().pop(&e)) {
+  }
 }
 
 // The loop publishes from its own thread with lcm_publish over udpm: that path must not allocate

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <optional>
+
 #include "service/dynamics/integrators.h"
 #include "service/dynamics/contacts.h"
 #include "service/dynamics/wrenches.h"
@@ -52,6 +54,54 @@ TEST(NoAllocation, EvaluateAndStepOfEveryScene) {
       EXPECT_EQ(evals, 2000);
       EXPECT_TRUE(q.allFinite());
     }
+  }
+}
+
+// The per-arm block solve of Q (dynamics/q_blocks.h): the arms-scaling scenes, where it is the
+// default, and forced on the two-arm scenes, including planar_arms_load (classic), whose dependent
+// rows make it fall back to the dense Q and the rank-revealing solve at every state.
+TEST(NoAllocation, BlockSolveOfQAndItsFallback) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  struct Case {
+    std::string path;
+    std::optional<Formulation> f;
+    bool blocks;  // the block factorization succeeds
+  };
+  const std::string arms = std::string(COOPDYN_SOURCE_DIR) + "/bench/scenes/pumas_";
+  for (const Case& c : {Case{arms + "4.yaml", std::nullopt, true}, Case{arms + "8.yaml", std::nullopt, true},
+                        Case{scene_path("two_puma_load"), Formulation::kClassic, true},
+                        Case{scene_path("planar_arms_load"), Formulation::kClassic, false}}) {
+    SCOPED_TRACE(c.path);
+    SceneOverrides ov;
+    ov.formulation = c.f;
+    const System sys = load_scene(c.path, ov);
+    Stepper st(sys);
+    ASSERT_TRUE(st.ws.qb.usable);
+    st.ws.use_q_blocks = true;
+    WrenchData wd(sys);
+    std::mt19937 rng(5);
+    std::vector<Eigen::VectorXd> qs, vs;
+    for (int k = 0; k < 8; ++k) {
+      Eigen::VectorXd q, v;
+      random_state(sys, rng, 0.2, q, v);
+      qs.push_back(q);
+      vs.push_back(v);
+    }
+    Eigen::VectorXd q = sys.q0, v = sys.v0;
+    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(sys.model.nv());
+    int by_blocks = 0;
+    {
+      AllocationCounter counter;
+      for (int k = 0; k < 400; ++k) {
+        evaluate(sys, st.ws, qs[k % 8], vs[k % 8], zero);
+        by_blocks += st.ws.q_blocks_active ? 1 : 0;
+        compute_wrenches(sys, st.ws, wd);
+      }
+      for (int k = 0; k < 100; ++k) step(sys, st, Integrator::kRk4, 1e-3, zero, q, v);
+      EXPECT_EQ(counter.count(), 0);
+    }
+    EXPECT_EQ(by_blocks, c.blocks ? 400 : 0);
+    EXPECT_TRUE(q.allFinite());
   }
 }
 

@@ -118,7 +118,7 @@ int main(int argc, char** argv) {
   using namespace coopdyn;
   // the isolated receive process (io/rx_isolated.h): this binary, exec'd by the daemon itself
   if (argc > 1 && std::strcmp(argv[1], "--rx-child") == 0) return io::rx_child_main(argc, argv);
-  std::string scene_path, config_path, url_override, mode_override, rate_arg, duration_arg;
+  std::string scene_path, config_path, url_override, mode_override, trigger_override, rate_arg, duration_arg;
   double rate_override = 0, duration = -1;
   {
     const runtime::ServiceConfig def;
@@ -136,6 +136,11 @@ int main(int argc, char** argv) {
     app.add_option("--mode", mode_override, "simulate (torque commands in) or estimate (measured states in); overrides the config")
         ->type_name("MODE")
         ->default_str(runtime::mode_name(def.mode));
+    app.add_option("--trigger", trigger_override,
+                   "estimate mode: compute at each tick of the fixed rate (tick) or on arrival of each measured state "
+                   "(arrival: its wrenches out within compute + transport); overrides the config")
+        ->type_name("WHEN")
+        ->default_str(runtime::trigger_name(def.trigger));
     app.add_option("--rate", rate_arg, "loop rate; overrides the config's rate_hz")
         ->type_name("HZ")
         ->default_str(std::to_string(static_cast<int>(def.rate_hz)));
@@ -167,6 +172,8 @@ int main(int argc, char** argv) {
     if (rate_override > 0) cfg.rate_hz = rate_override;
     if (!mode_override.empty() && !runtime::parse_mode(mode_override, &cfg.mode))
       throw runtime::ConfigError("--mode must be simulate or estimate");
+    if (!trigger_override.empty() && !runtime::parse_trigger(trigger_override, &cfg.trigger))
+      throw runtime::ConfigError("--trigger must be tick or arrival");
     runtime::validate(cfg);
   } catch (const runtime::ConfigError& e) {
     std::fprintf(stderr, "coopdynd: config error: %s\n", e.what());
@@ -233,6 +240,9 @@ int main(int argc, char** argv) {
                sys.model.nq(), sys.model.nv(), sys.constraints.rows, formulation_name(sys.options.formulation));
   spdlog::info("wrenches out: {} end-effector, {} base, {} tip, {} axle, {} joint reactions; {} pseudo-joint stresses",
                by_kind[0], by_kind[1], by_kind[2], by_kind[3], by_kind[4], sys.model.pseudo_dofs.size());
+  if (cfg.trigger == runtime::Trigger::kArrival)
+    spdlog::info("event-driven: each measured state is evaluated on arrival; without a fresh state the error status "
+                 "goes out at {} Hz", cfg.rate_hz);
   spdlog::info("mode {}, {} Hz ({} integrator), watchdog {} ms, max input age {}, safe torque {}, overrun policy {}",
                runtime::mode_name(cfg.mode), cfg.rate_hz, integrator_name(cfg.integrator), cfg.watchdog_ms,
                cfg.max_input_age_ms > 0 ? std::to_string(cfg.max_input_age_ms) + " ms by utime" : std::string("off"),
@@ -279,13 +289,17 @@ int main(int argc, char** argv) {
     spdlog::warn("inputs not applied: {}", what);
     last_report = now;
   };
+  rx->avoid_cpu(cfg.realtime.cpu);  // the receive thread and process stay off the loop's CPU
   rx->start(
       [&](const void* d, int n, long long t) {
         io::Reject why = io::Reject::kNone;
         runtime::Offer r;
         if (io::identify(d, n) == io::MessageType::kControl) r = loop.controls().offer(d, n, t, &why);
         else if (simulate) r = loop.commands().offer(d, n, t, &why);
-        else r = loop.states().offer(d, n, t, &why);
+        else {
+          r = loop.states().offer(d, n, t, &why);
+          if (r == runtime::Offer::kAccepted) loop.doorbell().ring();  // event-driven mode wakes on it
+        }
         if (r == runtime::Offer::kRejected) rejected_by[static_cast<int>(why) % io::kRejectKinds].fetch_add(1);
         if (r == runtime::Offer::kOutOfOrder) out_of_order.fetch_add(1);
         loop.set_receiver_counters(rx->restarts(), rx->dropped(), rx->filtered());

@@ -105,6 +105,11 @@ Workspace::Workspace(const System& sys)
   tmp_m2.setZero(m);
   for (const System::NominalBase& nb : sys.nominal_bases)  // joint 1 reversed: one DOF, a 6-row weld
     if (cs.row_count[nb.spec] == 6) nominal_rows.emplace_back(sys.model.bodies[nb.body].joint.idx_v, cs.row_offset[nb.spec]);
+  if ((sys.options.formulation == Formulation::kMobilePlatform || sys.options.formulation == Formulation::kClassic) &&
+      nominal_rows.empty()) {
+    qb.plan(sys, y_support);
+    use_q_blocks = qb.usable && static_cast<int>(qb.groups.size()) >= kQBlocksMinGroups;
+  }
   if (!nominal_rows.empty()) {
     Qn.setZero(m, m);
     kept_rows.assign(m, 0);
@@ -237,14 +242,35 @@ double condition_without_nominal(const System& sys, Workspace& ws) {
   return last > 0.0 ? first / last : std::numeric_limits<double>::infinity();
 }
 
+void dense_q_from_yb(const System& sys, Workspace& ws);
+
 // Solves Q x = b through ws.qs; with factor, factors ws.Q first and records rank and condition.
+// With the block structure (ws.use_q_blocks, build_q formed the blocks only) the block Cholesky is
+// tried first; where it fails the dense Q is formed and ws.qs decides.
 void solve_q(const System& sys, Workspace& ws, const Eigen::VectorXd& b, Eigen::VectorXd& x, bool factor) {
   if (factor) {
-    const QFactorInfo fi = ws.qs.factor(ws.Q, sys.options, sys.constraints.row_compliance);
-    ws.diag.rank = fi.rank;
-    ws.diag.condition = ws.nominal_rows.empty() ? fi.condition : condition_without_nominal(sys, ws);
+    ws.q_blocks_active = false;
+    if (ws.use_q_blocks) {
+      double condition = 1.0;
+      if (ws.qb.factor(sys.options, &condition)) {
+        ws.q_blocks_active = true;
+        ws.qs.fast_path = true;  // what the wrenches read: every row determined
+        ws.qs.rank = ws.qs.m;
+        for (int i = 0; i < ws.qs.m; ++i) ws.qs.row_indeterminate[i] = 0;
+        ws.diag.rank = ws.qs.m;
+        ws.diag.condition = condition;
+      } else {
+        dense_q_from_yb(sys, ws);
+      }
+    }
+    if (!ws.q_blocks_active) {
+      const QFactorInfo fi = ws.qs.factor(ws.Q, sys.options, sys.constraints.row_compliance);
+      ws.diag.rank = fi.rank;
+      ws.diag.condition = ws.nominal_rows.empty() ? fi.condition : condition_without_nominal(sys, ws);
+    }
   }
-  ws.qs.solve(b, x);
+  if (ws.q_blocks_active) ws.qb.solve(b, x);
+  else ws.qs.solve(b, x);
 }
 
 // Y^T = (G L^-1)^T and Q = Y Y^T from the rows of G, touching only the DOFs each row reaches: the
@@ -275,7 +301,14 @@ void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G, bool de
     for (int s = 0; s < ns; ++s)
       for (int d : ws.y_support[s])
         for (int k = 0; k < cs.row_count[s]; ++k) ws.Yt(d, cs.row_offset[s] + k) = ws.Yb[s](d, k);
-  // Q_st = sum over the DOFs both specs reach of outer products of 6-vectors
+  if (ws.use_q_blocks && !dense_yt) ws.qb.assemble(sys, ws.Yb);  // solve_q forms the dense Q if it needs it
+  else dense_q_from_yb(sys, ws);
+}
+
+// Q_st = sum over the DOFs both specs reach of outer products of 6-vectors
+void dense_q_from_yb(const System& sys, Workspace& ws) {
+  const ConstraintSet& cs = sys.constraints;
+  const int ns = static_cast<int>(cs.specs.size());
   for (int s = 0; s < ns; ++s)
     for (int t = s; t < ns; ++t) {
       Mat6 acc = Mat6::Zero();
@@ -541,8 +574,17 @@ const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::Vecto
 
   dg.indeterminate = m - dg.rank;
   if (m > 0) {
+    // gamma - G vdot over each spec's support (G is zero elsewhere): linear in the specs
+    const ConstraintSet& cs = sys.constraints;
     ws.tmp_m = ws.cd.gamma;
-    ws.tmp_m.noalias() -= ws.cd.G * ws.vdot;
+    for (size_t s = 0; s < cs.specs.size(); ++s) {
+      const int r0 = cs.row_offset[s], nk = cs.row_count[s];
+      for (int d : cs.support[s]) {
+        const double vd = ws.vdot[d];
+        const double* g = ws.cd.G.col(d).data() + r0;
+        for (int k = 0; k < nk; ++k) ws.tmp_m[r0 + k] -= g[k] * vd;
+      }
+    }
     dg.residual = ws.tmp_m.cwiseAbs().maxCoeff();
   }
   if (!ws.vdot.allFinite() || !ws.lambda.allFinite() || !ws.stress.allFinite() || !std::isfinite(dg.residual))

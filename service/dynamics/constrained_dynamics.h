@@ -17,6 +17,7 @@
 #include <Eigen/Core>
 
 #include "service/constraints/constraints.h"
+#include "service/dynamics/q_blocks.h"
 #include "service/dynamics/q_solve.h"
 #include "service/dynamics/system.h"
 #include "service/model/model.h"
@@ -78,6 +79,14 @@ struct Workspace {
   std::vector<std::pair<int, int>> y_sweep;  // (spec, DOF) in model.dof_elim_order, specs interleaved
   std::vector<std::vector<std::pair<int, int>>> pair_ranges;  // index s * nspecs + t
   QSolver qs;                     // Q lambda = b: fast path, rank, indeterminate rows, rule
+  // Q per group of specs coupled through the common (platform) DOFs only (q_blocks.h): used when
+  // the structure holds with at least kQBlocksMinGroups groups (mobile_platform and classic, no
+  // nominal bases), falling back to the dense Q and qs when Q is not safely positive definite.
+  // use_q_blocks may be set to false (tests: the dense path on the same workspace).
+  static constexpr int kQBlocksMinGroups = 3;
+  QBlocks qb;
+  bool use_q_blocks = false;
+  bool q_blocks_active = false;  // the last factorization took the block path (ws.Q not formed)
   // the condition without the nominal base-link directions (System::nominal_bases)
   std::vector<std::pair<int, int>> nominal_rows;  // (velocity index of joint 1, first row of the weld)
   Eigen::MatrixXd Qn;                             // (rows x rows) work copy of Q

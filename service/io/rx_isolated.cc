@@ -7,6 +7,7 @@
 #include <netinet/in.h>
 #include <lcm/lcm.h>
 #include <poll.h>
+#include <pthread.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/eventfd.h>
@@ -107,6 +108,15 @@ void IsolatedReceiver::spawn() {
   const int rc = posix_spawn(&pid, exe_.c_str(), &fa, nullptr, argv.data(), environ);
   posix_spawn_file_actions_destroy(&fa);
   pid_.store(rc == 0 ? pid : -1);
+  cpu_set_t set;
+  if (rc == 0 && other_cpus(&set)) sched_setaffinity(pid, sizeof set, &set);  // inherited by its threads
+}
+
+bool IsolatedReceiver::other_cpus(cpu_set_t* set) const {
+  if (avoid_cpu_ < 0 || avoid_cpu_ >= CPU_SETSIZE) return false;
+  if (sched_getaffinity(0, sizeof *set, set) != 0) return false;
+  CPU_CLR(avoid_cpu_, set);
+  return CPU_COUNT(set) > 0;
 }
 
 void IsolatedReceiver::start(Handler handler, RestartHandler on_restart) {
@@ -115,7 +125,11 @@ void IsolatedReceiver::start(Handler handler, RestartHandler on_restart) {
   on_restart_ = std::move(on_restart);
   stop_ = false;
   spawn();
-  thread_ = std::thread([this] { run(); });
+  thread_ = std::thread([this] {
+    cpu_set_t set;
+    if (other_cpus(&set)) pthread_setaffinity_np(pthread_self(), sizeof set, &set);
+    run();
+  });
 }
 
 void IsolatedReceiver::stop() {

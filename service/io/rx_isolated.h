@@ -33,6 +33,7 @@
 // commands with them (tests/flood_daemon_test.cc).
 #pragma once
 
+#include <sched.h>
 #include <sys/types.h>
 
 #include <atomic>
@@ -78,6 +79,9 @@ class IsolatedReceiver {
   IsolatedReceiver(const IsolatedReceiver&) = delete;
   IsolatedReceiver& operator=(const IsolatedReceiver&) = delete;
 
+  // Keeps the receive thread and the child off this CPU (the loop's realtime.cpu): call before
+  // start(). Ignored when it would leave no CPU.
+  void avoid_cpu(int cpu) { avoid_cpu_ = cpu; }
   // Starts the child and the receive thread; handler runs on the receive thread.
   void start(Handler handler, RestartHandler on_restart);
   void stop();  // stops the thread, kills and reaps the child (also done by the destructor)
@@ -101,6 +105,8 @@ class IsolatedReceiver {
   std::vector<int64_t> fingerprints_;
   int slots_, slot_bytes_, socket_buffer_bytes_;
   int shm_fd_ = -1, event_fd_ = -1;
+  int avoid_cpu_ = -1;
+  bool other_cpus(cpu_set_t* set) const;  // every online CPU but avoid_cpu_; false if none or not set
   size_t shm_size_ = 0;
   RxRingHeader* hdr_ = nullptr;
   unsigned char* base_ = nullptr;

@@ -20,6 +20,14 @@ bool parse_mode(const std::string& s, ServiceMode* m) {
   return true;
 }
 
+const char* trigger_name(Trigger t) { return t == Trigger::kTick ? "tick" : "arrival"; }
+bool parse_trigger(const std::string& s, Trigger* t) {
+  if (s == "tick") *t = Trigger::kTick;
+  else if (s == "arrival") *t = Trigger::kArrival;
+  else return false;
+  return true;
+}
+
 namespace {
 
 std::string num(double x) {
@@ -68,6 +76,15 @@ std::string check_cpu(long long cpu) {
 std::string check_priority(long long p) {
   if (p >= 1 && p <= 99) return "";
   return "realtime.priority must be 1..99, got " + std::to_string(p);
+}
+std::string check_spin(long long us, double rate_hz) {
+  if (us >= 0 && us <= 1000 && static_cast<double>(us) < 1e6 / rate_hz) return "";
+  return "realtime.spin_us must be in [0, 1000] us and below the period (" + num(1e6 / rate_hz) + " us at rate_hz " +
+         num(rate_hz) + "), got " + std::to_string(us);
+}
+std::string check_trigger(Trigger t, ServiceMode m) {
+  if (t == Trigger::kTick || m == ServiceMode::kEstimate) return "";
+  return "trigger: arrival computes on arrival of a measured state and applies to mode estimate only (mode is simulate)";
 }
 std::string check_channel(const char* key, const std::string& name) {
   if (!name.empty() && name.size() <= static_cast<size_t>(kMaxChannelChars)) return "";
@@ -140,7 +157,7 @@ ServiceConfig parse(const YAML::Node& root, const Ctx& c) {
   if (!root.IsDefined() || root.IsNull()) return cfg;
   c.keys(root,
          {"rate_hz", "lcm_url", "lcm_url_in", "receive", "channels", "mode", "integrator", "watchdog_ms", "safe_torque",
-          "overrun", "stats_period_s", "realtime", "log_level", "max_input_age_ms", "closure_tolerance"},
+          "overrun", "stats_period_s", "realtime", "log_level", "max_input_age_ms", "closure_tolerance", "trigger"},
          "the service config");
   cfg.rate_hz = c.get<double>(root, "rate_hz", cfg.rate_hz, "a number (Hz)");
   c.check(root["rate_hz"], check_rate(cfg.rate_hz));
@@ -177,6 +194,9 @@ ServiceConfig parse(const YAML::Node& root, const Ctx& c) {
   }
   if (root["mode"].IsDefined() && !parse_mode(c.get<std::string>(root, "mode", "", "a string"), &cfg.mode))
     c.fail(root["mode"], "mode must be simulate or estimate");
+  if (root["trigger"].IsDefined() && !parse_trigger(c.get<std::string>(root, "trigger", "", "a string"), &cfg.trigger))
+    c.fail(root["trigger"], "trigger must be tick or arrival");
+  c.check(root["trigger"], check_trigger(cfg.trigger, cfg.mode));
   if (root["integrator"].IsDefined() && !parse_integrator(c.get<std::string>(root, "integrator", "", "a string"), &cfg.integrator))
     c.fail(root["integrator"], "integrator must be rk4 or semi_implicit_euler");
   cfg.watchdog_ms = c.get<double>(root, "watchdog_ms", cfg.watchdog_ms, "a number (ms)");
@@ -218,7 +238,7 @@ ServiceConfig parse(const YAML::Node& root, const Ctx& c) {
   cfg.stats_period_s = c.get<double>(root, "stats_period_s", cfg.stats_period_s, "a number (s)");
   c.check(root["stats_period_s"], check_stats_period(cfg.stats_period_s, cfg.rate_hz));
   if (const YAML::Node rt = root["realtime"]; rt.IsDefined()) {
-    c.keys(rt, {"sched_fifo", "priority", "cpu", "mlockall"}, "realtime");
+    c.keys(rt, {"sched_fifo", "priority", "cpu", "mlockall", "spin_us", "cpu_dma_latency_zero"}, "realtime");
     cfg.realtime.sched_fifo = c.get<bool>(rt, "sched_fifo", false, "true or false");
     const long long prio = c.get<long long>(rt, "priority", cfg.realtime.priority, "an integer");
     c.check(rt["priority"], check_priority(prio));
@@ -227,6 +247,10 @@ ServiceConfig parse(const YAML::Node& root, const Ctx& c) {
     c.check(rt["cpu"], check_cpu(cpu));
     cfg.realtime.cpu = static_cast<int>(cpu);
     cfg.realtime.mlockall = c.get<bool>(rt, "mlockall", false, "true or false");
+    const long long spin = c.get<long long>(rt, "spin_us", 0, "an integer (us)");
+    c.check(rt["spin_us"], check_spin(spin, cfg.rate_hz));
+    cfg.realtime.spin_us = static_cast<int>(spin);
+    cfg.realtime.cpu_dma_latency_zero = c.get<bool>(rt, "cpu_dma_latency_zero", false, "true or false");
   }
   cfg.log_level = c.get<std::string>(root, "log_level", cfg.log_level, "a string");
   static const std::set<std::string> levels = {"trace", "debug", "info", "warn", "error", "off"};
@@ -288,6 +312,7 @@ void validate(const ServiceConfig& c) {
   for (const std::string& why :
        {check_rate(c.rate_hz), check_watchdog(c.watchdog_ms), check_input_age(c.max_input_age_ms), check_stats_period(c.stats_period_s, c.rate_hz),
         check_catch_up(c.max_catch_up), check_priority(c.realtime.priority), check_cpu(c.realtime.cpu),
+        check_spin(c.realtime.spin_us, c.rate_hz), check_trigger(c.trigger, c.mode),
         check_url(c.lcm_url), c.lcm_url_in.empty() ? std::string() : check_url(c.lcm_url_in, "lcm_url_in"),
         check_receive(c.receive_queue, c.receive_max_bytes), check_socket_buffer(c.receive_socket_buffer), check_channel("command", c.command_channel), check_channel("control", c.control_channel), check_channel("state", c.state_channel),
         check_channel("output", c.output_channel), check_channel("stats", c.stats_channel)})

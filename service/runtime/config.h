@@ -29,11 +29,31 @@ enum class OverrunPolicy {
   kSkip,     // drop missed periods and resume at the next deadline: sim time falls behind wall time
 };
 
+// When the loop computes in estimate mode.
+enum class Trigger {
+  kTick,     // at the fixed rate (the default): each tick evaluates the newest measured state
+  kArrival,  // on arrival of a measured state (event-driven): the loop sleeps until the receive
+             // thread hands it a state and publishes that state's wrenches at once, one output per
+             // state the loop takes (a newer state arriving during a computation replaces any
+             // waiting one: the newest wins, as at a tick). While no fresh state is held (none
+             // yet, or the last one expired by the watchdog) it publishes the error status at
+             // rate_hz as the fixed-rate path does. Estimate mode only.
+};
+
 struct RealtimeOptions {
   bool sched_fifo = false;  // SCHED_FIFO for the loop thread (needs CAP_SYS_NICE or root)
   int priority = 80;        // 1..99
-  int cpu = -1;             // pin the loop thread to this CPU; -1: no affinity
+  int cpu = -1;             // pin the loop thread to this CPU; -1: no affinity. The receive thread
+                            // and the receive process are then kept off this CPU
   bool mlockall = false;    // lock current and future pages (no page faults in the loop)
+  // Fixed-rate loop: wake spin_us before each deadline, evaluate the held state once (warming the
+  // caches and TLB after the sleep; the result is discarded) and poll the clock to the deadline (a
+  // busy wait: the loop's CPU is ~spin_us * rate_hz / 1e6 busier, 5 % for 50 us at 1 kHz); 0: off.
+  // [0, 1000] us and below the period.
+  int spin_us = 0;
+  // Hold /dev/cpu_dma_latency at 0 while running (the PM QoS request cyclictest makes: no deep
+  // C-states, so no exit latency on wake-up; needs root; the whole machine draws more power).
+  bool cpu_dma_latency_zero = false;
 };
 
 // What each value may be: the range the code can represent and the daemon can use. load_config and
@@ -48,6 +68,8 @@ struct RealtimeOptions {
 //   max_catch_up    [0, 1000] ticks
 //   max_input_age_ms  0 (off) or [1, 3600000] ms, like watchdog_ms
 //   realtime.cpu    -1 or [0, CPU_SETSIZE - 1 = 1023]: the bit must exist in a cpu_set_t
+//   realtime.spin_us  [0, 1000] us and below the period (1e6 / rate_hz us)
+//   trigger         tick, or arrival in estimate mode only
 //   closure_tolerance.*  (0, 1e6] in m, rad, m/s, rad/s
 //   receive.queue   [2, 4096] messages; receive.max_message_bytes [256, 4194304] bytes
 //   receive.socket_buffer_bytes  0 (the OS default) or [4096, 268435456] bytes (SO_RCVBUF takes an
@@ -78,6 +100,7 @@ struct ServiceConfig {
   std::string stats_channel = "COOPDYN_STATS";
   std::string control_channel = "COOPDYN_CONTROL";  // control_t in (reset, pause, resume, clear fault)
   ServiceMode mode = ServiceMode::kSimulate;
+  Trigger trigger = Trigger::kTick;  // estimate mode: compute at each tick or on arrival of a state
   Integrator integrator = Integrator::kRk4;
   double watchdog_ms = 100.0;  // a command (state) older than this expires
   // A command (state) whose utime is <= 0 or differs from this host's wall clock by more than this
@@ -115,5 +138,7 @@ void validate(const ServiceConfig& c);
 
 const char* mode_name(ServiceMode m);
 bool parse_mode(const std::string& s, ServiceMode* m);
+const char* trigger_name(Trigger t);
+bool parse_trigger(const std::string& s, Trigger* t);
 
 }  // namespace coopdyn::runtime

@@ -4,7 +4,10 @@
 #include <sched.h>
 #include <sys/prctl.h>
 #include <sys/mman.h>
+#include <fcntl.h>
 #include <unistd.h>
+
+#include <cstdint>
 
 #include <cerrno>
 #include <cstring>
@@ -24,6 +27,18 @@ std::vector<RealtimeResult> apply_realtime(const RealtimeOptions& o) {
       out.push_back({false, std::string("mlockall refused: ") + std::strerror(errno) +
                                 " (needs CAP_IPC_LOCK or a large enough 'ulimit -l'); pages may fault"});
   }
+  if (o.cpu_dma_latency_zero) {
+    // the PM QoS request lasts while the file stays open: held until the process exits
+    static int fd = -1;
+    if (fd < 0) fd = ::open("/dev/cpu_dma_latency", O_WRONLY | O_CLOEXEC);
+    const int32_t zero = 0;
+    if (fd >= 0 && ::write(fd, &zero, sizeof zero) == static_cast<ssize_t>(sizeof zero))
+      out.push_back({true, "/dev/cpu_dma_latency held at 0 us (no deep idle states while running)"});
+    else
+      out.push_back({false, std::string("/dev/cpu_dma_latency not held at 0: ") + std::strerror(errno) + " (needs root)"});
+  }
+  if (o.spin_us > 0)
+    out.push_back({true, "spinning the last " + std::to_string(o.spin_us) + " us before each deadline (busy wait)"});
   if (o.cpu >= 0) {
     cpu_set_t set;
     CPU_ZERO(&set);

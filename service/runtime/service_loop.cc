@@ -314,7 +314,8 @@ void ServiceLoop::tick(long long now) {
   if (sanitized && f.valid) numerical_errors_.fetch_add(1, std::memory_order_relaxed);
   if (len > 0) bus_.publish(cfg_.output_channel.c_str(), out_buf_.data(), len);
   ticks_.fetch_add(1, std::memory_order_relaxed);
-  if (++since_stats_ >= stats_every_) {
+  // on arrival, run_on_arrival() publishes the stats by wall time (the ticks follow the states)
+  if (++since_stats_ >= stats_every_ && cfg_.trigger == Trigger::kTick) {
     publish_stats();
     since_stats_ = 0;
   }
@@ -370,30 +371,112 @@ void ServiceLoop::record_timing(long long lateness_ns, long long compute_ns) {
   comp_all_.record(compute_ns);
 }
 
+void ServiceLoop::warm_up() {
+  // the tick's own workspace and state: the tick recomputes everything it publishes
+  if (cfg_.mode == ServiceMode::kSimulate) {
+    if (!faulted_.load(std::memory_order_relaxed)) evaluate(sys_, stepper_.ws, q_, v_, tau_);
+  } else {
+    evaluate(sys_, ws_, q_est_, v_est_, zero_);
+  }
+}
+
+void ServiceLoop::run_on_arrival(const std::atomic<bool>& stop, long long max_ticks) {
+  const long long stats_ns = period_ns_ * stats_every_;
+  long long now = io::monotonic_ns();
+  long long next_beat = now + period_ns_, next_stats = now + stats_ns;
+  uint32_t seen = bell_.value();
+  long long n = 0;
+  auto fresh = [&](long long t) { return have_state_ && t - states_.latest().recv_ns <= watchdog_ns_; };
+  while (!stop.load(std::memory_order_relaxed) && (max_ticks < 0 || n < max_ticks)) {
+    // the next thing due without a state: the held state's expiry (its expired output), else the
+    // heartbeat; and the stats
+    const long long beat = fresh(now) ? states_.latest().recv_ns + watchdog_ns_ + 1 : next_beat;
+    const long long deadline = next_stats < beat ? next_stats : beat;
+    bool rung = false, stopped = false;
+    for (;;) {
+      if (bell_.value() != seen) {
+        rung = true;
+        break;
+      }
+      now = io::monotonic_ns();
+      if (now >= deadline) break;
+      if (stop.load(std::memory_order_relaxed)) {
+        stopped = true;
+        break;
+      }
+      bell_.wait(seen, deadline - now > kStopSliceNs ? now + kStopSliceNs : deadline);
+    }
+    if (stopped) break;
+    seen = bell_.value();
+    const long long wake = io::monotonic_ns();
+    bool ticked = false, heartbeat = false;
+    long long late = 0;
+    if (rung) {
+      // one output per state taken: a ring whose state an earlier tick already took computes nothing
+      if (states_.update()) {
+        have_state_ = true;
+        late = wake - states_.latest().recv_ns;
+        tick(wake);
+        ticked = true;
+      }
+    } else if (wake >= beat && !fresh(wake)) {  // no state yet, or the held one just expired
+      late = wake - beat;
+      tick(wake);
+      ticked = heartbeat = true;
+    }
+    now = io::monotonic_ns();
+    if (ticked) {
+      record_timing(late, now - wake);
+      ++n;
+      // heartbeats keep the period's cadence; after a state, the next one is a period away
+      if (heartbeat && beat == next_beat && next_beat + period_ns_ > now) next_beat += period_ns_;
+      else next_beat = now + period_ns_;
+    }
+    if (now >= next_stats) {
+      publish_stats();
+      since_stats_ = 0;
+      next_stats += stats_ns;
+      if (next_stats <= now) next_stats = now + stats_ns;
+    }
+  }
+}
+
 void ServiceLoop::run(const std::atomic<bool>& stop, long long max_ticks) {
+  if (cfg_.trigger == Trigger::kArrival && cfg_.mode == ServiceMode::kEstimate) {
+    run_on_arrival(stop, max_ticks);
+    return;
+  }
+  const long long spin_ns = static_cast<long long>(cfg_.realtime.spin_us) * 1000;
   long long next = io::monotonic_ns() + period_ns_;
   long long n = 0;
   while (!stop.load(std::memory_order_relaxed) && (max_ticks < 0 || n < max_ticks)) {
     // Sleep to the absolute deadline in slices of at most kStopSliceNs, so a stop request (SIGINT,
     // SIGTERM, --duration) ends run() within one slice even at the lowest rate (1 Hz); at 1 kHz
     // the period is shorter than a slice and this is one clock_nanosleep.
+    // With spin_us, the sleep ends spin_us early and the clock is polled from there to the deadline.
     bool stopped = false;
+    const long long target = next - spin_ns;
     for (;;) {
       const long long now = io::monotonic_ns();
-      if (now >= next) break;
+      if (now >= target) break;
       if (stop.load(std::memory_order_relaxed)) {
         stopped = true;
         break;
       }
-      const long long until = next - now > kStopSliceNs ? now + kStopSliceNs : next;
+      const long long until = target - now > kStopSliceNs ? now + kStopSliceNs : target;
       timespec ts;
       ts.tv_sec = static_cast<time_t>(until / 1000000000LL);
       ts.tv_nsec = static_cast<long>(until % 1000000000LL);
       const int rc = clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
       if (rc != 0 && rc != EINTR) break;  // cannot happen with a valid timespec; never spin
-      if (until == next && rc == 0) break;
+      if (until == target && rc == 0) break;
     }
     if (stopped) break;
+    if (spin_ns > 0) {
+      warm_up();
+      while (io::monotonic_ns() < next) {
+      }
+    }
     const long long wake = io::monotonic_ns();
     tick(wake);
     const long long end = io::monotonic_ns();

@@ -15,7 +15,16 @@
 // encode output_t into a preallocated buffer and publish it; every stats period publish
 // loop_stats_t. tick() does not sleep, allocate, lock, log or throw; tests call it directly.
 // run() calls tick() at absolute deadlines (clock_nanosleep TIMER_ABSTIME on CLOCK_MONOTONIC),
-// records wake-up lateness and compute time, and applies the overrun policy.
+// records wake-up lateness and compute time, and applies the overrun policy; with
+// realtime.spin_us it wakes spin_us before each deadline, evaluates the state it holds once (its
+// result is discarded: it brings the working set back into the caches and TLB after the sleep) and
+// polls the clock to the deadline.
+// Event-driven estimate mode (config trigger: arrival): run() sleeps on a doorbell the receive
+// thread rings after each accepted measured state and calls tick() as soon as it wakes, one output
+// per state taken; while no fresh state is held it ticks at rate_hz (the error status, as the
+// fixed-rate path), and loop_stats_t follows stats_period_s of wall time. Its lateness is the
+// handoff: the loop's wake-up minus the state's receive time in the receive process (both
+// CLOCK_MONOTONIC); at a heartbeat, the wake-up minus its deadline.
 #pragma once
 
 #include <atomic>
@@ -31,6 +40,7 @@
 #include "service/io/bus.h"
 #include "service/io/codec.h"
 #include "service/runtime/config.h"
+#include "service/runtime/doorbell.h"
 #include "service/runtime/event_ring.h"
 #include "service/runtime/histogram.h"
 #include "service/runtime/inbox.h"
@@ -48,6 +58,8 @@ class ServiceLoop {
   CommandInbox& commands() { return commands_; }
   StateInbox& states() { return states_; }
   ControlInbox& controls() { return controls_; }  // control_t: reset, pause, resume, clear fault
+  // Event-driven estimate mode: the receive thread rings it after each accepted measured state.
+  Doorbell& doorbell() { return bell_; }
 
   // One period at monotonic time now_ns. Loop thread only.
   void tick(long long now_ns);
@@ -89,6 +101,8 @@ class ServiceLoop {
   void handle_control(const io::ControlSlot& c);
   void publish_stats();
   void fill_counters(io::StatsFrame& s) const;
+  void run_on_arrival(const std::atomic<bool>& stop, long long max_ticks);
+  void warm_up();  // spin_us: one evaluation of the held state before the deadline (caches, TLB)
 
   const System& sys_;
   const ServiceConfig& cfg_;
@@ -137,6 +151,7 @@ class ServiceLoop {
   std::atomic<int64_t> closure_rejected_{0};  // estimate: measured states above closure_tolerance
   Histogram late_win_, comp_win_, late_all_, comp_all_;
   EventRing<256> events_;
+  Doorbell bell_;
 };
 
 }  // namespace coopdyn::runtime

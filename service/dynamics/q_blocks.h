@@ -1,0 +1,99 @@
+// The Cholesky of Q = G M^-1 G^T per arm, coupled through the platform only: linear in the number
+// of arms instead of cubic in the rows.
+//
+// With M = L^T L tree-sparse and Y = G L^-1, the rows of a spec reach (in Y) only the DOFs on the
+// paths from its bodies to the root. In the mobile-platform form every arm's weld reaches its own
+// joints and the platform's DOFs; in the classic form every grasp reaches its arm's joints and the
+// load's. So, with the specs in groups g that share no DOF but the common set C (the DOFs every
+// spec reaches, at most 6) and B_g = Y_g restricted to C (rows_g x |C|),
+//   Q = blkdiag(A_g) + B B^T,   A_g = Y_g Y_g^T over the group's own DOFs,
+// a block diagonal plus a rank-|C| term. The block Cholesky of Q, blocks in row order, is then
+// exactly (in exact arithmetic) the dense Cholesky of Q:
+//   P_1 = I;  for g = 1, 2, ...:  L_g L_g^T = A_g + B_g P_g B_g^T,   W_g = L_g^-1 B_g P_g,
+//                                  P_{g+1} = P_g - W_g^T W_g,
+// and the factor's off-diagonal blocks are L_hg = B_h W_g^T (h > g), never formed. The pivots (the
+// diagonals of the L_g) are those of the dense factor, so the fast-path test and the condition
+// estimate of QSolver (q_solve.h) are the same. Solve: y_g = L_g^-1 (b_g - B_g z), z += W_g^T y_g
+// forward; x_g = L_g^-T (y_g - W_g t), t += B_g^T x_g backward. Each group costs O(rows_g^3 +
+// rows_g^2 |C|) whatever the number of groups.
+//
+// Where the structure does not hold (fewer than two groups, a group's rows not contiguous in the
+// spec order, more than 6 common DOFs or 12 rows in a group) plan() leaves it unusable; where Q is
+// not positive definite to the fast-path tolerance, factor() returns false and the caller takes the
+// dense path (the rank-revealing solve of q_solve.h). Sized once; allocation-free afterwards.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "service/dynamics/system.h"
+
+namespace coopdyn {
+
+struct QBlocks {
+  static constexpr int kMaxCommon = 6, kMaxGroupRows = 12;
+  using GMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxGroupRows, kMaxGroupRows>;
+  using GBMat = Eigen::Matrix<double, Eigen::Dynamic, kMaxCommon, 0, kMaxGroupRows, kMaxCommon>;
+  using GVec = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxGroupRows, 1>;
+  struct Group {
+    int spec0 = 0, spec1 = 0;  // specs [spec0, spec1)
+    int row0 = 0, rows = 0;    // rows [row0, row0 + rows) of Q
+    GMat A;    // (rows x rows) Y_g Y_g^T over the group's own DOFs; then L_g (lower) in place
+    GBMat B;   // (rows x 6) Y_g on the common DOFs (columns beyond |C| zero)
+    GBMat W;   // (rows x 6) L_g^-1 B_g P_g
+    GVec dinv; // (rows) 1 / diag(L_g)
+    // pairs of specs s <= t of the group with the ranges [first, first + second) of own DOFs both reach
+    struct Pair {
+      int s, t;
+      std::vector<std::pair<int, int>> ranges;
+    };
+    std::vector<Pair> pairs;
+  };
+
+  // y_support: per spec, the DOFs its rows of Y reach (ascending).
+  void plan(const System& sys, const std::vector<std::vector<int>>& y_support);
+
+  // A_g and B_g from Yb (per spec, nv x 6 row-major: its rows of Y as columns, one DOF per row).
+  template <class YBlock>
+  void assemble(const System& sys, const std::vector<YBlock>& Yb);
+  // The block Cholesky; false if a pivot is not positive or the smallest pivot is below fast_tol
+  // times the largest (QSolver's fast-path test), else *condition = (largest / smallest diagonal)^2.
+  bool factor(const SolverOptions& opt, double* condition);
+  // x = Q^-1 b (x may not alias b).
+  void solve(const Eigen::VectorXd& b, Eigen::VectorXd& x);
+
+  bool usable = false;
+  std::vector<int> common;  // the DOFs every spec reaches, ascending
+  std::vector<Group> groups;
+  Mat6 P;
+};
+
+template <class YBlock>
+void QBlocks::assemble(const System& sys, const std::vector<YBlock>& Yb) {
+  const ConstraintSet& cs = sys.constraints;
+  const int nc = static_cast<int>(common.size());
+  for (Group& g : groups) {
+    for (int s = g.spec0; s < g.spec1; ++s) {
+      const int o = cs.row_offset[s] - g.row0;
+      const double* y = Yb[s].data();
+      for (int k = 0; k < cs.row_count[s]; ++k)
+        for (int c = 0; c < nc; ++c) g.B(o + k, c) = y[6 * common[c] + k];
+    }
+    for (const Group::Pair& p : g.pairs) {
+      Mat6 acc = Mat6::Zero();
+      for (const auto& rg : p.ranges)
+        for (int d = rg.first, e = rg.first + rg.second; d < e; ++d)
+          acc.noalias() += Yb[p.s].row(d).transpose() * Yb[p.t].row(d);
+      const int rs = cs.row_offset[p.s] - g.row0, rt = cs.row_offset[p.t] - g.row0;
+      const int ks = cs.row_count[p.s], kt = cs.row_count[p.t];
+      for (int i = 0; i < ks; ++i)
+        for (int j = 0; j < kt; ++j) {
+          g.A(rs + i, rt + j) = acc(i, j);
+          g.A(rt + j, rs + i) = acc(i, j);
+        }
+    }
+  }
+}
+
+}  // namespace coopdyn
