@@ -1182,7 +1182,7 @@ TEST(ViewPlot, ClickedWrenchPlottedWithACursorOnTheSlider) {
   ASSERT_EQ(series.size(), 6u);
   std::ifstream f(dir / "p.csv");
   std::string line;
-  std::getline(f, line);
+  while (std::getline(f, line) && !line.empty() && line[0] == '#') {}  // the comment and units lines
   std::vector<std::string> head;
   {
     std::stringstream ss(line);
