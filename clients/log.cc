@@ -25,6 +25,7 @@
 
 #include "clients/cli.h"
 #include "clients/lcm_log.h"
+#include "clients/progress.h"
 #include "clients/step_csv.h"
 #include "service/dynamics/contacts.h"
 #include "service/io/codec.h"
@@ -280,12 +281,7 @@ int cmd_log(const Args& a) {
   struct stat st_in{};
   stat(in.c_str(), &st_in);
   const double total_bytes = static_cast<double>(st_in.st_size);
-  const bool progress = a.has("progress") || isatty(STDERR_FILENO);
-  const bool tty = isatty(STDERR_FILENO);
-  using clock = std::chrono::steady_clock;
-  const clock::time_point t_start = clock::now();
-  clock::time_point next_report = t_start + std::chrono::milliseconds(tty ? 200 : 1000);
-  bool reported = false;
+  Progress progress("coopdyn log", a.has("progress"));
   double bytes = 0;
   long messages = 0;
 
@@ -306,14 +302,11 @@ int cmd_log(const Args& a) {
         }
       }
       bytes += 28.0 + static_cast<double>(ev.channel.size()) + ev.len;  // an event's header, channel and data
-      if (progress && (++messages & 255) == 0 && clock::now() >= next_report) {
-        const double wall = std::chrono::duration<double>(clock::now() - t_start).count();
+      if (progress.on() && (++messages & 255) == 0) {
         const double frac = total_bytes > 0 ? std::min(1.0, bytes / total_bytes) : 1.0;
-        std::fprintf(stderr, "%scoopdyn log: %ld messages (%.0f %% of the log), %.1f s wall, %.0f s left%s", tty ? "\r" : "",
-                     messages, 100 * frac, wall, frac > 0 ? wall * (1 - frac) / frac : 0.0, tty ? "" : "\n");
-        std::fflush(stderr);
-        reported = true;
-        next_report = clock::now() + std::chrono::milliseconds(tty ? 200 : 1000);
+        char what[96];
+        std::snprintf(what, sizeof what, "%ld messages (%.0f %% of the log)", messages, 100 * frac);
+        progress.report(frac, what);
       }
       if (t_first < 0) t_first = ev.timestamp_us;
       Channel& c = chans[ev.channel];
@@ -392,10 +385,7 @@ int cmd_log(const Args& a) {
     std::fprintf(stderr, "coopdyn log: %s\n", e.what());
     return 1;
   }
-  if (reported && tty) std::fprintf(stderr, "\n");
-  if (progress)
-    std::fprintf(stderr, "coopdyn log: %ld messages in %.2f s wall\n", messages,
-                 std::chrono::duration<double>(clock::now() - t_start).count());
+  progress.done(std::to_string(messages) + " messages");
   if (write_failed) {
     std::fprintf(stderr, "coopdyn log: %s\n", failure.c_str());
     for (auto& [name, c] : chans)

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "clients/cli.h"
+#include "clients/progress.h"
 #include "clients/step_csv.h"
 #include "service/dynamics/contacts.h"
 #include "service/dynamics/integrators.h"
@@ -113,12 +114,7 @@ int cmd_sim(const Args& a) {
   Eigen::VectorXd q_prev(model.nq()), v_prev(model.nv());
   CsvLine line(cols.names.size());
   const long steps = std::lround(T / h);
-  const bool progress = a.has("progress") || isatty(STDERR_FILENO);
-  const bool tty = isatty(STDERR_FILENO);
-  using clock = std::chrono::steady_clock;
-  const clock::time_point t_start = clock::now();
-  clock::time_point next_report = t_start + std::chrono::milliseconds(tty ? 200 : 1000);
-  bool reported = false;
+  Progress progress("coopdyn sim", a.has("progress"));
   int rc = 0;
   for (long i = 0; i <= steps; ++i) {
     const double t = i * h;
@@ -170,7 +166,7 @@ int cmd_sim(const Args& a) {
       line.write(out);
     }
     if (d.status == Status::kError) {
-      if (reported && tty) std::fprintf(stderr, "\n");
+      progress.break_line();
       std::fprintf(stderr, "coopdyn sim: stopped at t=%g: %s", t, reason_text(d.reason));
       if (d.reason == Reason::kDiverged && d.bad_index >= 0)
         std::fprintf(stderr, " (v:%s reached %.3g, bound solver.max_speed %.3g; the last row is the last good state)",
@@ -179,20 +175,14 @@ int cmd_sim(const Args& a) {
       rc = 3;
       break;
     }
-    if (progress && (i & 255) == 0 && clock::now() >= next_report) {
-      const double wall = std::chrono::duration<double>(clock::now() - t_start).count();
+    if (progress.on() && (i & 255) == 0) {
       const double frac = steps > 0 ? double(i) / steps : 1.0;
-      std::fprintf(stderr, "%scoopdyn sim: t = %.3f of %.3f s (%.0f %%), %.1f s wall, %.0f s left%s", tty ? "\r" : "", t, T,
-                   100 * frac, wall, frac > 0 ? wall * (1 - frac) / frac : 0.0, tty ? "" : "\n");
-      std::fflush(stderr);
-      reported = true;
-      next_report = clock::now() + std::chrono::milliseconds(tty ? 200 : 1000);
+      char what[96];
+      std::snprintf(what, sizeof what, "t = %.3f of %.3f s (%.0f %%)", t, T, 100 * frac);
+      progress.report(frac, what);
     }
   }
-  if (progress && rc == 0) {
-    const double wall = std::chrono::duration<double>(clock::now() - t_start).count();
-    std::fprintf(stderr, "%scoopdyn sim: %ld steps in %.2f s wall\n", tty && reported ? "\r" : "", steps, wall);
-  }
+  if (rc == 0) progress.done(std::to_string(steps) + " steps");
   if (out != stdout) std::fclose(out);
   else std::fflush(out);
   return rc;
