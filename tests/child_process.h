@@ -82,6 +82,21 @@ struct Child {
   }
 };
 
+// A command run to its end (at most 60 s): its exit status and what it printed.
+struct Result {
+  int rc;
+  std::string out, err;
+};
+inline Result run_command(const std::vector<std::string>& argv, const std::string& tag) {
+  Child c(argv, tag);
+  EXPECT_GT(c.pid, 0) << argv[0];
+  Result r;
+  r.rc = c.wait(std::chrono::seconds(60));
+  r.out = slurp(c.out);
+  r.err = slurp(c.err);
+  return r;
+}
+
 inline std::unique_ptr<io::LcmBus> try_bus(const std::string& url) {
   try {
     return std::make_unique<io::LcmBus>(url);

@@ -22,19 +22,7 @@ namespace {
 
 std::string scene(const std::string& name) { return std::string(COOPDYN_SOURCE_DIR) + "/config/scenes/" + name + ".yaml"; }
 
-struct Result {
-  int rc;
-  std::string out, err;
-};
-Result run(const std::vector<std::string>& argv, const std::string& tag) {
-  Child c(argv, "cli_" + tag);
-  EXPECT_GT(c.pid, 0) << argv[0];
-  Result r;
-  r.rc = c.wait(std::chrono::seconds(60));
-  r.out = slurp(c.out);
-  r.err = slurp(c.err);
-  return r;
-}
+Result run(const std::vector<std::string>& argv, const std::string& tag) { return run_command(argv, "cli_" + tag); }
 bool has(const std::string& s, const std::string& what) { return s.find(what) != std::string::npos; }
 std::vector<std::string> split(const std::string& line) {
   std::vector<std::string> f;

@@ -21,19 +21,7 @@ using namespace coopdyn::daemon_test;
 
 namespace {
 
-struct Result {
-  int rc;
-  std::string out, err;
-};
-Result run(const std::vector<std::string>& argv, const std::string& tag) {
-  Child c(argv, "spy_" + tag);
-  EXPECT_GT(c.pid, 0) << argv[0];
-  Result r;
-  r.rc = c.wait(std::chrono::seconds(60));
-  r.out = slurp(c.out);
-  r.err = slurp(c.err);
-  return r;
-}
+Result run(const std::vector<std::string>& argv, const std::string& tag) { return run_command(argv, "spy_" + tag); }
 bool has(const std::string& s, const std::string& what) { return s.find(what) != std::string::npos; }
 bool is_file(const std::string& p, off_t* size = nullptr) {
   struct stat st;
