@@ -1503,15 +1503,15 @@ TEST(ViewLive, ClientThatNeverReadsChangesNothing) {
   // a sanitizer build's daemon, viewer and reader share 2 cores at several times their Release cost:
   // measured 464.8 Hz with the client against 498.9 Hz without (6.8 %) on a CI machine, CPU taken
   // by the sanitized viewer, not back-pressure (the bounded-queue checks below hold there too)
-  const double tol = 0.15;
+  const double tol = 0.15, floor_hz = 250;  // (sanitized, next to other tests: 400-500 Hz)
 #else
-  const double tol = 0.03;
+  const double tol = 0.03, floor_hz = 400;
 #endif
   // one-sided: the client can only slow the daemon down. Both windows also see the machine's other
   // load (a CI run measured 474.5 Hz without the client and 491.4 Hz with it, while other processes
   // ran), so the daemon only has to be running near its rate for the comparison to mean something.
   EXPECT_GE(rate_with, (1 - tol) * rate_without);
-  EXPECT_GT(rate_without, 400) << "the daemon ran far below its 500 Hz: too loaded a machine to judge";
+  EXPECT_GT(rate_without, floor_hz) << "the daemon ran far below its 500 Hz: too loaded a machine to judge";
   EXPECT_EQ(clients, 2);
   EXPECT_GT(dropped2 - dropped1, 500) << "the client that never reads was not dropped from";
   EXPECT_LE(queued, 2 * 32) << "more queued than the per-client bound";
