@@ -37,6 +37,7 @@
 #include <memory>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <type_traits>
@@ -271,13 +272,15 @@ struct Layout {
   std::vector<size_t> i32, f64;
 };
 // torque_command_t: hash, utime, seq, num_names, names[], num_torques, tau[];
-// measured_state_t: hash, utime, seq, (num names, names[], num, values[]) for q then v, tau[num_v].
+// measured_state_t: hash, utime, seq, (num names, names[], num, values[]) for q then v, tau[num_v],
+// then num_wrenches, wrench_names[], wrench[][6].
 Layout layout_of(const std::string& s, bool state) {
   Layout L;
   size_t p = 24;
   L.f64.push_back(8);  // utime and seq as raw 8-byte fields too
   L.f64.push_back(16);
-  auto block = [&](int values_per) {
+  // names[] then values[]; the values have their own count unless shared_count (one count for both)
+  auto block = [&](int values_per, bool shared_count) {
     L.i32.push_back(p);
     const int32_t nn = be32(s, p);
     p += 4;
@@ -285,18 +288,24 @@ Layout layout_of(const std::string& s, bool state) {
       L.i32.push_back(p);
       p += 4 + be32(s, p);
     }
-    L.i32.push_back(p);
-    const int32_t nv = be32(s, p);
-    p += 4;
+    int32_t nv = nn;
+    if (!shared_count) {
+      L.i32.push_back(p);
+      nv = be32(s, p);
+      p += 4;
+    }
     for (int k = 0; k < nv * values_per; ++k, p += 8) L.f64.push_back(p);
   };
   if (state) {
-    block(1);
-    block(2);
+    block(1, false);  // q
+    block(2, false);  // v and tau
+    block(6, true);   // measured wrenches: num_wrenches, wrench_names[], wrench[][6]
   } else {
-    block(1);  // torques
-    block(1);  // lock targets
+    block(1, false);  // torques: num_names, names[], num_torques, tau[]
+    block(1, true);   // lock targets: num_targets, target_names[], target[]
   }
+  if (p != s.size()) throw std::logic_error("layout_of: the seed's fields end at byte " + std::to_string(p) +
+                                            " of " + std::to_string(s.size()));
   return L;
 }
 
