@@ -1,6 +1,7 @@
 // Helpers shared by the tests: scene paths, random states, finite differences, a plain KKT solve.
 #pragma once
 
+#include <cstdio>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -134,6 +135,17 @@ inline System load_with_reactions(const std::string& name, std::optional<Formula
   SceneOverrides ov;
   ov.formulation = f;
   return load_scene_string(without_reactions(scene_text(name)) + "\nreactions: all\n", scene_path(name), ov);
+}
+
+// The four-wheel car (text: config/scenes/four_wheel_car.yaml or an edit of it) with its steer
+// joints' scene angles set (left, right; rad).
+inline System car_with_steer(double dl, double dr, const std::string& text = scene_text("four_wheel_car")) {
+  char a[96], b[96];
+  std::snprintf(a, sizeof a, "name: fl_steer, pseudo: true, q: %.17g,", dl);
+  std::snprintf(b, sizeof b, "name: fr_steer, pseudo: true, q: %.17g,", dr);
+  std::string t = replace_once(text, "name: fl_steer, pseudo: true, q: 0,", a);
+  t = replace_once(t, "name: fr_steer, pseudo: true, q: 0,", b);
+  return load_scene_string(t, scene_path("four_wheel_car"));
 }
 
 // A rigid car: four wheels (r = 0.3 m) at the corners of a 2.6 m x 1.5 m, 1200 kg chassis, resting

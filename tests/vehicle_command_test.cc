@@ -35,16 +35,6 @@ int lock_spec(const System& sys, const std::string& joint) {
   return 0;
 }
 
-// The car with its steer joints' scene angles set (and the rest of the text changed by edit).
-System car_at(double dl, double dr, const std::string& text) {
-  char a[96], b[96];
-  std::snprintf(a, sizeof a, "name: fl_steer, pseudo: true, q: %.17g,", dl);
-  std::snprintf(b, sizeof b, "name: fr_steer, pseudo: true, q: %.17g,", dr);
-  std::string t = replace_once(text, "name: fl_steer, pseudo: true, q: 0,", a);
-  t = replace_once(t, "name: fr_steer, pseudo: true, q: 0,", b);
-  return load_scene_string(t, coopdyn::testing::scene_path("four_wheel_car"));
-}
-
 }  // namespace
 
 TEST(VehicleCommand, TargetsAreValidatedLikeTorques) {
@@ -168,7 +158,7 @@ TEST(VehicleCommand, MemqSteerCommandsMoveTheLocksAndTheWrenchesEqualOffline) {
   EXPECT_EQ(c.by_reason[static_cast<int>(io::Reject::kOverTargetLimit)].load(), 1);
 
   std::lock_guard<std::mutex> lk(mu);
-  const System at_angle = car_at(dl, dr, text);  // the scene written at the commanded angles
+  const System at_angle = car_with_steer(dl, dr, text);  // the scene written at the commanded angles
   System targets = sys;                           // the scene with the command's targets
   targets.constraints.specs[static_cast<size_t>(fl)].q_target = dl;
   targets.constraints.specs[static_cast<size_t>(fr)].q_target = dr;

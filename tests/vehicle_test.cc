@@ -42,17 +42,6 @@ Vec3 contact(const System& sys, const Workspace& ws, const std::string& name) {
   return ws.lambda.segment<3>(sys.constraints.row_offset[static_cast<size_t>(s)]);
 }
 
-// The car scene with its steer angles set (left, right; rad) and optional extra text.
-System car_with_steer(double dl, double dr, const std::string& extra = "") {
-  std::string t = scene_text("four_wheel_car");
-  char a[96], b[96];
-  std::snprintf(a, sizeof a, "name: fl_steer, pseudo: true, q: %.17g", dl);
-  std::snprintf(b, sizeof b, "name: fr_steer, pseudo: true, q: %.17g", dr);
-  t = replace_once(t, "name: fl_steer, pseudo: true, q: 0", a);
-  t = replace_once(t, "name: fr_steer, pseudo: true, q: 0", b);
-  return load_scene_string(t + extra, scene_path("four_wheel_car"));
-}
-
 // A steady left turn of the car with Ackermann steering: the rear axle's midpoint on a circle of
 // radius R about the turn centre (-lr, R) in chassis coordinates, at speed V. Every wheel rolls
 // about the same centre; the chassis twist is constant in its own frame.

@@ -317,7 +317,6 @@ const char* type_name(MessageType t) {
 }
 
 bool to_csv(MessageType t, const void* data, int len, std::string* header, std::string* row) {
-  static const char* comp[6] = {"mx", "my", "mz", "fx", "fy", "fz"};
   header->clear();
   row->clear();
   switch (t) {
@@ -357,67 +356,8 @@ bool to_csv(MessageType t, const void* data, int len, std::string* header, std::
       }
       break;
     }
-    case MessageType::kOutput: {
-      coopdyn::output_t m;
-      if (!decode_any_output(data, len, &m)) return false;
-      *header =
-          "utime,tick,sim_time,mode,status,reason,input,input_seq,input_utime,paused,control_seq,control_action,"
-          "control_result,rows,rank,indeterminate,condition,residual,state_fitted,fit_iterations,closure_position_m,"
-          "closure_orientation_rad,closure_linear_velocity_mps,closure_angular_velocity_radps,closure_position_at,"
-          "closure_orientation_at,closure_linear_velocity_at,closure_angular_velocity_at";
-      inum(row, m.utime);
-      inum(row, m.tick);
-      num(row, m.sim_time);
-      inum(row, m.mode);
-      inum(row, m.status);
-      inum(row, m.reason);
-      inum(row, m.input);
-      inum(row, m.input_seq);
-      inum(row, m.input_utime);
-      inum(row, m.paused);
-      inum(row, m.control_seq);
-      inum(row, m.control_action);
-      inum(row, m.control_result);
-      inum(row, m.rows);
-      inum(row, m.rank);
-      inum(row, m.indeterminate);
-      num(row, m.condition);
-      num(row, m.residual);
-      inum(row, m.state_fitted);
-      inum(row, m.fit_iterations);
-      for (int k = 0; k < 4; ++k) num(row, m.closure[k]);
-      for (int k = 0; k < 4; ++k) {  // the constraint's name, empty if none
-        const int c = m.closure_constraint[k];
-        *row += ",";
-        if (c >= 0 && c < m.num_constraints) *row += m.constraint_names[c];
-      }
-      for (int i = 0; i < m.num_wrenches; ++i) {
-        for (int k = 0; k < 6; ++k) {
-          *header += "," + m.wrench_names[i] + "." + comp[k];
-          num(row, m.wrench[i].*kComp[k]);
-        }
-        *header += "," + m.wrench_names[i] + ".indeterminate_mask";
-        inum(row, m.indeterminate_mask[i]);
-        *header += "," + m.wrench_names[i] + ".kind";  // output_t KIND_*: 0 end-effector .. 4 joint
-        inum(row, m.wrench_kind[i]);
-      }
-      for (int i = 0; i < m.num_stresses; ++i) {
-        *header += ",stress:" + m.stress_names[i];
-        num(row, m.stress[i]);
-      }
-      for (int i = 0; i < m.nq; ++i) {
-        *header += ",q:" + m.q_names[i];
-        num(row, m.q[i]);
-      }
-      for (const char* what : {"v", "tau", "vdot"}) {
-        const std::vector<double>& x = !std::strcmp(what, "v") ? m.v : !std::strcmp(what, "tau") ? m.tau : m.vdot;
-        for (int i = 0; i < m.nv; ++i) {
-          *header += std::string(",") + what + ":" + m.v_names[i];
-          num(row, x[i]);
-        }
-      }
-      break;
-    }
+    case MessageType::kOutput:  // the step CSV schema (clients/step_csv.h) from decode_output
+      return false;
     case MessageType::kLoopStats: {
       StatsFrame s;
       if (!decode_stats(data, len, &s)) return false;
