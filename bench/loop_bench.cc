@@ -1,7 +1,21 @@
 // Cost of the daemon's per-tick work without the scheduler: ServiceLoop::tick() (input handoff,
 // watchdog, integrator step or evaluation, output encoding, publish to a null bus) per scene and
 // mode, and the codec on its own (output encode, command decode + validation).
+// BM_TickPaced takes the in-place cost apart: the same tick back to back or after sleeping to an
+// absolute 1 ms deadline (as the daemon does), publishing to a null bus or over udpm on loopback
+// to a subscriber in this process (as the daemon does to a controller or logger).
 #include <benchmark/benchmark.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <atomic>
+#include <memory>
+#include <vector>
+
+#include "service/io/lcm_bus.h"
 
 #include "service/io/codec.h"
 #include "service/runtime/service_loop.h"
@@ -51,6 +65,88 @@ void BM_Tick(benchmark::State& st) {
   st.counters["bytes/tick"] = static_cast<double>(bus.bytes) / static_cast<double>(st.iterations());
 }
 BENCHMARK(BM_Tick)->ArgsProduct({{0, 1, 2, 3}, {0, 1}})->Unit(benchmark::kMicrosecond);
+
+// Args: mode (0 simulate, 1 estimate), paced (0 back to back, 1 sleep to the next 1 ms deadline
+// between ticks, clock_nanosleep TIMER_ABSTIME), bus (0 null, 1 udpm on loopback with a subscriber
+// in a receive thread, 2 udpm on loopback with no subscriber on the host's port: the datagram is
+// sent but nobody is woken). Time per tick taken around tick() alone (manual time); p50 and p99 as
+// counters. The loop's thread is whatever CPU the benchmark runs on (taskset it). The scene:
+// two_puma_load, or the file in the environment variable LOOP_BENCH_SCENE.
+void BM_TickPaced(benchmark::State& st) {
+  const char* env = std::getenv("LOOP_BENCH_SCENE");  // bench/loop_timing.sh times its SCENE
+  const std::string path = env && *env ? env : scene("two_puma_load");
+  System sys;
+  try {
+    sys = load_scene(path);
+  } catch (const std::exception& e) {
+    st.SkipWithError(e.what());
+    return;
+  }
+  runtime::ServiceConfig cfg;
+  cfg.mode = st.range(0) ? runtime::ServiceMode::kEstimate : runtime::ServiceMode::kSimulate;
+  cfg.max_input_age_ms = 0;
+  const bool paced = st.range(1) != 0, udpm = st.range(2) != 0, subscriber = st.range(2) == 1;
+  NullBus null_bus;
+  std::unique_ptr<io::LcmBus> out, sub;
+  std::atomic<long> received{0};
+  if (udpm) {
+    const std::string url = "udpm://239.255.76.67:" + std::to_string(7900 + getpid() % 90) + "?ttl=0";
+    try {
+      out = std::make_unique<io::LcmBus>(url);
+      if (subscriber) sub = std::make_unique<io::LcmBus>(url);
+    } catch (const std::exception& e) {
+      st.SkipWithError(e.what());
+      return;
+    }
+    if (sub) {
+      sub->subscribe(cfg.output_channel, [&](const void*, int, long long) { received.fetch_add(1, std::memory_order_relaxed); });
+      sub->start();
+    }
+  }
+  io::Bus& bus = udpm ? static_cast<io::Bus&>(*out) : null_bus;
+  runtime::ServiceLoop loop(sys, cfg, bus);
+  const std::vector<double> tau(sys.model.nv(), 0.0);
+  const auto b = cfg.mode == runtime::ServiceMode::kSimulate
+                     ? io::encode_torque_command(0, 1, {}, tau)
+                     : io::encode_measured_state(0, 1, {}, std::vector<double>(sys.q0.data(), sys.q0.data() + sys.q0.size()),
+                                                 {}, std::vector<double>(sys.v0.data(), sys.v0.data() + sys.v0.size()), tau);
+  std::vector<double> us;
+  us.reserve(1 << 16);
+  long long now = 0;
+  timespec deadline;
+  clock_gettime(CLOCK_MONOTONIC, &deadline);
+  for (auto _ : st) {
+    if (cfg.mode == runtime::ServiceMode::kSimulate) loop.commands().offer(b.data(), static_cast<int>(b.size()), now);
+    else loop.states().offer(b.data(), static_cast<int>(b.size()), now);
+    if (paced) {
+      deadline.tv_nsec += 1000000;
+      if (deadline.tv_nsec >= 1000000000) deadline.tv_nsec -= 1000000000, ++deadline.tv_sec;
+      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &deadline, nullptr);
+    }
+    const long long t0 = io::monotonic_ns();
+    loop.tick(now);
+    const double dt = static_cast<double>(io::monotonic_ns() - t0) * 1e-9;
+    st.SetIterationTime(dt);
+    if (us.size() < us.capacity()) us.push_back(dt * 1e6);
+    now += 1000000;
+  }
+  if (sub) sub->stop();
+  std::sort(us.begin(), us.end());
+  if (!us.empty()) {
+    st.counters["p50_us"] = us[us.size() / 2];
+    st.counters["p99_us"] = us[us.size() * 99 / 100];
+  }
+  // the same counters in every run (the CSV reporter needs them): NaN where they do not apply
+  st.counters["bytes/tick"] = udpm ? std::nan("") : static_cast<double>(null_bus.bytes) / static_cast<double>(st.iterations());
+  st.counters["delivered"] = sub ? static_cast<double>(received.load()) / static_cast<double>(st.iterations()) : std::nan("");
+  st.SetLabel(sys.name + (cfg.mode == runtime::ServiceMode::kSimulate ? " simulate" : " estimate") +
+              (paced ? ", slept to 1 ms deadlines" : ", back to back") + (!udpm ? ", null bus" : subscriber ? ", udpm + subscriber" : ", udpm, no subscriber"));
+}
+BENCHMARK(BM_TickPaced)
+    ->ArgsProduct({{0, 1}, {0, 1}, {0, 1, 2}})
+    ->UseManualTime()
+    ->Iterations(3000)
+    ->Unit(benchmark::kMicrosecond);
 
 void BM_EncodeOutput(benchmark::State& st) {
   const System sys = load_scene(scene("two_puma_load"));

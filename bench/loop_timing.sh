@@ -15,8 +15,10 @@
 #     end of the tick: handoff, dynamics, wrenches, encoding, lcm_publish) over every tick.
 #   cyclictest rows: cyclictest -t 1 -i 1000 with the same policy (it holds /dev/cpu_dma_latency
 #     at 0 itself), percentiles from its histogram.
-#   warm: build/bin/loop_bench's ServiceLoop::tick() of the same scene (Google Benchmark, back to
-#     back, warm caches): the in-place compute p50 is given as a multiple of it.
+#   warm: build/bin/loop_bench's ServiceLoop::tick() of the same scene (BM_TickPaced, back to back,
+#     warm caches, null bus, p50): the in-place compute p50 is given as a multiple of it.
+#   where the time goes: the same tick p50 / p99 slept to 1 ms deadlines (cold caches), then also
+#     publishing over udpm on loopback with no subscriber and with one (loop_bench BM_TickPaced).
 # Daemon variants: "rt" = SCHED_FIFO 80 + mlockall (needs root; refusals are logged); "+ tricks" =
 #   rt + /dev/cpu_dma_latency held at 0 + the loop pinned to CPU 1 with the receive thread and
 #   process on the others + inputs on their own port (lcm_url_in: the receive process never sees
@@ -121,20 +123,24 @@ daemon "coopdynd simulate, rt + tricks + spin 50" simulate "$(printf '%s' "$TRIC
 daemon "coopdynd estimate at the tick, rt + tricks" estimate "$TRICKS" tick
 daemon "coopdynd estimate on arrival, rt + tricks" estimate "$TRICKS" arrival
 
-taskset -c 1 "$BUILD/bin/loop_bench" --benchmark_filter='BM_Tick/0/' --benchmark_min_time=0.5 \
+LOOP_BENCH_SCENE=$(realpath "$SCENE") "${NS[@]}" taskset -c 1 "$BUILD/bin/loop_bench" --benchmark_filter='BM_TickPaced' \
   --benchmark_format=csv 2>/dev/null > "$TMP/warm.csv" || true
 echo "== load after: $(cut -d' ' -f1-3 /proc/loadavg)"
-python3 - "$TMP/rows" "$TMP/warm.csv" <<'PY'
+python3 - "$TMP/rows" "$TMP/warm.csv" "$(basename "$SCENE" .yaml)" <<'PY'
 import csv, sys
-warm, size = {}, {}
+# BM_TickPaced/MODE/PACED/BUS: p50 and p99 per (mode, paced, bus)
+paced, size = {}, {}
 head = None
 for r in csv.reader(open(sys.argv[2])):
     if r and r[0] == "name": head = r
-    if head and r and r[0].startswith("BM_Tick/0/"):
-        k = "simulate" if r[0].endswith("/0") else "estimate"
-        warm[k] = float(r[head.index("cpu_time")])  # us
-        if "bytes/tick" in head and r[head.index("bytes/tick")]: size[k] = float(r[head.index("bytes/tick")])
-print("| 1 kHz, two_puma_load | lateness p50 | p99 | p99.9 | max | compute p50 | p99 | p99.9 | compute p50 / warm tick "
+    if head and r and r[0].startswith("BM_TickPaced/"):
+        m, p, b = (int(x) for x in r[0].split("/")[1:4])
+        mode = "estimate" if m else "simulate"
+        get = lambda c: float(r[head.index(c)]) if c in head and r[head.index(c)] else None
+        paced[(mode, p, b)] = (get("p50_us"), get("p99_us"))
+        if (p, b) == (0, 0) and get("bytes/tick"): size[mode] = get("bytes/tick")
+warm = {mode: paced[(mode, 0, 0)][0] for mode in ("simulate", "estimate") if (mode, 0, 0) in paced}
+print(f"| 1 kHz, {sys.argv[3]} | lateness p50 | p99 | p99.9 | max | compute p50 | p99 | p99.9 | compute p50 / warm tick "
       "| ticks / overruns | latency min | p50 | p99 | messages |")
 print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 for line in open(sys.argv[1]):
@@ -149,7 +155,16 @@ for line in open(sys.argv[1]):
     print(f"| {name} | {us(f[1])} | {us(f[2])} | {us(f[3])} | {us(f[4])} | {us(f[5])} | {us(f[6])} | {us(f[7])} | {ratio} "
           f"| {f[8]} | {us(f[9])} | {us(f[10])} | {us(f[11])} | {f[12]} |")
 print()
-print("warm ServiceLoop::tick() (loop_bench, taskset -c 1): " +
+print("warm ServiceLoop::tick() p50 (loop_bench BM_TickPaced, back to back, null bus, taskset -c 1): " +
       ", ".join(f"{k} {v:.2f} µs" for k, v in sorted(warm.items())) +
-      "; output_t " + ", ".join(f"{k} {v:.0f} bytes" for k, v in sorted(size.items())))
+      "; output_t " + ", ".join(f"{k} {v:.0f} bytes" for k, v in sorted(size.items())) + ".")
+print()
+print("Where the time goes: the same tick() outside the daemon (loop_bench BM_TickPaced, 3000 ticks each, "
+      "taskset -c 1), p50 / p99:")
+print()
+print("| tick() | back to back, null bus | slept to 1 ms deadlines, null bus | slept, udpm, no subscriber | slept, udpm + a subscriber |")
+print("|---|---|---|---|---|")
+cell = lambda t: f"{t[0]:.1f} / {t[1]:.1f} µs" if t and t[0] is not None else "n/a"
+for mode in ("simulate", "estimate"):
+    print(f"| {mode} | " + " | ".join(cell(paced.get((mode, p, b))) for p, b in ((0, 0), (1, 0), (1, 2), (1, 1))) + " |")
 PY
