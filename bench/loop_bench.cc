@@ -34,6 +34,19 @@ struct NullBus : io::Bus {
 std::string scene(const std::string& n) { return std::string(COOPDYN_SOURCE_DIR) + "/config/scenes/" + n + ".yaml"; }
 const char* kScenes[] = {"two_puma_load", "two_5dof_arms_load", "planar_arms_load", "four_bar"};
 
+// The input a tick takes: a zero torque command (simulate) or the scene's initial state (estimate).
+std::vector<uint8_t> input_message(const System& sys, runtime::ServiceMode mode) {
+  const std::vector<double> tau(sys.model.nv(), 0.0);
+  if (mode == runtime::ServiceMode::kSimulate) return io::encode_torque_command(0, 1, {}, tau);
+  return io::encode_measured_state(0, 1, {}, std::vector<double>(sys.q0.data(), sys.q0.data() + sys.q0.size()), {},
+                                   std::vector<double>(sys.v0.data(), sys.v0.data() + sys.v0.size()), tau);
+}
+// A fresh input every tick keeps the watchdog satisfied (the handoff is part of the cost).
+void offer(runtime::ServiceLoop& loop, runtime::ServiceMode mode, const std::vector<uint8_t>& b, long long now) {
+  if (mode == runtime::ServiceMode::kSimulate) loop.commands().offer(b.data(), static_cast<int>(b.size()), now);
+  else loop.states().offer(b.data(), static_cast<int>(b.size()), now);
+}
+
 void BM_Tick(benchmark::State& st) {
   const std::string name = kScenes[st.range(0)];
   System sys;
@@ -48,16 +61,10 @@ void BM_Tick(benchmark::State& st) {
   cfg.max_input_age_ms = 0;  // one message offered for the whole run: its utime would go stale
   NullBus bus;
   runtime::ServiceLoop loop(sys, cfg, bus);
-  const std::vector<double> tau(sys.model.nv(), 0.0);
-  const auto b = cfg.mode == runtime::ServiceMode::kSimulate
-                     ? io::encode_torque_command(0, 1, {}, tau)
-                     : io::encode_measured_state(0, 1, {}, std::vector<double>(sys.q0.data(), sys.q0.data() + sys.q0.size()),
-                                                 {}, std::vector<double>(sys.v0.data(), sys.v0.data() + sys.v0.size()), tau);
+  const std::vector<uint8_t> b = input_message(sys, cfg.mode);
   long long now = 0;
   for (auto _ : st) {
-    // a fresh input every tick keeps the watchdog satisfied (the handoff is part of the cost)
-    if (cfg.mode == runtime::ServiceMode::kSimulate) loop.commands().offer(b.data(), static_cast<int>(b.size()), now);
-    else loop.states().offer(b.data(), static_cast<int>(b.size()), now);
+    offer(loop, cfg.mode, b, now);
     loop.tick(now);
     now += 1000000;
   }
@@ -105,19 +112,14 @@ void BM_TickPaced(benchmark::State& st) {
   }
   io::Bus& bus = udpm ? static_cast<io::Bus&>(*out) : null_bus;
   runtime::ServiceLoop loop(sys, cfg, bus);
-  const std::vector<double> tau(sys.model.nv(), 0.0);
-  const auto b = cfg.mode == runtime::ServiceMode::kSimulate
-                     ? io::encode_torque_command(0, 1, {}, tau)
-                     : io::encode_measured_state(0, 1, {}, std::vector<double>(sys.q0.data(), sys.q0.data() + sys.q0.size()),
-                                                 {}, std::vector<double>(sys.v0.data(), sys.v0.data() + sys.v0.size()), tau);
+  const std::vector<uint8_t> b = input_message(sys, cfg.mode);
   std::vector<double> us;
   us.reserve(1 << 16);
   long long now = 0;
   timespec deadline;
   clock_gettime(CLOCK_MONOTONIC, &deadline);
   for (auto _ : st) {
-    if (cfg.mode == runtime::ServiceMode::kSimulate) loop.commands().offer(b.data(), static_cast<int>(b.size()), now);
-    else loop.states().offer(b.data(), static_cast<int>(b.size()), now);
+    offer(loop, cfg.mode, b, now);
     if (paced) {
       deadline.tv_nsec += 1000000;
       if (deadline.tv_nsec >= 1000000000) deadline.tv_nsec -= 1000000000, ++deadline.tv_sec;
