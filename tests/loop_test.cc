@@ -656,6 +656,36 @@ TEST(ServiceLoop, ControlPausesResumesResetsAndAcknowledges) {
   EXPECT_EQ(o.control_seq, 5);
   EXPECT_EQ(o.control_result, static_cast<int>(io::ControlResult::kRejectedState));
   EXPECT_NE(r.loop->q()[2], q[2]) << "the rejected state is not taken";
+  // the refusal says why: the closure's largest residual and the constraint it is in. The load
+  // 10 cm up opens every grasp by 0.1 m (position) or turns no frame (orientation 0).
+  runtime::Event e{};
+  std::vector<runtime::Event> refusals;
+  while (r.loop->events().pop(&e))
+    if (e.code == runtime::EventCode::kResetRejected) refusals.push_back(e);
+  ASSERT_EQ(refusals.size(), 1u);
+  EXPECT_EQ(refusals[0].a, 5);
+  EXPECT_EQ(refusals[0].b / 65536, static_cast<int>(runtime::ResetRefusal::kClosure) * 4 + kClosurePosition);
+  EXPECT_NEAR(refusals[0].x, 0.1, 1e-9);
+  const int spec = static_cast<int>(refusals[0].b % 65536) - 1;
+  ASSERT_GE(spec, 0);
+  const std::string text = runtime::reset_refusal_text(r.sys, refusals[0]);
+  EXPECT_NE(text.find("position residual 0.1 m at '" + r.sys.constraints.specs[static_cast<size_t>(spec)].name + "'"),
+            std::string::npos)
+      << text;
+  // a quaternion not of unit norm is refused for that reason (non-finite values never get this
+  // far: the control decoder rejects them)
+  Eigen::VectorXd qbad = r.sys.q0;
+  qbad[3] = 2.0;  // load.qw
+  ASSERT_EQ(r.sys.model.q_names[3], "load.qw");
+  ASSERT_EQ(control(r, 7, io::ControlAction::kResetToState, t, &qbad, &v), Offer::kAccepted);
+  r.loop->tick(t += kMs);
+  EXPECT_EQ(r.bus.last_output().control_result, static_cast<int>(io::ControlResult::kRejectedState));
+  refusals.clear();
+  while (r.loop->events().pop(&e))
+    if (e.code == runtime::EventCode::kResetRejected) refusals.push_back(e);
+  ASSERT_EQ(refusals.size(), 1u);
+  EXPECT_EQ(refusals[0].b / 65536 / 4, static_cast<int>(runtime::ResetRefusal::kConfiguration));
+  EXPECT_NE(runtime::reset_refusal_text(r.sys, refusals[0]).find("not a valid configuration"), std::string::npos);
   // a control with a state of the wrong size is a malformed message
   Eigen::VectorXd shortq = r.sys.q0.head(5);
   EXPECT_EQ(control(r, 6, io::ControlAction::kResetToState, t, &shortq, &v), Offer::kRejected);

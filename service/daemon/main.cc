@@ -85,6 +85,7 @@ void log_event(const coopdyn::System& sys, const coopdyn::runtime::Event& e) {
       break;
     }
     case EventCode::kClosureBack: spdlog::info("measured states close the constraints again (seq {})", e.a); break;
+    case EventCode::kResetRejected: spdlog::warn("control seq {}: {}", e.a, coopdyn::runtime::reset_refusal_text(sys, e)); break;
     case EventCode::kOverrun: break;  // aggregated by OverrunReport
   }
 }

@@ -19,6 +19,17 @@ enum class EventCode : int32_t {
   kClosureOpen,     // estimate: a measured state above closure_tolerance (first of a run): a: seq,
                     // b: closure kind * 65536 + constraint index + 1 (0: none), x: the residual
   kClosureBack,     // the first state back within tolerance: a: seq
+  kResetRejected,   // a reset_to_state refused: a: seq of the control_t, b: (ResetRefusal * 4 + closure
+                    // kind) * 65536 + constraint index + 1 (0: none), x: the closure residual (kClosure)
+};
+
+// Why a reset_to_state was refused.
+enum class ResetRefusal : int {
+  kNone = 0,
+  kConfiguration = 1,  // q is not a valid configuration (non-finite, a quaternion not of unit norm)
+  kVelocity = 2,       // v not finite
+  kEvaluation = 3,     // the evaluation at (q, v) failed (singular, non-finite)
+  kClosure = 4,        // (q, v) does not close the constraints to 1e-6 (m, rad, m/s, rad/s)
 };
 
 struct Event {

@@ -4,6 +4,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 
 #include "service/io/lcm_bus.h"
 
@@ -111,13 +112,31 @@ void ServiceLoop::handle_control(const io::ControlSlot& c) {
         fault_reason_ = Reason::kNone;
         break;
       case ControlAction::kResetToState: {
-        // a valid configuration whose evaluation succeeds and that closes the constraints (1e-6)
-        bool ok = configuration_valid(sys_.model, c.q) && c.v.allFinite();
-        if (ok) {
+        // a valid configuration whose evaluation succeeds and that closes the constraints (1e-6);
+        // a refusal says why (event kResetRejected): which check, and for the closure its largest
+        // residual and the constraint it is in
+        ResetRefusal why = ResetRefusal::kNone;
+        Closure cl;
+        if (!configuration_valid(sys_.model, c.q)) why = ResetRefusal::kConfiguration;
+        else if (!c.v.allFinite()) why = ResetRefusal::kVelocity;
+        else {
           const Diagnostics& d = evaluate(sys_, stepper_.ws, c.q, c.v, zero_);
           const ConstraintData& cd = stepper_.ws.cd;
-          ok = d.status != Status::kError &&
-               (cd.err.size() == 0 || (cd.err.cwiseAbs().maxCoeff() <= 1e-6 && cd.Gv.cwiseAbs().maxCoeff() <= 1e-6));
+          if (d.status == Status::kError) why = ResetRefusal::kEvaluation;
+          else if (cd.err.size() != 0 && (cd.err.cwiseAbs().maxCoeff() > 1e-6 || cd.Gv.cwiseAbs().maxCoeff() > 1e-6)) {
+            why = ResetRefusal::kClosure;
+            closure_residual(sys_.constraints, fit_plan_, cd, &cl);
+          }
+        }
+        const bool ok = why == ResetRefusal::kNone;
+        if (!ok) {
+          int kind = 0;  // the closure kind with the largest residual
+          for (int k = 1; k < 4; ++k)
+            if (cl.value[k] > cl.value[kind]) kind = k;
+          events_.push({EventCode::kResetRejected, c.seq,
+                        (static_cast<int64_t>(why) * 4 + (why == ResetRefusal::kClosure ? kind : 0)) * 65536 +
+                            (why == ResetRefusal::kClosure ? cl.spec[kind] + 1 : 0),
+                        why == ResetRefusal::kClosure ? cl.value[kind] : 0.0});
         }
         if (ok) {
           q_ = c.q;
@@ -498,6 +517,29 @@ void ServiceLoop::run(const std::atomic<bool>& stop, long long max_ticks) {
       in_overrun_ = false;
     }
   }
+}
+
+std::string reset_refusal_text(const System& sys, const Event& e) {
+  static const char* const kinds[4] = {"position", "orientation", "linear velocity", "angular velocity"};
+  static const char* const units[4] = {"m", "rad", "m/s", "rad/s"};
+  const int code = static_cast<int>(e.b / 65536), spec = static_cast<int>(e.b % 65536) - 1;
+  const int kind = code % 4;
+  std::string t = "reset_to_state refused, the simulation goes on from its own state: ";
+  switch (static_cast<ResetRefusal>(code / 4)) {
+    case ResetRefusal::kConfiguration:
+      return t + "q is not a valid configuration (a non-finite coordinate or a quaternion not of unit norm)";
+    case ResetRefusal::kVelocity: return t + "v has a non-finite entry";
+    case ResetRefusal::kEvaluation: return t + "the evaluation at (q, v) failed (singular or non-finite)";
+    case ResetRefusal::kClosure: {
+      const auto& specs = sys.constraints.specs;
+      char r[64];
+      std::snprintf(r, sizeof r, "%.3g %s", e.x, units[kind]);
+      return t + "(q, v) does not close the constraints to 1e-6: " + kinds[kind] + " residual " + r + " at '" +
+             (spec >= 0 && spec < static_cast<int>(specs.size()) ? specs[static_cast<size_t>(spec)].name : std::string("?")) + "'";
+    }
+    case ResetRefusal::kNone: break;
+  }
+  return t + "unknown reason";
 }
 
 }  // namespace coopdyn::runtime

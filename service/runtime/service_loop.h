@@ -29,6 +29,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include <memory>
@@ -153,5 +154,9 @@ class ServiceLoop {
   EventRing<256> events_;
   Doorbell bell_;
 };
+
+// The text of a kResetRejected event: why reset_to_state was refused, naming the constraint and its
+// residual when the state does not close them. Allocates: for the daemon's logger, not the loop.
+std::string reset_refusal_text(const System& sys, const Event& e);
 
 }  // namespace coopdyn::runtime
