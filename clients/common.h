@@ -34,6 +34,10 @@ void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const
 // as "<\/" so that no name can close an inline <script> (coopdyn view).
 std::string json_string(const std::string& s);
 
+// s as one shell word: as it is when it holds only characters the shell leaves alone, else in
+// single quotes (for std::system and for printing commands a user can paste).
+std::string shell_quote(const std::string& s);
+
 // One warning line on f per rolling contact the evaluation in ws finds sliding or lifting off
 // (contacts.h), prefixed with "t=T: " when t is finite; returns how many.
 int warn_contacts(std::FILE* f, const char* cmd, const System& sys, const Workspace& ws,

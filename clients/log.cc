@@ -48,20 +48,6 @@ const char* kPlotScript =
 #include "log_plot.inc"
     ;
 
-std::string shell_quote(const std::string& s) {
-  std::string o = "'";
-  for (char c : s) o += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return o + "'";
-}
-
-std::vector<std::string> split(const std::string& s) {
-  std::vector<std::string> out;
-  size_t a = 0;
-  for (size_t b; (b = s.find(',', a)) != std::string::npos; a = b + 1) out.push_back(s.substr(a, b - a));
-  out.push_back(s.substr(a));
-  return out;
-}
-
 // The names and units of a channel other than output_t, from io::to_csv's header: the same naming
 // rules as the per-step CSV (units out of the names, coordinates by name: 'tau:3' of a command sent
 // without names becomes the scene's fourth velocity name).
@@ -77,7 +63,7 @@ CsvColumns other_columns(io::MessageType type, const std::string& header, const 
   CsvColumns c;
   c.add("log_time", "s");
   *action_col = -1;
-  const std::vector<std::string> h = split(header);
+  const std::vector<std::string> h = split_csv_line(header);
   for (size_t k = 0; k < h.size(); ++k) {
     std::string n = h[k];
     const auto colon = n.find(':');
@@ -371,7 +357,7 @@ int cmd_log(const Args& a) {
         return true;
       }
       if (c.action_col >= 0) {  // control_t's action as a word
-        std::vector<std::string> cells = split(row);
+        std::vector<std::string> cells = split_csv_line(row);
         cells[static_cast<size_t>(c.action_col)] = control_action_key(std::atoi(cells[static_cast<size_t>(c.action_col)].c_str()));
         row.clear();
         for (size_t k = 0; k < cells.size(); ++k) row += (k ? "," : "") + cells[k];

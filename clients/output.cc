@@ -41,6 +41,16 @@ void names(std::FILE* f, const std::vector<std::string>& v) {
 }
 }  // namespace
 
+// Only characters the shell passes as they are stay unquoted.
+std::string shell_quote(const std::string& s) {
+  if (s.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-+=./:,@%") == std::string::npos &&
+      !s.empty())
+    return s;
+  std::string o = "'";
+  for (const char c : s) o += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return o + "'";
+}
+
 std::string json_string(const std::string& s) {
   std::string o = "\"";
   for (size_t i = 0; i < s.size(); ++i) {

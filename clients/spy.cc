@@ -63,15 +63,6 @@ std::string find_java() {
   return "";
 }
 
-std::string shell_quote(const std::string& s) {
-  if (s.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-+=./:,@%") == std::string::npos &&
-      !s.empty())
-    return s;
-  std::string o = "'";
-  for (const char c : s) o += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return o + "'";
-}
-
 }  // namespace
 
 void register_spy(Cli& cli) {

@@ -4,8 +4,7 @@
 
 namespace coopdyn::cli {
 
-namespace {
-std::vector<std::string> split(const std::string& s) {
+std::vector<std::string> split_csv_line(const std::string& s) {
   std::vector<std::string> out;
   std::stringstream ss(s);
   std::string cell;
@@ -13,6 +12,8 @@ std::vector<std::string> split(const std::string& s) {
   if (!s.empty() && s.back() == ',') out.emplace_back();
   return out;
 }
+
+namespace {
 // A floating joint's coordinate by its suffix (NAME.x .. NAME.qz, NAME.wx .. NAME.vz); "" otherwise.
 const char* floating_q_unit(const std::string& n, const std::vector<std::string>& all) {
   const auto dot = n.rfind('.');
@@ -187,9 +188,9 @@ bool read_step_csv_header(std::istream& in, const std::string& path, CsvHeader* 
     *err = path + ": no header line (expected the column names)";
     return false;
   }
-  h->names = split(line);
+  h->names = split_csv_line(line);
   if (have_units) {
-    h->units = split(units_line);
+    h->units = split_csv_line(units_line);
     if (h->units.size() != h->names.size()) {
       *err = path + ":" + std::to_string(units_at) + ": " + std::to_string(h->units.size()) + " units for " +
              std::to_string(h->names.size()) + " columns";

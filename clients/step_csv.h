@@ -116,4 +116,8 @@ class CsvLine {
   size_t n_ = 0;
 };
 
+// The cells of one CSV line (no quoting: the schema's names and values hold no comma); a trailing
+// comma gives a last empty cell.
+std::vector<std::string> split_csv_line(const std::string& s);
+
 }  // namespace coopdyn::cli

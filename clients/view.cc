@@ -563,58 +563,25 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
   jvec(d, vf.t.data(), vf.t.size(), "%.9g");
   d += ",\"status\":[";
   for (size_t i = 0; i < vf.status.size(); ++i) d += (i ? "," : "") + json_string(vf.status[i]);
-  d += "],\"shape_pose\":[";
-  for (size_t i = 0; i < vf.t.size(); ++i) {
-    if (i) d += ',';
-    jvec(d, vf.shape_pose[i].data(), vf.shape_pose[i].size());
-  }
-  d += "],\"seg\":[";
-  for (size_t i = 0; i < vf.t.size(); ++i) {
-    if (i) d += ',';
-    jvec(d, vf.seg_ends[i].data(), vf.seg_ends[i].size());
-  }
-  d += "],\"wrench\":[";
-  for (size_t i = 0; i < vf.t.size(); ++i) {
-    if (i) d += ',';
-    jvec(d, vf.wrench_W[i].data(), vf.wrench_W[i].size());
-  }
-  d += "],\"pj\":[";
-  for (size_t i = 0; i < vf.t.size(); ++i) {
-    if (i) d += ',';
-    jvec(d, vf.pseudo_p[i].data(), vf.pseudo_p[i].size());
-  }
-  d += "],\"stress\":[";
-  for (size_t i = 0; i < vf.t.size(); ++i) {
-    if (i) d += ',';
-    jvec(d, vf.stress[i].data(), vf.stress[i].size(), "%.9g");
-  }
-  d += "],\"indet\":[";
-  for (size_t i = 0; i < vf.t.size(); ++i) {
-    if (i) d += ',';
-    jints(d, vf.indet[i]);
-  }
-  d += "],\"free\":[";
-  for (size_t i = 0; i < vf.t.size(); ++i) d += (i ? "," : "") + json_string(vf.free[i]);
-  d += "],\"wrench_F\":[";
-  for (size_t i = 0; i < vf.t.size(); ++i) {
-    if (i) d += ',';
-    jexact(d, vf.wrench_F[i]);
-  }
-  d += "],\"contact_p\":[";
-  for (size_t i = 0; i < vf.t.size(); ++i) {
-    if (i) d += ',';
-    jvec(d, vf.contact_p[i].data(), vf.contact_p[i].size());
-  }
-  d += "],\"contact_u\":[";
-  for (size_t i = 0; i < vf.t.size(); ++i) {
-    if (i) d += ',';
-    jexact(d, vf.contact_u[i]);
-  }
-  d += "],\"contact_state\":[";
-  for (size_t i = 0; i < vf.t.size(); ++i) {
-    if (i) d += ',';
-    jints(d, vf.contact_state[i]);
-  }
+  // one array over the frames: key, then write(i) appends frame i's value
+  auto per_frame = [&](const char* key, const auto& write) {
+    d += key;
+    for (size_t i = 0; i < vf.t.size(); ++i) {
+      if (i) d += ',';
+      write(i);
+    }
+  };
+  per_frame("],\"shape_pose\":[", [&](size_t i) { jvec(d, vf.shape_pose[i].data(), vf.shape_pose[i].size()); });
+  per_frame("],\"seg\":[", [&](size_t i) { jvec(d, vf.seg_ends[i].data(), vf.seg_ends[i].size()); });
+  per_frame("],\"wrench\":[", [&](size_t i) { jvec(d, vf.wrench_W[i].data(), vf.wrench_W[i].size()); });
+  per_frame("],\"pj\":[", [&](size_t i) { jvec(d, vf.pseudo_p[i].data(), vf.pseudo_p[i].size()); });
+  per_frame("],\"stress\":[", [&](size_t i) { jvec(d, vf.stress[i].data(), vf.stress[i].size(), "%.9g"); });
+  per_frame("],\"indet\":[", [&](size_t i) { jints(d, vf.indet[i]); });
+  per_frame("],\"free\":[", [&](size_t i) { d += json_string(vf.free[i]); });
+  per_frame("],\"wrench_F\":[", [&](size_t i) { jexact(d, vf.wrench_F[i]); });
+  per_frame("],\"contact_p\":[", [&](size_t i) { jvec(d, vf.contact_p[i].data(), vf.contact_p[i].size()); });
+  per_frame("],\"contact_u\":[", [&](size_t i) { jexact(d, vf.contact_u[i]); });
+  per_frame("],\"contact_state\":[", [&](size_t i) { jints(d, vf.contact_state[i]); });
   d += "]}";
 
   // three.js inline: a "</script" in it would end the element early

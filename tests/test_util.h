@@ -137,6 +137,16 @@ inline System load_with_reactions(const std::string& name, std::optional<Formula
   return load_scene_string(without_reactions(scene_text(name)) + "\nreactions: all\n", scene_path(name), ov);
 }
 
+// The SceneError message of a scene text loaded as "car.yaml", or "(loaded)" when it loads.
+inline std::string scene_error(const std::string& text) {
+  try {
+    load_scene_string(text, "car.yaml");
+  } catch (const SceneError& e) {
+    return e.what();
+  }
+  return "(loaded)";
+}
+
 // The four-wheel car (text: config/scenes/four_wheel_car.yaml or an edit of it) with its steer
 // joints' scene angles set (left, right; rad).
 inline System car_with_steer(double dl, double dr, const std::string& text = scene_text("four_wheel_car")) {

@@ -88,19 +88,11 @@ TEST(VehicleCommand, TargetsAreValidatedLikeTorques) {
   io::CommandDecoder dec_schur(schur);
   EXPECT_EQ(dec_schur.decode(c1.data(), static_cast<int>(c1.size()), slot), io::Reject::kNotLocked);
   // the scene's own checks: target_limit only on a pseudo-joint, > 0, and the scene's q within it
-  auto err = [&](const std::string& text) {
-    try {
-      load_scene_string(text, "car.yaml");
-    } catch (const SceneError& e) {
-      return std::string(e.what());
-    }
-    return std::string("(loaded)");
-  };
   const std::string base = scene_text("four_wheel_car");
-  EXPECT_NE(err(replace_once(base, "name: rl_spin}", "name: rl_spin, target_limit: 1}")).find("target_limit applies to a pseudo-joint"),
+  EXPECT_NE(scene_error(replace_once(base, "name: rl_spin}", "name: rl_spin, target_limit: 1}")).find("target_limit applies to a pseudo-joint"),
             std::string::npos);
-  EXPECT_NE(err(replace_once(base, "q: 0, target_limit: 0.6}", "q: 0, target_limit: -1}")).find("car.yaml:"), std::string::npos);
-  EXPECT_NE(err(replace_once(base, "q: 0, target_limit: 0.6}", "q: 0.7, target_limit: 0.6}")).find("beyond its target_limit"),
+  EXPECT_NE(scene_error(replace_once(base, "q: 0, target_limit: 0.6}", "q: 0, target_limit: -1}")).find("car.yaml:"), std::string::npos);
+  EXPECT_NE(scene_error(replace_once(base, "q: 0, target_limit: 0.6}", "q: 0.7, target_limit: 0.6}")).find("beyond its target_limit"),
             std::string::npos);
 }
 

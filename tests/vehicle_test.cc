@@ -351,20 +351,12 @@ TEST(Vehicle, StraightAccelerationTransfersLoadAndSlipsAtThePredictedTorque) {
 
 TEST(Vehicle, GroundAndFrictionErrorsNameThePlace) {
   const std::string base = scene_text("four_wheel_car");
-  auto err = [&](const std::string& text) {
-    try {
-      load_scene_string(text, "car.yaml");
-    } catch (const SceneError& e) {
-      return std::string(e.what());
-    }
-    return std::string("(loaded)");
-  };
-  const std::string a = err(replace_once(base, "mu: 0.85}", "mu: -1}"));
+  const std::string a = scene_error(replace_once(base, "mu: 0.85}", "mu: -1}"));
   EXPECT_NE(a.find("car.yaml:"), std::string::npos) << a;
   EXPECT_NE(a.find("mu must be > 0"), std::string::npos) << a;
-  const std::string b = err(replace_once(base, "normal: [0, 0, 1]", "normal: [0, 0, 0]"));
+  const std::string b = scene_error(replace_once(base, "normal: [0, 0, 1]", "normal: [0, 0, 0]"));
   EXPECT_NE(b.find("normal must be a nonzero vector"), std::string::npos) << b;
-  const std::string c = err(replace_once(base, "point: [0, 0, 0], mu", "pont: [0, 0, 0], mu"));
+  const std::string c = scene_error(replace_once(base, "point: [0, 0, 0], mu", "pont: [0, 0, 0], mu"));
   EXPECT_NE(c.find("pont"), std::string::npos) << c;
 }
 

@@ -89,12 +89,8 @@ ConstraintData::ConstraintData(const Model& model, const ConstraintSet& set) {
   X_RS.assign(set.specs.size(), Transform());
   rr_arm.assign(set.specs.size(), 0.0);
   lock_target.assign(set.specs.size(), 0.0);
-  reset_lock_targets(set, *this);
-}
-
-void reset_lock_targets(const ConstraintSet& set, ConstraintData& cd) {
   for (size_t s = 0; s < set.specs.size(); ++s)
-    if (set.specs[s].kind == ConstraintKind::kLock) cd.lock_target[s] = set.specs[s].q_target;
+    if (set.specs[s].kind == ConstraintKind::kLock) lock_target[s] = set.specs[s].q_target;
 }
 
 namespace {

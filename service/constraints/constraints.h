@@ -123,9 +123,6 @@ struct ConstraintData {
   std::vector<double> lock_target;
 };
 
-// Sets every lock's target in cd back to the scene's (ConstraintSpec::q_target).
-void reset_lock_targets(const ConstraintSet& set, ConstraintData& cd);
-
 // A rolling spec's wrench on its wheel at P in C ([moment; force], w[5] = the normal force N)
 // carries the rolling-resistance moment about y_C: w[1] = rr_arm N. Nothing for other kinds.
 inline void set_rolling_resistance_moment(const ConstraintSet& set, const ConstraintData& cd, int s, double* w) {

@@ -74,13 +74,11 @@ void log_event(const coopdyn::System& sys, const coopdyn::runtime::Event& e) {
                    coopdyn::io::control_result_name(static_cast<coopdyn::io::ControlResult>(e.b % 16 - 1)));
       break;
     case EventCode::kClosureOpen: {
-      static const char* const kinds[4] = {"position", "orientation", "linear velocity", "angular velocity"};
-      static const char* const units[4] = {"m", "rad", "m/s", "rad/s"};
       const int kind = static_cast<int>(e.b / 65536), spec = static_cast<int>(e.b % 65536) - 1;
       const auto& specs = sys.constraints.specs;
       spdlog::warn("measured state seq {} does not close the constraints: {} residual {:.3g} {} at '{}' (above "
                    "closure_tolerance); publishing error status (REASON_CLOSURE) until a state closes",
-                   e.a, kinds[kind & 3], e.x, units[kind & 3],
+                   e.a, coopdyn::closure_kind_name(kind), e.x, coopdyn::closure_kind_unit(kind),
                    spec >= 0 && spec < static_cast<int>(specs.size()) ? specs[spec].name : std::string("?"));
       break;
     }

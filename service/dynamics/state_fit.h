@@ -60,6 +60,15 @@ StateFitPlan plan_state_fit(const System& sys);
 
 // position m, orientation rad, linear velocity m/s, angular velocity rad/s
 enum ClosureKind { kClosurePosition = 0, kClosureOrientation = 1, kClosureLinearVelocity = 2, kClosureAngularVelocity = 3 };
+// "position", "orientation", "linear velocity", "angular velocity"; and "m", "rad", "m/s", "rad/s"
+inline const char* closure_kind_name(int kind) {
+  static const char* const k[4] = {"position", "orientation", "linear velocity", "angular velocity"};
+  return k[kind & 3];
+}
+inline const char* closure_kind_unit(int kind) {
+  static const char* const u[4] = {"m", "rad", "m/s", "rad/s"};
+  return u[kind & 3];
+}
 struct Closure {
   double value[4] = {0, 0, 0, 0};  // the largest residual of each kind
   int spec[4] = {-1, -1, -1, -1};  // the constraint (ConstraintSet::specs index) it is in, -1 if none

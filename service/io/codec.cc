@@ -14,6 +14,7 @@
 #include "coopdyn/torque_command_t.hpp"
 #include "service/dynamics/state_fit.h"
 #include "service/io/wire.h"
+#include "service/io/wrench_fields.h"
 
 namespace coopdyn::io {
 
@@ -391,10 +392,6 @@ Reject ControlDecoder::decode(const void* data, int len, ControlSlot& out) {
 
 // ---------------------------------------------------------------------------------------------
 namespace {
-// output_t's wrench_t fields in the order of a WrenchData row [mx my mz fx fy fz]
-constexpr double coopdyn::wrench_t::*kWrenchComponent[6] = {&coopdyn::wrench_t::mx, &coopdyn::wrench_t::my,
-                                                            &coopdyn::wrench_t::mz, &coopdyn::wrench_t::fx,
-                                                            &coopdyn::wrench_t::fy, &coopdyn::wrench_t::fz};
 coopdyn::wrench_t zero_wrench() {
   coopdyn::wrench_t w;
   for (auto c : kWrenchComponent) w.*c = 0.0;

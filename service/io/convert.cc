@@ -50,81 +50,10 @@ void inum(std::string* s, long long x) {
 // output_t's wrench_t fields in the order [mx my mz fx fy fz]
 constexpr double coopdyn::wrench_t::*kComp[6] = {&coopdyn::wrench_t::mx, &coopdyn::wrench_t::my, &coopdyn::wrench_t::mz,
                                                  &coopdyn::wrench_t::fx, &coopdyn::wrench_t::fy, &coopdyn::wrench_t::fz};
-coopdyn::wrench_t to_wrench(const std::vector<double>& w) {  // a version-1 [6] array
-  coopdyn::wrench_t o;
-  for (int k = 0; k < 6; ++k) o.*kComp[k] = k < static_cast<int>(w.size()) ? w[static_cast<size_t>(k)] : 0.0;
-  return o;
-}
-// The output in data as the current output_t, whichever version it is: version 2 (output_t) or a
-// log recorded before it (output_v1_t's fingerprint: wrenches as 6-arrays, no version field).
-bool decode_any_output(const void* data, int len, coopdyn::output_t* m) {
-  if (hash_of(data, len) != coopdyn::output_v1_t::getHash()) return decode_msg(data, len, m);
-  coopdyn::output_v1_t v1;
-  if (!decode_msg(data, len, &v1)) return false;
-  m->version = 1;
-  m->utime = v1.utime;
-  m->tick = v1.tick;
-  m->sim_time = v1.sim_time;
-  m->mode = v1.mode;
-  m->status = v1.status;
-  m->reason = v1.reason;
-  m->input = v1.input;
-  m->input_seq = v1.input_seq;
-  m->input_utime = v1.input_utime;
-  m->paused = v1.paused;
-  m->control_seq = v1.control_seq;
-  m->control_action = v1.control_action;
-  m->control_result = v1.control_result;
-  m->state_fitted = v1.state_fitted;
-  m->fit_iterations = v1.fit_iterations;
-  m->num_constraints = v1.num_constraints;
-  m->constraint_names = v1.constraint_names;
-  m->rows = v1.rows;
-  m->rank = v1.rank;
-  m->indeterminate = v1.indeterminate;
-  m->condition = v1.condition;
-  m->residual = v1.residual;
-  m->num_wrenches = v1.num_wrenches;
-  m->wrench_names = v1.wrench_names;
-  m->wrench_frames = v1.wrench_frames;
-  m->wrench_by = v1.wrench_by;
-  m->wrench_kind = v1.wrench_kind;
-  m->constrained_mask = v1.constrained_mask;
-  m->indeterminate_mask = v1.indeterminate_mask;
-  m->wrench_measured = v1.wrench_measured;
-  m->num_free = v1.num_free;
-  m->free_class = v1.free_class;
-  m->contact_status = v1.contact_status;
-  m->num_contacts = v1.num_contacts;
-  m->contact_names = v1.contact_names;
-  m->contact_normal = v1.contact_normal;
-  m->contact_friction_needed = v1.contact_friction_needed;
-  m->contact_utilisation = v1.contact_utilisation;
-  m->contact_state = v1.contact_state;
-  m->num_stresses = v1.num_stresses;
-  m->stress_names = v1.stress_names;
-  m->stress = v1.stress;
-  m->nq = v1.nq;
-  m->q_names = v1.q_names;
-  m->q = v1.q;
-  m->nv = v1.nv;
-  m->v_names = v1.v_names;
-  m->v = v1.v;
-  m->tau = v1.tau;
-  m->vdot = v1.vdot;
-  for (int k = 0; k < 4; ++k) {
-    m->closure[k] = v1.closure[k];
-    m->closure_constraint[k] = v1.closure_constraint[k];
-  }
-  m->wrench.clear();
-  for (const auto& w : v1.wrench) m->wrench.push_back(to_wrench(w));
-  m->wrench_residual.clear();
-  for (const auto& w : v1.wrench_residual) m->wrench_residual.push_back(to_wrench(w));
-  m->free_direction.assign(v1.free_direction.size(), {});
-  for (size_t d = 0; d < v1.free_direction.size(); ++d)
-    for (const auto& w : v1.free_direction[d]) m->free_direction[d].push_back(to_wrench(w));
-  return true;
-}
+// Component k ([mx my mz fx fy fz]) of a wrench row: output_t's wrench_t, or a log recorded before
+// it (output_v1_t: wrenches as 6-arrays, no version field).
+double component(const coopdyn::wrench_t& w, int k) { return w.*kComp[k]; }
+double component(const std::vector<double>& w, int k) { return k < static_cast<int>(w.size()) ? w[static_cast<size_t>(k)] : 0.0; }
 }  // namespace
 
 std::vector<uint8_t> encode_torque_command(int64_t utime, int64_t seq, const std::vector<std::string>& names,
@@ -182,9 +111,10 @@ std::vector<uint8_t> encode_control(int64_t utime, int64_t seq, ControlAction ac
   return encode_msg(m);
 }
 
-bool decode_output(const void* data, int len, DecodedOutput* out) {
-  coopdyn::output_t m;
-  if (!decode_any_output(data, len, &m)) return false;
+namespace {
+// output_t and output_v1_t have the same fields but for the wrench rows' type
+template <class M>
+void fill_decoded(const M& m, DecodedOutput* out) {
   out->utime = m.utime;
   out->tick = m.tick;
   out->sim_time = m.sim_time;
@@ -216,18 +146,18 @@ bool decode_output(const void* data, int len, DecodedOutput* out) {
   out->wrench_kind.assign(m.wrench_kind.begin(), m.wrench_kind.end());
   out->wrench.assign(m.wrench.size(), {});
   for (size_t t = 0; t < m.wrench.size(); ++t)
-    for (int k = 0; k < 6; ++k) out->wrench[t][k] = m.wrench[t].*kComp[k];
+    for (int k = 0; k < 6; ++k) out->wrench[t][k] = component(m.wrench[t], k);
   out->constrained_mask.assign(m.constrained_mask.begin(), m.constrained_mask.end());
   out->indeterminate_mask.assign(m.indeterminate_mask.begin(), m.indeterminate_mask.end());
   out->wrench_measured.assign(m.wrench_measured.begin(), m.wrench_measured.end());
   out->wrench_residual.assign(m.wrench_residual.size(), {});
   for (size_t t = 0; t < m.wrench_residual.size(); ++t)
-    for (int k = 0; k < 6; ++k) out->wrench_residual[t][k] = m.wrench_residual[t].*kComp[k];
+    for (int k = 0; k < 6; ++k) out->wrench_residual[t][k] = component(m.wrench_residual[t], k);
   out->free_class.assign(m.free_class.begin(), m.free_class.begin() + m.num_free);
   out->free_direction.assign(static_cast<size_t>(m.num_free), std::vector<std::array<double, 6>>(m.wrench.size()));
   for (int d = 0; d < m.num_free; ++d)
     for (size_t t = 0; t < m.wrench.size(); ++t)
-      for (int k = 0; k < 6; ++k) out->free_direction[static_cast<size_t>(d)][t][static_cast<size_t>(k)] = m.free_direction[static_cast<size_t>(d)][t].*kComp[k];
+      for (int k = 0; k < 6; ++k) out->free_direction[static_cast<size_t>(d)][t][static_cast<size_t>(k)] = component(m.free_direction[static_cast<size_t>(d)][t], k);
   out->contact_status = m.contact_status;
   out->contact_names = m.contact_names;
   out->contact_normal = m.contact_normal;
@@ -242,6 +172,19 @@ bool decode_output(const void* data, int len, DecodedOutput* out) {
   out->v = m.v;
   out->tau = m.tau;
   out->vdot = m.vdot;
+}
+}  // namespace
+
+bool decode_output(const void* data, int len, DecodedOutput* out) {
+  if (hash_of(data, len) == coopdyn::output_v1_t::getHash()) {
+    coopdyn::output_v1_t v1;
+    if (!decode_msg(data, len, &v1)) return false;
+    fill_decoded(v1, out);
+    return true;
+  }
+  coopdyn::output_t m;
+  if (!decode_msg(data, len, &m)) return false;
+  fill_decoded(m, out);
   return true;
 }
 

@@ -520,8 +520,6 @@ void ServiceLoop::run(const std::atomic<bool>& stop, long long max_ticks) {
 }
 
 std::string reset_refusal_text(const System& sys, const Event& e) {
-  static const char* const kinds[4] = {"position", "orientation", "linear velocity", "angular velocity"};
-  static const char* const units[4] = {"m", "rad", "m/s", "rad/s"};
   const int code = static_cast<int>(e.b / 65536), spec = static_cast<int>(e.b % 65536) - 1;
   const int kind = code % 4;
   std::string t = "reset_to_state refused, the simulation goes on from its own state: ";
@@ -533,8 +531,8 @@ std::string reset_refusal_text(const System& sys, const Event& e) {
     case ResetRefusal::kClosure: {
       const auto& specs = sys.constraints.specs;
       char r[64];
-      std::snprintf(r, sizeof r, "%.3g %s", e.x, units[kind]);
-      return t + "(q, v) does not close the constraints to 1e-6: " + kinds[kind] + " residual " + r + " at '" +
+      std::snprintf(r, sizeof r, "%.3g %s", e.x, closure_kind_unit(kind));
+      return t + "(q, v) does not close the constraints to 1e-6: " + closure_kind_name(kind) + " residual " + r + " at '" +
              (spec >= 0 && spec < static_cast<int>(specs.size()) ? specs[static_cast<size_t>(spec)].name : std::string("?")) + "'";
     }
     case ResetRefusal::kNone: break;
