@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Manoeuvres of config/scenes/four_wheel_car.yaml with coopdyn sim (README "Vehicles").
+"""Manoeuvres of config/scenes/four_wheel_car.yaml with coopdyn sim (docs/guide/wheels-and-vehicles.md, "Vehicles").
 
 1. Straight-line acceleration and braking (docs/vehicle_accel_brake.png): from rest, a drive torque
    on the rear wheels rising 0 -> 1200 N*m over 2 s; from 30 m/s, a braking torque on all four
@@ -114,7 +114,7 @@ ax[1].legend(fontsize=8, loc="upper left")
 fig.tight_layout()
 fig.savefig(os.path.join(outdir, "vehicle_accel_brake.png"), dpi=110)
 
-# the numbers the README quotes
+# the numbers docs/guide/wheels-and-vehicles.md quotes
 def fit_slope(rows, key):
     a = col(rows, "vdot:chassis.vx")
     y = [float(x[key + "l.fz"]) + float(x[key + "r.fz"]) for x in rows]

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Steady-turn sweep of config/scenes/four_wheel_car.yaml (README "Vehicles").
+"""Steady-turn sweep of config/scenes/four_wheel_car.yaml (docs/guide/wheels-and-vehicles.md, "Vehicles").
 
 For a turn of radius R about a centre on the rear axle line, Ackermann steer angles, and speeds
 from 0 up to past lift-off, writes each steady state (q, v) as a state file, runs `coopdyn eval`

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Screenshots of every shipped scene in `coopdyn view` (README "3D view"): 1 s of `coopdyn sim`
+# Screenshots of every shipped scene in `coopdyn view` (docs/guide/viewer.md): 1 s of `coopdyn sim`
 # (the inputs below), the page, and headless Chromium (software WebGL) at t = 0.5 s, paused; and the
 # plot of arm1's end-effector wrench in two_puma_load at 0.7 s.
 #   bash docs/view_screenshots.sh [build/bin] [docs/views]
@@ -23,7 +23,7 @@ for f in config/scenes/*.yaml; do
     --virtual-time-budget=3000 --screenshot="$out/view_$s.png" "file://$tmp/$s.html#t=0.5&paused=1" 2>/dev/null
   echo "$out/view_$s.png"
 done
-# the plot of a selected wrench: arm1's end-effector wrench of the falling arms (README "3D view")
+# the plot of a selected wrench: arm1's end-effector wrench of the falling arms (docs/guide/viewer.md)
 timeout 120 "$chromium" --headless --no-sandbox --disable-gpu --use-angle=swiftshader --enable-unsafe-swiftshader \
   --hide-scrollbars --mute-audio --no-first-run --user-data-dir="$tmp/profile" --window-size=1100,600 \
   --virtual-time-budget=3000 --screenshot="$out/view_two_puma_load_plot.png" \
