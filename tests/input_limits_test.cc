@@ -79,9 +79,8 @@ TEST(InputLimits, ReadFileRefusesDevicesFifosDirectoriesAndOversizeFiles) {
   EXPECT_EQ(why, "the config is not a regular file");
   const std::string fifo = tmp("fifo");
   ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
-  const auto t0 = std::chrono::steady_clock::now();
-  EXPECT_FALSE(read_file(fifo, 1000, "the config", &out, &why));  // no writer: must not block
-  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 1.0);
+  // no writer: it returns (a blocking open would hang here until ctest's timeout)
+  EXPECT_FALSE(read_file(fifo, 1000, "the config", &out, &why));
   EXPECT_EQ(why, "the config is not a regular file");
   unlink(fifo.c_str());
   EXPECT_FALSE(read_file("/no/such/file", 1000, "the config", &out, &why));
@@ -105,12 +104,11 @@ TEST(InputLimits, YamlNestedDeepIsCaughtBeforeTheParser) {
                                           "x:\n  y: " + std::string(200000, '[') + std::string(200000, ']'), dashes,
                                           indented};
   for (const std::string& t : texts) {
-    const auto t0 = std::chrono::steady_clock::now();
+    // caught where the limit is passed: the scan stops there, not at the end of the text
     const DepthExceeded d = yaml_depth_exceeds(t);
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     EXPECT_TRUE(d.exceeded) << t.substr(0, 40);
     EXPECT_GE(d.line, 1);
-    EXPECT_LT(ms, 100.0);
+    EXPECT_LE(d.line, 70) << t.substr(0, 40);
   }
   // 2 for the indentation level, 1 for "a:", so the 62nd bracket (column 65) passes 64
   EXPECT_EQ(yaml_depth_exceeds("a: " + std::string(200000, '[')).column, kMaxYamlDepth + 1);

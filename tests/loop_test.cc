@@ -451,9 +451,32 @@ TEST(ServiceLoop, OverrunPolicySkipDropsPeriodsCatchUpRunsThem) {
   }
 }
 
-// A stop request ends run() within one sleep slice (10 ms) even at the lowest rate (1 Hz): the
-// loop no longer waits for the next deadline (1 s here) before it sees the flag.
+// A stop request ends run() within one sleep slice (10 ms) even at the lowest rate (1 Hz): every
+// sleep of run() ends at most one slice after it began, so the loop looks at its stop flag at least
+// once per slice, never only at the next deadline (1 s here). The slice is a property of the sleep
+// plan, checked exactly; then run() at 1 Hz, stopped while it sleeps toward its first deadline,
+// returns (the time it took is printed, not judged: a loaded machine may delay any thread).
 TEST(ServiceLoop, StopEndsRunWithinASliceAtTheLowestRate) {
+  constexpr long long kSlice = ServiceLoop::kStopSliceNs, kSecond = 1000000000LL;
+  // toward a deadline 1 s away (1 Hz): slices of 10 ms, then the deadline itself
+  long long now = 5 * kSecond;
+  const long long deadline = now + kSecond;
+  int sleeps = 0;
+  while (now < deadline) {
+    const long long end = ServiceLoop::sleep_end_ns(now, deadline);
+    ASSERT_GT(end, now);
+    ASSERT_LE(end - now, kSlice) << "a sleep longer than a slice at sleep " << sleeps;
+    ASSERT_LE(end, deadline) << "a sleep past the deadline";
+    now = end;
+    ++sleeps;
+  }
+  EXPECT_EQ(now, deadline);
+  EXPECT_EQ(sleeps, kSecond / kSlice);
+  // at 1 kHz a period is shorter than a slice: one sleep, to the deadline
+  EXPECT_EQ(ServiceLoop::sleep_end_ns(now, now + 1000000), now + 1000000);
+  // a deadline already passed: no sleep beyond it
+  EXPECT_EQ(ServiceLoop::sleep_end_ns(now, now - 5), now - 5);
+
   const System sys = load_scene(scene_path("four_bar"));
   ServiceConfig cfg;
   cfg.rate_hz = runtime::kMinRateHz;
@@ -473,8 +496,6 @@ TEST(ServiceLoop, StopEndsRunWithinASliceAtTheLowestRate) {
   th.join();
   const double ms = std::chrono::duration<double, std::milli>(returned_at - stopped_at).count();
   std::printf("run() returned %.2f ms after the stop request at 1 Hz\n", ms);
-  EXPECT_LT(ms, 200.0) << "bounded by the 10 ms slice (wide margin for a loaded machine), not the 1 s period";
-  EXPECT_EQ(loop.ticks(), 0) << "the first deadline (1 s) was never reached";
 }
 
 // Issue 10, item 6: freshness by the sender's clock. With max_input_age_ms (default 1000) a

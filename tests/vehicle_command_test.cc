@@ -4,6 +4,7 @@
 // moves the lock and the published contact wrenches equal the offline evaluation at that angle.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -131,16 +132,31 @@ TEST(VehicleCommand, MemqSteerCommandsMoveTheLocksAndTheWrenchesEqualOffline) {
     const auto b = io::encode_torque_command(io::wall_us(), seq, {}, tau, names, x);
     bus.publish(cfg.command_channel.c_str(), b.data(), static_cast<int>(b.size()));
   };
+  // outputs seen so far that satisfy pred (the loop runs in its own thread: the test waits for the
+  // outputs it needs, however fast the machine steps)
+  auto count = [&](auto pred) {
+    std::lock_guard<std::mutex> lk(mu);
+    return std::count_if(outs.begin(), outs.end(), pred);
+  };
+  auto at_angle_now = [&](const io::DecodedOutput& o) {
+    return o.input == static_cast<int>(io::Input::kCommand) && std::abs(o.q[static_cast<size_t>(q_fl)] - dl) < 1e-11 &&
+           std::abs(o.q[static_cast<size_t>(q_fr)] - dr) < 1e-11;
+  };
+  constexpr int kMaxCommands = 20000;  // 100 s at 5 ms: only a machine that stopped reaches it
   int64_t seq = 0;
-  for (int k = 0; k < 40; ++k, std::this_thread::sleep_for(5ms)) send(++seq, 0.0, steer, {dl, dr});  // steer at rest
+  for (int k = 0; k < kMaxCommands && (k < 40 || count(at_angle_now) <= 40); ++k, std::this_thread::sleep_for(5ms))
+    send(++seq, 0.0, steer, {dl, dr});  // steer at rest, until 41 outputs at the angle
   const int64_t first_drive = seq + 1;
-  for (int k = 0; k < 40; ++k, std::this_thread::sleep_for(5ms)) {
-    send(++seq, 150.0, steer, {dl, dr});  // pull away
+  auto moving_now = [&](const io::DecodedOutput& o) { return at_angle_now(o) && o.input_seq >= first_drive && o.v[3] > 1e-3; };
+  for (int k = 0; k < kMaxCommands && (k < 40 || count(moving_now) <= 20); ++k, std::this_thread::sleep_for(5ms)) {
+    send(++seq, 150.0, steer, {dl, dr});  // pull away, until 21 outputs moving at the angle
     if (k == 10) send(1000, 150.0, steer, {std::nan(""), dr});   // rejected: NaN
     if (k == 20) send(1001, 150.0, {"rl_spin"}, {0.1});          // rejected: not a lock
     if (k == 30) send(1002, 150.0, steer, {0.61, dr});           // rejected: over target_limit
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(static_cast<int>(cfg.watchdog_ms) + 250));  // expires
+  // the watchdog expires the last command: wait for 21 outputs after it
+  const auto expired_now = [](const io::DecodedOutput& o) { return o.input == static_cast<int>(io::Input::kCommandExpired); };
+  for (int k = 0; k < kMaxCommands && count(expired_now) <= 20; ++k) std::this_thread::sleep_for(5ms);
   stop = true;
   th.join();
   bus.stop();

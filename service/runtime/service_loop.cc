@@ -423,7 +423,7 @@ void ServiceLoop::run_on_arrival(const std::atomic<bool>& stop, long long max_ti
         stopped = true;
         break;
       }
-      bell_.wait(seen, deadline - now > kStopSliceNs ? now + kStopSliceNs : deadline);
+      bell_.wait(seen, sleep_end_ns(now, deadline));
     }
     if (stopped) break;
     seen = bell_.value();
@@ -482,7 +482,7 @@ void ServiceLoop::run(const std::atomic<bool>& stop, long long max_ticks) {
         stopped = true;
         break;
       }
-      const long long until = target - now > kStopSliceNs ? now + kStopSliceNs : target;
+      const long long until = sleep_end_ns(now, target);
       timespec ts;
       ts.tv_sec = static_cast<time_t>(until / 1000000000LL);
       ts.tv_nsec = static_cast<long>(until % 1000000000LL);

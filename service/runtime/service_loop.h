@@ -68,6 +68,12 @@ class ServiceLoop {
   // kStopSliceNs after stop is set, whatever the rate.
   void run(const std::atomic<bool>& stop, long long max_ticks = -1);
   static constexpr long long kStopSliceNs = 10000000;  // 10 ms
+  // Where one sleep of run() ends, from monotonic time now_ns toward target_ns (both ns): the target
+  // itself, or one slice from now when the target is further, so run() looks at its stop flag at
+  // least once per slice whatever the rate.
+  static constexpr long long sleep_end_ns(long long now_ns, long long target_ns) {
+    return target_ns - now_ns > kStopSliceNs ? now_ns + kStopSliceNs : target_ns;
+  }
   // Adds one tick's timing to the statistics (run() does this; tests may too).
   void record_timing(long long lateness_ns, long long compute_ns);
 
