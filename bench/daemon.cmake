@@ -2,4 +2,4 @@
 # cyclictest next to it, is bench/loop_timing.sh. Included at the end of bench/CMakeLists.txt.
 add_executable(loop_bench ${CMAKE_CURRENT_LIST_DIR}/loop_bench.cc)
 target_link_libraries(loop_bench PRIVATE coopdyn_runtime coopdyn_scene benchmark::benchmark)
-target_compile_definitions(loop_bench PRIVATE COOPDYN_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+coopdyn_use_paths(loop_bench)

@@ -15,10 +15,7 @@ add_executable(coopdynd_tests
   ${CMAKE_CURRENT_LIST_DIR}/vehicle_command_test.cc
 )
 target_link_libraries(coopdynd_tests PRIVATE coopdyn_runtime coopdyn_scene coopdyn_step_csv GTest::gtest GTest::gtest_main)
-target_compile_definitions(coopdynd_tests PRIVATE
-  COOPDYN_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
-  COOPDYND_PATH="$<TARGET_FILE:coopdynd>"
-  COOPDYN_PATH="$<TARGET_FILE:coopdyn>")
+coopdyn_use_paths(coopdynd_tests)
 target_include_directories(coopdynd_tests PRIVATE ${PROJECT_SOURCE_DIR})
 add_dependencies(coopdynd_tests coopdynd coopdyn)
 gtest_discover_tests(coopdynd_tests DISCOVERY_TIMEOUT 60 PROPERTIES LABELS daemon)
@@ -27,7 +24,7 @@ gtest_discover_tests(coopdynd_tests DISCOVERY_TIMEOUT 60 PROPERTIES LABELS daemo
 # a bounded number of inputs per target; the seed corpus is tests/fuzz/corpus.
 add_executable(coopdyn_fuzz_tests ${CMAKE_CURRENT_LIST_DIR}/fuzz/fuzz_test.cc)
 target_link_libraries(coopdyn_fuzz_tests PRIVATE coopdyn_runtime coopdyn_scene GTest::gtest)
-target_compile_definitions(coopdyn_fuzz_tests PRIVATE COOPDYN_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+coopdyn_use_paths(coopdyn_fuzz_tests)
 target_include_directories(coopdyn_fuzz_tests PRIVATE ${PROJECT_SOURCE_DIR})
 gtest_discover_tests(coopdyn_fuzz_tests DISCOVERY_TIMEOUT 60 PROPERTIES LABELS fuzz TIMEOUT 300)
 
@@ -35,13 +32,8 @@ gtest_discover_tests(coopdyn_fuzz_tests DISCOVERY_TIMEOUT 60 PROPERTIES LABELS f
 # (tests/spy_test.cc: the java command, and lcm-spy itself where a JDK and the jars are installed).
 add_executable(coopdyn_cli_tests ${CMAKE_CURRENT_LIST_DIR}/cli_test.cc ${CMAKE_CURRENT_LIST_DIR}/spy_test.cc)
 target_link_libraries(coopdyn_cli_tests PRIVATE coopdyn_io yaml-cpp GTest::gtest GTest::gtest_main)
-target_compile_definitions(coopdyn_cli_tests PRIVATE
-  COOPDYN_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
-  COOPDYN_PROJECT_VERSION="${PROJECT_VERSION}"
-  COOPDYN_LCM_JAR="${COOPDYN_LCM_JAR_PATH}"
-  COOPDYN_TYPES_JAR="${CMAKE_BINARY_DIR}/coopdyn_types.jar"
-  COOPDYND_PATH="$<TARGET_FILE:coopdynd>"
-  COOPDYN_PATH="$<TARGET_FILE:coopdyn>")
+coopdyn_use_paths(coopdyn_cli_tests)
+target_compile_definitions(coopdyn_cli_tests PRIVATE COOPDYN_PROJECT_VERSION="${PROJECT_VERSION}")
 target_include_directories(coopdyn_cli_tests PRIVATE ${PROJECT_SOURCE_DIR})
 add_dependencies(coopdyn_cli_tests coopdynd coopdyn)
 gtest_discover_tests(coopdyn_cli_tests DISCOVERY_TIMEOUT 60 PROPERTIES LABELS cli)

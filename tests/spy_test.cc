@@ -98,7 +98,7 @@ TEST(Spy, FindsTheTypesJarOfAnInstalledLayoutOrSaysWhenItIsBuilt) {
   // a copy of coopdyn in PREFIX/bin: it looks for PREFIX/coopdyn_types.jar (a build tree) and
   // PREFIX/share/coopdyn/java/coopdyn_types.jar (installed)
   Dir d;
-  ASSERT_EQ(std::system(("mkdir -p '" + d.path + "/bin' '" + d.path + "/share/coopdyn/java' && cp '" COOPDYN_PATH "' '" +
+  ASSERT_EQ(std::system(("mkdir -p '" + d.path + "/bin' '" + d.path + "/share/coopdyn/java' && cp '" + std::string(COOPDYN_PATH) + "' '" +
                          d.path + "/bin/coopdyn'")
                             .c_str()),
             0);
@@ -124,11 +124,11 @@ TEST(Spy, LcmSpyStartsOnThisJdkAndKnowsEveryCoopdynType) {
   off_t size = 0;
   if (!is_file(COOPDYN_TYPES_JAR, &size) || size == 0 || !is_file(COOPDYN_LCM_JAR) ||
       !is_file("/usr/share/java/jchart2d.jar") || std::system("command -v java > /dev/null 2>&1") != 0)
-    GTEST_SKIP() << "needs java, " COOPDYN_LCM_JAR " (liblcm-java), /usr/share/java/jchart2d.jar (libjchart2d-java) and "
+    GTEST_SKIP() << "needs java, " << COOPDYN_LCM_JAR << " (liblcm-java), /usr/share/java/jchart2d.jar (libjchart2d-java) and "
                  << COOPDYN_TYPES_JAR << " (built when a JDK was present at configure time)";
   const Result p = run({COOPDYN_PATH, "spy", "--print"}, "real_print");
   ASSERT_EQ(p.rc, 0) << p.err;
-  EXPECT_TRUE(has(p.out, ":" COOPDYN_TYPES_JAR " lcm.spy.Spy")) << "the build tree's jar: " << p.out;
+  EXPECT_TRUE(has(p.out, ":" + std::string(COOPDYN_TYPES_JAR) + " lcm.spy.Spy")) << "the build tree's jar: " << p.out;
   std::vector<std::string> argv;
   std::istringstream words(p.out);
   for (std::string w; words >> w;) argv.push_back(w);
