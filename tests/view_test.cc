@@ -1,12 +1,14 @@
 // coopdyn view: the page it writes, checked in a real headless Chromium (skipped, saying so, when
 // Chromium or three.js is not installed), and its errors on bad input.
 //
-// The browser tests run `coopdyn sim` and `coopdyn view`, then Chromium with a hash that picks the
-// frame (#t=, #slider=) and pauses. They read the page's DOM (--dump-dom: the title, which carries
-// any JavaScript error, the time text and the #probe element with the camera) and its screenshot
-// (PNG, read with libpng). The expected arrow is computed here, not by the page: the wrench columns
-// of the CSV row, the report frame's pose from this process's own forward kinematics of the row's q,
-// the force scale the page shows, and a pinhole projection with the page's camera.
+// The browser tests run `coopdyn sim` and `coopdyn view`, then headless Chromium, driven over its
+// DevTools protocol, on the page with a hash that picks the frame (#t=, #slider=) and pauses. Each
+// waits for the event it needs (the page set up, a played time, frames received), never for a
+// fixed time. They read the page's DOM (the title, which carries any JavaScript error, the time
+// text and the #probe element with the camera) and its screenshot (PNG, read with libpng). The
+// expected arrow is computed here, not by the page: the wrench columns of the CSV row, the report
+// frame's pose from this process's own forward kinematics of the row's q, the force scale the page
+// shows, and a pinhole projection with the page's camera.
 #include <png.h>
 
 #include <algorithm>
@@ -15,7 +17,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <future>
+#include <functional>
 #include <map>
 #include <sstream>
 #include <string>
@@ -24,6 +26,10 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 #include <lcm/lcm-cpp.hpp>
+#include <fcntl.h>
+#include <poll.h>
+#include <spawn.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <arpa/inet.h>
@@ -31,6 +37,7 @@
 #include <sys/socket.h>
 
 #include <atomic>
+#include <condition_variable>
 #include <mutex>
 #include <thread>
 
@@ -116,10 +123,10 @@ struct Image {
   const unsigned char* at(int x, int y) const { return &rgb[3 * (static_cast<size_t>(y) * w + x)]; }
 };
 
-bool read_png(const std::string& path, Image* im) {
+bool read_png(const std::vector<unsigned char>& bytes, Image* im) {
   png_image p{};
   p.version = PNG_IMAGE_VERSION;
-  if (!png_image_begin_read_from_file(&p, path.c_str())) return false;
+  if (bytes.empty() || !png_image_begin_read_from_memory(&p, bytes.data(), bytes.size())) return false;
   p.format = PNG_FORMAT_RGB;
   im->w = static_cast<int>(p.width);
   im->h = static_cast<int>(p.height);
@@ -131,28 +138,27 @@ bool read_png(const std::string& path, Image* im) {
   return true;
 }
 
-// One headless Chromium run on the page: its DOM after the virtual time budget and, if asked, a
-// screenshot of the window.
-struct Browse {
-  std::string dom;
-  Image shot;
-  bool ok = false;
-  std::string log;
-};
-Browse browse(const std::string& chromium, const std::string& html, const std::string& hash, const TempDir& dir,
-              const std::string& tag, bool screenshot) {
-  Browse b;
-  const std::string png = dir / (tag + ".png"), dom = dir / (tag + ".dom.html"), log = dir / (tag + ".chromium.log");
-  std::string cmd = "timeout 120 '" + chromium +
-                    "' --headless --no-sandbox --disable-gpu --use-angle=swiftshader --enable-unsafe-swiftshader"
-                    " --hide-scrollbars --mute-audio --no-first-run --user-data-dir='" + dir / (tag + ".profile") +
-                    "' --window-size=900,600 --virtual-time-budget=3000";
-  if (screenshot) cmd += " --screenshot='" + png + "'";
-  cmd += " --dump-dom 'file://" + html + "#" + hash + "' > '" + dom + "'";
-  const int rc = run(cmd, log, &b.log);
-  b.dom = slurp(dom);
-  b.ok = rc == 0 && !b.dom.empty() && (!screenshot || read_png(png, &b.shot));
-  return b;
+std::vector<unsigned char> base64_decode(const std::string& s) {
+  std::vector<unsigned char> out;
+  unsigned acc = 0;
+  int bits = 0;
+  for (const char c : s) {
+    int v;
+    if (c >= 'A' && c <= 'Z') v = c - 'A';
+    else if (c >= 'a' && c <= 'z') v = c - 'a' + 26;
+    else if (c >= '0' && c <= '9') v = c - '0' + 52;
+    else if (c == '+') v = 62;
+    else if (c == '/') v = 63;
+    else continue;  // '=' and what is not base64
+    acc = (acc << 6) | static_cast<unsigned>(v);
+    bits += 6;
+    if (bits >= 8) {
+      bits -= 8;
+      out.push_back(static_cast<unsigned char>(acc >> bits));
+      acc &= (1u << bits) - 1;
+    }
+  }
+  return out;
 }
 
 std::string between(const std::string& s, const std::string& a, const std::string& b) {
@@ -178,6 +184,58 @@ Vec3 vec_after(const std::string& s, const std::string& key) {  // key ends with
   return v;
 }
 
+// A JSON string literal of s.
+std::string json_quote(const std::string& s) {
+  std::string q = "\"";
+  for (const char c : s) {
+    if (c == '"' || c == '\\') q += '\\', q += c;
+    else if (c == '\n') q += "\\n";
+    else if (static_cast<unsigned char>(c) < 0x20) {
+      char u[8];
+      std::snprintf(u, sizeof u, "\\u%04x", c);
+      q += u;
+    } else q += c;
+  }
+  return q + "\"";
+}
+// The JSON string literal that starts at s[at] (its opening quote), unescaped (\uXXXX as UTF-8).
+std::string json_unquote(const std::string& s, size_t at) {
+  std::string out;
+  auto utf8 = [&](unsigned cp) {
+    if (cp < 0x80) out += static_cast<char>(cp);
+    else if (cp < 0x800) out += static_cast<char>(0xC0 | cp >> 6), out += static_cast<char>(0x80 | (cp & 0x3F));
+    else if (cp < 0x10000)
+      out += static_cast<char>(0xE0 | cp >> 12), out += static_cast<char>(0x80 | (cp >> 6 & 0x3F)),
+          out += static_cast<char>(0x80 | (cp & 0x3F));
+    else
+      out += static_cast<char>(0xF0 | cp >> 18), out += static_cast<char>(0x80 | (cp >> 12 & 0x3F)),
+          out += static_cast<char>(0x80 | (cp >> 6 & 0x3F)), out += static_cast<char>(0x80 | (cp & 0x3F));
+  };
+  for (size_t i = at + 1; i < s.size() && s[i] != '"'; ++i) {
+    if (s[i] != '\\' || i + 1 >= s.size()) {
+      out += s[i];
+      continue;
+    }
+    const char e = s[++i];
+    if (e == 'n') out += '\n';
+    else if (e == 't') out += '\t';
+    else if (e == 'r') out += '\r';
+    else if (e == 'b') out += '\b';
+    else if (e == 'f') out += '\f';
+    else if (e == 'u' && i + 4 < s.size()) {
+      unsigned cp = static_cast<unsigned>(std::stoul(s.substr(i + 1, 4), nullptr, 16));
+      i += 4;
+      if (cp >= 0xD800 && cp < 0xDC00 && i + 6 < s.size() && s[i + 1] == '\\' && s[i + 2] == 'u') {
+        const unsigned lo = static_cast<unsigned>(std::stoul(s.substr(i + 3, 4), nullptr, 16));
+        cp = 0x10000 + ((cp - 0xD800) << 10) + (lo - 0xDC00);
+        i += 6;
+      }
+      utf8(cp);
+    } else out += e;  // \" \\ \/
+  }
+  return out;
+}
+
 // What a page's DOM says about itself.
 struct PageState {
   std::string title, time_text, probe, error;
@@ -186,17 +244,6 @@ struct PageState {
   double t = NAN, force_scale = NAN, fov = NAN;
   double canvas_x = NAN, canvas_y = NAN, canvas_w = NAN, canvas_h = NAN;  // the 3D canvas in the page, CSS px
   double window_w = NAN, window_h = NAN;                                  // the page's viewport
-  // Headless Chromium lays the page out for --dump-dom in a viewport shorter than its screenshot
-  // (900 x 457 for --window-size=900,600; the screenshot is 900 x 600, after a resize event): the
-  // state as the screenshot shows it, where the 3D canvas takes the extra height (the bar and the
-  // panel keep theirs; the camera does not depend on the canvas's size).
-  PageState in_shot(const Image& shot) const {
-    PageState s = *this;
-    s.canvas_h += shot.h - window_h;
-    s.window_w = shot.w;
-    s.window_h = shot.h;
-    return s;
-  }
   Vec3 eye, target, up;
 };
 PageState page_state(const std::string& dom) {
@@ -222,6 +269,184 @@ PageState page_state(const std::string& dom) {
   s.target = vec_after(s.probe, "\"target\":[");
   s.up = vec_after(s.probe, "\"up\":[");
   return s;
+}
+
+// Headless Chromium driven over the DevTools protocol, in real time: a test waits until the page
+// reports what it needs (set up, a played time, frames received), however long the machine takes,
+// instead of giving Chromium a virtual-time budget and judging what fitted in it; one browser serves
+// a test's pages, one tab at a time. The protocol runs on a pipe (--remote-debugging-pipe: Chromium reads commands on its fd 3 and
+// writes replies and events on its fd 4, each a JSON text ended by a NUL).
+class DevTools {
+ public:
+  DevTools(const std::string& chromium, const TempDir& dir, const std::string& tag) : log_(dir / (tag + ".chromium.log")) {
+    int cmd[2], rep[2];
+    if (pipe2(cmd, O_CLOEXEC) != 0) return;
+    if (pipe2(rep, O_CLOEXEC) != 0) {
+      close(cmd[0]), close(cmd[1]);
+      return;
+    }
+    // Chromium's ends above 3 and 4 first, so that the dup2s below never leave one in place
+    const int in = fcntl(cmd[0], F_DUPFD_CLOEXEC, 10), out = fcntl(rep[1], F_DUPFD_CLOEXEC, 10);
+    close(cmd[0]), close(rep[1]);
+    to_ = cmd[1], from_ = rep[0];
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_adddup2(&fa, in, 3);
+    posix_spawn_file_actions_adddup2(&fa, out, 4);
+    posix_spawn_file_actions_addopen(&fa, 1, log_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_adddup2(&fa, 1, 2);
+    const std::vector<std::string> argv{chromium, "--headless", "--no-sandbox", "--disable-gpu", "--use-angle=swiftshader",
+                                        "--enable-unsafe-swiftshader", "--hide-scrollbars", "--mute-audio", "--no-first-run",
+                                        "--user-data-dir=" + dir / (tag + ".profile"), "--window-size=900,600",
+                                        "--remote-debugging-pipe", "about:blank"};
+    std::vector<char*> args;
+    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    if (posix_spawn(&pid_, args[0], &fa, nullptr, args.data(), environ) != 0) pid_ = -1;
+    posix_spawn_file_actions_destroy(&fa);
+    close(in), close(out);
+  }
+  ~DevTools() {
+    if (pid_ > 0 && to_ >= 0) session_.clear(), call("Browser.close", "{}", 5);
+    if (to_ >= 0) close(to_);
+    if (from_ >= 0) close(from_);
+    if (pid_ <= 0) return;
+    for (int i = 0; i < 500; ++i) {  // 10 s
+      if (waitpid(pid_, nullptr, WNOHANG) == pid_) return;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    kill(pid_, SIGKILL);
+    waitpid(pid_, nullptr, 0);
+  }
+  // Opens url in a new tab, which later calls talk to. Empty on success, else what went wrong.
+  std::string open(const std::string& url) {
+    if (pid_ <= 0) return "cannot start Chromium";
+    close_tab();
+    std::string r = call("Target.createTarget", "{\"url\":\"about:blank\"}", 60);
+    target_ = between(r, "\"targetId\":\"", "\"");
+    if (target_.empty()) return "Target.createTarget: '" + r + "'; " + log();
+    r = call("Target.attachToTarget", "{\"targetId\":\"" + target_ + "\",\"flatten\":true}", 60);
+    session_ = between(r, "\"sessionId\":\"", "\"");
+    if (session_.empty()) return "Target.attachToTarget: '" + r + "'; " + log();
+    // the page laid out in the 900 x 600 CSS px its screenshots have
+    r = call("Emulation.setDeviceMetricsOverride", "{\"width\":900,\"height\":600,\"deviceScaleFactor\":1,\"mobile\":false}", 60);
+    if (r.find("\"result\":{}") == std::string::npos) return "Emulation.setDeviceMetricsOverride: '" + r + "'";
+    r = call("Page.navigate", "{\"url\":" + json_quote(url) + "}", 60);
+    return r.find("\"frameId\"") == std::string::npos || r.find("\"errorText\"") != std::string::npos
+               ? "Page.navigate: '" + r + "'"
+               : "";
+  }
+  // Closes the tab open() opened, if any.
+  void close_tab() {
+    session_.clear();
+    if (!target_.empty()) call("Target.closeTarget", "{\"targetId\":\"" + target_ + "\"}", 60);
+    target_.clear();
+  }
+  // Opens url and waits (at most 60 s) until the page has finished setting itself up (data-ready)
+  // or failed (a JavaScript error in its title); its snapshot() then, or "" and *why.
+  std::string load(const std::string& url, std::string* why) {
+    *why = open(url);
+    if (!why->empty()) return "";
+    std::string dom;
+    if (!wait_until([](const std::string& d) { return page_state(d).ready || d.find("JSERROR") != std::string::npos; },
+                    60, &dom))
+      *why = "not ready in 60 s: " + dom.substr(0, 2000) + "\n" + log();
+    return dom;
+  }
+  // The value of a JavaScript expression that gives a string, in the page ("" on failure).
+  std::string eval(const std::string& expr) {
+    const std::string r = call("Runtime.evaluate", "{\"expression\":" + json_quote(expr) + ",\"returnByValue\":true}", 60);
+    const size_t at = r.find("\"type\":\"string\",\"value\":\"");
+    return at == std::string::npos ? "" : json_unquote(r, at + 24);
+  }
+  // What the page's DOM says about itself, for page_state: the title, whether it is ready and the
+  // elements #time, #probe, #live, #error as they are now.
+  std::string snapshot() {
+    return eval(R"((function () {
+      var h = function (id) { var e = document.getElementById(id); return e ? e.outerHTML : ''; };
+      return '<title>' + document.title + '</title>' + h('time') + h('probe') + h('live') + h('error') +
+             (document.body && document.body.getAttribute('data-ready') === '1' ? ' data-ready="1"' : '');
+    })())");
+  }
+  // Polls snapshot() until done(it) or timeout_s; returns the last snapshot in *last.
+  bool wait_until(const std::function<bool(const std::string&)>& done, double timeout_s, std::string* last) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (true) {
+      *last = snapshot();
+      if (done(*last)) return true;
+      if (std::chrono::steady_clock::now() > end) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+  }
+  // The whole DOM now, as --dump-dom writes it.
+  std::string dom() { return eval("document.documentElement.outerHTML"); }
+  // A screenshot of the page now.
+  bool screenshot(Image* im) {
+    const std::string r = call("Page.captureScreenshot", "{\"format\":\"png\"}", 60);
+    return read_png(base64_decode(between(r, "\"data\":\"", "\"")), im);
+  }
+  std::string log() const { return slurp(log_).substr(0, 3000); }
+
+ private:
+  // Sends a command; returns its reply (the message with its id), or "" after timeout_s.
+  std::string call(const std::string& method, const std::string& params, double timeout_s) {
+    const int id = next_id_++;
+    std::string msg = "{\"id\":" + std::to_string(id) + (session_.empty() ? "" : ",\"sessionId\":\"" + session_ + "\"") +
+                      ",\"method\":\"" + method + "\",\"params\":" + params + "}";
+    msg.push_back('\0');
+    for (size_t off = 0; off < msg.size();) {
+      const ssize_t n = write(to_, msg.data() + off, msg.size() - off);
+      if (n <= 0) return "";
+      off += static_cast<size_t>(n);
+    }
+    const std::string mine = "{\"id\":" + std::to_string(id) + ",";
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    while (true) {
+      for (size_t z; (z = buf_.find('\0')) != std::string::npos;) {
+        std::string m = buf_.substr(0, z);
+        buf_.erase(0, z + 1);
+        if (m.rfind(mine, 0) == 0) return m;  // (events and other replies are not waited for)
+      }
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(end - std::chrono::steady_clock::now());
+      pollfd p{from_, POLLIN, 0};
+      if (left.count() <= 0 || poll(&p, 1, static_cast<int>(left.count())) <= 0) return "";
+      char b[65536];
+      const ssize_t n = read(from_, b, sizeof b);
+      if (n <= 0) return "";
+      buf_.append(b, static_cast<size_t>(n));
+    }
+  }
+
+  std::string log_, buf_, session_, target_;
+  pid_t pid_ = -1;
+  int to_ = -1, from_ = -1, next_id_ = 1;
+};
+
+// A page with `hash` in the browser, once it has set itself up: its DOM and, if asked, a screenshot
+// (the same 900 x 600 CSS px the DOM was laid out in).
+struct Browse {
+  std::string dom;
+  Image shot;
+  bool ok = false;
+  std::string log;
+};
+Browse browse(DevTools& browser, const std::string& html, const std::string& hash, bool screenshot) {
+  Browse b;
+  b.dom = browser.load("file://" + html + "#" + hash, &b.log);
+  if (!b.log.empty()) return b;
+  b.dom = browser.dom();
+  if (screenshot && !browser.screenshot(&b.shot)) {
+    b.log = "no screenshot; " + browser.log();
+    return b;
+  }
+  const PageState p = page_state(b.dom);
+  if (screenshot && (b.shot.w != p.window_w || b.shot.h != p.window_h)) {
+    b.log = "a screenshot of " + std::to_string(b.shot.w) + " x " + std::to_string(b.shot.h) + " px of a page laid out in " +
+            std::to_string(p.window_w) + " x " + std::to_string(p.window_h);
+    return b;
+  }
+  b.ok = !b.dom.empty();
+  return b;
 }
 
 // Pinhole projection as three.js's PerspectiveCamera.lookAt(target) with camera.up: the pixel of
@@ -458,31 +683,21 @@ TEST(ViewBrowser, EveryShippedSceneLoads) {
     std::string err;
     ASSERT_EQ(view(scene_file(s), dir / (s + ".csv"), dir / (s + ".html"), dir / "e", &err), 0) << s << ": " << err;
   }
-  // two browsers at a time
-  std::vector<Browse> res(scenes.size());
-  for (size_t i = 0; i < scenes.size(); i += 2) {
-    std::vector<std::future<Browse>> f;
-    for (size_t k = i; k < std::min(i + 2, scenes.size()); ++k)
-      f.push_back(std::async(std::launch::async, [&, k] {
-        return browse(chromium, dir / (scenes[k] + ".html"), "t=0.25&paused=1", dir, scenes[k], false);
-      }));
-    for (size_t k = i; k < std::min(i + 2, scenes.size()); ++k) res[k] = f[k - i].get();
-  }
-  for (size_t k = 0; k < scenes.size(); ++k) {
-    {
-      const Browse& b = res[k];
-      const std::string& s = scenes[k];
-      ASSERT_TRUE(b.ok) << s << ": chromium failed:\n" << b.log.substr(0, 3000);
-      const PageState p = page_state(b.dom);
-      const System sys = load_scene(scene_file(s));
-      EXPECT_EQ(p.title, "coopdyn view: " + sys.name) << s << ": a JavaScript error, or the page did not finish";
-      EXPECT_EQ(p.title.find("JSERROR"), std::string::npos) << s << ": " << p.title;
-      EXPECT_TRUE(p.ready) << s;
-      EXPECT_EQ(p.error, ">") << s << ": the page shows an error";  // <div id="error"></div>, empty
-      EXPECT_EQ(p.frame, 50) << s << ": " << p.probe;
-      EXPECT_DOUBLE_EQ(p.t, 0.25) << s;
-      EXPECT_EQ(p.time_text, "t = 0.250 s") << s;
-    }
+  // one browser, one page after the other, each judged once it has set itself up
+  DevTools browser(chromium, dir, "scenes");
+  for (const auto& s : scenes) {
+    std::string why;
+    const std::string dom = browser.load("file://" + dir / (s + ".html") + "#t=0.25&paused=1", &why);
+    ASSERT_EQ(why, "") << s;
+    const PageState p = page_state(dom);
+    const System sys = load_scene(scene_file(s));
+    EXPECT_EQ(p.title, "coopdyn view: " + sys.name) << s << ": a JavaScript error, or the page did not finish";
+    EXPECT_EQ(p.title.find("JSERROR"), std::string::npos) << s << ": " << p.title;
+    EXPECT_TRUE(p.ready) << s;
+    EXPECT_EQ(p.error, ">") << s << ": the page shows an error";  // <div id="error"></div>, empty
+    EXPECT_EQ(p.frame, 50) << s << ": " << p.probe;
+    EXPECT_DOUBLE_EQ(p.t, 0.25) << s;
+    EXPECT_EQ(p.time_text, "t = 0.250 s") << s;
   }
 }
 
@@ -495,9 +710,10 @@ TEST(ViewBrowser, ForceArrowWhereProjected) {
   ASSERT_EQ(sim("two_puma_load", 0.8, 0.005, dir / "p.csv", dir / "sim.err"), 0) << slurp(dir / "sim.err");
   std::string err;
   ASSERT_EQ(view(scene_file("two_puma_load"), dir / "p.csv", dir / "p.html", dir / "e", &err), 0) << err;
-  const Browse b = browse(chromium, dir / "p.html", "t=0.7&paused=1&wrench=arm1.ee", dir, "p", true);
+  DevTools browser(chromium, dir, "p");
+  const Browse b = browse(browser, dir / "p.html", "t=0.7&paused=1&wrench=arm1.ee", true);
   ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
-  const PageState p = page_state(b.dom).in_shot(b.shot);
+  const PageState p = page_state(b.dom);
   ASSERT_EQ(p.title, "coopdyn view: two_puma_load");
   ASSERT_DOUBLE_EQ(p.t, 0.7);
   ASSERT_LT(p.canvas_w, b.shot.w) << "the plot's panel beside the 3D view while a wrench is selected";
@@ -529,15 +745,15 @@ TEST(ViewBrowser, TimeSliderChangesFrame) {
   std::string err;
   ASSERT_EQ(view(scene_file("unicycle"), dir / "u.csv", dir / "u.html", dir / "e", &err), 0) << err;
   const System sys = load_scene(scene_file("unicycle"));
-  auto a = std::async(std::launch::async, [&] { return browse(chromium, dir / "u.html", "slider=40&paused=1", dir, "a", true); });
-  const Browse b = browse(chromium, dir / "u.html", "slider=160&paused=1", dir, "b", true);
-  const Browse b0 = a.get();
+  DevTools browser(chromium, dir, "u");
+  const Browse b0 = browse(browser, dir / "u.html", "slider=40&paused=1", true);
+  const Browse b = browse(browser, dir / "u.html", "slider=160&paused=1", true);
   std::vector<Eigen::Vector2d> tips;
   for (int k = 0; k < 2; ++k) {
     const Browse& br = k == 0 ? b0 : b;
     const int frame = k == 0 ? 40 : 160;
     ASSERT_TRUE(br.ok) << br.log.substr(0, 3000);
-    const PageState p = page_state(br.dom).in_shot(br.shot);
+    const PageState p = page_state(br.dom);
     ASSERT_EQ(p.title, "coopdyn view: unicycle");
     EXPECT_EQ(p.frame, frame);
     const double t = frame * 0.005;
@@ -557,28 +773,33 @@ TEST(ViewBrowser, TimeSliderChangesFrame) {
   EXPECT_GT((tips[1] - tips[0]).norm(), 50) << "the wheel rolled 1.2 m between the frames";
 }
 
-// Play: without `paused` the page advances on its own (Chromium's virtual time drives the
-// animation frames), at the speed asked.
+// Play: without `paused` the page advances on its own, on its animation clock, at the speed asked.
+// Chromium runs in real time, driven over DevTools: the test waits until the page has played
+// 400 ms (a run time of 0.1 s, 20 frames at a quarter of the speed), however long the machine
+// takes to give it that, and judges the render that reported it.
 TEST(ViewBrowser, Plays) {
   REQUIRE_BROWSER();
   TempDir dir("play");
   ASSERT_EQ(sim("four_bar", 2, 0.005, dir / "f.csv", dir / "sim.err"), 0) << slurp(dir / "sim.err");
   std::string err;
   ASSERT_EQ(view(scene_file("four_bar"), dir / "f.csv", dir / "f.html", dir / "e", &err), 0) << err;
-  const Browse b = browse(chromium, dir / "f.html", "t=0&speed=0.25", dir, "f", false);
-  ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
-  const PageState p = page_state(b.dom);
+  DevTools browser(chromium, dir, "f");
+  const std::string opened = browser.open("file://" + dir / "f.html" + "#t=0&speed=0.25");
+  ASSERT_EQ(opened, "");
+  std::string dom;
+  const bool played = browser.wait_until(
+      [](const std::string& d) { return num_after(page_state(d).probe, "\"played_ms\":") >= 400; }, 60, &dom);
+  const PageState p = page_state(dom);
+  ASSERT_TRUE(played) << "the page did not play 400 ms in 60 s: " << p.title << " " << p.probe << "\n" << browser.log();
   ASSERT_EQ(p.title, "coopdyn view: four_bar");
   EXPECT_NE(p.probe.find("\"playing\":true"), std::string::npos) << p.probe;
-  // It played, and the run advanced at a quarter of the page's animation clock. How much of the
-  // 3 s of virtual time the animation clock gets is Chromium's, not the page's: 3.2 s on one loaded
-  // machine, 0.38 s on another (load average 12), so only "played at all" is asked of it: 100 ms, a
-  // run time of 25 ms, five frames. The frame shown is the last one at or before the run time.
+  // the run advanced at a quarter of the animation clock (the 2 s run loops after 8 s of it), and
+  // the frame shown is the last one at or before the run time
   const double played_ms = num_after(p.probe, "\"played_ms\":"), played_sim = num_after(p.probe, "\"played_sim\":");
-  EXPECT_GT(played_ms, 100) << p.probe;
   EXPECT_NEAR(played_sim, 0.25 * played_ms / 1000, 1e-9) << p.probe;
   EXPECT_LE(p.t, played_sim + 1e-12) << p.probe;
   EXPECT_GT(p.t, played_sim - 0.005 - 1e-12) << p.probe;
+  EXPECT_GT(p.frame, 0) << p.probe;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -595,32 +816,42 @@ struct Received {
   int64_t utime;
 };
 
-// Runs coopdynd on `scene` at `rate` Hz for `duration` s and returns every message it published on
-// the output and stats channels, in arrival order; empty when LCM cannot start (no multicast route).
-std::vector<Received> record_daemon(const std::string& url, const std::string& scene, int rate, double duration,
+// Runs coopdynd on `scene` at `rate` Hz until this process has received `outputs` of its output
+// messages and one of its stats messages (waiting up to 60 s for them, however slowly the machine
+// runs it), stops it with SIGTERM, and returns every message it published on the output and stats
+// channels, in arrival order; empty when LCM cannot start (no multicast route).
+std::vector<Received> record_daemon(const std::string& url, const std::string& scene, int rate, size_t outputs,
                                     std::string* daemon_err, const std::string& config = "") {
   auto bus = daemon_test::try_bus(url);
   if (!bus) return {};
   std::mutex mu;
+  std::condition_variable cv;
   std::vector<Received> got;
+  size_t n_out = 0, n_stats = 0;
   for (const char* ch : {"COOPDYN_OUTPUT", "COOPDYN_STATS"})
     bus->subscribe(ch, [&, ch](const void* d, int n, long long) {
       std::lock_guard<std::mutex> lk(mu);
       got.push_back({ch, std::vector<uint8_t>(static_cast<const uint8_t*>(d), static_cast<const uint8_t*>(d) + n),
                      io::wall_us()});
+      ++(got.back().channel == "COOPDYN_OUTPUT" ? n_out : n_stats);
+      cv.notify_all();
     });
   bus->start();
-  char dur[32];
-  std::snprintf(dur, sizeof dur, "%g", duration);
   const std::string cfg = daemon_test::tmp_path("view_cfg.yaml");
   std::ofstream(cfg) << "stats_period_s: 0.1\n" << config;
   daemon_test::Child d({COOPDYND_PATH, "--scene", scene_file(scene), "--config", cfg, "--lcm-url", url, "--rate",
-                        std::to_string(rate), "--duration", dur},
+                        std::to_string(rate)},
                        "view_daemon");
+  {
+    std::unique_lock<std::mutex> lk(mu);
+    EXPECT_TRUE(cv.wait_for(lk, std::chrono::seconds(60), [&] { return n_out >= outputs && n_stats >= 1; }))
+        << "in 60 s: " << n_out << " of " << outputs << " outputs, " << n_stats << " stats messages received";
+  }
+  d.signal(SIGTERM);
   EXPECT_EQ(d.wait(), 0) << daemon_test::slurp(d.err);
   *daemon_err = daemon_test::slurp(d.err);
   std::remove(cfg.c_str());
-  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // (what is still on its way, for the log)
   bus->stop();
   std::lock_guard<std::mutex> lk(mu);
   return got;
@@ -659,7 +890,7 @@ std::vector<double> numbers(const std::string& list) {  // "1,2.5,3" -> {1, 2.5,
 TEST(ViewLog, FramesAreTheDaemonsMessages) {
   TempDir dir("log");
   std::string derr;
-  const std::vector<Received> msgs = record_daemon(private_udpm_url(1), "two_puma_load", 200, 0.5, &derr);
+  const std::vector<Received> msgs = record_daemon(private_udpm_url(1), "two_puma_load", 200, 100, &derr);
   if (msgs.empty()) GTEST_SKIP() << "LCM over udpm unavailable (multicast route? ip route add 224.0.0.0/4 dev lo)";
   std::vector<io::DecodedOutput> outs;
   for (const Received& r : msgs) {
@@ -668,7 +899,7 @@ TEST(ViewLog, FramesAreTheDaemonsMessages) {
     ASSERT_TRUE(io::decode_output(r.data.data(), static_cast<int>(r.data.size()), &o));
     outs.push_back(std::move(o));
   }
-  ASSERT_GE(outs.size(), 50u) << derr;  // 0.5 s at 200 Hz, less what loopback lost
+  ASSERT_GE(outs.size(), 100u) << derr;  // (record_daemon waited for them)
   const std::string log = dir / "run.lcmlog";
   write_log(log, msgs);
 
@@ -756,9 +987,10 @@ TEST(ViewLog, FramesAreTheDaemonsMessages) {
     std::printf("[  SKIPPED ] the browser part: Chromium or three.js not installed\n");
     return;
   }
-  const Browse b = browse(chromium, dir / "v.html", "frame=20&paused=1", dir, "v", false);
-  ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
-  const PageState p = page_state(b.dom);
+  DevTools browser(chromium, dir, "v");
+  std::string why;
+  const PageState p = page_state(browser.load("file://" + dir / "v.html" + "#frame=20&paused=1", &why));
+  ASSERT_EQ(why, "");
   EXPECT_EQ(p.title, "coopdyn view: two_puma_load") << "a JavaScript error, or the page did not finish";
   EXPECT_TRUE(p.ready);
   EXPECT_EQ(p.frame, 20);
@@ -786,10 +1018,10 @@ TEST(ViewLog, StressColoursOnThePseudoJoints) {
   std::string derr;
   // no torque (not the default hold): the four-bar falls and its stresses change
   const std::vector<Received> msgs =
-      record_daemon(private_udpm_url(4), "four_bar", 200, 0.5, &derr, "safe_torque:\n  policy: zero\n");
+      record_daemon(private_udpm_url(4), "four_bar", 200, 100, &derr, "safe_torque:\n  policy: zero\n");
   if (msgs.empty()) GTEST_SKIP() << "LCM over udpm unavailable (multicast route? ip route add 224.0.0.0/4 dev lo)";
   const std::vector<io::DecodedOutput> outs = outputs_of(msgs);
-  ASSERT_GE(outs.size(), 50u) << derr;
+  ASSERT_GE(outs.size(), 100u) << derr;
   write_log(dir / "run.lcmlog", msgs);
   std::string err;
   ASSERT_EQ(run("'" + kBin + "' view --scene '" + scene_file("four_bar") + "' --log '" + dir / "run.lcmlog" + "' --out '" +
@@ -821,10 +1053,11 @@ TEST(ViewLog, StressColoursOnThePseudoJoints) {
     if (std::abs(st[i][0]) > std::abs(st[frames[1]][0])) frames[1] = i;
   }
   std::vector<Vec3> seen;
+  DevTools browser(chromium, dir, "v");
   for (size_t i : frames) {
-    const Browse b = browse(chromium, dir / "v.html", "frame=" + std::to_string(i) + "&paused=1", dir, "f" + std::to_string(i), true);
+    const Browse b = browse(browser, dir / "v.html", "frame=" + std::to_string(i) + "&paused=1", true);
     ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
-    const PageState p = page_state(b.dom).in_shot(b.shot);
+    const PageState p = page_state(b.dom);
     ASSERT_EQ(p.title, "coopdyn view: four_bar");
     ASSERT_EQ(p.frame, static_cast<int>(i));
     Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(outs[i].q.data(), static_cast<Eigen::Index>(outs[i].q.size()));
@@ -858,10 +1091,10 @@ TEST(ViewLog, IndeterminateForceIsHighlighted) {
   REQUIRE_BROWSER();
   TempDir dir("indet");
   std::string derr;
-  const std::vector<Received> msgs = record_daemon(private_udpm_url(5), "two_wheel_vehicle", 200, 0.3, &derr);
+  const std::vector<Received> msgs = record_daemon(private_udpm_url(5), "two_wheel_vehicle", 200, 60, &derr);
   if (msgs.empty()) GTEST_SKIP() << "LCM over udpm unavailable (multicast route? ip route add 224.0.0.0/4 dev lo)";
   const std::vector<io::DecodedOutput> outs = outputs_of(msgs);
-  ASSERT_GE(outs.size(), 20u) << derr;
+  ASSERT_GE(outs.size(), 60u) << derr;
   write_log(dir / "run.lcmlog", msgs);
   std::string err;
   ASSERT_EQ(run("'" + kBin + "' view --scene '" + scene_file("two_wheel_vehicle") + "' --log '" + dir / "run.lcmlog" +
@@ -883,9 +1116,10 @@ TEST(ViewLog, IndeterminateForceIsHighlighted) {
   ASSERT_GE(pick, 0) << "no indeterminate force in the vehicle's output (status " << o.status << ")";
   ASSERT_FALSE(o.free_class.empty());
   const std::string name = sys.wrenches.outputs[static_cast<size_t>(pick)].name;
-  const Browse b = browse(chromium, dir / "v.html", "frame=" + std::to_string(i) + "&paused=1&wrench=" + name, dir, "v", true);
+  DevTools browser(chromium, dir, "v");
+  const Browse b = browse(browser, dir / "v.html", "frame=" + std::to_string(i) + "&paused=1&wrench=" + name, true);
   ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
-  const PageState p = page_state(b.dom).in_shot(b.shot);
+  const PageState p = page_state(b.dom);
   ASSERT_EQ(p.title, "coopdyn view: two_wheel_vehicle");
   ASSERT_EQ(p.frame, static_cast<int>(i));
   const std::string status = between(b.dom, "<span id=\"status\" class=\"indeterminate\">", "</span>");
@@ -952,9 +1186,10 @@ TEST(ViewContacts, SlippingWheelHighlightedWhereProjected) {
   const std::vector<std::string> wheels = {"fl", "fr", "rl", "rr"};
   for (const auto& w : wheels) EXPECT_EQ(row.at(w + ".contact"), w == "rl" ? "slip" : "ok") << w << " at t=" << t;
 
-  const Browse b = browse(chromium, dir / "c.html", "t=0.2&paused=1", dir, "c", true);
+  DevTools browser(chromium, dir, "c");
+  const Browse b = browse(browser, dir / "c.html", "t=0.2&paused=1", true);
   ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
-  const PageState p = page_state(b.dom).in_shot(b.shot);
+  const PageState p = page_state(b.dom);
   ASSERT_EQ(p.title, "coopdyn view: four_wheel_car");
   ASSERT_DOUBLE_EQ(p.t, t);
   for (const auto& w : wheels) {
@@ -1014,10 +1249,10 @@ TEST(ViewContacts, SlippingWheelHighlightedWhereProjected) {
 TEST(ViewLog, ContactReportIsTheMessages) {
   TempDir dir("logcontacts");
   std::string derr;
-  const std::vector<Received> msgs = record_daemon(private_udpm_url(5), "four_wheel_car", 200, 0.3, &derr);
+  const std::vector<Received> msgs = record_daemon(private_udpm_url(5), "four_wheel_car", 200, 60, &derr);
   if (msgs.empty()) GTEST_SKIP() << "LCM over udpm unavailable (multicast route? ip route add 224.0.0.0/4 dev lo)";
   const std::vector<io::DecodedOutput> outs = outputs_of(msgs);
-  ASSERT_GE(outs.size(), 20u) << derr;
+  ASSERT_GE(outs.size(), 60u) << derr;
   write_log(dir / "run.lcmlog", msgs);
   std::string err;
   ASSERT_EQ(run("'" + kBin + "' view --scene '" + scene_file("four_wheel_car") + "' --log '" + dir / "run.lcmlog" +
@@ -1081,9 +1316,10 @@ TEST(ViewGround, InclinedGridLiesOnThePlane) {
       << slurp(dir / "sim.err");
   std::string err;
   ASSERT_EQ(view(dir / "incline.yaml", dir / "i.csv", dir / "i.html", dir / "e", &err), 0) << err;
-  const Browse b = browse(chromium, dir / "i.html", "t=0.5&paused=1", dir, "i", false);
-  ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
-  const PageState p = page_state(b.dom);
+  DevTools browser(chromium, dir, "i");
+  std::string why;
+  const PageState p = page_state(browser.load("file://" + dir / "i.html" + "#t=0.5&paused=1", &why));
+  ASSERT_EQ(why, "");
   ASSERT_EQ(p.title, "coopdyn view: incline");
   const std::string g = between(p.probe, "\"grounds\":[", ",\"plot\"");
   ASSERT_NE(g.find("\"vertices\":"), std::string::npos) << p.probe;
@@ -1126,7 +1362,8 @@ TEST(ViewPlot, ClickedWrenchPlottedWithACursorOnTheSlider) {
   ASSERT_EQ(view(scene_file("two_puma_load"), dir / "p.csv", dir / "p.html", dir / "e", &err), 0) << err;
   const System sys = load_scene(scene_file("two_puma_load"));
   const int f1 = 140, f2 = 40;  // frames (0.005 s apart)
-  const Browse a = browse(chromium, dir / "p.html", "slider=" + std::to_string(f1) + "&paused=1", dir, "a", false);
+  DevTools browser(chromium, dir, "p");
+  const Browse a = browse(browser, dir / "p.html", "slider=" + std::to_string(f1) + "&paused=1", false);
   ASSERT_TRUE(a.ok) << a.log.substr(0, 3000);
   const PageState pa = page_state(a.dom);
   ASSERT_EQ(pa.title, "coopdyn view: two_puma_load");
@@ -1158,11 +1395,8 @@ TEST(ViewPlot, ClickedWrenchPlottedWithACursorOnTheSlider) {
   char hash[128];
   std::snprintf(hash, sizeof hash, "slider=%d&paused=1&plotdata=1&click=%.1f,%.1f", f1, click.x() - pa.canvas_x,
                 click.y() - pa.canvas_y);
-  auto second = std::async(std::launch::async, [&] {
-    return browse(chromium, dir / "p.html", "slider=" + std::to_string(f2) + "&paused=1&wrench=arm1.ee", dir, "c", true);
-  });
-  const Browse b = browse(chromium, dir / "p.html", hash, dir, "b", true);
-  const Browse c = second.get();
+  const Browse b = browse(browser, dir / "p.html", hash, true);
+  const Browse c = browse(browser, dir / "p.html", "slider=" + std::to_string(f2) + "&paused=1&wrench=arm1.ee", true);
   ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
   ASSERT_TRUE(c.ok) << c.log.substr(0, 3000);
   const PageState pb = page_state(b.dom);
@@ -1210,10 +1444,9 @@ TEST(ViewPlot, ClickedWrenchPlottedWithACursorOnTheSlider) {
   for (int j = 0; j < 6; ++j) EXPECT_EQ(series[j].size(), rows) << comp[j];
 
   // the cursor: at the frame's time on the axes the probe gives, white in the screenshot there and
-  // nowhere else on the plot (the screenshot's viewport is taller than the DOM's, see in_shot: the
-  // panel's width and the moment axes' top are the same in both, their height larger in the shot)
+  // nowhere else on the plot
   for (const Browse* br : {&b, &c}) {
-    const PageState ps = page_state(br->dom).in_shot(br->shot);
+    const PageState ps = page_state(br->dom);
     const int frame = br == &b ? f1 : f2;
     ASSERT_EQ(ps.frame, frame);
     const std::string plot = ps.probe.substr(ps.probe.find("\"plot\":{"));
@@ -1330,7 +1563,7 @@ struct LiveRig {
   std::vector<std::pair<int64_t, int64_t>> stats;  // loop_stats_t (utime, tick)
   std::string skip;
 
-  LiveRig(int offset, const std::vector<std::string>& viewer_extra, const std::string& daemon_rate = "1000") {
+  LiveRig(int offset, const std::vector<std::string>& viewer_extra) {
     if (!COOPDYN_VIEW_LIVE) {
       skip = "coopdyn view --live is not built (Debian: libwebsocketpp-dev libasio-dev)";
       return;
@@ -1358,7 +1591,7 @@ struct LiveRig {
     std::ofstream(cfg) << "stats_period_s: 0.25\n";
     daemon = std::make_unique<daemon_test::Child>(
         std::vector<std::string>{COOPDYND_PATH, "--scene", scene_file("two_puma_load"), "--config", cfg, "--lcm-url", url,
-                                 "--rate", daemon_rate, "--duration", "60"},
+                                 "--rate", "1000", "--duration", "300"},
         "live_daemon");
     std::vector<std::string> args{kBin, "view", "--scene", scene_file("two_puma_load"), "--live", "--listen",
                                   "127.0.0.1:0", "--lcm-url", url};
@@ -1402,15 +1635,20 @@ TEST(ViewLive, BrowserReceivesFramesAndTimeAdvances) {
   EXPECT_NE(index.find("\"live\":true"), std::string::npos);
   EXPECT_EQ(http_get(rig.port, "/nothing").rfind("HTTP/1.1 404", 0), 0u);
 
-  std::string cmd = "timeout 60 '" + chromium +
-                    "' --headless --no-sandbox --disable-gpu --use-angle=swiftshader --enable-unsafe-swiftshader"
-                    " --hide-scrollbars --mute-audio --no-first-run --user-data-dir='" + dir / "profile" +
-                    "' --window-size=900,600 --virtual-time-budget=4000 --dump-dom 'http://127.0.0.1:" +
-                    std::to_string(rig.port) + "/#wrench=arm1.ee' > '" + dir / "dom.html" + "'";
-  std::string log;
-  ASSERT_EQ(run(cmd, dir / "chromium.log", &log), 0) << log.substr(0, 3000);
-  const std::string dom = slurp(dir / "dom.html");
+  // Chromium in real time: wait until the page has received 5 frames and shows a time 10 ms past
+  // the first, however long that takes the machine (at most 60 s)
+  DevTools browser(chromium, dir, "live");
+  ASSERT_EQ(browser.open("http://127.0.0.1:" + std::to_string(rig.port) + "/#wrench=arm1.ee"), "");
+  auto shown_t = [](const PageState& s) { return std::strtod(s.time_text.c_str() + 4, nullptr); };  // "t = 0.123 s"
+  std::string dom;
+  const bool advanced = browser.wait_until(
+      [&](const std::string& d) {
+        const PageState s = page_state(d);
+        return num_after(s.probe, "\"received\":") >= 5 && shown_t(s) > num_after(s.probe, "\"first_t\":") + 0.01;
+      },
+      60, &dom);
   const PageState p = page_state(dom);
+  EXPECT_TRUE(advanced) << "in 60 s: " << p.probe << "\n" << browser.log();
   EXPECT_EQ(p.title, "coopdyn view: two_puma_load") << "a JavaScript error, or the page did not finish";
   const std::string live = between(dom, "<span id=\"live\">", "</span>");
   EXPECT_EQ(live.rfind("live: connected, ", 0), 0u) << live;
@@ -1419,7 +1657,7 @@ TEST(ViewLive, BrowserReceivesFramesAndTimeAdvances) {
   const double first_t = num_after(p.probe, "\"first_t\":");
   ASSERT_TRUE(std::isfinite(first_t)) << p.probe;
   // the time text shows the newest frame received (playing follows it)
-  const double shown = std::strtod(p.time_text.c_str() + 4, nullptr);
+  const double shown = shown_t(p);
   EXPECT_GT(shown, first_t + 0.01) << p.time_text << " " << p.probe;
   // the plot of the selected wrench grew with the frames, its cursor on the newest
   const std::string plot = between(p.probe, "\"plot\":{", "\"axes\"");
@@ -1442,28 +1680,46 @@ TEST(ViewLive, BrowserReceivesFramesAndTimeAdvances) {
   EXPECT_EQ(rig.daemon->wait(std::chrono::seconds(5)), 0);
 }
 
-// A WebSocket client that connects and never reads: the daemon's tick rate is the same with it as
-// without it, the viewer drops that client's frames (counted) instead of queueing them, its memory
-// stays bounded, and a client that reads goes on receiving.
-TEST(ViewLive, ClientThatNeverReadsChangesNothing) {
+// A WebSocket client that connects and never reads: once its socket and its bounded queue are full,
+// the viewer drops its frames (counted: at least one for every frame the reading client was sent
+// meanwhile) instead of queueing them, its memory stays bounded, and a client that reads goes on
+// receiving. (Whether such a client slows the daemon down is a rate: bench/view_live_rate.sh.)
+TEST(ViewLive, ClientThatNeverReadsIsDroppedFrom) {
   TempDir dir("slow");
-  // every output framed and sent (--rate 1000): ~2.5 MB/s for each client, what a queue without
-  // bound would grow by
-  // the daemon at 500 Hz: a sanitizer build of it holds that from the start
-  LiveRig rig(3, {"--rate", "1000"}, "500");
+  // every output framed and sent (--rate 1000, the daemon at 1 kHz): ~2.5 kB a frame for each client
+  LiveRig rig(3, {"--rate", "1000"});
   if (!rig.skip.empty()) GTEST_SKIP() << rig.skip;
   ASSERT_GT(rig.port, 0) << daemon_test::slurp(rig.viewer->err);
-  auto stat = [&](const char* key) {
-    const std::string s = http_get(rig.port, "/stats");
-    return num_after(s, std::string("\"") + key + "\":");
+  const int cap = 32;  // --queue's default: frames queued per client at most
+  struct Stats {
+    double framed, sent, dropped, clients, queued, buffered;
   };
-  std::this_thread::sleep_for(std::chrono::milliseconds(1000));
-  const int64_t a0 = io::wall_us();
-  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
-  const int64_t a1 = io::wall_us();
+  auto stats = [&] {
+    const std::string s = http_get(rig.port, "/stats");
+    return Stats{num_after(s, "\"framed\":"), num_after(s, "\"sent\":"),    num_after(s, "\"dropped\":"),
+                 num_after(s, "\"clients\":"), num_after(s, "\"queued\":"), num_after(s, "\"buffered\":")};
+  };
+  // waits (at most 60 s) until done(): false if it never was
+  auto wait_for = [](const std::function<bool()>& done) {
+    for (int i = 0; i < 1200; ++i) {
+      if (done()) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    return done();
+  };
 
-  // a reader that keeps reading, and a client that never reads (a small receive buffer)
-  const double framed0 = stat("framed");
+  // the client that never reads (a small receive buffer), alone at first: wait until its socket and
+  // its queue are full (what it holds queued is all that is queued), from then on every frame put
+  // into its queue drops one
+  const int sleeper = ws_connect(rig.port, 4096);
+  ASSERT_GE(sleeper, 0);
+  Stats s1{};
+  ASSERT_TRUE(wait_for([&] { return (s1 = stats()).queued >= cap; }))
+      << "the queue of the client that never reads did not fill: " << http_get(rig.port, "/stats");
+  EXPECT_EQ(s1.queued, cap) << "more queued than the per-client bound";
+  EXPECT_EQ(s1.clients, 1);
+
+  // a reader that keeps reading
   const int reader = ws_connect(rig.port, 0);
   ASSERT_GE(reader, 0);
   std::atomic<long> read_bytes{0};
@@ -1476,57 +1732,37 @@ TEST(ViewLive, ClientThatNeverReadsChangesNothing) {
       else if (n == 0) break;
     }
   });
-  const int sleeper = ws_connect(rig.port, 4096);
-  ASSERT_GE(sleeper, 0);
-  std::this_thread::sleep_for(std::chrono::milliseconds(1000));
-  const long rss1 = rss_kib(rig.viewer->pid);
-  const double dropped1 = stat("dropped"), framed1 = stat("framed");
-  const long read1 = read_bytes;
-  const int64_t b0 = io::wall_us();
-  std::this_thread::sleep_for(std::chrono::milliseconds(2500));
-  const int64_t b1 = io::wall_us();
-  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
-  const long rss2 = rss_kib(rig.viewer->pid);
-  const double dropped2 = stat("dropped"), queued = stat("queued"), clients = stat("clients"), framed = stat("framed");
-  const long read2 = read_bytes;
+  // the viewer's memory once the reader is under way, then after the reader got 4 MiB more: what a
+  // queue without bound would have grown by for the client that never reads (the frames framed
+  // meanwhile, at least those the reader got)
+  const long warm = 256 * 1024, window = 4 * 1024 * 1024;
+  const bool warmed = wait_for([&] { return read_bytes >= warm; });
+  const long rss1 = rss_kib(rig.viewer->pid), read1 = read_bytes;
+  const int64_t t1 = io::wall_us();
+  const bool got = warmed && wait_for([&] { return read_bytes >= read1 + window; });
+  const int64_t t2 = io::wall_us();
+  const long rss2 = rss_kib(rig.viewer->pid), read2 = read_bytes;
+  const Stats s2 = stats();
   stop = true;
   shutdown(reader, SHUT_RDWR);
   rd.join();
   close(reader);
 
-  const double rate_without = rig.tick_rate(a0, a1), rate_with = rig.tick_rate(b0, b1);
-  std::printf("daemon tick rate: %.1f Hz without the client that never reads, %.1f Hz with it; viewer RSS %ld -> %ld KiB "
-              "over 4 s; frames dropped for it %.0f of %.0f framed; the reader got %ld bytes in 4 s\n",
-              rate_without, rate_with, rss1, rss2, dropped2, framed, read2 - read1);
-  ASSERT_TRUE(std::isfinite(rate_without) && std::isfinite(rate_with)) << "no loop_stats_t received";
-#if defined(__SANITIZE_ADDRESS__)
-  // a sanitizer build's daemon, viewer and reader share 2 cores at several times their Release cost:
-  // measured 464.8 Hz with the client against 498.9 Hz without (6.8 %) on a CI machine, CPU taken
-  // by the sanitized viewer, not back-pressure (the bounded-queue checks below hold there too)
-  const double tol = 0.15, floor_hz = 250;  // (sanitized, next to other tests: 400-500 Hz)
-#else
-  const double tol = 0.03, floor_hz = 400;
-#endif
-  // one-sided: the client can only slow the daemon down. Both windows also see the machine's other
-  // load (a CI run measured 474.5 Hz without the client and 491.4 Hz with it, while other processes
-  // ran), so the daemon only has to be running near its rate for the comparison to mean something.
-  EXPECT_GE(rate_with, (1 - tol) * rate_without);
-  EXPECT_GT(rate_without, floor_hz) << "the daemon ran far below its 500 Hz: too loaded a machine to judge";
-  EXPECT_EQ(clients, 2);
-  EXPECT_GT(dropped2 - dropped1, 500) << "the client that never reads was not dropped from";
-  EXPECT_LE(queued, 2 * 32) << "more queued than the per-client bound";
-  // what a queue without bound would have grown by over [rss1, rss2]: the frames framed then, at the
-  // size the reader received them
-  const double frame_bytes = static_cast<double>(read2) / std::max(1.0, framed - framed0);  // (the reader drops none, or
-                                                                                          // this is less)
-  const double unbounded_kib = (framed - framed1) * frame_bytes / 1024;
-  EXPECT_GT(unbounded_kib, 1000) << "too few frames to judge the memory bound";
+  std::printf("viewer RSS %ld -> %ld KiB while the reader got %ld KiB; frames framed %.0f, sent %.0f, dropped %.0f since "
+              "the queue of the client that never reads filled; daemon tick rate then %.1f Hz (not judged)\n",
+              rss1, rss2, (read2 - read1) / 1024, s2.framed - s1.framed, s2.sent - s1.sent, s2.dropped - s1.dropped,
+              rig.tick_rate(t1, t2));
+  ASSERT_TRUE(got) << "the reading client was starved: it got " << read_bytes << " bytes in 60 s";
+  EXPECT_EQ(s2.clients, 2);
+  EXPECT_LE(s2.queued, 2 * cap) << "more queued than the per-client bound";
+  // every frame the reader was sent since went into the full queue of the other, which dropped one
+  EXPECT_GE(s2.dropped - s1.dropped, s2.sent - s1.sent) << "the client that never reads was not dropped from";
+  EXPECT_GT(s2.sent - s1.sent, 0);
 #if defined(__SANITIZE_ADDRESS__)
   std::printf("(AddressSanitizer: freed memory is quarantined, the viewer's RSS is not judged)\n");
 #else
-  EXPECT_LT(rss2 - rss1, 0.3 * unbounded_kib) << "the viewer's memory grew (KiB) while a client did not read";
+  EXPECT_LT(rss2 - rss1, 0.3 * (read2 - read1) / 1024) << "the viewer's memory grew (KiB) while a client did not read";
 #endif
-  EXPECT_GT(read2 - read1, 500 * 1024) << "the reading client was starved";
   close(sleeper);
   rig.viewer->signal(SIGTERM);
   EXPECT_EQ(rig.viewer->wait(std::chrono::seconds(5)), 0) << daemon_test::slurp(rig.viewer->err);
