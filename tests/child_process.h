@@ -27,6 +27,15 @@ namespace coopdyn::daemon_test {
 
 using namespace std::chrono_literals;
 
+// A private udpm URL on this host (ttl=0): port 20000 + 10 (pid % 3000) + k, k in [0, 10). Two test
+// processes alive at once never share a port (their pids would have to differ by a multiple of
+// 3000), and one test process has 10 ports of its own. The port, not the group, keeps tests apart:
+// LCM binds INADDR_ANY:port, and Linux hands such a socket the datagrams of every group joined on
+// the host (IP_MULTICAST_ALL).
+inline std::string private_udpm_url(int k, const std::string& group = "239.255.76.67") {
+  return "udpm://" + group + ":" + std::to_string(20000 + 10 * (getpid() % 3000) + k % 10) + "?ttl=0";
+}
+
 inline std::string tmp_path(const std::string& what) {
   return (::testing::TempDir().empty() ? std::string("/tmp/") : ::testing::TempDir()) + "coopdynd_test_" +
          std::to_string(getpid()) + "_" + what;

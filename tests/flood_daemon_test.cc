@@ -70,11 +70,9 @@ bool parse_summary(const std::string& text, Summary* s) {
 
 // Runs the flood, asserts what holds for either junk, returns the figures.
 void run_flood(Junk kind, FloodFigures* fig) {
-  // ports of its own (lcm_daemon_test.cc uses 20000 + (pid * 7 + k) % 30000, k < 1000): outputs
-  // on one, inputs on another (lcm_url_in), so the test's output subscriber never sees the junk
-  const int port = 51000 + getpid() % 9000;
-  const std::string url = "udpm://239.255.76.67:" + std::to_string(port) + "?ttl=0";
-  const std::string url_in = "udpm://239.255.76.68:" + std::to_string(60000 + getpid() % 5000) + "?ttl=0";
+  // outputs on one port, inputs on another (lcm_url_in), so the test's output subscriber never sees
+  // the junk
+  const std::string url = private_udpm_url(0), url_in = private_udpm_url(1, "239.255.76.68");
   auto rx = try_bus(url), valid_tx = try_bus(url_in), junk_tx = try_bus(url_in);
   if (!rx || !valid_tx || !junk_tx) GTEST_SKIP() << "LCM udpm unavailable (no multicast route? 'ip route add 224.0.0.0/4 dev lo')";
   fig->ran = true;
@@ -243,9 +241,7 @@ TEST(DaemonFlood, ValidCommandLossCounted) {
 // truncated one, a non-LCM datagram) are dropped by the kernel and never reach the receive process;
 // a valid command after them is applied.
 TEST(DaemonFlood, SocketFilterLetsOnlyCoopdynMessagesOfItsChannelsThrough) {
-  const int port = 51000 + (getpid() + 4500) % 9000;
-  const std::string url = "udpm://239.255.76.67:" + std::to_string(port) + "?ttl=0";
-  const std::string url_in = "udpm://239.255.76.68:" + std::to_string(60000 + (getpid() + 2500) % 5000) + "?ttl=0";
+  const std::string url = private_udpm_url(2), url_in = private_udpm_url(3, "239.255.76.68");
   auto rx = try_bus(url), tx = try_bus(url_in);
   if (!rx || !tx) GTEST_SKIP() << "LCM udpm unavailable (no multicast route? 'ip route add 224.0.0.0/4 dev lo')";
   const System sys = load_scene(scene_path("two_puma_load"));

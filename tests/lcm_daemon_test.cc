@@ -39,9 +39,6 @@ using namespace std::chrono_literals;
 namespace {
 
 // A multicast URL private to this test process (ttl=0: never leaves the machine).
-std::string private_udpm_url(int offset) {
-  return "udpm://239.255.76.67:" + std::to_string(20000 + (getpid() * 7 + offset) % 30000) + "?ttl=0";
-}
 
 // Collects decoded outputs from a bus.
 struct OutputSink {
@@ -163,9 +160,7 @@ TEST(LcmRoundTrip, MemqCommandsInWrenchesOutEqualOffline) {
 class DaemonProcess : public ::testing::Test {
  protected:
   void SetUp() override {
-    url_ = private_udpm_url(static_cast<int>(std::hash<std::string>()(
-                                ::testing::UnitTest::GetInstance()->current_test_info()->name()) %
-                            1000));
+    url_ = private_udpm_url(0);
     bus_ = try_bus(url_);
     if (!bus_) GTEST_SKIP() << "LCM udpm unavailable (no multicast route? 'ip route add 224.0.0.0/4 dev lo')";
     sys_ = load_scene(scene_path("two_puma_load"));
@@ -609,7 +604,7 @@ std::vector<uint8_t> lc03(uint32_t seq, uint32_t size, uint32_t offset, uint16_t
 TEST_F(DaemonProcess, HostileFragmentKillsOnlyTheReceiveProcess) {
   // inputs on a group and port no other test uses: the hostile datagrams must not reach another
   // test's subscribers (ctest runs tests in parallel; any liblcm subscriber there would die)
-  const std::string url_in = "udpm://239.255.76.99:" + std::to_string(50000 + getpid() % 10000) + "?ttl=0";
+  const std::string url_in = private_udpm_url(1, "239.255.76.99");
   const std::string cfg_path = tmp_path("isolated.yaml");
   std::ofstream(cfg_path) << "lcm_url_in: \"" << url_in << "\"\nstats_period_s: 0.2\n";
   OutputSink sink;

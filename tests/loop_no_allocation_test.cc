@@ -16,6 +16,7 @@
 
 #include "service/io/lcm_bus.h"
 #include "service/runtime/service_loop.h"
+#include "tests/child_process.h"
 #include "tests/daemon_test_util.h"
 
 using namespace coopdyn;
@@ -186,7 +187,7 @@ TEST(LoopNoAllocation, UdpmPublishOfEncodedBytes) {
   if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
   std::unique_ptr<io::LcmBus> bus;
   try {
-    bus = std::make_unique<io::LcmBus>("udpm://239.255.76.67:" + std::to_string(20000 + getpid() % 30000) + "?ttl=0");
+    bus = std::make_unique<io::LcmBus>(daemon_test::private_udpm_url(0));
   } catch (const std::exception&) {
     GTEST_SKIP() << "LCM udpm unavailable (no multicast route?)";
   }

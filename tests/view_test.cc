@@ -50,6 +50,7 @@
 
 namespace coopdyn {
 namespace {
+using coopdyn::daemon_test::private_udpm_url;
 
 namespace fs = std::filesystem;
 const std::string kSrc = COOPDYN_SOURCE_DIR;
@@ -805,10 +806,6 @@ TEST(ViewBrowser, Plays) {
 // ---------------------------------------------------------------------------------------------
 // From a daemon log: coopdynd runs over udpm on a private loopback port, this process receives its
 // messages (a real LCM round trip) and writes them with LCM's event-log API as lcm-logger would.
-
-std::string private_udpm_url(int offset) {
-  return "udpm://239.255.76.67:" + std::to_string(20000 + (getpid() * 11 + offset) % 30000) + "?ttl=0";
-}
 
 struct Received {
   std::string channel;
