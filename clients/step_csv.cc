@@ -200,34 +200,4 @@ bool read_step_csv_header(std::istream& in, const std::string& path, CsvHeader* 
   return true;
 }
 
-const char* reason_key(int r) {
-  switch (r) {
-    case 0: return "none";
-    case 1: return "nonfinite_input";
-    case 2: return "mass_matrix_singular";
-    case 3: return "pseudo_block_singular";
-    case 4: return "nonfinite_result";
-    case 5: return "overconstrained";
-    case 6: return "diverged";
-    case 7: return "svd_dropped";
-    case 100: return "no_state";
-    case 101: return "state_stale";
-    case 102: return "closure";
-  }
-  return "unknown";
-}
-const char* input_key(int i) {
-  static const char* k[6] = {"command", "no_command", "command_expired", "state", "no_state", "state_expired"};
-  return i >= 0 && i < 6 ? k[i] : "unknown";
-}
-const char* mode_key(int m) { return m == 0 ? "simulate" : m == 1 ? "estimate" : "unknown"; }
-const char* control_action_key(int a) {
-  static const char* k[5] = {"reset", "reset_to_state", "pause", "resume", "clear_fault"};
-  return a == -1 ? "none" : a >= 0 && a < 5 ? k[a] : "unknown";
-}
-const char* control_result_key(int r) {
-  static const char* k[4] = {"none", "ok", "rejected_state", "not_applicable"};
-  return r >= -1 && r < 3 ? k[r + 1] : "unknown";
-}
-
 }  // namespace coopdyn::cli

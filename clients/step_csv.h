@@ -23,6 +23,7 @@
 
 #include "service/dynamics/constrained_dynamics.h"
 #include "service/dynamics/system.h"
+#include "service/io/messages.h"
 
 namespace coopdyn::cli {
 
@@ -78,12 +79,13 @@ struct CsvHeader {
 };
 bool read_step_csv_header(std::istream& in, const std::string& path, CsvHeader* h, std::string* err);
 
-// Words for the codes (the CSV's text columns; the names of output_t's constants in lower case).
-const char* reason_key(int reason);         // Reason or the service's 100+: "none", "diverged", "no_state", ...
-const char* input_key(int input);           // io::Input: "command", "no_command", "command_expired", ...
-const char* mode_key(int mode);             // "simulate", "estimate"
-const char* control_action_key(int action); // "none" (-1), "reset", "reset_to_state", "pause", ...
-const char* control_result_key(int result); // "none", "ok", "rejected_state", "not_applicable"
+// Words for the codes (the CSV's text columns; the names of output_t's constants in lower case),
+// from the code tables (service/io/codes.def, service/dynamics/reasons.def).
+using io::control_action_key;
+using io::control_result_key;
+using io::input_key;
+using io::mode_key;
+using io::reason_key;
 
 // A CSV line assembled in a buffer sized once (the row of a per-step CSV: no allocation per row).
 class CsvLine {

@@ -32,7 +32,7 @@ install(TARGETS coopdyn_core coopdyn_text coopdyn_scene coopdyn_control coopdyn_
 
 # headers keep their "service/x/y.h" paths
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/service/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/coopdyn/service
-        FILES_MATCHING PATTERN "*.h" PATTERN daemon EXCLUDE)
+        FILES_MATCHING PATTERN "*.h" PATTERN "*.def" PATTERN daemon EXCLUDE)
 install(FILES ${PROJECT_BINARY_DIR}/generated/service/version.h
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/coopdyn/service)
 install(FILES ${PROJECT_SOURCE_DIR}/clients/cooperative_controller.h

@@ -44,18 +44,19 @@ const char* status_name(Status s) {
 
 const char* reason_text(Reason r) {
   switch (r) {
-    case Reason::kNone: return "";
-    case Reason::kNonFiniteInput: return "non-finite or malformed input state (NaN/Inf, wrong size, non-unit quaternion)";
-    case Reason::kMassMatrixSingular: return "mass matrix not positive definite: a DOF moves no mass";
-    case Reason::kPseudoBlockSingular:
-      return "pseudo-joint block d4 singular: the locks depend on the real constraints, choose other pseudo-joints";
-    case Reason::kNonFiniteResult: return "the solve produced a non-finite value";
-    case Reason::kOverconstrained: return "over-constrained: indeterminate constraint forces resolved by the scene's rule";
-    case Reason::kDiverged: return "the integration diverged: the state left the scene's bounds";
-    case Reason::kSvdDropped:
-      return "SVD baseline: constraint directions an arm cannot move in were dropped; their forces are not determined";
+#define COOPDYN_REASON(e, code, key, text) \
+  case Reason::e: return text;
+#include "service/dynamics/reasons.def"
   }
   return "?";
+}
+const char* reason_key(Reason r) {
+  switch (r) {
+#define COOPDYN_REASON(e, code, key, text) \
+  case Reason::e: return #key;
+#include "service/dynamics/reasons.def"
+  }
+  return "unknown";
 }
 
 Workspace::Workspace(const System& sys)

@@ -27,19 +27,13 @@ namespace coopdyn {
 enum class Status { kOk = 0, kIndeterminate = 1, kError = 2 };
 const char* status_name(Status s);
 
+// Why a status is not plain ok (the table, with each reason's key and text: reasons.def).
 enum class Reason {
-  kNone = 0,
-  kNonFiniteInput = 1,       // NaN/Inf in q, v or tau, or a non-unit quaternion
-  kMassMatrixSingular = 2,   // a DOF moves no mass (diag.bad_index names it)
-  kPseudoBlockSingular = 3,  // d4 of (24)-(26) singular: the pseudo-joints' locks depend on the
-                             // real constraints; choose other pseudo-joints (paper Fig. 4 vs 5)
-  kNonFiniteResult = 4,      // the solve produced NaN/Inf (never published)
-  kOverconstrained = 5,      // not an error: rank < rows, indeterminate part resolved by the rule
-  kDiverged = 6,             // the integrated state left the scene's bounds (the step diverged)
-  kSvdDropped = 7,           // not an error: the SVD baseline dropped constraint directions along
-                             // N(J^T) of a tip's own Jacobian; their forces are not determined
+#define COOPDYN_REASON(e, code, key, text) e = code,
+#include "service/dynamics/reasons.def"
 };
-const char* reason_text(Reason r);
+const char* reason_text(Reason r);  // "" for kNone
+const char* reason_key(Reason r);   // one word: "none", "diverged", ...
 
 struct Diagnostics {
   int rows = 0;            // constraint rows

@@ -18,10 +18,16 @@
 
 namespace coopdyn::io {
 
-static_assert(static_cast<int>(Mode::kEstimate) == coopdyn::output_t::MODE_ESTIMATE, "mode codes");
-static_assert(static_cast<int>(Input::kStateExpired) == coopdyn::output_t::INPUT_STATE_EXPIRED, "input codes");
-static_assert(kReasonNoState == coopdyn::output_t::REASON_NO_STATE, "reason codes");
-static_assert(kReasonStateStale == coopdyn::output_t::REASON_STATE_STALE, "reason codes");
+// every code of the tables (service/io/codes.def, service/dynamics/reasons.def) is the LCM constant
+// of the same name
+#define COOPDYN_MODE(e, code, key, lcm) static_assert(static_cast<int>(Mode::e) == coopdyn::output_t::lcm, #lcm);
+#define COOPDYN_INPUT(e, code, key, name, lcm) static_assert(static_cast<int>(Input::e) == coopdyn::output_t::lcm, #lcm);
+#define COOPDYN_SERVICE_REASON(c, code, key, lcm) static_assert(c == coopdyn::output_t::lcm, #lcm);
+#define COOPDYN_CONTROL_ACTION(e, code, key, name, lcm) \
+  static_assert(static_cast<int>(ControlAction::e) == coopdyn::control_t::lcm, #lcm);
+#define COOPDYN_CONTROL_RESULT(e, code, key, name, lcm) \
+  static_assert(static_cast<int>(ControlResult::e) == coopdyn::output_t::lcm, #lcm);
+#include "service/io/codes.def"
 static_assert(static_cast<int>(Reason::kNone) == coopdyn::output_t::REASON_NONE, "core reasons");
 static_assert(static_cast<int>(Reason::kNonFiniteInput) == coopdyn::output_t::REASON_NONFINITE_INPUT, "core reasons");
 static_assert(static_cast<int>(Reason::kMassMatrixSingular) == coopdyn::output_t::REASON_MASS_MATRIX_SINGULAR, "core reasons");
@@ -37,83 +43,95 @@ static_assert(static_cast<int>(WrenchKind::kTip) == coopdyn::output_t::KIND_TIP,
 static_assert(static_cast<int>(WrenchKind::kAxle) == coopdyn::output_t::KIND_AXLE, "wrench kinds");
 static_assert(static_cast<int>(WrenchKind::kJoint) == coopdyn::output_t::KIND_JOINT, "wrench kinds");
 
-static_assert(static_cast<int>(Reject::kOverTargetLimit) + 1 == kRejectKinds, "kRejectKinds counts every Reject");
-
 const char* reject_key(Reject r) {
   switch (r) {
-    case Reject::kNone: return "none";
-    case Reject::kDecode: return "malformed";
-    case Reject::kCount: return "wrong_count";
-    case Reject::kUnknownName: return "unknown_name";
-    case Reject::kDuplicateName: return "duplicate_name";
-    case Reject::kNonFinite: return "nonfinite";
-    case Reject::kOverLimit: return "over_tau_limit";
-    case Reject::kStale: return "stale_utime";
-    case Reject::kFuture: return "future_utime";
-    case Reject::kUnactuated: return "unactuated";
-    case Reject::kIncomplete: return "incomplete";
-    case Reject::kNotLocked: return "not_locked";
-    case Reject::kOverTargetLimit: return "over_target_limit";
+#define COOPDYN_REJECT(e, key, name) \
+  case Reject::e: return #key;
+#include "service/io/codes.def"
   }
   return "?";
 }
 
 const char* reject_name(Reject r) {
   switch (r) {
-    case Reject::kNone: return "none";
-    case Reject::kDecode: return "malformed";
-    case Reject::kCount: return "wrong count";
-    case Reject::kUnknownName: return "unknown name";
-    case Reject::kDuplicateName: return "duplicate name";
-    case Reject::kNonFinite: return "NaN/Inf";
-    case Reject::kOverLimit: return "over tau_limit";
-    case Reject::kStale: return "stale utime";
-    case Reject::kFuture: return "utime in the future";
-    case Reject::kUnactuated: return "force on an unactuated DOF";
-    case Reject::kIncomplete: return "incomplete state";
-    case Reject::kNotLocked: return "target for a joint that is not a lock with a target_limit";
-    case Reject::kOverTargetLimit: return "target over target_limit";
+#define COOPDYN_REJECT(e, key, name) \
+  case Reject::e: return name;
+#include "service/io/codes.def"
   }
   return "?";
 }
 
-static_assert(static_cast<int>(ControlAction::kClearFault) == coopdyn::control_t::ACTION_CLEAR_FAULT, "control actions");
-static_assert(static_cast<int>(ControlAction::kResetToState) == coopdyn::control_t::ACTION_RESET_TO_STATE, "control actions");
-static_assert(static_cast<int>(ControlResult::kNotApplicable) == coopdyn::output_t::CONTROL_NOT_APPLICABLE, "control results");
-static_assert(static_cast<int>(ControlResult::kNone) == coopdyn::output_t::CONTROL_NONE, "control results");
-static_assert(kReasonClosure == coopdyn::output_t::REASON_CLOSURE, "reason codes");
 static_assert(kClosureAngularVelocity == coopdyn::output_t::CLOSURE_ANGULAR_VELOCITY, "closure kinds");
 
 const char* control_action_name(ControlAction a) {
   switch (a) {
-    case ControlAction::kReset: return "reset";
-    case ControlAction::kResetToState: return "reset to state";
-    case ControlAction::kPause: return "pause";
-    case ControlAction::kResume: return "resume";
-    case ControlAction::kClearFault: return "clear fault";
+#define COOPDYN_CONTROL_ACTION(e, code, key, name, lcm) \
+  case ControlAction::e: return name;
+#include "service/io/codes.def"
   }
   return "?";
 }
 const char* control_result_name(ControlResult r) {
   switch (r) {
-    case ControlResult::kNone: return "none";
-    case ControlResult::kOk: return "ok";
-    case ControlResult::kRejectedState: return "rejected: the state is not valid or does not close the constraints";
-    case ControlResult::kNotApplicable: return "not applicable in estimate mode";
+#define COOPDYN_CONTROL_RESULT(e, code, key, name, lcm) \
+  case ControlResult::e: return name;
+#include "service/io/codes.def"
   }
   return "?";
 }
 
 const char* input_name(Input i) {
   switch (i) {
-    case Input::kCommand: return "command";
-    case Input::kNoCommand: return "no command (safe torque)";
-    case Input::kCommandExpired: return "command expired (safe torque)";
-    case Input::kState: return "state";
-    case Input::kNoState: return "no state";
-    case Input::kStateExpired: return "state expired";
+#define COOPDYN_INPUT(e, code, key, name, lcm) \
+  case Input::e: return name;
+#include "service/io/codes.def"
   }
   return "?";
+}
+
+const char* reason_key(int r) {
+  switch (r) {
+#define COOPDYN_REASON(e, code, key, text) \
+  case code: return #key;
+#include "service/dynamics/reasons.def"
+#define COOPDYN_SERVICE_REASON(c, code, key, lcm) \
+  case code: return #key;
+#include "service/io/codes.def"
+  }
+  return "unknown";
+}
+const char* input_key(int i) {
+  switch (i) {
+#define COOPDYN_INPUT(e, code, key, name, lcm) \
+  case code: return #key;
+#include "service/io/codes.def"
+  }
+  return "unknown";
+}
+const char* mode_key(int m) {
+  switch (m) {
+#define COOPDYN_MODE(e, code, key, lcm) \
+  case code: return #key;
+#include "service/io/codes.def"
+  }
+  return "unknown";
+}
+const char* control_action_key(int a) {
+  if (a == -1) return "none";  // output_t: no control this tick
+  switch (a) {
+#define COOPDYN_CONTROL_ACTION(e, code, key, name, lcm) \
+  case code: return #key;
+#include "service/io/codes.def"
+  }
+  return "unknown";
+}
+const char* control_result_key(int r) {
+  switch (r) {
+#define COOPDYN_CONTROL_RESULT(e, code, key, name, lcm) \
+  case code: return #key;
+#include "service/io/codes.def"
+  }
+  return "unknown";
 }
 
 namespace {

@@ -11,26 +11,16 @@
 
 namespace coopdyn::io {
 
-// Why an incoming message was not applied.
+// Why an input was not applied (service/io/codes.def: the table, with each reason's key and name).
 enum class Reject {
-  kNone = 0,
-  kDecode,         // not a well-formed message of the expected type (hash, sizes, truncation)
-  kCount,          // wrong number of values for the scene (or names and values disagree)
-  kUnknownName,    // a name that is not one of the scene's coordinates
-  kDuplicateName,  // the same coordinate named twice
-  kNonFinite,      // NaN or Inf
-  kOverLimit,      // |tau| above the scene's tau_limit
-  kStale,          // utime <= 0, or older than max_input_age_ms by the daemon's wall clock
-  kFuture,         // utime ahead of the daemon's wall clock by more than max_input_age_ms
-  kUnactuated,     // a nonzero force on a DOF the scene does not actuate (tau_limit 0: the load's
-                   // platform DOFs, a floating root, a pseudo-joint, unless declared actuated)
-  kIncomplete,     // a measured state without coordinates the daemon cannot fit (state_fit.h: only the
-                   // floating bodies' coordinates, all together, where the constraints fix them, and
-                   // pseudo-joints may be omitted)
-  kNotLocked,      // a position target for a coordinate that is not a lock with a target_limit
-  kOverTargetLimit,  // |target| above the lock's target_limit
+#define COOPDYN_REJECT(e, key, name) e,
+#include "service/io/codes.def"
 };
-constexpr int kRejectKinds = 13;
+constexpr int kRejectKinds = 0
+#define COOPDYN_REJECT(e, key, name) +1
+#include "service/io/codes.def"
+    ;
+
 const char* reject_name(Reject r);
 const char* reject_key(Reject r);  // the same as one word (loop_stats_t reject_reasons, CSV columns)
 
@@ -65,8 +55,14 @@ struct StateSlot {
 };
 
 // A validated control request (control_t), sized once (nq, nv for RESET_TO_STATE).
-enum class ControlAction : int8_t { kReset = 0, kResetToState = 1, kPause = 2, kResume = 3, kClearFault = 4 };
-enum class ControlResult : int8_t { kNone = -1, kOk = 0, kRejectedState = 1, kNotApplicable = 2 };
+enum class ControlAction : int8_t {
+#define COOPDYN_CONTROL_ACTION(e, code, key, name, lcm) e = code,
+#include "service/io/codes.def"
+};
+enum class ControlResult : int8_t {
+#define COOPDYN_CONTROL_RESULT(e, code, key, name, lcm) e = code,
+#include "service/io/codes.def"
+};
 const char* control_action_name(ControlAction a);
 const char* control_result_name(ControlResult r);
 struct ControlSlot {
@@ -80,19 +76,24 @@ struct ControlSlot {
 };
 
 // Codes carried by output_t (mirrors its constants; the codec checks they agree).
-enum class Mode : int8_t { kSimulate = 0, kEstimate = 1 };
+enum class Mode : int8_t {
+#define COOPDYN_MODE(e, code, key, lcm) e = code,
+#include "service/io/codes.def"
+};
 enum class Input : int8_t {
-  kCommand = 0,
-  kNoCommand = 1,
-  kCommandExpired = 2,
-  kState = 3,
-  kNoState = 4,
-  kStateExpired = 5,
+#define COOPDYN_INPUT(e, code, key, name, lcm) e = code,
+#include "service/io/codes.def"
 };
 const char* input_name(Input i);
-constexpr int16_t kReasonNoState = 100;
-constexpr int16_t kReasonStateStale = 101;
-constexpr int16_t kReasonClosure = 102;  // estimate: the measured state does not close the constraints
+#define COOPDYN_SERVICE_REASON(c, code, key, lcm) constexpr int16_t c = code;
+#include "service/io/codes.def"
+
+// One-word keys of the codes (the CSV and JSON outputs); "unknown" for a code not in the tables.
+const char* reason_key(int reason);          // Reason or the service's 100+: "none", "diverged", "no_state", ...
+const char* input_key(int input);            // Input: "command", "no_command", "command_expired", ...
+const char* mode_key(int mode);              // "simulate", "estimate"
+const char* control_action_key(int action);  // "none" (-1), "reset", "reset_to_state", "pause", ...
+const char* control_result_key(int result);  // "none", "ok", "rejected_state", "not_applicable"
 
 // Loop statistics (loop_stats_t).
 struct StatsFrame {
