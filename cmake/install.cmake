@@ -35,7 +35,7 @@ install(DIRECTORY ${PROJECT_SOURCE_DIR}/service/ DESTINATION ${CMAKE_INSTALL_INC
         FILES_MATCHING PATTERN "*.h" PATTERN "*.def" PATTERN daemon EXCLUDE)
 install(FILES ${PROJECT_BINARY_DIR}/generated/service/version.h
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/coopdyn/service)
-install(FILES ${PROJECT_SOURCE_DIR}/clients/cooperative_controller.h
+install(FILES ${PROJECT_SOURCE_DIR}/clients/control/cooperative_controller.h
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/coopdyn/clients)
 
 # the default config, the scenes and the robots they name (scenes/ refers to ../robots/)

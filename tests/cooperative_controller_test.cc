@@ -1,11 +1,11 @@
-// The reference controller (clients/cooperative_controller.h) closed around the simulator offline,
+// The reference controller (clients/control/cooperative_controller.h) closed around the simulator offline,
 // with the daemon's one-tick delay: the load follows the reference circle and the squeeze holds
 // its set-point, within the torque limits.
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "clients/cooperative_controller.h"
+#include "clients/control/cooperative_controller.h"
 #include "service/dynamics/integrators.h"
 #include "tests/test_util.h"
 

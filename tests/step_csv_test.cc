@@ -1,4 +1,4 @@
-// The one per-step CSV schema (clients/step_csv.h): `coopdyn sim --out` and `coopdyn log` of a
+// The one per-step CSV schema (clients/csv/step_csv.h): `coopdyn sim --out` and `coopdyn log` of a
 // daemon's outputs write the same columns with the same units, and the same text where the runs
 // are identical. The daemon runs in estimate mode over memq:// (the loop in this process) and is
 // fed the simulator's own states; its outputs, the states and a command sent without names are
@@ -18,7 +18,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
-#include "clients/step_csv.h"
+#include "clients/csv/step_csv.h"
 #include "service/io/lcm_bus.h"
 #include "service/runtime/service_loop.h"
 #include "tests/child_process.h"

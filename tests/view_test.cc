@@ -584,7 +584,7 @@ TEST(ViewErrors, NameTheFile) {
 
   // a missing wrench column, a short row, a bad number, no rows, no file
   const std::string csv = slurp(dir / "u.csv");
-  // the comment and units lines, then the header at line hl (clients/step_csv.h)
+  // the comment and units lines, then the header at line hl (clients/csv/step_csv.h)
   size_t pos = 0;
   int hl = 1;
   while (csv[pos] == '#') pos = csv.find('\n', pos) + 1, ++hl;

@@ -137,7 +137,7 @@ int64_t fingerprint(MessageType t);  // the generated type's hash (the first 8 b
 const char* type_name(MessageType t);  // "coopdyn.output_t", ...
 // One CSV line per message: *header describes this message's columns (it depends on the scene's
 // names), *row its values, neither with a trailing newline. False if it does not decode, and for
-// kOutput: outputs are written in the per-step CSV schema (clients/step_csv.h) from decode_output.
+// kOutput: outputs are written in the per-step CSV schema (clients/csv/step_csv.h) from decode_output.
 bool to_csv(MessageType t, const void* data, int len, std::string* header, std::string* row);
 
 }  // namespace coopdyn::io

@@ -299,7 +299,7 @@ bool to_csv(MessageType t, const void* data, int len, std::string* header, std::
       }
       break;
     }
-    case MessageType::kOutput:  // the step CSV schema (clients/step_csv.h) from decode_output
+    case MessageType::kOutput:  // the step CSV schema (clients/csv/step_csv.h) from decode_output
       return false;
     case MessageType::kLoopStats: {
       StatsFrame s;

@@ -1,5 +1,5 @@
 // coopdyn track: the reference controller in the loop. It subscribes to the daemon's outputs, and for
-// each new one computes the torques of clients/cooperative_controller.h (the load along a circle,
+// each new one computes the torques of clients/control/cooperative_controller.h (the load along a circle,
 // the squeeze between the arms at its set-point) and publishes them as a torque_command_t. The
 // newest output always wins: if the controller falls behind, it skips outputs rather than acting
 // on old states. Writes one CSV row per command (--out) and prints the tracking summary.
@@ -12,8 +12,8 @@
 #include <mutex>
 #include <thread>
 
-#include "clients/cli.h"
-#include "clients/cooperative_controller.h"
+#include "clients/cli/cli.h"
+#include "clients/control/cooperative_controller.h"
 #include "service/io/codec.h"
 #include "service/io/lcm_bus.h"
 #include "service/scene/scene.h"

@@ -1,6 +1,6 @@
 // coopdyn view: the scene in 3D over a run, as one self-contained HTML page (three.js inlined), from
-// a `coopdyn sim` CSV, a daemon log (output_t messages, clients/view_log.cc) or live from the
-// daemon's LCM outputs (clients/view_live.cc). The geometry of every frame is computed here
+// a `coopdyn sim` CSV, a daemon log (output_t messages, clients/view/view_log.cc) or live from the
+// daemon's LCM outputs (clients/view/view_live.cc). The geometry of every frame is computed here
 // (forward kinematics of each sample's q) and embedded as JSON; the page only draws it.
 #pragma once
 
@@ -104,11 +104,11 @@ ViewFrames read_view_frames(const System& sys, const std::string& csv_path, int 
 // The sample of one output_t of coopdynd running `sys` (`geo`: view_geometry(sys)): time, status,
 // q, the drawn wrenches, the stresses, the indeterminate components and the free directions. False,
 // with the reason in *why, when it is of another scene (other coordinates or wrenches, by name) or
-// its q is not a configuration of it. Used by --log and --live (clients/view_log.cc).
+// its q is not a configuration of it. Used by --log and --live (clients/view/view_log.cc).
 bool sample_of_output(const System& sys, const ViewFrames& geo, const io::DecodedOutput& o, ViewSample* s, std::string* why);
 
 // Reads the output_t messages on `channel` of an lcm-logger file recorded from coopdynd running
-// `sys` (clients/view_log.cc). Throws std::runtime_error naming the file when it cannot be read,
+// `sys` (clients/view/view_log.cc). Throws std::runtime_error naming the file when it cannot be read,
 // holds no output_t on that channel (the message lists the channels it has), or its outputs are of
 // another scene (other coordinates or wrenches).
 std::vector<ViewSample> read_log_samples(const System& sys, const std::string& log_path, const std::string& channel);
@@ -122,7 +122,7 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
 // Reads and checks three.js; prints the reason (naming the file) and returns false when it cannot.
 bool read_three_js(const std::string& path, std::string* text);
 
-// coopdyn view --live (clients/view_live.cc): serves the live page and a WebSocket of frames.
+// coopdyn view --live (clients/view/view_live.cc): serves the live page and a WebSocket of frames.
 int run_view_live(const System& sys, const std::string& three_js, const std::string& listen,
                   const std::string& lcm_url, const std::string& channel, double max_rate_hz, int queue_frames);
 

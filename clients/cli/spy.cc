@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "clients/cli.h"
+#include "clients/cli/cli.h"
 
 #ifndef COOPDYN_LCM_JAR
 #define COOPDYN_LCM_JAR "/usr/share/java/lcm.jar"

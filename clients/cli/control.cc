@@ -5,7 +5,7 @@
 #include <mutex>
 #include <thread>
 
-#include "clients/cli.h"
+#include "clients/cli/cli.h"
 #include "service/io/codec.h"
 #include "service/io/lcm_bus.h"
 #include "service/scene/scene.h"

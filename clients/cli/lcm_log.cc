@@ -1,4 +1,4 @@
-#include "clients/lcm_log.h"
+#include "clients/cli/lcm_log.h"
 
 #include <lcm/lcm-cpp.hpp>
 #include <sys/stat.h>

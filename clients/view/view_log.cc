@@ -1,12 +1,12 @@
 // coopdyn view --log: the frames of a daemon log, from its output_t messages (read with the
-// clients' one log reader, clients/lcm_log.h).
+// clients' one log reader, clients/cli/lcm_log.h).
 #include <algorithm>
 #include <map>
 #include <stdexcept>
 #include <string>
 
-#include "clients/lcm_log.h"
-#include "clients/view.h"
+#include "clients/cli/lcm_log.h"
+#include "clients/view/view.h"
 #include "service/io/codec.h"
 
 namespace coopdyn::cli {

@@ -26,7 +26,7 @@
 #include <mutex>
 #include <string>
 
-#include "clients/view.h"
+#include "clients/view/view.h"
 #include "service/io/codec.h"
 #include "service/io/lcm_bus.h"
 

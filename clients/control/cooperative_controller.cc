@@ -1,4 +1,4 @@
-#include "clients/cooperative_controller.h"
+#include "clients/control/cooperative_controller.h"
 
 #include <cmath>
 #include <stdexcept>

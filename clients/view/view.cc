@@ -1,5 +1,5 @@
 // coopdyn view: one self-contained HTML page with the scene in 3D over the run of a sim CSV.
-#include "clients/view.h"
+#include "clients/view/view.h"
 
 #include <algorithm>
 #include <charconv>
@@ -14,9 +14,9 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
-#include "clients/cli.h"
-#include "clients/common.h"
-#include "clients/step_csv.h"
+#include "clients/cli/cli.h"
+#include "clients/cli/common.h"
+#include "clients/csv/step_csv.h"
 #include "service/algorithms/kinematics.h"
 #include "service/constraints/constraints.h"
 #include "service/dynamics/contacts.h"
@@ -221,7 +221,7 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot open '" + path + "'");
   std::string line;
-  CsvHeader hdr;  // the per-step CSV's comment and units lines, then its header (clients/step_csv.h)
+  CsvHeader hdr;  // the per-step CSV's comment and units lines, then its header (clients/csv/step_csv.h)
   std::string err;
   if (!read_step_csv_header(in, path, &hdr, &err)) throw std::runtime_error(err + " (expected a `coopdyn sim` CSV)");
   const std::vector<std::string>& head = hdr.names;
@@ -250,7 +250,7 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
     c_w.push_back(c);
   }
 
-  // the contact report of each wheel (clients/sim.cc writes it for every rolling contact)
+  // the contact report of each wheel (clients/cli/sim.cc writes it for every rolling contact)
   std::vector<std::array<int, 3>> c_c;
   for (const auto& c : geo.contacts)
     c_c.push_back({need(c.name + ".utilisation"), need(c.name + ".friction_needed"), need(c.name + ".contact")});

@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include "clients/cli.h"
+#include "clients/cli/cli.h"
 #include "service/dynamics/integrators.h"
 #include "service/dynamics/wrenches.h"
 #include "service/scene/scene.h"

@@ -17,8 +17,8 @@
 #include <thread>
 #include <unordered_map>
 
-#include "clients/cli.h"
-#include "clients/step_csv.h"
+#include "clients/cli/cli.h"
+#include "clients/csv/step_csv.h"
 #include "service/io/codec.h"
 #include "service/io/lcm_bus.h"
 #include "service/scene/scene.h"
@@ -49,7 +49,7 @@ bool read_states(const std::string& path, StateTable* st, std::string* err) {
     return out;
   };
   std::string line;
-  CsvHeader hdr;  // the per-step CSV's comment and units lines, then its header (clients/step_csv.h)
+  CsvHeader hdr;  // the per-step CSV's comment and units lines, then its header (clients/csv/step_csv.h)
   if (!read_step_csv_header(f, path, &hdr, err)) return false;
   const auto& head = hdr.names;
   std::vector<int> qc, vc, tc;
@@ -259,6 +259,25 @@ int cmd_send(const Args& a) {
   std::signal(SIGINT, on_sigint);
   std::signal(SIGTERM, on_sigint);
 
+  // The daemon's counters before the first command (loop_stats_t comes every stats_period_s, 1 s by
+  // default): what it rejected of this run is its later counters less these, whatever it rejected
+  // before the run. Waits up to 3 s for one, and only 1 s when no daemon answers at all.
+  bool have_baseline = false;
+  if (check) {
+    for (int k = 0; k < 300; ++k) {
+      {
+        std::lock_guard<std::mutex> lk(mu);
+        if (stats_n > 0 || (k >= 100 && outputs == 0)) break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    std::lock_guard<std::mutex> lk(mu);
+    if (stats_n > 0) {
+      stats_first = stats_last;  // the baseline: the newest before the first command
+      stats_n = 1;
+      have_baseline = true;
+    }
+  }
   const long long period = static_cast<long long>(1e9 / rate + 0.5);
   const long long n_msgs = static_cast<long long>(std::floor(duration * rate + 1e-9)) + 1;
   Eigen::VectorXd tau(sys.model.nv());
@@ -311,10 +330,11 @@ int cmd_send(const Args& a) {
       n0 = stats_n;
       outs = outputs;
     }
+    // (with a baseline from before the run: one whose counters have received every command sent)
     for (int k = 0; outs > 0 && k < 500; ++k) {
       {
         std::lock_guard<std::mutex> lk(mu);
-        if (stats_n > n0) break;
+        if (stats_n > n0 && (!have_baseline || stats_last.received - stats_first.received >= sent)) break;
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }

@@ -1,4 +1,4 @@
-#include "clients/step_csv.h"
+#include "clients/csv/step_csv.h"
 
 #include <sstream>
 

@@ -2,12 +2,12 @@
 // (type, count, rate), and PNG plots of the wrenches (joint reactions apart) and the loop timing when
 // matplotlib is available (/usr/bin/python3 with python3-matplotlib; optional: the CSVs never need it).
 //
-// The output_t channel's CSV is the per-step schema of clients/step_csv.h, the one `coopdyn sim
+// The output_t channel's CSV is the per-step schema of clients/csv/step_csv.h, the one `coopdyn sim
 // --out` writes (t first, the scene's names, codes as words, a units line), then the columns only a
 // daemon has (log_time, utime, tick, mode, input, ...). The other channels' CSVs follow the same
 // rules: names without units, the units in a '# units:' line, coordinates by the scene's names
 // (commands sent without names get them from the outputs or --scene). --in FILE.csv plots a per-step
-// CSV (a sim's) with the same plotter (clients/log_plot.py, compiled in).
+// CSV (a sim's) with the same plotter (clients/cli/log_plot.py, compiled in).
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -23,10 +23,10 @@
 #include <memory>
 #include <string>
 
-#include "clients/cli.h"
-#include "clients/lcm_log.h"
-#include "clients/progress.h"
-#include "clients/step_csv.h"
+#include "clients/cli/cli.h"
+#include "clients/cli/lcm_log.h"
+#include "clients/cli/progress.h"
+#include "clients/csv/step_csv.h"
 #include "service/dynamics/contacts.h"
 #include "service/io/codec.h"
 #include "service/scene/scene.h"
@@ -162,7 +162,7 @@ void write_output_row(CsvLine& l, const io::DecodedOutput& o, double log_time, s
   l.write(f);
 }
 
-// Runs the plotter (clients/log_plot.py) on a per-step CSV and a stats CSV ('' when none).
+// Runs the plotter (clients/cli/log_plot.py) on a per-step CSV and a stats CSV ('' when none).
 int plot(const Args& a, const std::string& out, const std::string& steps_csv, const std::string& stats_csv) {
   std::fflush(stdout);  // the table before the plotter's own lines
   const std::string py = a.get("python", "/usr/bin/python3");

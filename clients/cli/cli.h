@@ -10,7 +10,7 @@
 #include <deque>
 #include <string>
 
-#include "clients/common.h"
+#include "clients/cli/common.h"
 
 namespace coopdyn::cli {
 

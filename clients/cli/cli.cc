@@ -1,4 +1,4 @@
-#include "clients/cli.h"
+#include "clients/cli/cli.h"
 
 #include <cstdio>
 

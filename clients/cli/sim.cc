@@ -1,6 +1,6 @@
 // coopdyn sim: fixed-step simulation to CSV (time, state, wrenches, stresses, diagnostics).
 //
-// The CSV is the per-step schema of clients/step_csv.h (docs/conventions.md), the columns every
+// The CSV is the per-step schema of clients/csv/step_csv.h (docs/conventions.md), the columns every
 // source shares plus position_error. Numbers are written by std::to_chars in their shortest
 // round-trip form (strtod reads back the exact double, like %.17g, in fewer characters) into one
 // line buffer, one fwrite per row. --every N writes every N-th step (rows t = 0, N dt, 2 N dt, ...:
@@ -17,9 +17,9 @@
 #include <string>
 #include <vector>
 
-#include "clients/cli.h"
-#include "clients/progress.h"
-#include "clients/step_csv.h"
+#include "clients/cli/cli.h"
+#include "clients/cli/progress.h"
+#include "clients/csv/step_csv.h"
 #include "service/dynamics/contacts.h"
 #include "service/dynamics/integrators.h"
 #include "service/dynamics/wrenches.h"
@@ -102,7 +102,7 @@ int cmd_sim(const Args& a) {
   const Model& model = sys.model;
   ContactData cts(sys);  // per rolling contact: friction needed, utilisation, state (contacts.h)
   std::vector<ContactState> last_state(cts.spec.size(), ContactState::kOk);
-  // the per-step CSV schema (clients/step_csv.h): the shared columns, then position_error
+  // the per-step CSV schema (clients/csv/step_csv.h): the shared columns, then position_error
   const StepSchema schema = step_schema(sys, "sim");
   CsvColumns cols = shared_step_columns(schema);
   cols.add("position_error", "m or rad");

@@ -1,7 +1,7 @@
-// coopdyn view --live when the build found no websocketpp or standalone asio (clients/lcm_clients.cmake).
+// coopdyn view --live when the build found no websocketpp or standalone asio (clients/CMakeLists.txt).
 #include <cstdio>
 
-#include "clients/view.h"
+#include "clients/view/view.h"
 
 namespace coopdyn::cli {
 int run_view_live(const System&, const std::string&, const std::string&, const std::string&, const std::string&, double, int) {

@@ -5,7 +5,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "clients/common.h"
+#include "clients/cli/common.h"
 #include "service/algorithms/kinematics.h"
 #include "service/dynamics/contacts.h"
 #include "service/dynamics/free_directions.h"

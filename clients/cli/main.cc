@@ -2,7 +2,7 @@
 #include <iostream>
 #include <string>
 
-#include "clients/cli.h"
+#include "clients/cli/cli.h"
 #include "service/version.h"
 
 int main(int argc, char** argv) {

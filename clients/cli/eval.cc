@@ -3,7 +3,7 @@
 
 #include <cstdio>
 
-#include "clients/cli.h"
+#include "clients/cli/cli.h"
 #include "service/scene/scene.h"
 
 namespace coopdyn::cli {

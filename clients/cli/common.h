@@ -14,7 +14,7 @@
 
 namespace coopdyn::cli {
 
-// The options given to a subcommand, as parsed by CLI11 (clients/cli.h): --key value pairs (a bare
+// The options given to a subcommand, as parsed by CLI11 (clients/cli/cli.h): --key value pairs (a bare
 // --flag has an empty value); repeated keys are kept in order.
 struct Args {
   std::multimap<std::string, std::string> kv;
@@ -82,7 +82,7 @@ int load_cli_targets(const Args& a, const char* cmd, const System& sys, TorquePr
 // prints the problem and returns false on a bad file.
 bool read_state(const std::string& path, const System& sys, Eigen::VectorXd& q, Eigen::VectorXd& v, Eigen::VectorXd& tau);
 
-// The subcommands: register_NAME declares the options of `coopdyn NAME` (clients/cli.h), cmd_NAME runs it.
+// The subcommands: register_NAME declares the options of `coopdyn NAME` (clients/cli/cli.h), cmd_NAME runs it.
 class Cli;
 void register_eval(Cli& cli);
 void register_sim(Cli& cli);
@@ -99,8 +99,8 @@ int cmd_control(const Args& a);
 int cmd_sim(const Args& a);
 int cmd_send(const Args&);
 int cmd_log(const Args&);
-int cmd_view(const Args&);  // clients/view.cc
-int cmd_bench(const Args& a);  // clients/bench.cc
-int cmd_spy(const Args& a);    // clients/spy.cc
+int cmd_view(const Args&);  // clients/view/view.cc
+int cmd_bench(const Args& a);  // clients/cli/bench.cc
+int cmd_spy(const Args& a);    // clients/cli/spy.cc
 
 }  // namespace coopdyn::cli
