@@ -111,88 +111,99 @@ struct OverrunReport {
   }
 };
 
-}  // namespace
+// The command line, as given (coopdynd --help lists the options).
+struct Options {
+  std::string scene_path, config_path, url_override, mode_override, trigger_override;
+  double rate_override = 0;  // Hz; 0: the config's rate_hz
+  double duration = -1;      // s; < 0: until SIGINT or SIGTERM
+};
 
-int main(int argc, char** argv) {
+// parse: argv -> Options. Returns -1 to go on, else the exit code (0 after --help or --version, 2
+// for a bad option).
+int parse_args(int argc, char** argv, Options* o) {
   using namespace coopdyn;
-  // the isolated receive process (io/rx_isolated.h): this binary, exec'd by the daemon itself
-  if (argc > 1 && std::strcmp(argv[1], "--rx-child") == 0) return io::rx_child_main(argc, argv);
-  std::string scene_path, config_path, url_override, mode_override, trigger_override, rate_arg, duration_arg;
-  double rate_override = 0, duration = -1;
-  {
-    const runtime::ServiceConfig def;
-    CLI::App app{"coopdynd " COOPDYN_VERSION
-                 ": the real-time constrained-dynamics service. Runs a scene at a fixed rate; LCM in (torque "
-                 "commands or measured states, controls) and out (wrenches, stresses, accelerations, loop statistics).",
-                 "coopdynd"};
-    app.set_version_flag("--version", "coopdynd (coopdyn) " COOPDYN_VERSION, "print the version and exit");
-    app.add_option("--scene", scene_path, "scene file (YAML; config/scenes/)")->type_name("FILE")->required();
-    app.add_option("--config", config_path, "service config (YAML; see config/coopdynd.yaml; default: the built-in values)")
-        ->type_name("FILE");
-    app.add_option("--lcm-url", url_override, "LCM URL of the outputs (and inputs, unless lcm_url_in); overrides the config")
-        ->type_name("URL")
-        ->default_str(def.lcm_url);
-    app.add_option("--mode", mode_override, "simulate (torque commands in) or estimate (measured states in); overrides the config")
-        ->type_name("MODE")
-        ->default_str(runtime::mode_name(def.mode));
-    app.add_option("--trigger", trigger_override,
-                   "estimate mode: compute at each tick of the fixed rate (tick) or on arrival of each measured state "
-                   "(arrival: its wrenches out within compute + transport); overrides the config")
-        ->type_name("WHEN")
-        ->default_str(runtime::trigger_name(def.trigger));
-    app.add_option("--rate", rate_arg, "loop rate; overrides the config's rate_hz")
-        ->type_name("HZ")
-        ->default_str(std::to_string(static_cast<int>(def.rate_hz)));
-    app.add_option("--duration", duration_arg, "stop by itself after S seconds (default: run until SIGINT or SIGTERM)")
-        ->type_name("S");
-    app.failure_message([](const CLI::App*, const CLI::Error& e) {
-      return std::string("coopdynd: ") + e.what() + "\nRun 'coopdynd --help' for the options.\n";
-    });
-    try {
-      app.parse(argc, argv);
-    } catch (const CLI::ParseError& e) {
-      return app.exit(e) == 0 ? 0 : 2;  // --help and --version: stdout, 0; errors: stderr, 2
-    }
+  std::string rate_arg, duration_arg;
+  const runtime::ServiceConfig def;
+  CLI::App app{"coopdynd " COOPDYN_VERSION
+               ": the real-time constrained-dynamics service. Runs a scene at a fixed rate; LCM in (torque "
+               "commands or measured states, controls) and out (wrenches, stresses, accelerations, loop statistics).",
+               "coopdynd"};
+  app.set_version_flag("--version", "coopdynd (coopdyn) " COOPDYN_VERSION, "print the version and exit");
+  app.add_option("--scene", o->scene_path, "scene file (YAML; config/scenes/)")->type_name("FILE")->required();
+  app.add_option("--config", o->config_path, "service config (YAML; see config/coopdynd.yaml; default: the built-in values)")
+      ->type_name("FILE");
+  app.add_option("--lcm-url", o->url_override, "LCM URL of the outputs (and inputs, unless lcm_url_in); overrides the config")
+      ->type_name("URL")
+      ->default_str(def.lcm_url);
+  app.add_option("--mode", o->mode_override, "simulate (torque commands in) or estimate (measured states in); overrides the config")
+      ->type_name("MODE")
+      ->default_str(runtime::mode_name(def.mode));
+  app.add_option("--trigger", o->trigger_override,
+                 "estimate mode: compute at each tick of the fixed rate (tick) or on arrival of each measured state "
+                 "(arrival: its wrenches out within compute + transport); overrides the config")
+      ->type_name("WHEN")
+      ->default_str(runtime::trigger_name(def.trigger));
+  app.add_option("--rate", rate_arg, "loop rate; overrides the config's rate_hz")
+      ->type_name("HZ")
+      ->default_str(std::to_string(static_cast<int>(def.rate_hz)));
+  app.add_option("--duration", duration_arg, "stop by itself after S seconds (default: run until SIGINT or SIGTERM)")
+      ->type_name("S");
+  app.failure_message([](const CLI::App*, const CLI::Error& e) {
+    return std::string("coopdynd: ") + e.what() + "\nRun 'coopdynd --help' for the options.\n";
+  });
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;  // --help and --version: stdout, 0; errors: stderr, 2
   }
-  if (!rate_arg.empty() && !parse_double(rate_arg.c_str(), &rate_override)) {
+  if (!rate_arg.empty() && !parse_double(rate_arg.c_str(), &o->rate_override)) {
     std::fprintf(stderr, "coopdynd: --rate must be a number (Hz)\n");
     return 2;
   }
-  if (!duration_arg.empty() && (!parse_double(duration_arg.c_str(), &duration) || duration < 0)) {
+  if (!duration_arg.empty() && (!parse_double(duration_arg.c_str(), &o->duration) || o->duration < 0)) {
     std::fprintf(stderr, "coopdynd: --duration must be a number of seconds >= 0\n");
     return 2;
   }
 
-  // --- configuration and scene: every problem stops here, with a clear message ---
-  runtime::ServiceConfig cfg;
+  return -1;
+}
+
+// load: the config (with the command line's overrides) and the scene. Every problem stops here,
+// with a clear message; returns -1 to go on, else the exit code.
+int load(const Options& o, coopdyn::runtime::ServiceConfig* cfg_out, coopdyn::System* sys_out) {
+  using namespace coopdyn;
+  runtime::ServiceConfig& cfg = *cfg_out;
   try {
-    if (!config_path.empty()) cfg = runtime::load_config(config_path);
-    if (!url_override.empty()) cfg.lcm_url = url_override;
-    if (rate_override > 0) cfg.rate_hz = rate_override;
-    if (!mode_override.empty() && !runtime::parse_mode(mode_override, &cfg.mode))
+    if (!o.config_path.empty()) cfg = runtime::load_config(o.config_path);
+    if (!o.url_override.empty()) cfg.lcm_url = o.url_override;
+    if (o.rate_override > 0) cfg.rate_hz = o.rate_override;
+    if (!o.mode_override.empty() && !runtime::parse_mode(o.mode_override, &cfg.mode))
       throw runtime::ConfigError("--mode must be simulate or estimate");
-    if (!trigger_override.empty() && !runtime::parse_trigger(trigger_override, &cfg.trigger))
+    if (!o.trigger_override.empty() && !runtime::parse_trigger(o.trigger_override, &cfg.trigger))
       throw runtime::ConfigError("--trigger must be tick or arrival");
     runtime::validate(cfg);
   } catch (const runtime::ConfigError& e) {
     std::fprintf(stderr, "coopdynd: config error: %s\n", e.what());
     return 2;
   } catch (const std::exception& e) {  // load_config converts everything; this is the backstop
-    std::fprintf(stderr, "coopdynd: config error: %s: %s\n", config_path.c_str(), e.what());
+    std::fprintf(stderr, "coopdynd: config error: %s: %s\n", o.config_path.c_str(), e.what());
     return 2;
   }
-  System sys;
+  System& sys = *sys_out;
   try {
-    sys = load_scene(scene_path);
+    sys = load_scene(o.scene_path);
   } catch (const SceneError& e) {
     std::fprintf(stderr, "coopdynd: scene error: %s\n", e.what());
     return 1;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "coopdynd: scene error: %s: %s\n", scene_path.c_str(), e.what());
+    std::fprintf(stderr, "coopdynd: scene error: %s: %s\n", o.scene_path.c_str(), e.what());
     return 1;
   }
+  return -1;
+}
 
-  // --- logging: asynchronous, never called from the loop thread ---
+// logging: asynchronous, never called from the loop thread
+void start_logging(const coopdyn::runtime::ServiceConfig& cfg) {
   spdlog::init_thread_pool(1024, 1);
   auto logger = std::make_shared<spdlog::async_logger>(
       "coopdynd", std::make_shared<spdlog::sinks::stderr_color_sink_mt>(), spdlog::thread_pool(),
@@ -200,41 +211,29 @@ int main(int argc, char** argv) {
   spdlog::set_default_logger(logger);
   spdlog::set_level(spdlog::level::from_str(cfg.log_level));
   spdlog::set_pattern("[%H:%M:%S.%e] [coopdynd] [%^%l%$] %v");
+}
 
-  std::unique_ptr<io::LcmBus> bus;
-  try {
-    bus = std::make_unique<io::LcmBus>(cfg.lcm_url);
-  } catch (const std::exception& e) {
-    spdlog::shutdown();
-    std::fprintf(stderr, "coopdynd: %s\n", e.what());
-    return 1;
-  }
+// inputs: received by a supervised child process, never by this one (the bus only publishes)
+std::unique_ptr<coopdyn::io::IsolatedReceiver> make_receiver(const coopdyn::runtime::ServiceConfig& cfg) {
+  using namespace coopdyn;
+  char exe[4096];
+  const ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
+  if (n <= 0) throw std::runtime_error("cannot find its own executable (/proc/self/exe)");
+  exe[n] = 0;
+  return std::make_unique<io::IsolatedReceiver>(
+      exe, cfg.input_url(),
+      std::vector<std::string>{cfg.mode == runtime::ServiceMode::kSimulate ? cfg.command_channel : cfg.state_channel,
+                               cfg.control_channel},
+      std::vector<int64_t>{io::fingerprint(cfg.mode == runtime::ServiceMode::kSimulate ? io::MessageType::kTorqueCommand
+                                                                                        : io::MessageType::kMeasuredState),
+                           io::fingerprint(io::MessageType::kControl)},
+      cfg.receive_queue, cfg.receive_max_bytes, cfg.receive_socket_buffer);
+}
 
-  for (const std::string& w : sys.warnings) spdlog::warn("scene: {}", w);
+void log_startup(const coopdyn::System& sys, const coopdyn::runtime::ServiceConfig& cfg, const std::string& scene_path) {
+  using namespace coopdyn;
   int by_kind[5] = {0, 0, 0, 0, 0};
   for (const WrenchOutput& o : sys.wrenches.outputs) ++by_kind[static_cast<int>(o.kind)];
-  runtime::ServiceLoop loop(sys, cfg, *bus);
-  // inputs: received by a supervised child process, never by this one (the bus only publishes)
-  std::unique_ptr<io::IsolatedReceiver> rx;
-  try {
-    char exe[4096];
-    const ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
-    if (n <= 0) throw std::runtime_error("cannot find its own executable (/proc/self/exe)");
-    exe[n] = 0;
-    rx = std::make_unique<io::IsolatedReceiver>(
-        exe, cfg.input_url(),
-        std::vector<std::string>{cfg.mode == runtime::ServiceMode::kSimulate ? cfg.command_channel : cfg.state_channel,
-                                 cfg.control_channel},
-        std::vector<int64_t>{io::fingerprint(cfg.mode == runtime::ServiceMode::kSimulate ? io::MessageType::kTorqueCommand
-                                                                                          : io::MessageType::kMeasuredState),
-                             io::fingerprint(io::MessageType::kControl)},
-        cfg.receive_queue, cfg.receive_max_bytes, cfg.receive_socket_buffer);
-  } catch (const std::exception& e) {
-    spdlog::shutdown();
-    std::fprintf(stderr, "coopdynd: %s\n", e.what());
-    return 1;
-  }
-
   spdlog::info("scene '{}' from {}: nq {}, nv {}, {} constraint rows, formulation {}", sys.name, scene_path,
                sys.model.nq(), sys.model.nv(), sys.constraints.rows, formulation_name(sys.options.formulation));
   spdlog::info("wrenches out: {} end-effector, {} base, {} tip, {} axle, {} joint reactions; {} pseudo-joint stresses",
@@ -254,43 +253,57 @@ int main(int argc, char** argv) {
                cfg.input_url(), cfg.mode == runtime::ServiceMode::kSimulate ? "commands on" : "measured states on",
                cfg.mode == runtime::ServiceMode::kSimulate ? cfg.command_channel : cfg.state_channel, cfg.receive_queue,
                cfg.receive_max_bytes, cfg.lcm_url, cfg.output_channel, cfg.stats_channel, cfg.stats_period_s);
+}
 
+void install_signal_handlers() {
   struct sigaction sa {};
   sa.sa_handler = on_signal;
   sigemptyset(&sa.sa_mask);
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
+}
 
-  const bool simulate = cfg.mode == runtime::ServiceMode::kSimulate;
-  // rejected inputs: counted per reason by the receive thread, logged by this (main) thread at most
-  // once per second with the counts since the last line
-  std::atomic<long long> rejected_by[io::kRejectKinds] = {};
+// Rejected inputs: counted per reason by the receive thread, logged by the main thread at most
+// once per second with the counts since the last line.
+struct RejectionReport {
+  std::atomic<long long> rejected_by[coopdyn::io::kRejectKinds] = {};
   std::atomic<long long> out_of_order{0};
   long long missed_logged = 0, filtered_logged = 0;
-  auto last_report = std::chrono::steady_clock::now() - std::chrono::seconds(2);
-  auto report_rejections = [&](bool force) {
-    const auto now = std::chrono::steady_clock::now();
-    if (!force && now - last_report < std::chrono::seconds(1)) return;
-    std::string what;
-    for (int r = 1; r < io::kRejectKinds; ++r)
-      if (const long long k = rejected_by[r].exchange(0)) what += (what.empty() ? "" : ", ") + std::to_string(k) + " " + io::reject_name(static_cast<io::Reject>(r));
-    if (const long long k = out_of_order.exchange(0))
-      what += (what.empty() ? "" : ", ") + std::to_string(k) + " out of order (seq not above the last accepted)";
-    if (const long long m = loop.input_counters().missed.load(); m > missed_logged) {
-      what += (what.empty() ? "" : ", ") + std::to_string(m - missed_logged) + " missing from the sender's seq (lost on the way)";
-      missed_logged = m;
-    }
-    if (const long long f = rx->filtered(); f > filtered_logged) {
-      what += (what.empty() ? "" : ", ") + std::to_string(f - filtered_logged) + " not coopdyn messages (refused by the receive process)";
-      filtered_logged = f;
-    }
-    if (what.empty()) return;
-    spdlog::warn("inputs not applied: {}", what);
-    last_report = now;
-  };
-  rx->avoid_cpu(cfg.realtime.cpu);  // the receive thread and process stay off the loop's CPU
-  rx->start(
-      [&](const void* d, int n, long long t) {
+  std::chrono::steady_clock::time_point last_report = std::chrono::steady_clock::now() - std::chrono::seconds(2);
+  void flush(bool force, const coopdyn::runtime::ServiceLoop& loop, const coopdyn::io::IsolatedReceiver& rx);
+};
+
+void RejectionReport::flush(bool force, const coopdyn::runtime::ServiceLoop& loop,
+                          const coopdyn::io::IsolatedReceiver& rx) {
+  using namespace coopdyn;
+  const auto now = std::chrono::steady_clock::now();
+  if (!force && now - last_report < std::chrono::seconds(1)) return;
+  std::string what;
+  for (int r = 1; r < io::kRejectKinds; ++r)
+    if (const long long k = rejected_by[r].exchange(0)) what += (what.empty() ? "" : ", ") + std::to_string(k) + " " + io::reject_name(static_cast<io::Reject>(r));
+  if (const long long k = out_of_order.exchange(0))
+    what += (what.empty() ? "" : ", ") + std::to_string(k) + " out of order (seq not above the last accepted)";
+  if (const long long m = loop.input_counters().missed.load(); m > missed_logged) {
+    what += (what.empty() ? "" : ", ") + std::to_string(m - missed_logged) + " missing from the sender's seq (lost on the way)";
+    missed_logged = m;
+  }
+  if (const long long f = rx.filtered(); f > filtered_logged) {
+    what += (what.empty() ? "" : ", ") + std::to_string(f - filtered_logged) + " not coopdyn messages (refused by the receive process)";
+    filtered_logged = f;
+  }
+  if (what.empty()) return;
+  spdlog::warn("inputs not applied: {}", what);
+  last_report = now;
+  }
+
+// the receive thread: offers each input to the loop's inboxes, counts what is not applied; logs the
+// receive process's deaths
+void start_receiving(coopdyn::io::IsolatedReceiver& rx, coopdyn::runtime::ServiceLoop& loop,
+                     const coopdyn::runtime::ServiceConfig& cfg, RejectionReport& rejections) {
+  using namespace coopdyn;
+  const bool simulate = cfg.mode == runtime::ServiceMode::kSimulate;
+  rx.start(
+      [simulate, &loop, &rx, &rejections](const void* d, int n, long long t) {  // they outlive the receiver
         io::Reject why = io::Reject::kNone;
         runtime::Offer r;
         if (io::identify(d, n) == io::MessageType::kControl) r = loop.controls().offer(d, n, t, &why);
@@ -299,12 +312,12 @@ int main(int argc, char** argv) {
           r = loop.states().offer(d, n, t, &why);
           if (r == runtime::Offer::kAccepted) loop.doorbell().ring();  // event-driven mode wakes on it
         }
-        if (r == runtime::Offer::kRejected) rejected_by[static_cast<int>(why) % io::kRejectKinds].fetch_add(1);
-        if (r == runtime::Offer::kOutOfOrder) out_of_order.fetch_add(1);
-        loop.set_receiver_counters(rx->restarts(), rx->dropped(), rx->filtered());
+        if (r == runtime::Offer::kRejected) rejections.rejected_by[static_cast<int>(why) % io::kRejectKinds].fetch_add(1);
+        if (r == runtime::Offer::kOutOfOrder) rejections.out_of_order.fetch_add(1);
+        loop.set_receiver_counters(rx.restarts(), rx.dropped(), rx.filtered());
       },
-      [&](int status, long long restarts) {
-        loop.set_receiver_counters(restarts, rx->dropped(), rx->filtered());
+      [&loop, &rx](int status, long long restarts) {
+        loop.set_receiver_counters(restarts, rx.dropped(), rx.filtered());
         if (WIFSIGNALED(status))
           spdlog::error("receive process killed by signal {} ({}): restart {} (a hostile or malformed datagram); "
                         "the loop keeps running, inputs resume when it is back",
@@ -312,9 +325,13 @@ int main(int argc, char** argv) {
         else
           spdlog::error("receive process exited with status {}: restart {}", WEXITSTATUS(status), restarts);
       });
-  // outputs start only once inputs are received: wait (bounded) for the receive process to subscribe
-  for (int i = 0; i < 400 && !rx->child_ready(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  if (!rx->child_ready()) spdlog::warn("the receive process has not subscribed after 2 s; starting anyway");
+}
+
+// outputs start only once inputs are received: waits (bounded) for the receive process to
+// subscribe, then logs what its socket got
+void wait_for_receiver(const coopdyn::io::IsolatedReceiver& rx, const coopdyn::runtime::ServiceConfig& cfg) {
+  for (int i = 0; i < 400 && !rx.child_ready(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  if (!rx.child_ready()) spdlog::warn("the receive process has not subscribed after 2 s; starting anyway");
   else {
     // what the kernel granted (it caps SO_RCVBUF at net.core.rmem_max and reports twice the request)
     long long rmem_max = -1;
@@ -322,7 +339,7 @@ int main(int argc, char** argv) {
       if (std::fscanf(f, "%lld", &rmem_max) != 1) rmem_max = -1;
       std::fclose(f);
     }
-    const long long got = rx->socket_buffer();
+    const long long got = rx.socket_buffer();
     if (cfg.receive_socket_buffer > 0 && got < 2LL * cfg.receive_socket_buffer)
       spdlog::warn("receive socket buffer: asked for {} bytes, the kernel grants {} (SO_RCVBUF reports {}; "
                    "net.core.rmem_max = {} caps it: raise it with sysctl -w net.core.rmem_max={})",
@@ -333,13 +350,21 @@ int main(int argc, char** argv) {
     else
       spdlog::info("receive socket buffer: SO_RCVBUF {} bytes (the OS default, net.core.rmem_default; "
                    "receive.socket_buffer_bytes sets it)", got);
-    if (rx->filter_state() == 1)
+    if (rx.filter_state() == 1)
       spdlog::info("receive socket filter: only coopdyn messages on the input channels reach the receive process");
     else
       spdlog::warn("receive socket filter not attached ({}): every datagram on the input URL reaches the receive process, "
                    "which still refuses what is not a coopdyn message",
-                   rx->filter_state() == -1 ? "LCM's receive socket not found" : "the kernel refused it");
+                   rx.filter_state() == -1 ? "LCM's receive socket not found" : "the kernel refused it");
   }
+}
+
+// run: the loop in its thread (real-time options applied there); this thread drains the loop's
+// events into the log until a signal or the duration. Returns when the loop has stopped.
+std::chrono::steady_clock::time_point run(coopdyn::runtime::ServiceLoop& loop, const coopdyn::System& sys,
+                                          const coopdyn::runtime::ServiceConfig& cfg, double duration,
+                                          coopdyn::io::IsolatedReceiver& rx, RejectionReport& rejections) {
+  using namespace coopdyn;
   std::promise<std::vector<runtime::RealtimeResult>> rt_promise;
   auto rt_future = rt_promise.get_future();
   std::thread loop_thread([&] {
@@ -362,20 +387,26 @@ int main(int argc, char** argv) {
       overruns.add(e);
     }
     overruns.flush(false);
-    report_rejections(false);
+    rejections.flush(false, loop, rx);
     if (duration >= 0 &&
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count() >= duration)
       g_stop.store(true);
   }
   loop_thread.join();
-  rx->stop();
-  report_rejections(true);
+  rx.stop();
+  rejections.flush(true, loop, rx);
   while (loop.events().pop(&e)) {
     log_event(sys, e);
     overruns.add(e);
   }
   overruns.flush(true);
+  return t_start;
+}
 
+// report: the summary line on stdout (the tests and scripts read it)
+void print_summary(const coopdyn::runtime::ServiceLoop& loop, const coopdyn::runtime::ServiceConfig& cfg,
+                   const coopdyn::io::IsolatedReceiver& rx, std::chrono::steady_clock::time_point t_start) {
+  using namespace coopdyn;
   const io::StatsFrame s = loop.totals();
   const runtime::InputCounters& ic = loop.input_counters();
   const long long stale = ic.by_reason[static_cast<int>(io::Reject::kStale)].load() +
@@ -393,9 +424,52 @@ int main(int argc, char** argv) {
       static_cast<long long>(s.overruns), static_cast<long long>(s.skipped_periods),
       cfg.mode == runtime::ServiceMode::kSimulate ? "commands" : "states", static_cast<long long>(s.received),
       static_cast<long long>(s.accepted), static_cast<long long>(s.rejected), static_cast<long long>(s.out_of_order),
-      static_cast<long long>(s.expired), stale, static_cast<long long>(ic.missed.load()), rx->restarts(), rx->dropped(),
-      rx->filtered(), rx->socket_drops(), static_cast<long long>(s.numerical_errors), s.lateness_us[0], s.lateness_us[1],
+      static_cast<long long>(s.expired), stale, static_cast<long long>(ic.missed.load()), rx.restarts(), rx.dropped(),
+      rx.filtered(), rx.socket_drops(), static_cast<long long>(s.numerical_errors), s.lateness_us[0], s.lateness_us[1],
       s.lateness_us[2], s.lateness_us[3], s.compute_us[0], s.compute_us[1], s.compute_us[2], s.compute_us[3]);
   std::fflush(stdout);
+}
+
+}  // namespace
+
+// parse -> load -> start (logging, bus, loop, receive process) -> run -> report
+int main(int argc, char** argv) {
+  using namespace coopdyn;
+  // the isolated receive process (io/rx_isolated.h): this binary, exec'd by the daemon itself
+  if (argc > 1 && std::strcmp(argv[1], "--rx-child") == 0) return io::rx_child_main(argc, argv);
+  Options opt;
+  if (const int rc = parse_args(argc, argv, &opt); rc >= 0) return rc;
+  runtime::ServiceConfig cfg;
+  System sys;
+  if (const int rc = load(opt, &cfg, &sys); rc >= 0) return rc;
+
+  start_logging(cfg);
+  std::unique_ptr<io::LcmBus> bus;
+  try {
+    bus = std::make_unique<io::LcmBus>(cfg.lcm_url);
+  } catch (const std::exception& e) {
+    spdlog::shutdown();
+    std::fprintf(stderr, "coopdynd: %s\n", e.what());
+    return 1;
+  }
+  for (const std::string& w : sys.warnings) spdlog::warn("scene: {}", w);
+  runtime::ServiceLoop loop(sys, cfg, *bus);
+  std::unique_ptr<io::IsolatedReceiver> rx;
+  try {
+    rx = make_receiver(cfg);
+  } catch (const std::exception& e) {
+    spdlog::shutdown();
+    std::fprintf(stderr, "coopdynd: %s\n", e.what());
+    return 1;
+  }
+  log_startup(sys, cfg, opt.scene_path);
+  install_signal_handlers();
+  RejectionReport rejections;
+  rx->avoid_cpu(cfg.realtime.cpu);  // the receive thread and process stay off the loop's CPU
+  start_receiving(*rx, loop, cfg, rejections);
+  wait_for_receiver(*rx, cfg);
+
+  const auto t_start = run(loop, sys, cfg, opt.duration, *rx, rejections);
+  print_summary(loop, cfg, *rx, t_start);
   return 0;
 }
