@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
-# tests/census.sh BUILD_DIR [RUNS=5] [LOADERS=2]: the flake census. Runs the whole suite of BUILD_DIR
-# (ctest -j2, as the README's test command does) RUNS times in a row while LOADERS busy loops keep
-# the CPUs loaded, and prints one line per run (passed/failed, failing tests, wall time) and a
-# summary. Exits non-zero if any run failed. For the sanitizer build: tests/census.sh build-asan 2.
+# tests/census.sh BUILD_DIR [RUNS=5] [LOADERS=2] [CTEST_ARGS...]: the flake census. Runs the whole
+# suite of BUILD_DIR (ctest -j2, as the README's test command does) RUNS times in a row while LOADERS
+# busy loops keep the CPUs loaded, and prints one line per run (passed/failed, failing tests, wall
+# time) and a summary. Exits non-zero if any run failed. For the sanitizer build as .ci/run runs it:
+# tests/census.sh build-asan 2 2 -LE install
 set -uo pipefail
 build=${1:?usage: tests/census.sh BUILD_DIR [RUNS=5] [LOADERS=2]}
 runs=${2:-5}
 loaders=${3:-2}
+shift $(( $# < 3 ? $# : 3 ))
 [ -f "$build/CTestTestfile.cmake" ] || { echo "census.sh: $build is not a configured build folder" >&2; exit 2; }
 pids=()
 stop_load() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null; done; }
@@ -17,7 +19,7 @@ for r in $(seq 1 "$runs"); do
   t0=$(date +%s)
   log=$(mktemp)
   ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1} UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1} \
-    ctest --test-dir "$build" --output-on-failure -j2 > "$log" 2>&1
+    ctest --test-dir "$build" --output-on-failure -j2 "$@" > "$log" 2>&1
   rc=$?
   t=$(( $(date +%s) - t0 ))
   summary=$(grep -E 'tests passed|tests failed' "$log" | tail -1)
