@@ -1,4 +1,4 @@
-// Error against run time (issue 5): for every shipped scene, a scenario with a known or converged
+// Error against run time: for every shipped scene, a scenario with a known or converged
 // answer, swept over formulation x integrator x step size. Each run records the CPU time per
 // simulated second (CLOCK_PROCESS_CPUTIME_ID around the step calls only, short runs repeated until
 // they take > 50 ms), the errors of the state (q, v) and of every constraint wrench and pseudo-joint

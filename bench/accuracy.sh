@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Error against run time (issue 5), regenerated with one command:
+# Error against run time, regenerated with one command:
 #
 #   bench/accuracy.sh [BUILD_DIR] [SCENE...]
 #

@@ -2,7 +2,7 @@
 // per shipped scene, one evaluate(), then compute_wrenches() with the scene's default outputs
 // (end-effectors, bases, tips, axles) and with every joint reaction (`reactions: all`). The
 // wrenches are timed on their own (the evaluation stays in the workspace), so the ratio
-// wrenches / evaluate is read off one run. Goal (issue "forces everywhere"): all joint reactions
+// wrenches / evaluate is read off one run. Goal: all joint reactions
 // under 10 % of an evaluation.
 //
 // `wrenches_bench --ratio [REPS]` times the same three things instead with interleaved loops in one

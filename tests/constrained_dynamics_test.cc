@@ -430,7 +430,7 @@ TEST(ConstrainedDynamics, BadInputGivesAnErrorStatusNotANaN) {
   EXPECT_EQ(evaluate(sys, ws, sys.q0, short_v, tau).reason, Reason::kNonFiniteInput);
 }
 
-// The condition diagnostic with a nominal base-link inertia (issue 13): an arm in the mobile-platform
+// The condition diagnostic with a nominal base-link inertia: an arm in the mobile-platform
 // form whose joint 1 has no armature moves only its base link with joint 1, and that link carries
 // a nominal rotational inertia I_n (no mass) so that M is regular. The base weld holds it, so the
 // results do not depend on I_n, and the condition reported must not either: it is measured with
@@ -540,7 +540,7 @@ TEST(ConstrainedDynamics, ConditionDoesNotDependOnTheNominalBaseInertia) {
   std::filesystem::remove_all(dir);
 }
 
-// Compliance on the grasps (issue 13): in the classic form an arm's `compliance` weights its grasp
+// Compliance on the grasps: in the classic form an arm's `compliance` weights its grasp
 // weld's rows, and the compliance rule's split of the indeterminate forces is the elastic solution
 // of the load resting on two springs of stiffness K_i = C_i^-1 at the grasps, the arms rigid in
 // those directions (Menabrea: the rigid-support split minimizing lambda^T C lambda is the one of

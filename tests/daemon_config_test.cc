@@ -85,7 +85,7 @@ TEST(DaemonConfig, EveryBadValueNamesFileLineAndReason) {
   EXPECT_EQ(c.overrun, OverrunPolicy::kSkip);
 }
 
-// Issue 10, item 2: every value bounded to what the code can represent (period_ns(), watchdog_ns()
+// Every value bounded to what the code can represent (period_ns(), watchdog_ns()
 // and the stats window in 64 bits, a CPU bit that exists), the limits and the value in the message,
 // and no exception but ConfigError (a list as a key used to escape as YAML::TypedBadConversion).
 TEST(DaemonConfig, EveryValueBoundedWithTheLimitsInTheMessage) {
@@ -175,7 +175,7 @@ TEST(DaemonConfig, ValidateAfterOverridesAppliesTheSameLimits) {
   EXPECT_THROW(validate(c), ConfigError);
 }
 
-// Issue 10, item 7: deep or huge input is a clear error naming the file, and no message echoes a
+// Deep or huge input is a clear error naming the file, and no message echoes a
 // long value (a 100 kB key gave a 100 kB line).
 TEST(DaemonConfig, DeepHugeOrLongInputIsAShortClearError) {
   auto error_of = [](const std::string& text) -> std::string {

@@ -596,7 +596,7 @@ std::vector<uint8_t> lc03(uint32_t seq, uint32_t size, uint32_t offset, uint16_t
 }
 }  // namespace
 
-// Receive isolation (issue: one datagram killed the daemon). liblcm 1.3.1 writes out of bounds on a
+// Receive isolation (one datagram must not kill the daemon). liblcm 1.3.1 writes out of bounds on a
 // crafted LC03 fragment (offset 0xFFFFFF00); only the daemon's receive process subscribes, so it
 // dies, is counted, logged and restarted, while the loop keeps publishing at its rate and the
 // commands sent afterwards are applied. Inputs on their own URL: this test's own subscriber (the

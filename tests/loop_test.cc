@@ -498,7 +498,7 @@ TEST(ServiceLoop, StopEndsRunWithinASliceAtTheLowestRate) {
   std::printf("run() returned %.2f ms after the stop request at 1 Hz\n", ms);
 }
 
-// Issue 10, item 6: freshness by the sender's clock. With max_input_age_ms (default 1000) a
+// Freshness by the sender's clock. With max_input_age_ms (default 1000) a
 // command or state with utime <= 0, older than the limit or ahead of this host's wall clock by more
 // than the limit is rejected and counted by reason, on the receive thread where it is decided.
 namespace {
@@ -819,7 +819,7 @@ TEST(ServiceLoop, ForceOnTheUnactuatedLoadIsRejectedNeverAppliedAndTheLoopRuns) 
 }
 
 // ---------------------------------------------------------------------------------------------
-// Estimation from joint measurements alone (issue 11): a measured state with the arms' joints only.
+// Estimation from joint measurements alone: a measured state with the arms' joints only.
 namespace {
 // the joint names and values of (q, v, tau) without the floating bodies' coordinates
 struct JointsOnly {

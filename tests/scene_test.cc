@@ -172,7 +172,7 @@ TEST(Scene, UrdfRobotGivesTheSameDynamicsAsItsDhTwin) {
   }
 }
 
-// Issue 10, items 3 and 7: hostile scene, robot and URDF files fail fast with a clear error that
+// Hostile scene, robot and URDF files fail fast with a clear error that
 // names the file, and no error echoes more than a short piece of a value.
 namespace {
 std::string tmp_file(const std::string& name, const std::string& text) {
@@ -319,7 +319,7 @@ TEST(Scene, OnlyDeclaredDofsAreActuated) {
   }
 }
 
-// Loops close themselves (issue 13): the four-bar with only its crank angle given closes at the
+// Loops close themselves: the four-bar with only its crank angle given closes at the
 // shipped (hand-computed) state, moving only the joints without a value, and says so; with every
 // angle given but the rocker 0.01 rad off, it closes by the least change of all of them.
 TEST(Scene, LoopsCloseThemselves) {
@@ -382,7 +382,7 @@ TEST(Scene, LoopsCloseThemselves) {
   EXPECT_GT(std::abs(s2.q0[j4] - 1.3784540886165397), 1e-4) << "the rocker moved back towards the closing angle";
 }
 
-// Prismatic joints in DH robots (issue 13): a SCARA (RRPR, standard DH, joint 3 sliding along z of
+// Prismatic joints in DH robots: a SCARA (RRPR, standard DH, joint 3 sliding along z of
 // frame 2, which points down). Its end-effector pose equals the DH product computed here, and the
 // gravity force on the sliding joint is the weight it carries, -(m3 + m4) g along its axis.
 TEST(Scene, PrismaticDhJoints) {

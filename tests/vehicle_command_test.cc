@@ -1,4 +1,4 @@
-// A vehicle's driver commands through coopdynd (issue 15): steer angles as lock targets in
+// A vehicle's driver commands through coopdynd: steer angles as lock targets in
 // torque_command_t (validated like the torques: by name, locks with a target_limit only, finite,
 // within the limit; expired with the watchdog), a real memq:// round trip in which a steer command
 // moves the lock and the published contact wrenches equal the offline evaluation at that angle.

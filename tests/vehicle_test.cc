@@ -1,4 +1,4 @@
-// Vehicles (issue 15; in coopdynd_tests for its output_t part): the shipped four-wheel car and trike against hand statics, an inclined
+// Vehicles (in coopdynd_tests for its output_t part): the shipped four-wheel car and trike against hand statics, an inclined
 // ground against a tilted gravity, the steady turn's lateral load transfer against the roll
 // moment and the roll-stiffness distribution, and the contact report (friction needed,
 // utilisation, slip and lift-off) at the moment the formulas say, also through output_t.

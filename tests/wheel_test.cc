@@ -1,4 +1,4 @@
-// Wheels (the paper's (27)-(54), issue 3): the rolling constraint's rows against finite differences, its
+// Wheels (the paper's (27)-(54)): the rolling constraint's rows against finite differences, its
 // contact frame, statics of the two-wheeled vehicle (34.335 N per wheel), passive straight rolling,
 // the steady turn (lateral forces = m v^2 / R, external wrenches = momentum rate), the rolling disk
 // in steady circular motion against the classical thin-disk relation, and the rigid-axle

@@ -1,4 +1,4 @@
-// Issue 12: coopdyn against Pinocchio's constraintDynamics and pv on the arms-on-one-load scenes
+// coopdyn against Pinocchio's constraintDynamics and pv on the arms-on-one-load scenes
 // (bench/scenes/pumas_N.yaml: N PUMA 560 arms holding one 5 kg box), in one process.
 //
 // The Pinocchio models are converted from coopdyn's own Model (same bodies, joint axes, placements,

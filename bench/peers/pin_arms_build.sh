@@ -1,5 +1,5 @@
 #!/bin/bash
-# Builds bench/peers/pin_arms.cc (coopdyn against Pinocchio on the arms-on-one-load scenes, issue 12)
+# Builds bench/peers/pin_arms.cc (coopdyn against Pinocchio on the arms-on-one-load scenes)
 # in a scratch folder outside the repository; nothing here is part of coopdyn's build:
 #   bench/peers/pin_arms_build.sh SCRATCH_DIR [PINOCCHIO_GIT_DIR] [COOPDYN_GIT_DIR] [COOPDYN_COMMIT]
 #   taskset -c 1 SCRATCH_DIR/pin_arms 21

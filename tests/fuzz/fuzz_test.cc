@@ -1,4 +1,4 @@
-// Seeded mutation fuzzing of the untrusted-input boundaries (issue 10, "Tests that must exist"):
+// Seeded mutation fuzzing of the untrusted-input boundaries:
 //   - CommandDecoder / StateDecoder (service/io/codec.h) on mutated valid encodings: bit flips,
 //     truncations, inserted / deleted / duplicated bytes, count and string-length fields set to
 //     hostile values, doubles set to NaN / Inf / huge / just over the limit, splices of two seeds;
