@@ -260,11 +260,12 @@ int cmd_send(const Args& a) {
   std::signal(SIGTERM, on_sigint);
 
   // The daemon's counters before the first command (loop_stats_t comes every stats_period_s, 1 s by
-  // default): what it rejected of this run is its later counters less these, whatever it rejected
-  // before the run. Waits up to 3 s for one, and only 1 s when no daemon answers at all.
+  // default, longer in wall time when a loaded machine runs the loop below its rate): what it
+  // rejected of this run is its later counters less these, whatever it rejected before the run.
+  // Waits up to 10 s for one while the daemon's outputs come, and only 1 s when no daemon answers.
   bool have_baseline = false;
   if (check) {
-    for (int k = 0; k < 300; ++k) {
+    for (int k = 0; k < 1000; ++k) {
       {
         std::lock_guard<std::mutex> lk(mu);
         if (stats_n > 0 || (k >= 100 && outputs == 0)) break;
@@ -322,7 +323,7 @@ int cmd_send(const Args& a) {
   if (measure || check) std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the last outputs
   if (check) {
     // and a stats message after them: loop_stats_t comes every stats_period_s of ticks (1 s by default,
-    // longer in wall time when a loaded machine runs the loop below its rate), so wait up to 5 s for
+    // longer in wall time when a loaded machine runs the loop below its rate), so wait up to 10 s for
     // one, but not at all when no daemon answered.
     long long n0, outs;
     {
@@ -331,7 +332,7 @@ int cmd_send(const Args& a) {
       outs = outputs;
     }
     // (with a baseline from before the run: one whose counters have received every command sent)
-    for (int k = 0; outs > 0 && k < 500; ++k) {
+    for (int k = 0; outs > 0 && k < 1000; ++k) {
       {
         std::lock_guard<std::mutex> lk(mu);
         if (stats_n > n0 && (!have_baseline || stats_last.received - stats_first.received >= sent)) break;
