@@ -198,7 +198,7 @@ ServiceConfig parse(const YAML::Node& root, const Ctx& c) {
     c.fail(root["trigger"], "trigger must be tick or arrival");
   c.check(root["trigger"], check_trigger(cfg.trigger, cfg.mode));
   if (root["integrator"].IsDefined() && !parse_integrator(c.get<std::string>(root, "integrator", "", "a string"), &cfg.integrator))
-    c.fail(root["integrator"], "integrator must be rk4 or semi_implicit_euler");
+    c.fail(root["integrator"], "integrator must be rk4, semi_implicit_euler or implicit_euler");
   cfg.watchdog_ms = c.get<double>(root, "watchdog_ms", cfg.watchdog_ms, "a number (ms)");
   c.check(root["watchdog_ms"], check_watchdog(cfg.watchdog_ms));
   if (const YAML::Node a = root["max_input_age_ms"]; a.IsDefined() && a.IsScalar() && a.Scalar() == "off")
