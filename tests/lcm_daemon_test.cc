@@ -52,18 +52,10 @@ struct OutputSink {
       outs.push_back(std::move(o));
     });
   }
+  // waits until one output satisfies p
   template <class Pred>
   bool wait_for(Pred p, std::chrono::milliseconds limit) {
-    const auto end = std::chrono::steady_clock::now() + limit;
-    while (std::chrono::steady_clock::now() < end) {
-      {
-        std::lock_guard<std::mutex> lk(mu);
-        for (const auto& o : outs)
-          if (p(o)) return true;
-      }
-      std::this_thread::sleep_for(5ms);
-    }
-    return false;
+    return wait_count(p, 1, limit);
   }
   // waits until n outputs satisfy p
   template <class Pred>

@@ -263,15 +263,19 @@ int cmd_send(const Args& a) {
   // default, longer in wall time when a loaded machine runs the loop below its rate): what it
   // rejected of this run is its later counters less these, whatever it rejected before the run.
   // Waits up to 10 s for one while the daemon's outputs come, and only 1 s when no daemon answers.
-  bool have_baseline = false;
-  if (check) {
+  // polls done() under the lock every 10 ms, up to 10 s; done(k) gets the number of polls so far
+  auto wait_until = [&](auto done) {
     for (int k = 0; k < 1000; ++k) {
       {
         std::lock_guard<std::mutex> lk(mu);
-        if (stats_n > 0 || (k >= 100 && outputs == 0)) break;
+        if (done(k)) return;
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
+  };
+  bool have_baseline = false;
+  if (check) {
+    wait_until([&](int k) { return stats_n > 0 || (k >= 100 && outputs == 0); });
     std::lock_guard<std::mutex> lk(mu);
     if (stats_n > 0) {
       stats_first = stats_last;  // the baseline: the newest before the first command
@@ -332,13 +336,8 @@ int cmd_send(const Args& a) {
       outs = outputs;
     }
     // (with a baseline from before the run: one whose counters have received every command sent)
-    for (int k = 0; outs > 0 && k < 1000; ++k) {
-      {
-        std::lock_guard<std::mutex> lk(mu);
-        if (stats_n > n0 && (!have_baseline || stats_last.received - stats_first.received >= sent)) break;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
+    if (outs > 0)
+      wait_until([&](int) { return stats_n > n0 && (!have_baseline || stats_last.received - stats_first.received >= sent); });
   }
   rx_bus.stop();
   if (!quiet)
