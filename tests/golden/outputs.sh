@@ -2,7 +2,7 @@
 # Writes what coopdyn prints for a fixed set of runs on the shipped scenes into OUT_DIR: `coopdyn eval`
 # JSON, `coopdyn sim` per-step CSV, and the CSVs `coopdyn log` makes of a recorded daemon log
 # (two_puma_load.lcmlog: coopdynd at 50 Hz, five torque commands from coopdyn send). check.sh
-# compares them byte for byte with expected/; after a change that is meant to change an output,
+# compares them with expected/ (compare.py); after a change that is meant to change an output,
 #   bash tests/golden/outputs.sh build/bin tests/golden/expected
 # and say in the commit why the outputs changed.
 # Usage: outputs.sh BIN_DIR OUT_DIR
