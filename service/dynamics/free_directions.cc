@@ -29,7 +29,12 @@ std::string free_direction_reading(const System& sys, const WrenchData& wd, int 
       if (std::abs(x) > 1e-9 * std::max(big, 1e-300)) parts.push_back({x, outs[k].name + "." + comp[c], outs[k].name});
     }
   }
-  std::stable_sort(parts.begin(), parts.end(), [](const Part& a, const Part& b) { return std::abs(a.x) > std::abs(b.x); });
+  // largest first; sizes equal to 1e-9 keep the scene's order (the +0.5 / -0.5 of a load transfer
+  // must not be ordered by round-off)
+  const double unit = 1e-9 * std::max(big, 1e-300);
+  std::stable_sort(parts.begin(), parts.end(), [unit](const Part& a, const Part& b) {
+    return std::llround(std::abs(a.x) / unit) > std::llround(std::abs(b.x) / unit);
+  });
   std::string list;
   std::set<std::string> who;
   for (size_t i = 0; i < parts.size(); ++i) {

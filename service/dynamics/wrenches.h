@@ -40,6 +40,8 @@ struct WrenchData {
   // The free directions of lambda (an over-constrained system; 0 when determinate or failed): an
   // orthonormal basis of the null space of Q, grouped by FreeClass (within a class, the subspace
   // of directions that move that kind of row only), each column's largest component positive.
+  // Within a class the basis is canonical (free_basis: pivoted on the rows the subspace moves
+  // most), so it depends on the subspace only, not on round-off in the SVD that found it.
   int num_free = 0;
   Eigen::MatrixXd free_lambda;          // (rows x rows), first num_free columns
   std::vector<FreeClass> free_class;    // (rows), first num_free entries
@@ -48,7 +50,7 @@ struct WrenchData {
   Eigen::MatrixXd free_W;               // (6 outputs x rows)
   // workspace of the grouping (allocation-free Jacobi)
   Eigen::MatrixXd fb_N, fb_T, fb_A, fb_V;
-  Eigen::VectorXd fb_w;
+  Eigen::VectorXd fb_w, fb_g;
   std::vector<uint8_t> row_class;       // (rows) FreeClass of each row
   std::vector<uint8_t> class_present;   // (kFreeClasses) some row has that class
 };
