@@ -94,6 +94,7 @@ namespace {
 
 // The scene's `load` (absent: the arms stand alone, and only the name "load" is used).
 struct LoadSpec {
+  explicit LoadSpec(const YAML::Node& n) : node(n) {}  // copied, not assigned: an absent load may be an invalid node
   YAML::Node node;
   bool given = false;
   std::string name = "load";
@@ -104,8 +105,7 @@ struct LoadSpec {
 };
 
 LoadSpec read_load(const Ctx& c, const YAML::Node& root) {
-  LoadSpec l;
-  l.node = root["load"];
+  LoadSpec l(root["load"]);
   const YAML::Node& load = l.node;
   l.given = load.IsDefined() && !load.IsNull();
   if (!l.given) return l;
