@@ -9,6 +9,69 @@
 
 namespace coopdyn {
 
+namespace {
+
+// One spec's rows: the axis of each row, their compliances (appended to comp) and the DOFs it
+// touches (ascending). Invalid specs throw std::invalid_argument.
+struct SpecLayout {
+  std::array<int, 6> ax{{-1, -1, -1, -1, -1, -1}};
+  int n = 0;
+  std::vector<int> sup;
+};
+
+void weld_layout(const Model& model, const ConstraintSpec& c, SpecLayout& l, std::vector<double>& comp) {
+  if (c.frame_a < 0 || c.frame_a >= static_cast<int>(model.frames.size()))
+    throw std::invalid_argument("constraint '" + c.name + "': unknown tip frame");
+  if (c.frame_b >= static_cast<int>(model.frames.size()))
+    throw std::invalid_argument("constraint '" + c.name + "': unknown second frame");
+  for (int k = 0; k < 6; ++k)
+    if (c.axes[k]) {
+      l.ax[l.n++] = k;
+      comp.push_back(c.compliance[k]);
+    }
+  if (l.n == 0) throw std::invalid_argument("constraint '" + c.name + "': no axes selected");
+  const int ba = model.frames[c.frame_a].body;
+  if (ba >= 0) l.sup = model.support_dofs(ba);
+  if (c.frame_b >= 0) {
+    const int bb = model.frames[c.frame_b].body;
+    if (bb >= 0) {
+      std::vector<int> sb = model.support_dofs(bb), u;
+      std::set_union(l.sup.begin(), l.sup.end(), sb.begin(), sb.end(), std::back_inserter(u));
+      l.sup = u;
+    }
+  }
+}
+
+void rolling_layout(const Model& model, const ConstraintSpec& c, SpecLayout& l, std::vector<double>& comp,
+                    bool& rolling_resistance) {
+  if (c.body < 0 || c.body >= model.nbodies())
+    throw std::invalid_argument("constraint '" + c.name + "': unknown wheel body");
+  if (!(c.radius > 0.0) || !std::isfinite(c.radius))
+    throw std::invalid_argument("constraint '" + c.name + "': wheel radius must be > 0");
+  if (!(std::abs(c.axle.norm() - 1.0) < 1e-9))
+    throw std::invalid_argument("constraint '" + c.name + "': wheel axle must be a unit vector");
+  if (!(c.rolling_resistance >= 0.0 && c.rolling_resistance <= 0.1))
+    throw std::invalid_argument("constraint '" + c.name + "': rolling resistance must be in [0, 0.1]");
+  if (c.rolling_resistance > 0) rolling_resistance = true;
+  if (!(std::abs(c.ground_n.norm() - 1.0) < 1e-9) || !std::isfinite(c.ground_d))
+    throw std::invalid_argument("constraint '" + c.name + "': ground normal must be a unit vector, offset finite");
+  for (int k = 0; k < 3; ++k) {
+    l.ax[l.n++] = 3 + k;
+    comp.push_back(c.compliance[3 + k]);
+  }
+  l.sup = model.support_dofs(c.body);
+}
+
+void lock_layout(const Model& model, const ConstraintSpec& c, SpecLayout& l, std::vector<double>& comp) {
+  if (c.dof < 0 || c.dof >= model.nv()) throw std::invalid_argument("constraint '" + c.name + "': bad DOF");
+  l.ax[0] = 0;
+  l.n = 1;
+  comp.push_back(c.compliance[0]);
+  l.sup = {c.dof};
+}
+
+}  // namespace
+
 void ConstraintSet::compile(const Model& model) {
   rows = 0;
   rolling_resistance = false;
@@ -20,60 +83,20 @@ void ConstraintSet::compile(const Model& model) {
   std::vector<double> comp;
   for (size_t s = 0; s < specs.size(); ++s) {
     const ConstraintSpec& c = specs[s];
-    std::array<int, 6> ax{{-1, -1, -1, -1, -1, -1}};
-    int n = 0;
-    std::vector<int> sup;
+    SpecLayout l;
     if (c.kind == ConstraintKind::kWeld) {
-      if (c.frame_a < 0 || c.frame_a >= static_cast<int>(model.frames.size()))
-        throw std::invalid_argument("constraint '" + c.name + "': unknown tip frame");
-      if (c.frame_b >= static_cast<int>(model.frames.size()))
-        throw std::invalid_argument("constraint '" + c.name + "': unknown second frame");
-      for (int k = 0; k < 6; ++k)
-        if (c.axes[k]) {
-          ax[n++] = k;
-          comp.push_back(c.compliance[k]);
-        }
-      if (n == 0) throw std::invalid_argument("constraint '" + c.name + "': no axes selected");
-      const int ba = model.frames[c.frame_a].body;
-      if (ba >= 0) sup = model.support_dofs(ba);
-      if (c.frame_b >= 0) {
-        const int bb = model.frames[c.frame_b].body;
-        if (bb >= 0) {
-          std::vector<int> sb = model.support_dofs(bb), u;
-          std::set_union(sup.begin(), sup.end(), sb.begin(), sb.end(), std::back_inserter(u));
-          sup = u;
-        }
-      }
+      weld_layout(model, c, l, comp);
     } else if (c.kind == ConstraintKind::kRolling) {
-      if (c.body < 0 || c.body >= model.nbodies())
-        throw std::invalid_argument("constraint '" + c.name + "': unknown wheel body");
-      if (!(c.radius > 0.0) || !std::isfinite(c.radius))
-        throw std::invalid_argument("constraint '" + c.name + "': wheel radius must be > 0");
-      if (!(std::abs(c.axle.norm() - 1.0) < 1e-9))
-        throw std::invalid_argument("constraint '" + c.name + "': wheel axle must be a unit vector");
-      if (!(c.rolling_resistance >= 0.0 && c.rolling_resistance <= 0.1))
-        throw std::invalid_argument("constraint '" + c.name + "': rolling resistance must be in [0, 0.1]");
-      if (c.rolling_resistance > 0) rolling_resistance = true;
-      if (!(std::abs(c.ground_n.norm() - 1.0) < 1e-9) || !std::isfinite(c.ground_d))
-        throw std::invalid_argument("constraint '" + c.name + "': ground normal must be a unit vector, offset finite");
-      for (int k = 0; k < 3; ++k) {
-        ax[n++] = 3 + k;
-        comp.push_back(c.compliance[3 + k]);
-      }
-      sup = model.support_dofs(c.body);
+      rolling_layout(model, c, l, comp, rolling_resistance);
     } else {
-      if (c.dof < 0 || c.dof >= model.nv()) throw std::invalid_argument("constraint '" + c.name + "': bad DOF");
-      ax[0] = 0;
-      n = 1;
-      comp.push_back(c.compliance[0]);
-      sup = {c.dof};
+      lock_layout(model, c, l, comp);
     }
     row_offset.push_back(rows);
-    row_count.push_back(n);
-    row_axis.push_back(ax);
-    support.push_back(sup);
-    for (int k = 0; k < n; ++k) row_spec.push_back(static_cast<int>(s));
-    rows += n;
+    row_count.push_back(l.n);
+    row_axis.push_back(l.ax);
+    support.push_back(l.sup);
+    for (int k = 0; k < l.n; ++k) row_spec.push_back(static_cast<int>(s));
+    rows += l.n;
   }
   row_compliance = Eigen::Map<Eigen::VectorXd>(comp.data(), static_cast<Eigen::Index>(comp.size()));
 }
