@@ -9,6 +9,69 @@
 
 namespace coopdyn {
 
+namespace {
+
+// One spec's rows: the axis of each row, their compliances (appended to comp) and the DOFs it
+// touches (ascending). Invalid specs throw std::invalid_argument.
+struct SpecLayout {
+  std::array<int, 6> ax{{-1, -1, -1, -1, -1, -1}};
+  int n = 0;
+  std::vector<int> sup;
+};
+
+void weld_layout(const Model& model, const ConstraintSpec& c, SpecLayout& l, std::vector<double>& comp) {
+  if (c.frame_a < 0 || c.frame_a >= static_cast<int>(model.frames.size()))
+    throw std::invalid_argument("constraint '" + c.name + "': unknown tip frame");
+  if (c.frame_b >= static_cast<int>(model.frames.size()))
+    throw std::invalid_argument("constraint '" + c.name + "': unknown second frame");
+  for (int k = 0; k < 6; ++k)
+    if (c.axes[k]) {
+      l.ax[l.n++] = k;
+      comp.push_back(c.compliance[k]);
+    }
+  if (l.n == 0) throw std::invalid_argument("constraint '" + c.name + "': no axes selected");
+  const int ba = model.frames[c.frame_a].body;
+  if (ba >= 0) l.sup = model.support_dofs(ba);
+  if (c.frame_b >= 0) {
+    const int bb = model.frames[c.frame_b].body;
+    if (bb >= 0) {
+      std::vector<int> sb = model.support_dofs(bb), u;
+      std::set_union(l.sup.begin(), l.sup.end(), sb.begin(), sb.end(), std::back_inserter(u));
+      l.sup = u;
+    }
+  }
+}
+
+void rolling_layout(const Model& model, const ConstraintSpec& c, SpecLayout& l, std::vector<double>& comp,
+                    bool& rolling_resistance) {
+  if (c.body < 0 || c.body >= model.nbodies())
+    throw std::invalid_argument("constraint '" + c.name + "': unknown wheel body");
+  if (!(c.radius > 0.0) || !std::isfinite(c.radius))
+    throw std::invalid_argument("constraint '" + c.name + "': wheel radius must be > 0");
+  if (!(std::abs(c.axle.norm() - 1.0) < 1e-9))
+    throw std::invalid_argument("constraint '" + c.name + "': wheel axle must be a unit vector");
+  if (!(c.rolling_resistance >= 0.0 && c.rolling_resistance <= 0.1))
+    throw std::invalid_argument("constraint '" + c.name + "': rolling resistance must be in [0, 0.1]");
+  if (c.rolling_resistance > 0) rolling_resistance = true;
+  if (!(std::abs(c.ground_n.norm() - 1.0) < 1e-9) || !std::isfinite(c.ground_d))
+    throw std::invalid_argument("constraint '" + c.name + "': ground normal must be a unit vector, offset finite");
+  for (int k = 0; k < 3; ++k) {
+    l.ax[l.n++] = 3 + k;
+    comp.push_back(c.compliance[3 + k]);
+  }
+  l.sup = model.support_dofs(c.body);
+}
+
+void lock_layout(const Model& model, const ConstraintSpec& c, SpecLayout& l, std::vector<double>& comp) {
+  if (c.dof < 0 || c.dof >= model.nv()) throw std::invalid_argument("constraint '" + c.name + "': bad DOF");
+  l.ax[0] = 0;
+  l.n = 1;
+  comp.push_back(c.compliance[0]);
+  l.sup = {c.dof};
+}
+
+}  // namespace
+
 void ConstraintSet::compile(const Model& model) {
   rows = 0;
   rolling_resistance = false;
@@ -20,60 +83,20 @@ void ConstraintSet::compile(const Model& model) {
   std::vector<double> comp;
   for (size_t s = 0; s < specs.size(); ++s) {
     const ConstraintSpec& c = specs[s];
-    std::array<int, 6> ax{{-1, -1, -1, -1, -1, -1}};
-    int n = 0;
-    std::vector<int> sup;
+    SpecLayout l;
     if (c.kind == ConstraintKind::kWeld) {
-      if (c.frame_a < 0 || c.frame_a >= static_cast<int>(model.frames.size()))
-        throw std::invalid_argument("constraint '" + c.name + "': unknown tip frame");
-      if (c.frame_b >= static_cast<int>(model.frames.size()))
-        throw std::invalid_argument("constraint '" + c.name + "': unknown second frame");
-      for (int k = 0; k < 6; ++k)
-        if (c.axes[k]) {
-          ax[n++] = k;
-          comp.push_back(c.compliance[k]);
-        }
-      if (n == 0) throw std::invalid_argument("constraint '" + c.name + "': no axes selected");
-      const int ba = model.frames[c.frame_a].body;
-      if (ba >= 0) sup = model.support_dofs(ba);
-      if (c.frame_b >= 0) {
-        const int bb = model.frames[c.frame_b].body;
-        if (bb >= 0) {
-          std::vector<int> sb = model.support_dofs(bb), u;
-          std::set_union(sup.begin(), sup.end(), sb.begin(), sb.end(), std::back_inserter(u));
-          sup = u;
-        }
-      }
+      weld_layout(model, c, l, comp);
     } else if (c.kind == ConstraintKind::kRolling) {
-      if (c.body < 0 || c.body >= model.nbodies())
-        throw std::invalid_argument("constraint '" + c.name + "': unknown wheel body");
-      if (!(c.radius > 0.0) || !std::isfinite(c.radius))
-        throw std::invalid_argument("constraint '" + c.name + "': wheel radius must be > 0");
-      if (!(std::abs(c.axle.norm() - 1.0) < 1e-9))
-        throw std::invalid_argument("constraint '" + c.name + "': wheel axle must be a unit vector");
-      if (!(c.rolling_resistance >= 0.0 && c.rolling_resistance <= 0.1))
-        throw std::invalid_argument("constraint '" + c.name + "': rolling resistance must be in [0, 0.1]");
-      if (c.rolling_resistance > 0) rolling_resistance = true;
-      if (!(std::abs(c.ground_n.norm() - 1.0) < 1e-9) || !std::isfinite(c.ground_d))
-        throw std::invalid_argument("constraint '" + c.name + "': ground normal must be a unit vector, offset finite");
-      for (int k = 0; k < 3; ++k) {
-        ax[n++] = 3 + k;
-        comp.push_back(c.compliance[3 + k]);
-      }
-      sup = model.support_dofs(c.body);
+      rolling_layout(model, c, l, comp, rolling_resistance);
     } else {
-      if (c.dof < 0 || c.dof >= model.nv()) throw std::invalid_argument("constraint '" + c.name + "': bad DOF");
-      ax[0] = 0;
-      n = 1;
-      comp.push_back(c.compliance[0]);
-      sup = {c.dof};
+      lock_layout(model, c, l, comp);
     }
     row_offset.push_back(rows);
-    row_count.push_back(n);
-    row_axis.push_back(ax);
-    support.push_back(sup);
-    for (int k = 0; k < n; ++k) row_spec.push_back(static_cast<int>(s));
-    rows += n;
+    row_count.push_back(l.n);
+    row_axis.push_back(l.ax);
+    support.push_back(l.sup);
+    for (int k = 0; k < l.n; ++k) row_spec.push_back(static_cast<int>(s));
+    rows += l.n;
   }
   row_compliance = Eigen::Map<Eigen::VectorXd>(comp.data(), static_cast<Eigen::Index>(comp.size()));
 }
@@ -149,126 +172,156 @@ Transform rolling_contact_frame(const Model& model, const Data& data, const Cons
   return X_WC;
 }
 
+namespace {
+
+// A pseudo-joint lock: one row on its DOF, the error from the held target.
+void lock_rows(const ConstraintSpec& c, int s, int r0, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
+               ConstraintData& cd) {
+  cd.G(r0, c.dof) = 1.0;
+  cd.Gdot_v[r0] = 0.0;
+  cd.err[r0] = q[c.q_index] - cd.lock_target[s];
+  cd.Gv[r0] = v[c.dof];
+}
+
+// A rolling wheel, rows: C^T u, u = v_R + w x p_RP the wheel's material velocity at the contact
+// point P, from the body twist at the reference point R [w; v_R] = S_W v. Along the motion (vdot = 0)
+//   d/dt (C^T u) = Cdot^T u + C^T (a_R + alpha x p_RP + w x pdot_RP)
+// with [alpha; a_R] the body's spatial acceleration at vdot = 0 (A0) at R. The geometry is
+// computed relative to R (positions p_R*), the contact height in the world.
+void rolling_rows(const Data& data, const ConstraintSpec& c, int s, int r0, const std::vector<int>& sup,
+                  ConstraintData& cd) {
+  const Transform& X_WB = data.X_WB[c.body];
+  const Vec6& V_W = data.V_W[c.body];
+  const Vec6& A_W = data.A0_W[c.body];
+  const Vec3 w = V_W.head<3>();
+  RollingGeometry g;
+  const Vec3 c_R = X_WB.p - data.p_ref;  // wheel centre relative to R
+  rolling_geometry(X_WB.R, c_R, c.axle, c.radius, c.ground_n, w, V_W.tail<3>() + w.cross(c_R), g);
+  const Vec3 u = V_W.tail<3>() + w.cross(g.p);
+  const Vec3 u_dot = A_W.tail<3>() + A_W.head<3>().cross(g.p) + w.cross(g.p_dot);
+  const Vec3& nz = c.ground_n;
+  for (int d : sup) {
+    const Vec3 Jp = data.S_W.col(d).tail<3>() + data.S_W.col(d).head<3>().cross(g.p);
+    cd.G(r0, d) = g.x.dot(Jp);
+    cd.G(r0 + 1, d) = g.y.dot(Jp);
+    cd.G(r0 + 2, d) = nz.dot(Jp);
+  }
+  cd.Gv[r0] = g.x.dot(u);
+  cd.Gv[r0 + 1] = g.y.dot(u);
+  cd.Gv[r0 + 2] = nz.dot(u);
+  cd.Gdot_v[r0] = g.x_dot.dot(u) + g.x.dot(u_dot);
+  cd.Gdot_v[r0 + 1] = g.y_dot.dot(u) + g.y.dot(u_dot);
+  cd.Gdot_v[r0 + 2] = nz.dot(u_dot);
+  cd.err[r0] = 0.0;          // nonholonomic: no position error, so no Baumgarte beta term
+  cd.err[r0 + 1] = 0.0;
+  cd.err[r0 + 2] = nz.dot(g.p + data.p_ref) - c.ground_d;  // height of the contact point above the plane
+  if (c.rolling_resistance > 0) {
+    const double uc = g.x.dot(V_W.tail<3>() + w.cross(c_R));  // the centre's speed along the heading
+    cd.rr_arm[s] = -c.rolling_resistance * c.radius * uc / std::sqrt(uc * uc + kRollingResistanceSpeed * kRollingResistanceSpeed);
+  }
+  Transform& X_RC = cd.X_RS[s];
+  X_RC.R.col(0) = g.x;
+  X_RC.R.col(1) = g.y;
+  X_RC.R.col(2) = nz;
+  X_RC.p = g.p;
+}
+
+// A weld of a frame on a body to the world (every arm base of a mobile platform, every classic
+// tip): one pose, and each row of G is a component of X_WA^-1 applied to a motion-subspace column,
+// written straight into G (column d of G holds the spec's rows contiguously).
+void world_weld_rows(const Data& data, const ConstraintSet& set, const ConstraintSpec& c, int s, int body_a,
+                     const Transform& X_WA, ConstraintData& cd) {
+  const int r0 = set.row_offset[s], n = set.row_count[s];
+  const Mat3 Rt = X_WA.R.transpose();
+  const Vec3 p_RA = X_WA.p - data.p_ref;
+  const std::array<int, 6>& axes = set.row_axis[s];
+  for (int d : set.support[s]) {
+    const Vec3 w = data.S_W.col(d).head<3>();
+    const Vec3 vo = data.S_W.col(d).tail<3>();
+    Vec6 J;
+    J.head<3>().noalias() = Rt * w;
+    J.tail<3>().noalias() = Rt * (vo - p_RA.cross(w));
+    double* g = cd.G.col(d).data() + r0;
+    for (int k = 0; k < n; ++k) g[k] = J[axes[k]];
+  }
+  // V and A0 of the body seen in A (inv_act of the pose relative to R, by halves)
+  Vec6 V_A, a_A;
+  {
+    const Vec3 w = data.V_W[body_a].head<3>(), vo = data.V_W[body_a].tail<3>();
+    const Vec3 aw = data.A0_W[body_a].head<3>(), ao = data.A0_W[body_a].tail<3>();
+    V_A.head<3>().noalias() = Rt * w;
+    V_A.tail<3>().noalias() = Rt * (vo - p_RA.cross(w));
+    a_A.head<3>().noalias() = Rt * aw;
+    a_A.tail<3>().noalias() = Rt * (ao - p_RA.cross(aw));
+  }
+  const Vec6 e = pose_error(c.X_WA_target.inverse() * X_WA);
+  for (int k = 0; k < n; ++k) {
+    const int ax = axes[k], r = r0 + k;
+    cd.Gdot_v[r] = a_A[ax];
+    cd.err[r] = e[ax];
+    cd.Gv[r] = V_A[ax];
+  }
+}
+
+// Any other weld: frame A to frame B, or a frame on no body (the world) to the world, through the
+// frame Jacobians (J_a - X_AB J_b), relative velocity and bias acceleration in A.
+void frame_weld_rows(const Model& model, const Data& data, const ConstraintSet& set, const ConstraintSpec& c, int s,
+                     const Transform& X_WA, ConstraintData& cd) {
+  const int r0 = set.row_offset[s], n = set.row_count[s];
+  const std::vector<int>& sup = set.support[s];
+  Vec6 a_rel, V_rel, e;
+  const Vec6 V_A = frame_velocity(model, data, c.frame_a);
+  for (int d : sup) cd.J_a.col(d).setZero();
+  frame_jacobian(model, data, c.frame_a, model.frame_support(c.frame_a), cd.J_a);
+  if (c.frame_b < 0) {
+    a_rel = frame_bias_acceleration(model, data, c.frame_a);
+    V_rel = V_A;
+    e = pose_error(c.X_WA_target.inverse() * X_WA);
+  } else {
+    const Transform X_WB = frame_pose(model, data, c.frame_b);
+    const Transform X_AB = X_WA.inverse() * X_WB;
+    const Vec6 V_B_inA = X_AB.act(frame_velocity(model, data, c.frame_b));
+    for (int d : sup) cd.J_b.col(d).setZero();
+    frame_jacobian(model, data, c.frame_b, model.frame_support(c.frame_b), cd.J_b);
+    for (int d : sup) cd.J_a.col(d) -= X_AB.act(cd.J_b.col(d));
+    a_rel = frame_bias_acceleration(model, data, c.frame_a) - X_AB.act(frame_bias_acceleration(model, data, c.frame_b)) +
+            cross_motion(V_A, V_B_inA);
+    V_rel = V_A - V_B_inA;
+    e = pose_error(X_AB.inverse());
+  }
+  for (int k = 0; k < n; ++k) {
+    const int ax = set.row_axis[s][k], r = r0 + k;
+    for (int d : sup) cd.G(r, d) = cd.J_a(ax, d);
+    cd.Gdot_v[r] = a_rel[ax];
+    cd.err[r] = e[ax];
+    cd.Gv[r] = V_rel[ax];
+  }
+}
+
+// A weld's rows; also records its tip frame A (relative to R) in X_RS.
+void weld_rows(const Model& model, const Data& data, const ConstraintSet& set, const ConstraintSpec& c, int s,
+               ConstraintData& cd) {
+  const Transform X_WA = frame_pose(model, data, c.frame_a);
+  cd.X_RS[s].R = X_WA.R;
+  cd.X_RS[s].p = X_WA.p - data.p_ref;
+  const int body_a = model.frames[c.frame_a].body;
+  if (c.frame_b < 0 && body_a >= 0)
+    world_weld_rows(data, set, c, s, body_a, X_WA, cd);
+  else
+    frame_weld_rows(model, data, set, c, s, X_WA, cd);
+}
+
+}  // namespace
+
 void constraint_rows(const Model& model, const Data& data, const ConstraintSet& set, const Eigen::VectorXd& q,
                      const Eigen::VectorXd& v, ConstraintData& cd) {
-  for (size_t s = 0; s < set.specs.size(); ++s) {
-    const ConstraintSpec& c = set.specs[s];
-    const int r0 = set.row_offset[s], n = set.row_count[s];
-    const std::vector<int>& sup = set.support[s];
-    if (c.kind == ConstraintKind::kLock) {
-      cd.G(r0, c.dof) = 1.0;
-      cd.Gdot_v[r0] = 0.0;
-      cd.err[r0] = q[c.q_index] - cd.lock_target[s];
-      cd.Gv[r0] = v[c.dof];
-      continue;
-    }
-    if (c.kind == ConstraintKind::kRolling) {
-      // rows: C^T u, u = v_R + w x p_RP the wheel's material velocity at the contact point P, from
-      // the body twist at the reference point R [w; v_R] = S_W v. Along the motion (vdot = 0)
-      //   d/dt (C^T u) = Cdot^T u + C^T (a_R + alpha x p_RP + w x pdot_RP)
-      // with [alpha; a_R] the body's spatial acceleration at vdot = 0 (A0) at R. The geometry is
-      // computed relative to R (positions p_R*), the contact height in the world.
-      const Transform& X_WB = data.X_WB[c.body];
-      const Vec6& V_W = data.V_W[c.body];
-      const Vec6& A_W = data.A0_W[c.body];
-      const Vec3 w = V_W.head<3>();
-      RollingGeometry g;
-      const Vec3 c_R = X_WB.p - data.p_ref;  // wheel centre relative to R
-      rolling_geometry(X_WB.R, c_R, c.axle, c.radius, c.ground_n, w, V_W.tail<3>() + w.cross(c_R), g);
-      const Vec3 u = V_W.tail<3>() + w.cross(g.p);
-      const Vec3 u_dot = A_W.tail<3>() + A_W.head<3>().cross(g.p) + w.cross(g.p_dot);
-      const Vec3& nz = c.ground_n;
-      for (int d : sup) {
-        const Vec3 Jp = data.S_W.col(d).tail<3>() + data.S_W.col(d).head<3>().cross(g.p);
-        cd.G(r0, d) = g.x.dot(Jp);
-        cd.G(r0 + 1, d) = g.y.dot(Jp);
-        cd.G(r0 + 2, d) = nz.dot(Jp);
-      }
-      cd.Gv[r0] = g.x.dot(u);
-      cd.Gv[r0 + 1] = g.y.dot(u);
-      cd.Gv[r0 + 2] = nz.dot(u);
-      cd.Gdot_v[r0] = g.x_dot.dot(u) + g.x.dot(u_dot);
-      cd.Gdot_v[r0 + 1] = g.y_dot.dot(u) + g.y.dot(u_dot);
-      cd.Gdot_v[r0 + 2] = nz.dot(u_dot);
-      cd.err[r0] = 0.0;          // nonholonomic: no position error, so no Baumgarte beta term
-      cd.err[r0 + 1] = 0.0;
-      cd.err[r0 + 2] = nz.dot(g.p + data.p_ref) - c.ground_d;  // height of the contact point above the plane
-      if (c.rolling_resistance > 0) {
-        const double uc = g.x.dot(V_W.tail<3>() + w.cross(c_R));  // the centre's speed along the heading
-        cd.rr_arm[s] = -c.rolling_resistance * c.radius * uc / std::sqrt(uc * uc + kRollingResistanceSpeed * kRollingResistanceSpeed);
-      }
-      Transform& X_RC = cd.X_RS[s];
-      X_RC.R.col(0) = g.x;
-      X_RC.R.col(1) = g.y;
-      X_RC.R.col(2) = nz;
-      X_RC.p = g.p;
-      continue;
-    }
-    const Transform X_WA = frame_pose(model, data, c.frame_a);
-    cd.X_RS[s].R = X_WA.R;
-    cd.X_RS[s].p = X_WA.p - data.p_ref;
-    const int body_a = model.frames[c.frame_a].body;
-    if (c.frame_b < 0 && body_a >= 0) {
-      // weld to the world (every arm base of a mobile platform, every classic tip): one pose, and
-      // each row of G is a component of X_WA^-1 applied to a motion-subspace column, written
-      // straight into G (column d of G holds the spec's rows contiguously)
-      const Mat3 Rt = X_WA.R.transpose();
-      const Vec3 p_RA = X_WA.p - data.p_ref;
-      const std::array<int, 6>& axes = set.row_axis[s];
-      for (int d : sup) {
-        const Vec3 w = data.S_W.col(d).head<3>();
-        const Vec3 vo = data.S_W.col(d).tail<3>();
-        Vec6 J;
-        J.head<3>().noalias() = Rt * w;
-        J.tail<3>().noalias() = Rt * (vo - p_RA.cross(w));
-        double* g = cd.G.col(d).data() + r0;
-        for (int k = 0; k < n; ++k) g[k] = J[axes[k]];
-      }
-      // V and A0 of the body seen in A (inv_act of the pose relative to R, by halves)
-      Vec6 V_A, a_A;
-      {
-        const Vec3 w = data.V_W[body_a].head<3>(), vo = data.V_W[body_a].tail<3>();
-        const Vec3 aw = data.A0_W[body_a].head<3>(), ao = data.A0_W[body_a].tail<3>();
-        V_A.head<3>().noalias() = Rt * w;
-        V_A.tail<3>().noalias() = Rt * (vo - p_RA.cross(w));
-        a_A.head<3>().noalias() = Rt * aw;
-        a_A.tail<3>().noalias() = Rt * (ao - p_RA.cross(aw));
-      }
-      const Vec6 e = pose_error(c.X_WA_target.inverse() * X_WA);
-      for (int k = 0; k < n; ++k) {
-        const int ax = axes[k], r = r0 + k;
-        cd.Gdot_v[r] = a_A[ax];
-        cd.err[r] = e[ax];
-        cd.Gv[r] = V_A[ax];
-      }
-      continue;
-    }
-    Vec6 a_rel, V_rel, e;
-    const Vec6 V_A = frame_velocity(model, data, c.frame_a);
-    for (int d : sup) cd.J_a.col(d).setZero();
-    frame_jacobian(model, data, c.frame_a, model.frame_support(c.frame_a), cd.J_a);
-    if (c.frame_b < 0) {
-      a_rel = frame_bias_acceleration(model, data, c.frame_a);
-      V_rel = V_A;
-      e = pose_error(c.X_WA_target.inverse() * X_WA);
-    } else {
-      const Transform X_WB = frame_pose(model, data, c.frame_b);
-      const Transform X_AB = X_WA.inverse() * X_WB;
-      const Vec6 V_B_inA = X_AB.act(frame_velocity(model, data, c.frame_b));
-      for (int d : sup) cd.J_b.col(d).setZero();
-      frame_jacobian(model, data, c.frame_b, model.frame_support(c.frame_b), cd.J_b);
-      for (int d : sup) cd.J_a.col(d) -= X_AB.act(cd.J_b.col(d));
-      a_rel = frame_bias_acceleration(model, data, c.frame_a) - X_AB.act(frame_bias_acceleration(model, data, c.frame_b)) +
-              cross_motion(V_A, V_B_inA);
-      V_rel = V_A - V_B_inA;
-      e = pose_error(X_AB.inverse());
-    }
-    for (int k = 0; k < n; ++k) {
-      const int ax = set.row_axis[s][k], r = r0 + k;
-      for (int d : sup) cd.G(r, d) = cd.J_a(ax, d);
-      cd.Gdot_v[r] = a_rel[ax];
-      cd.err[r] = e[ax];
-      cd.Gv[r] = V_rel[ax];
+  for (size_t i = 0; i < set.specs.size(); ++i) {
+    const ConstraintSpec& c = set.specs[i];
+    const int s = static_cast<int>(i), r0 = set.row_offset[i];
+    switch (c.kind) {
+      case ConstraintKind::kLock: lock_rows(c, s, r0, q, v, cd); break;
+      case ConstraintKind::kRolling: rolling_rows(data, c, s, r0, set.support[i], cd); break;
+      case ConstraintKind::kWeld: weld_rows(model, data, set, c, s, cd); break;
     }
   }
   if (set.stabilize)

@@ -117,38 +117,38 @@ QSolver::QSolver(int rows) : m(rows) {
   compliance.setZero(m);
 }
 
-QFactorInfo QSolver::factor(const Eigen::MatrixXd& Q, const SolverOptions& opt, const Eigen::VectorXd& row_compliance) {
-  QFactorInfo info;
-  fast_path = false;
-  use_compliance = false;
-  if (m == 0) {
-    fast_path = true;
-    rank = 0;
-    info.rank = 0;
-    return info;
-  }
-  if (small_cholesky_upper(Q, Lq, dinv_q, m)) {
-    double dmax = Lq(0, 0), dmin = Lq(0, 0);  // the diagonal of U = L^T
-    for (int i = 1; i < m; ++i) {
-      dmax = std::max(dmax, Lq(i, i));
-      dmin = std::min(dmin, Lq(i, i));
-    }
-    const double ratio = dmin * dmin / (dmax * dmax);
-    if (ratio >= opt.fast_tol) {
-      fast_path = true;
-      rank = m;
-      info.rank = m;
-      info.condition = 1.0 / ratio;
-      for (int i = 0; i < m; ++i) row_indeterminate[i] = 0;
-      return info;
-    }
-  }
+namespace {
 
-  // rank path: pivoted Cholesky on a copy (lower triangle and diagonal are read, both are swapped)
+// The fast path: an unpivoted Cholesky factor into Lq, taken when it exists and its smallest pivot
+// is >= fast_tol * the largest (squared diagonal ratio of U = L^T).
+bool factor_fast_path(QSolver& qs, const Eigen::MatrixXd& Q, const SolverOptions& opt, QFactorInfo& info) {
+  const int m = qs.m;
+  if (!small_cholesky_upper(Q, qs.Lq, qs.dinv_q, m)) return false;
+  double dmax = qs.Lq(0, 0), dmin = qs.Lq(0, 0);  // the diagonal of U = L^T
+  for (int i = 1; i < m; ++i) {
+    dmax = std::max(dmax, qs.Lq(i, i));
+    dmin = std::min(dmin, qs.Lq(i, i));
+  }
+  const double ratio = dmin * dmin / (dmax * dmax);
+  if (ratio < opt.fast_tol) return false;
+  qs.fast_path = true;
+  qs.rank = m;
+  info.rank = m;
+  info.condition = 1.0 / ratio;
+  for (int i = 0; i < m; ++i) qs.row_indeterminate[i] = 0;
+  return true;
+}
+
+// Pivoted Cholesky of Q into Lp, perm (lower triangle and diagonal of a copy are read, both are
+// swapped), stopping at the first pivot <= rank_tol * max Q(i, i); sets rank, dinv_p and info.
+void factor_pivoted(QSolver& qs, const Eigen::MatrixXd& Q, const SolverOptions& opt, QFactorInfo& info) {
+  const int m = qs.m;
+  Eigen::MatrixXd& Lp = qs.Lp;
+  Eigen::VectorXd& dpiv = qs.dpiv;
   Lp = Q;
   double qmax = 0.0;
   for (int i = 0; i < m; ++i) {
-    perm[i] = i;
+    qs.perm[i] = i;
     dpiv[i] = Q(i, i);
     if (Q(i, i) > qmax) qmax = Q(i, i);  // a NaN diagonal is skipped here and stops the loop below
   }
@@ -163,7 +163,7 @@ QFactorInfo QSolver::factor(const Eigen::MatrixXd& Q, const SolverOptions& opt, 
     if (p != j) {  // symmetric swap of rows/columns j and p (the computed columns of L follow the rows)
       Lp.row(j).swap(Lp.row(p));
       Lp.col(j).swap(Lp.col(p));
-      std::swap(perm[j], perm[p]);
+      std::swap(qs.perm[j], qs.perm[p]);
       std::swap(dpiv[j], dpiv[p]);
     }
     const double ljj = std::sqrt(d);
@@ -178,25 +178,30 @@ QFactorInfo QSolver::factor(const Eigen::MatrixXd& Q, const SolverOptions& opt, 
     }
     r = j + 1;
   }
-  for (int i = 0; i < r; ++i) dinv_p[i] = 1.0 / Lp(i, i);
-  rank = r;
+  for (int i = 0; i < r; ++i) qs.dinv_p[i] = 1.0 / Lp(i, i);
+  qs.rank = r;
   info.rank = r;
   info.condition = r > 0 ? (Lp(0, 0) / Lp(r - 1, r - 1)) * (Lp(0, 0) / Lp(r - 1, r - 1))
                          : std::numeric_limits<double>::infinity();
+}
 
-  // null space: column a of N is P^T [-L11^-T L21(a, :)^T; e_a]
-  const int k = m - r;
+// The k = m - rank null-space columns of Nq: column a is P^T [-L11^-T L21(a, :)^T; e_a],
+// orthonormalized by modified Gram-Schmidt, twice ("twice is enough": orthonormal to round-off).
+void null_space_basis(QSolver& qs) {
+  const int m = qs.m, r = qs.rank, k = m - r;
+  const Eigen::MatrixXd& Lp = qs.Lp;
+  Eigen::MatrixXd& Nq = qs.Nq;
+  Eigen::VectorXd& t = qs.tmp_m;
   for (int a = 0; a < k; ++a) {
-    for (int i = 0; i < r; ++i) tmp_m[i] = -Lp(r + a, i);
+    for (int i = 0; i < r; ++i) t[i] = -Lp(r + a, i);
     for (int i = r - 1; i >= 0; --i) {  // L11^T t = -L21(a, :)^T
-      double s = tmp_m[i];
-      for (int l = i + 1; l < r; ++l) s -= Lp(l, i) * tmp_m[l];
-      tmp_m[i] = s / Lp(i, i);
+      double s = t[i];
+      for (int l = i + 1; l < r; ++l) s -= Lp(l, i) * t[l];
+      t[i] = s / Lp(i, i);
     }
-    for (int i = 0; i < r; ++i) Nq(perm[i], a) = tmp_m[i];
-    for (int i = r; i < m; ++i) Nq(perm[i], a) = i == r + a ? 1.0 : 0.0;
+    for (int i = 0; i < r; ++i) Nq(qs.perm[i], a) = t[i];
+    for (int i = r; i < m; ++i) Nq(qs.perm[i], a) = i == r + a ? 1.0 : 0.0;
   }
-  // modified Gram-Schmidt, twice ("twice is enough": orthonormal to round-off)
   for (int pass = 0; pass < 2; ++pass)
     for (int a = 0; a < k; ++a) {
       for (int c = 0; c < a; ++c) {
@@ -209,26 +214,56 @@ QFactorInfo QSolver::factor(const Eigen::MatrixXd& Q, const SolverOptions& opt, 
       const double inv = nn > 0.0 && std::isfinite(nn) ? 1.0 / std::sqrt(nn) : 0.0;
       for (int i = 0; i < m; ++i) Nq(i, a) *= inv;
     }
-  for (int i = 0; i < m; ++i) {
-    double s = 0.0;
-    for (int a = 0; a < k; ++a) s += Nq(i, a) * Nq(i, a);
-    row_indeterminate[i] = s > 1e-12 ? 1 : 0;
-  }
+}
 
-  if (k > 0 && opt.redundancy == Redundancy::kCompliance && row_compliance.size() == m &&
-      row_compliance.maxCoeff() > 0.0) {
-    // N^T C N (k x k), regularized so that a null direction without compliance stays solvable
-    compliance = row_compliance;
-    const double cmax = compliance.maxCoeff();
-    for (int a = 0; a < k; ++a)
-      for (int c = 0; c <= a; ++c) {
-        double s = 0.0;
-        for (int i = 0; i < m; ++i) s += Nq(i, a) * compliance[i] * Nq(i, c);
-        Lc(a, c) = s + (a == c ? 1e-12 * cmax : 0.0);
-        Lc(c, a) = Lc(a, c);
-      }
-    use_compliance = small_cholesky(Lc, Lc, dinv_c, k);  // in place: reads (i, j) before writing it
+// row_indeterminate: the rows the null space moves (|N(i, :)|^2 > 1e-12)
+void flag_indeterminate_rows(QSolver& qs) {
+  const int k = qs.m - qs.rank;
+  for (int i = 0; i < qs.m; ++i) {
+    double s = 0.0;
+    for (int a = 0; a < k; ++a) s += qs.Nq(i, a) * qs.Nq(i, a);
+    qs.row_indeterminate[i] = s > 1e-12 ? 1 : 0;
   }
+}
+
+// Redundancy::kCompliance: the Cholesky factor of N^T C N (k x k) into Lc, regularized so that a
+// null direction without compliance stays solvable; sets use_compliance.
+void factor_compliance_metric(QSolver& qs, const Eigen::VectorXd& row_compliance) {
+  const int m = qs.m, k = m - qs.rank;
+  const Eigen::MatrixXd& Nq = qs.Nq;
+  Eigen::MatrixXd& Lc = qs.Lc;
+  qs.compliance = row_compliance;
+  const double cmax = qs.compliance.maxCoeff();
+  for (int a = 0; a < k; ++a)
+    for (int c = 0; c <= a; ++c) {
+      double s = 0.0;
+      for (int i = 0; i < m; ++i) s += Nq(i, a) * qs.compliance[i] * Nq(i, c);
+      Lc(a, c) = s + (a == c ? 1e-12 * cmax : 0.0);
+      Lc(c, a) = Lc(a, c);
+    }
+  qs.use_compliance = small_cholesky(Lc, Lc, qs.dinv_c, k);  // in place: reads (i, j) before writing it
+}
+
+}  // namespace
+
+QFactorInfo QSolver::factor(const Eigen::MatrixXd& Q, const SolverOptions& opt, const Eigen::VectorXd& row_compliance) {
+  QFactorInfo info;
+  fast_path = false;
+  use_compliance = false;
+  if (m == 0) {
+    fast_path = true;
+    rank = 0;
+    info.rank = 0;
+    return info;
+  }
+  if (factor_fast_path(*this, Q, opt, info)) return info;
+  factor_pivoted(*this, Q, opt, info);
+  null_space_basis(*this);
+  flag_indeterminate_rows(*this);
+  const int k = m - rank;
+  if (k > 0 && opt.redundancy == Redundancy::kCompliance && row_compliance.size() == m &&
+      row_compliance.maxCoeff() > 0.0)
+    factor_compliance_metric(*this, row_compliance);
   return info;
 }
 

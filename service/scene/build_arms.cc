@@ -90,27 +90,37 @@ int add_chain(Builder& B, const ArmSpec& s, int parent, const std::string& by_ba
   return parent;
 }
 
-void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, Robot>& robots, bool mobile_platform) {
-  const Ctx& c = B.c;
-  // without a load the arms stand alone, rooted at the world with free tips (a single arm on a
-  // bench): no platform, no grasp rows; their base and joint reactions are still reported
-  const YAML::Node load = root["load"];
-  const bool has_load = load.IsDefined() && !load.IsNull();
-  if (!has_load) mobile_platform = false;
-  std::string load_name = "load";
-  double load_limit = 0;
-  Inertia I_load;
-  Transform X_W_L;
-  if (has_load) {
-    check_keys(c, load, {"name", "mass", "com", "inertia", "accept_inertia", "pose", "velocity", "actuated"}, "load");
-    load_name = get_string(c, load, "name", "load");
-    // the platform DOFs of the load take no command force unless the scene declares a drive on it
-    // (thrusters, a positioner): tau_limit 0 = a command must be exactly 0 there (Reject::kUnactuated)
-    load_limit = get_bool(c, load, "actuated", false) ? std::numeric_limits<double>::infinity() : 0.0;
-    I_load = get_inertia(c, load, "load");
-    X_W_L = get_pose(c, require(c, load, "pose", "load"), "load.pose");
-  }
+namespace {
 
+// The scene's `load` (absent: the arms stand alone, and only the name "load" is used).
+struct LoadSpec {
+  explicit LoadSpec(const YAML::Node& n) : node(n) {}  // copied, not assigned: an absent load may be an invalid node
+  YAML::Node node;
+  bool given = false;
+  std::string name = "load";
+  double tau_limit = 0;
+  Inertia I;
+  Transform X_W_L;
+  std::vector<double> q = std::vector<double>(7, 0.0), v = std::vector<double>(6, 0.0);  // its floating joint's
+};
+
+LoadSpec read_load(const Ctx& c, const YAML::Node& root) {
+  LoadSpec l(root["load"]);
+  const YAML::Node& load = l.node;
+  l.given = load.IsDefined() && !load.IsNull();
+  if (!l.given) return l;
+  check_keys(c, load, {"name", "mass", "com", "inertia", "accept_inertia", "pose", "velocity", "actuated"}, "load");
+  l.name = get_string(c, load, "name", "load");
+  // the platform DOFs of the load take no command force unless the scene declares a drive on it
+  // (thrusters, a positioner): tau_limit 0 = a command must be exactly 0 there (Reject::kUnactuated)
+  l.tau_limit = get_bool(c, load, "actuated", false) ? std::numeric_limits<double>::infinity() : 0.0;
+  l.I = get_inertia(c, load, "load");
+  l.X_W_L = get_pose(c, require(c, load, "pose", "load"), "load.pose");
+  return l;
+}
+
+// `arms`: each arm's robot, base, tool, joints, grasp and compliance
+std::vector<ArmSpec> read_arms(const Ctx& c, const YAML::Node& root, const std::map<std::string, Robot>& robots, bool has_load) {
   std::vector<ArmSpec> arms;
   const YAML::Node an = require(c, root, "arms", "scene");
   if (!an.IsSequence() || an.size() == 0) fail(c, an, "arms must be a non-empty list");
@@ -135,9 +145,12 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
         if (a[k]) fail(c, a[k], "arm '" + s.name + "': '" + k + "' needs a load (the scene has none: its arms' tips are free)");
     arms.push_back(s);
   }
-  // grasps: given ones must close with the load pose, missing ones are read off the initial state
+  return arms;
+}
+
+// grasps: given ones must close with the load pose, missing ones are read off the initial state
+void close_grasps(const Ctx& c, const Transform& X_W_L, std::vector<ArmSpec>& arms) {
   for (ArmSpec& s : arms) {
-    if (!has_load) break;
     const Transform X_W_EE = s.X_W_base * chain_forward(s) * s.tool;
     if (s.grasp_given) {
       const Vec6 e = pose_error((X_W_L * s.X_L_EE).inverse() * X_W_EE);
@@ -151,109 +164,134 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
       s.X_L_EE = X_W_L.inverse() * X_W_EE;
     }
   }
+}
 
-  Model& model = B.sys.model;
-  ConstraintSet& cs = B.sys.constraints;
+// The load's floating-joint coordinates: its pose and `velocity` (zero when not given).
+void read_load_coordinates(const Ctx& c, LoadSpec& load) {
+  Eigen::VectorXd tmp(7);
+  set_floating_q(tmp, 0, load.X_W_L);
+  for (int k = 0; k < 7; ++k) load.q[k] = tmp[k];
+  if (load.given && load.node["velocity"]) {
+    auto l = as_list(c, load.node["velocity"], 6, "load.velocity");
+    for (int k = 0; k < 6; ++k) load.v[k] = l[k];
+  }
+}
+
+// Adds the load as a floating body at the root; returns its index.
+int add_load_body(Builder& B, const LoadSpec& load) {
   Joint jf;
   jf.type = JointType::kFloating;
-  jf.name = load_name;
-  std::vector<double> lq(7, 0.0), lv(6, 0.0);
+  jf.name = load.name;
+  return B.add(load.name, -1, Transform(), jf, load.I, load.q, load.v, load.tau_limit, load.node);
+}
+
+// A wrench output of a weld spec (the last one added): a base's to the world, or an end-effector's
+// across its grasp.
+void add_weld_output(Builder& B, const std::string& name, const std::string& by, WrenchKind kind) {
+  WrenchOutput o;
+  o.name = o.frame = name;
+  o.by = by;
+  o.kind = kind;
+  o.spec = static_cast<int>(B.sys.constraints.specs.size()) - 1;
+  B.sys.wrenches.outputs.push_back(o);
+}
+
+// One arm hung from the load L last link first (the paper's (12)-(18)). Body B_k of the reversed
+// chain is link k's frame moved to joint k+1 (link_k * X_origin_{k+1}), so that joint k+1
+// reversed is a plain motion about -axis at the origin of its parent; the base is welded to the world.
+void hang_arm_from_load(Builder& B, const ArmSpec& s, int L, const std::string& load_name) {
+  Model& model = B.sys.model;
+  ConstraintSet& cs = B.sys.constraints;
+  std::vector<WrenchOutput>& outs = B.sys.wrenches.outputs;
+  const auto& J = s.robot->joints;
+  const int n = static_cast<int>(J.size());
+  Joint fixed;
+  fixed.type = JointType::kFixed;
+  int parent = B.add(s.name + "." + J[n - 1].link_name, L, s.X_L_EE * s.tool.inverse() * s.robot->X_last_EE.inverse(),
+                     fixed, J[n - 1].I, {}, {}, 0, s.node);
+  // the end-effector wrench is the reaction across the grasp: the load is the tree parent of the
+  // arm's last link, framed and named as the classic form's grasp weld
+  model.add_frame(s.name + ".ee", parent, s.robot->X_last_EE * s.tool);
+  model.add_frame(load_name + "." + s.name, L, s.X_L_EE);
   {
-    Eigen::VectorXd tmp(7);
-    set_floating_q(tmp, 0, X_W_L);
-    for (int k = 0; k < 7; ++k) lq[k] = tmp[k];
-    if (has_load && load["velocity"]) {
-      auto l = as_list(c, load["velocity"], 6, "load.velocity");
-      for (int k = 0; k < 6; ++k) lv[k] = l[k];
-    }
+    WrenchOutput o = joint_output(s.name + ".ee", s.name + ".ee", load_name + "." + s.name, parent, false, parent,
+                                  s.robot->X_last_EE * s.tool, 0x3f);
+    o.kind = WrenchKind::kEndEffector;
+    outs.push_back(o);
   }
+  std::vector<WrenchOutput> arm_joints;
+  int nominal_body = -1;  // the base link, when only its nominal inertia gives joint 1 a mass
+  for (int i = n; i >= 1; --i) {
+    const ChainJoint& cj = J[i - 1];
+    const int link_i = parent;  // the tree parent of joint i reversed is link i's side
+    Joint j;
+    const bool held = cj.fixed || s.fixed.count(i);
+    j.type = held ? JointType::kFixed : (cj.prismatic ? JointType::kPrismatic : JointType::kRevolute);
+    j.axis = -cj.axis;
+    j.name = s.name + "." + cj.name;
+    j.armature = cj.armature;
+    Transform X_PJ = i == n ? Transform() : J[i].X_origin.inverse();
+    if (held) X_PJ = X_PJ * chain_motion(cj, -s.q[i - 1]);
+    // the arm's base is welded to the world, so its inertia does no work; a nominal rotational
+    // inertia (no mass, hence no weight) keeps M regular for the joint that moves only the base
+    const Inertia I = i > 1 ? J[i - 2].I.transformed(cj.X_origin.inverse()) : Inertia(0.0, Vec3::Zero(), 1e-3 * Mat3::Identity());
+    const std::string body = s.name + "." + (i > 1 ? J[i - 2].link_name : s.robot->base_link);
+    parent = B.add(body, parent, X_PJ, j, I, {s.q[i - 1]}, {s.v[i - 1]}, cj.tau_limit, s.node);
+    if (i == 1 && !held && cj.armature == 0.0) nominal_body = parent;
+    // the reaction of link i-1 on link i is the tree's reaction negated, framed in link i: the
+    // joint frame of the reversed joint (X_PJ without a held joint's motion)
+    arm_joints.push_back(joint_output(s.name + "." + cj.name, s.name + "." + cj.link_name, body, parent, true, link_i,
+                                      i == n ? Transform() : J[i].X_origin.inverse(),
+                                      held ? 0x3f : bearing_mask(j.type, cj.axis, cj.axis)));
+  }
+  outs.insert(outs.end(), arm_joints.rbegin(), arm_joints.rend());  // in the robot's order, as classic
+  model.add_frame(s.name + ".base", parent, J[0].X_origin.inverse());
+  ConstraintSpec w;
+  w.name = s.name + ".base";
+  w.kind = ConstraintKind::kWeld;
+  w.frame_a = model.frame_index(s.name + ".base");
+  w.frame_b = -1;
+  w.X_WA_target = s.X_W_base;
+  w.compliance = s.compliance;
+  cs.specs.push_back(w);
+  if (nominal_body >= 0) B.sys.nominal_bases.push_back({nominal_body, static_cast<int>(cs.specs.size()) - 1});
+  add_weld_output(B, s.name + ".base", "world", WrenchKind::kBase);
+}
+
+// The classic form's grasp: the arm's end-effector welded to its grasp frame on the load L.
+void weld_arm_to_load(Builder& B, const ArmSpec& s, int L, const std::string& load_name) {
+  Model& model = B.sys.model;
+  model.add_frame(load_name + "." + s.name, L, s.X_L_EE);
+  ConstraintSpec w;
+  w.name = s.name + ".ee";
+  w.kind = ConstraintKind::kWeld;
+  w.frame_a = model.frame_index(s.name + ".ee");
+  w.frame_b = model.frame_index(load_name + "." + s.name);
+  w.compliance = s.compliance;
+  B.sys.constraints.specs.push_back(w);
+  add_weld_output(B, s.name + ".ee", load_name + "." + s.name, WrenchKind::kEndEffector);
+}
+
+}  // namespace
+
+void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, Robot>& robots, bool mobile_platform) {
+  const Ctx& c = B.c;
+  // without a load the arms stand alone, rooted at the world with free tips (a single arm on a
+  // bench): no platform, no grasp rows; their base and joint reactions are still reported
+  LoadSpec load = read_load(c, root);
+  if (!load.given) mobile_platform = false;
+  std::vector<ArmSpec> arms = read_arms(c, root, robots, load.given);
+  if (load.given) close_grasps(c, load.X_W_L, arms);
+  read_load_coordinates(c, load);
   if (mobile_platform) {
-    // the load is the root; each arm hangs from it last link first (the paper's (12)-(18)). Body B_k of the
-    // reversed chain is link k's frame moved to joint k+1 (link_k * X_origin_{k+1}), so that joint
-    // k+1 reversed is a plain motion about -axis at the origin of its parent.
-    const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, load_limit, load);
-    std::vector<WrenchOutput>& outs = B.sys.wrenches.outputs;
-    for (const ArmSpec& s : arms) {
-      const auto& J = s.robot->joints;
-      const int n = static_cast<int>(J.size());
-      Joint fixed;
-      fixed.type = JointType::kFixed;
-      int parent = B.add(s.name + "." + J[n - 1].link_name, L, s.X_L_EE * s.tool.inverse() * s.robot->X_last_EE.inverse(),
-                         fixed, J[n - 1].I, {}, {}, 0, s.node);
-      // the end-effector wrench is the reaction across the grasp: the load is the tree parent of the
-      // arm's last link, framed and named as the classic form's grasp weld
-      model.add_frame(s.name + ".ee", parent, s.robot->X_last_EE * s.tool);
-      model.add_frame(load_name + "." + s.name, L, s.X_L_EE);
-      {
-        WrenchOutput o = joint_output(s.name + ".ee", s.name + ".ee", load_name + "." + s.name, parent, false, parent,
-                                      s.robot->X_last_EE * s.tool, 0x3f);
-        o.kind = WrenchKind::kEndEffector;
-        outs.push_back(o);
-      }
-      std::vector<WrenchOutput> arm_joints;
-      int nominal_body = -1;  // the base link, when only its nominal inertia gives joint 1 a mass
-      for (int i = n; i >= 1; --i) {
-        const ChainJoint& cj = J[i - 1];
-        const int link_i = parent;  // the tree parent of joint i reversed is link i's side
-        Joint j;
-        const bool held = cj.fixed || s.fixed.count(i);
-        j.type = held ? JointType::kFixed : (cj.prismatic ? JointType::kPrismatic : JointType::kRevolute);
-        j.axis = -cj.axis;
-        j.name = s.name + "." + cj.name;
-        j.armature = cj.armature;
-        Transform X_PJ = i == n ? Transform() : J[i].X_origin.inverse();
-        if (held) X_PJ = X_PJ * chain_motion(cj, -s.q[i - 1]);
-        // the arm's base is welded to the world, so its inertia does no work; a nominal rotational
-        // inertia (no mass, hence no weight) keeps M regular for the joint that moves only the base
-        const Inertia I = i > 1 ? J[i - 2].I.transformed(cj.X_origin.inverse()) : Inertia(0.0, Vec3::Zero(), 1e-3 * Mat3::Identity());
-        const std::string body = s.name + "." + (i > 1 ? J[i - 2].link_name : s.robot->base_link);
-        parent = B.add(body, parent, X_PJ, j, I, {s.q[i - 1]}, {s.v[i - 1]}, cj.tau_limit, s.node);
-        if (i == 1 && !held && cj.armature == 0.0) nominal_body = parent;
-        // the reaction of link i-1 on link i is the tree's reaction negated, framed in link i: the
-        // joint frame of the reversed joint (X_PJ without a held joint's motion)
-        arm_joints.push_back(joint_output(s.name + "." + cj.name, s.name + "." + cj.link_name, body, parent, true, link_i,
-                                          i == n ? Transform() : J[i].X_origin.inverse(),
-                                          held ? 0x3f : bearing_mask(j.type, cj.axis, cj.axis)));
-      }
-      outs.insert(outs.end(), arm_joints.rbegin(), arm_joints.rend());  // in the robot's order, as classic
-      model.add_frame(s.name + ".base", parent, J[0].X_origin.inverse());
-      ConstraintSpec w;
-      w.name = s.name + ".base";
-      w.kind = ConstraintKind::kWeld;
-      w.frame_a = model.frame_index(s.name + ".base");
-      w.frame_b = -1;
-      w.X_WA_target = s.X_W_base;
-      w.compliance = s.compliance;
-      cs.specs.push_back(w);
-      if (nominal_body >= 0) B.sys.nominal_bases.push_back({nominal_body, static_cast<int>(cs.specs.size()) - 1});
-      WrenchOutput o;
-      o.name = o.frame = s.name + ".base";
-      o.by = "world";
-      o.kind = WrenchKind::kBase;
-      o.spec = static_cast<int>(cs.specs.size()) - 1;
-      outs.push_back(o);
-    }
+    // the load is the root; each arm hangs from it
+    const int L = add_load_body(B, load);
+    for (const ArmSpec& s : arms) hang_arm_from_load(B, s, L, load.name);
   } else {
-    std::vector<WrenchOutput>& outs = B.sys.wrenches.outputs;
     for (const ArmSpec& s : arms) add_chain(B, s, -1, s.name + "." + s.robot->base_link, true);
-    if (!has_load) return;
-    const int L = B.add(load_name, -1, Transform(), jf, I_load, lq, lv, load_limit, load);
-    for (const ArmSpec& s : arms) {
-      model.add_frame(load_name + "." + s.name, L, s.X_L_EE);
-      ConstraintSpec w;
-      w.name = s.name + ".ee";
-      w.kind = ConstraintKind::kWeld;
-      w.frame_a = model.frame_index(s.name + ".ee");
-      w.frame_b = model.frame_index(load_name + "." + s.name);
-      w.compliance = s.compliance;
-      cs.specs.push_back(w);
-      WrenchOutput o;
-      o.name = o.frame = s.name + ".ee";
-      o.by = load_name + "." + s.name;
-      o.kind = WrenchKind::kEndEffector;
-      o.spec = static_cast<int>(cs.specs.size()) - 1;
-      outs.push_back(o);
-    }
+    if (!load.given) return;
+    const int L = add_load_body(B, load);
+    for (const ArmSpec& s : arms) weld_arm_to_load(B, s, L, load.name);
   }
 }
 

@@ -1,0 +1,91 @@
+#include "service/scene/scene_settings.h"
+
+#include <filesystem>
+#include <limits>
+
+namespace coopdyn::scene_detail {
+
+namespace {
+
+// `stabilization: none | {baumgarte: {alpha, beta}, projection: {iterations}}`
+void read_stabilization(const Ctx& c, const YAML::Node& st, System& sys) {
+  if (st.IsScalar() && st.as<std::string>() == "none") {
+  } else {
+    check_keys(c, st, {"baumgarte", "projection"}, "stabilization");
+    if (st["projection"]) {
+      check_keys(c, st["projection"], {"iterations"}, "stabilization.projection");
+      const double it = get_double(c, st["projection"], "iterations", 3, "projection");
+      if (it < 1 || it > 50) fail(c, st["projection"], "projection iterations must be in 1..50");
+      sys.options.projection_iterations = static_cast<int>(it);
+    }
+  }
+  if (st.IsMap() && st["baumgarte"]) {
+    const YAML::Node bg = st["baumgarte"];
+    check_keys(c, bg, {"alpha", "beta"}, "stabilization.baumgarte");
+    sys.constraints.stabilize = true;
+    sys.constraints.baumgarte_alpha = get_double(c, bg, "alpha", 0.0, "baumgarte");
+    sys.constraints.baumgarte_beta = get_double(c, bg, "beta", 0.0, "baumgarte");
+    if (sys.constraints.baumgarte_alpha < 0 || sys.constraints.baumgarte_beta < 0)
+      fail(c, bg, "Baumgarte gains must be >= 0");
+  }
+}
+
+// `solver: {max_speed}`: the divergence bound of step() (SolverOptions::max_speed)
+void read_solver(const Ctx& c, const YAML::Node& so, System& sys) {
+  if (!so.IsMap()) fail(c, so, "'solver' must be a mapping, e.g. {max_speed: 1e4}");
+  check_keys(c, so, {"max_speed"}, "solver");
+  const YAML::Node ms = so["max_speed"];
+  if (ms.IsScalar() && ms.as<std::string>() == "off") sys.options.max_speed = std::numeric_limits<double>::infinity();
+  else sys.options.max_speed = get_double(c, so, "max_speed", sys.options.max_speed, "solver");
+  if (!(sys.options.max_speed > 0)) fail(c, ms, "solver.max_speed must be > 0 (rad/s or m/s per DOF) or 'off'");
+}
+
+// one entry of `robots`
+Robot read_robot(const Ctx& c, const std::string& rn, YAML::Node rnode) {
+  if (rnode["urdf"]) {
+    check_keys(c, rnode, {"urdf", "base", "tip", "source", "branches"}, "robot '" + rn + "'");
+    const std::string path = (std::filesystem::path(c.dir) / rnode["urdf"].as<std::string>()).string();
+    const std::string br = get_string(c, rnode, "branches", "report");
+    if (br != "report" && br != "keep")
+      fail(c, rnode["branches"], "robot '" + rn + "': branches must be report (default: listed as left out) or keep");
+    return parse_urdf(c, rnode["urdf"], path, rn, get_string(c, rnode, "base", ""), get_string(c, rnode, "tip", ""),
+                      br == "keep");
+  }
+  if (rnode["file"]) {
+    const std::string rel = rnode["file"].as<std::string>();
+    const std::string path = (std::filesystem::path(c.dir) / rel).string();
+    Ctx rc{path, std::filesystem::path(path).parent_path().string(), c.warnings};
+    YAML::Node rf = load_yaml_file(c, path, rnode["file"]);
+    return parse_robot(rc, rf, rn);
+  }
+  return parse_robot(c, rnode, rn);
+}
+
+}  // namespace
+
+void read_settings(const Ctx& c, YAML::Node root, const SceneOverrides& ov, System& sys) {
+  sys.name = get_string(c, root, "name", std::filesystem::path(c.file).stem().string());
+  if (root["gravity"]) sys.model.gravity_W = as_vec3(c, root["gravity"], "gravity");
+  const std::string fs = get_string(c, root, "formulation", "mobile_platform");
+  if (!parse_formulation(fs, &sys.options.formulation))
+    fail(c, root["formulation"], "unknown formulation '" + fs + "' (mobile_platform, classic, pseudo_joint, svd)");
+  if (ov.formulation) sys.options.formulation = *ov.formulation;
+  const std::string red = get_string(c, root, "redundancy", "min_norm");
+  if (red == "min_norm") sys.options.redundancy = Redundancy::kMinNorm;
+  else if (red == "compliance") sys.options.redundancy = Redundancy::kCompliance;
+  else fail(c, root["redundancy"], "unknown redundancy rule '" + red + "' (min_norm, compliance)");
+  if (root["stabilization"]) read_stabilization(c, root["stabilization"], sys);
+  if (root["solver"]) read_solver(c, root["solver"], sys);
+}
+
+std::map<std::string, Robot> read_robots(const Ctx& c, YAML::Node root) {
+  std::map<std::string, Robot> robots;
+  if (root["robots"])
+    for (const auto& kv : root["robots"]) {
+      const std::string rn = kv.first.as<std::string>();
+      robots[rn] = read_robot(c, rn, kv.second);
+    }
+  return robots;
+}
+
+}  // namespace coopdyn::scene_detail
