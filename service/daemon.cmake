@@ -16,6 +16,8 @@ add_dependencies(coopdyn_io coopdyn_lcmtypes_gen)
 # coopdyn_runtime: the fixed-rate loop, handoff, statistics, config, real-time options
 add_library(coopdyn_runtime
   ${CMAKE_CURRENT_LIST_DIR}/runtime/config.cc
+  ${CMAKE_CURRENT_LIST_DIR}/runtime/config_fields.cc
+  ${CMAKE_CURRENT_LIST_DIR}/runtime/config_reference.cc
   ${CMAKE_CURRENT_LIST_DIR}/runtime/realtime.cc
   ${CMAKE_CURRENT_LIST_DIR}/runtime/service_loop.cc
 )

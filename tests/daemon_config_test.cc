@@ -2,48 +2,46 @@
 // (so the README's two ways of starting the daemon agree); every bad value names file and line.
 #include <gtest/gtest.h>
 
+#include <yaml-cpp/yaml.h>
+
 #include <cmath>
+#include <fstream>
+#include <sstream>
 #include <typeinfo>
 
 #include "service/runtime/config.h"
+#include "service/runtime/config_fields.h"
 
 using namespace coopdyn::runtime;
 
+// Every key of the table is written in the shipped file, with its default.
 TEST(DaemonConfig, ShippedConfigEqualsBuiltInDefaults) {
-  const ServiceConfig f = load_config(std::string(COOPDYN_SOURCE_DIR) + "/config/coopdynd.yaml");
+  const std::string path = std::string(COOPDYN_SOURCE_DIR) + "/config/coopdynd.yaml";
+  const ServiceConfig f = load_config(path);
   const ServiceConfig d;
-  EXPECT_EQ(f.rate_hz, 1000.0);
-  EXPECT_EQ(f.rate_hz, d.rate_hz);
-  EXPECT_EQ(f.lcm_url, "udpm://239.255.76.67:7667?ttl=0");
-  EXPECT_EQ(f.lcm_url, d.lcm_url);
-  EXPECT_EQ(f.lcm_url_in, d.lcm_url_in);
+  const YAML::Node file = YAML::LoadFile(path);
+  for (const ConfigField& field : config_fields()) {
+    const YAML::Node section = *field.section ? file[field.section] : file;
+    EXPECT_TRUE(section.IsDefined() && section[field.key].IsDefined()) << field_path(field) << " is not in " << path;
+    EXPECT_EQ(field_text(field, field.get(f)), field_text(field, field.get(d))) << field_path(field);
+  }
   EXPECT_EQ(f.input_url(), f.lcm_url);
-  EXPECT_EQ(f.receive_queue, d.receive_queue);
-  EXPECT_EQ(f.receive_max_bytes, d.receive_max_bytes);
-  EXPECT_EQ(f.receive_socket_buffer, d.receive_socket_buffer);
-  EXPECT_EQ(f.command_channel, d.command_channel);
-  EXPECT_EQ(f.state_channel, d.state_channel);
-  EXPECT_EQ(f.output_channel, d.output_channel);
-  EXPECT_EQ(f.stats_channel, d.stats_channel);
-  EXPECT_EQ(f.mode, d.mode);
-  EXPECT_EQ(f.integrator, d.integrator);
-  EXPECT_EQ(f.watchdog_ms, d.watchdog_ms);
-  EXPECT_EQ(f.max_input_age_ms, 1000.0);
-  EXPECT_EQ(f.max_input_age_ms, d.max_input_age_ms);
   EXPECT_EQ(f.max_input_age_us(), 1000000);
-  EXPECT_EQ(f.safe_torque, d.safe_torque);
-  EXPECT_EQ(f.overrun, d.overrun);
-  EXPECT_EQ(f.max_catch_up, d.max_catch_up);
-  EXPECT_EQ(f.stats_period_s, d.stats_period_s);
-  EXPECT_FALSE(f.realtime.sched_fifo);
-  EXPECT_FALSE(f.realtime.mlockall);
-  EXPECT_EQ(f.realtime.cpu, -1);
-  EXPECT_EQ(f.realtime.spin_us, d.realtime.spin_us);
-  EXPECT_EQ(f.realtime.cpu_dma_latency_zero, d.realtime.cpu_dma_latency_zero);
-  EXPECT_EQ(f.trigger, Trigger::kTick);
-  EXPECT_EQ(f.trigger, d.trigger);
   EXPECT_EQ(f.period_ns(), 1000000);
   EXPECT_EQ(f.watchdog_ns(), 100000000);
+}
+
+// docs/reference/config.md's table of keys is what coopdynd --print-config-reference prints.
+TEST(DaemonConfig, ReferencePageListsTheTable) {
+  std::ifstream in(std::string(COOPDYN_SOURCE_DIR) + "/docs/reference/config.md");
+  std::stringstream page;
+  page << in.rdbuf();
+  const std::string text = page.str();
+  const size_t from = text.find("| key | default | range | meaning |");
+  ASSERT_NE(from, std::string::npos);
+  const size_t to = text.find("\n\n", from);
+  EXPECT_EQ(text.substr(from, to + 1 - from), config_reference_markdown())
+      << "regenerate the table: build/bin/coopdynd --print-config-reference";
 }
 
 TEST(DaemonConfig, EveryBadValueNamesFileLineAndReason) {

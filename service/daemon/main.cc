@@ -129,6 +129,13 @@ int parse_args(int argc, char** argv, Options* o) {
                "commands or measured states, controls) and out (wrenches, stresses, accelerations, loop statistics).",
                "coopdynd"};
   app.set_version_flag("--version", "coopdynd (coopdyn) " COOPDYN_VERSION, "print the version and exit");
+  app.add_flag_callback(
+      "--print-config-reference",
+      [] {
+        std::fputs(runtime::config_reference_markdown().c_str(), stdout);
+        throw CLI::Success();
+      },
+      "print the service config's keys as the table of docs/reference/config.md and exit");
   app.add_option("--scene", o->scene_path, "scene file (YAML; config/scenes/)")->type_name("FILE")->required();
   app.add_option("--config", o->config_path, "service config (YAML; see config/coopdynd.yaml; default: the built-in values)")
       ->type_name("FILE");

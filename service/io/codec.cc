@@ -613,32 +613,9 @@ int StatsEncoder::max_size() const { return impl_->msg.getEncodedSize(); }
 
 int StatsEncoder::encode(const StatsFrame& s, uint8_t* buf, int cap) {
   coopdyn::loop_stats_t& o = impl_->msg;
-  o.utime = s.utime;
-  o.tick = s.tick;
-  o.period_us = s.period_us;
-  o.window_ticks = s.window_ticks;
-  o.lateness_p50_us = s.lateness_us[0];
-  o.lateness_p99_us = s.lateness_us[1];
-  o.lateness_p999_us = s.lateness_us[2];
-  o.lateness_max_us = s.lateness_us[3];
-  o.compute_p50_us = s.compute_us[0];
-  o.compute_p99_us = s.compute_us[1];
-  o.compute_p999_us = s.compute_us[2];
-  o.compute_max_us = s.compute_us[3];
-  o.overruns = s.overruns;
-  o.skipped_periods = s.skipped_periods;
-  o.commands_received = s.received;
-  o.commands_accepted = s.accepted;
-  o.commands_rejected = s.rejected;
-  o.commands_out_of_order = s.out_of_order;
-  o.commands_expired = s.expired;
-  o.numerical_errors = s.numerical_errors;
-  o.receiver_restarts = s.receiver_restarts;
-  o.inputs_dropped = s.inputs_dropped;
-  o.commands_missed = s.missed;
-  o.inputs_filtered = s.inputs_filtered;
+#define COOPDYN_STATS_FIELD(lcm, frame, put) o.lcm = s.frame;
+#include "service/io/stats_fields.def"
   for (int k = 1; k < kRejectKinds; ++k) o.rejected_by_reason[k - 1] = s.rejected_by_reason[k];
-  o.closure_rejected = s.closure_rejected;
   if (cap < o.getEncodedSize()) return -1;
   return o.encode(buf, 0, cap);
 }

@@ -191,37 +191,14 @@ bool decode_output(const void* data, int len, DecodedOutput* out) {
 bool decode_stats(const void* data, int len, StatsFrame* s) {
   coopdyn::loop_stats_t o;
   if (!decode_msg(data, len, &o)) return false;
-  s->utime = o.utime;
-  s->tick = o.tick;
-  s->period_us = o.period_us;
-  s->window_ticks = o.window_ticks;
-  s->lateness_us[0] = o.lateness_p50_us;
-  s->lateness_us[1] = o.lateness_p99_us;
-  s->lateness_us[2] = o.lateness_p999_us;
-  s->lateness_us[3] = o.lateness_max_us;
-  s->compute_us[0] = o.compute_p50_us;
-  s->compute_us[1] = o.compute_p99_us;
-  s->compute_us[2] = o.compute_p999_us;
-  s->compute_us[3] = o.compute_max_us;
-  s->overruns = o.overruns;
-  s->skipped_periods = o.skipped_periods;
-  s->received = o.commands_received;
-  s->accepted = o.commands_accepted;
-  s->rejected = o.commands_rejected;
-  s->out_of_order = o.commands_out_of_order;
-  s->expired = o.commands_expired;
-  s->numerical_errors = o.numerical_errors;
-  s->receiver_restarts = o.receiver_restarts;
-  s->inputs_dropped = o.inputs_dropped;
-  s->missed = o.commands_missed;
-  s->inputs_filtered = o.inputs_filtered;
+#define COOPDYN_STATS_FIELD(lcm, frame, put) s->frame = o.lcm;
+#include "service/io/stats_fields.def"
   // by the reasons' keys, so that a sender built with another set of reasons still reads the ones it knows
   for (int k = 1; k < kRejectKinds; ++k) {
     s->rejected_by_reason[k] = 0;
     for (int i = 0; i < o.num_reject_reasons; ++i)
       if (o.reject_reasons[i] == reject_key(static_cast<Reject>(k))) s->rejected_by_reason[k] = o.rejected_by_reason[i];
   }
-  s->closure_rejected = o.closure_rejected;
   return true;
 }
 
@@ -304,22 +281,12 @@ bool to_csv(MessageType t, const void* data, int len, std::string* header, std::
     case MessageType::kLoopStats: {
       StatsFrame s;
       if (!decode_stats(data, len, &s)) return false;
-      *header =
-          "utime,tick,period_us,window_ticks,lateness_p50_us,lateness_p99_us,lateness_p999_us,lateness_max_us,"
-          "compute_p50_us,compute_p99_us,compute_p999_us,compute_max_us,overruns,skipped_periods,commands_received,"
-          "commands_accepted,commands_rejected,commands_out_of_order,commands_expired,numerical_errors,receiver_restarts,"
-          "inputs_dropped,commands_missed,inputs_filtered,closure_rejected";
+      header->clear();
+#define COOPDYN_STATS_FIELD(lcm, frame, put) \
+  *header += header->empty() ? #lcm : "," #lcm; \
+  put(row, s.frame);
+#include "service/io/stats_fields.def"
       for (int k = 1; k < kRejectKinds; ++k) *header += std::string(",rejected_") + reject_key(static_cast<Reject>(k));
-      inum(row, s.utime);
-      inum(row, s.tick);
-      num(row, s.period_us);
-      inum(row, s.window_ticks);
-      for (double x : s.lateness_us) num(row, x);
-      for (double x : s.compute_us) num(row, x);
-      for (long long x : {s.overruns, s.skipped_periods, s.received, s.accepted, s.rejected, s.out_of_order, s.expired,
-                          s.numerical_errors, s.receiver_restarts, s.inputs_dropped, s.missed, s.inputs_filtered,
-                          s.closure_rejected})
-        inum(row, x);
       for (int k = 1; k < kRejectKinds; ++k) inum(row, s.rejected_by_reason[k]);
       break;
     }

@@ -280,6 +280,115 @@ uint64_t kernel_drops(int fd) {
   return 0;
 }
 
+// What the receive process hands a message to: the ring and its doorbell, and the channels with
+// their type hashes it accepts.
+struct ChildRing {
+  RxRingHeader* hdr;
+  unsigned char* base;
+  int event_fd;
+  const std::vector<Accept>* acc;
+};
+
+// CHANNEL HASH pairs of the command line (from argv[6] on)
+std::vector<Accept> accepted_from_args(int argc, char** argv) {
+  std::vector<Accept> acc;
+  for (int a = 6; a + 1 < argc; a += 2) {
+    Accept x;
+    x.channel = argv[a];
+    const unsigned long long h = std::strtoull(argv[a + 1], nullptr, 16);
+    for (int b = 0; b < 8; ++b) x.hash[b] = static_cast<unsigned char>(h >> (56 - 8 * b));
+    acc.push_back(x);
+  }
+  return acc;
+}
+
+// The ring the daemon made (its header checked), mapped; nullptr if it is not one.
+RxRingHeader* map_ring(int shm_fd) {
+  struct stat st;
+  if (fstat(shm_fd, &st) != 0 || st.st_size < static_cast<off_t>(sizeof(RxRingHeader))) return nullptr;
+  void* p = mmap(nullptr, static_cast<size_t>(st.st_size), PROT_READ | PROT_WRITE, MAP_SHARED, shm_fd, 0);
+  if (p == MAP_FAILED) return nullptr;
+  auto* hdr = static_cast<RxRingHeader*>(p);
+  if (hdr->magic != kMagic || ring_size(static_cast<int>(hdr->slots), static_cast<int>(hdr->slot_bytes)) > static_cast<size_t>(st.st_size))
+    return nullptr;
+  return hdr;
+}
+
+// the channels are matched literally: LCM takes a regular expression, so escape them
+std::string channel_regex(const std::vector<Accept>& acc) {
+  std::string re;
+  for (const Accept& a : acc) {
+    if (!re.empty()) re += '|';
+    for (const char* c = a.channel.c_str(); *c; ++c) {
+      if (std::strchr(".^$|()[]{}*+?\\", *c)) re += '\\';
+      re += *c;
+    }
+  }
+  return "(" + re + ")";  // LCM anchors the expression as ^...$: group the alternatives
+}
+
+// LCM's handler: a message into the next free slot with its receive time, then the doorbell.
+void on_message(const lcm_recv_buf_t* rb, const char* channel, void* user) {
+  ChildRing& c = *static_cast<ChildRing*>(user);
+  c.hdr->received.fetch_add(1, std::memory_order_relaxed);
+  // a coopdyn message of this channel's type, or nothing: no ring slot, no decode time
+  bool ours = false;
+  for (const Accept& a : *c.acc)
+    if (rb->data_size >= 8 && std::memcmp(rb->data, a.hash, 8) == 0 && a.channel == channel) ours = true;
+  if (!ours) {
+    c.hdr->filtered.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  const int slots = static_cast<int>(c.hdr->slots), bytes = static_cast<int>(c.hdr->slot_bytes);
+  const uint64_t head = c.hdr->head.load(std::memory_order_relaxed);
+  if (rb->data_size > static_cast<uint32_t>(bytes) || head - c.hdr->tail.load(std::memory_order_acquire) >= static_cast<uint64_t>(slots)) {
+    c.hdr->dropped.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  unsigned char* s = slot_at(c.base, bytes, head, slots);
+  const uint32_t len = rb->data_size;
+  const int64_t t = now_ns();
+  std::memcpy(s, &len, sizeof len);
+  std::memcpy(s + sizeof len, &t, sizeof t);
+  std::memcpy(s + sizeof len + sizeof t, rb->data, len);
+  c.hdr->head.store(head + 1, std::memory_order_release);
+  const uint64_t one = 1;
+  (void)!write(c.event_fd, &one, sizeof one);
+}
+
+// The receive socket (LCM opens it on the first subscribe): its buffer size and the kernel filter,
+// what they came to in the header. Returns the socket, or -1 if it was not found.
+int tune_receive_socket(RxRingHeader* hdr, const char* url, long rcvbuf, const std::vector<Accept>& acc) {
+  const int sock = find_receive_socket(url_port(url));
+  if (sock < 0) {
+    hdr->filter.store(-1);
+    return sock;
+  }
+  if (rcvbuf > 0) {
+    const int want = static_cast<int>(std::min<long>(rcvbuf, 1L << 30));
+    setsockopt(sock, SOL_SOCKET, SO_RCVBUF, &want, sizeof want);
+  }
+  std::vector<sock_filter> prog = build_filter(acc);
+  sock_fprog fp{static_cast<unsigned short>(prog.size()), prog.data()};
+  hdr->filter.store(setsockopt(sock, SOL_SOCKET, SO_ATTACH_FILTER, &fp, sizeof fp) == 0 ? 1 : -2);
+  int got = 0;
+  socklen_t gl = sizeof got;
+  if (getsockopt(sock, SOL_SOCKET, SO_RCVBUF, &got, &gl) == 0) hdr->rcvbuf.store(got);
+  return sock;
+}
+
+// Handles messages until the parent is gone, reading the kernel's drop count now and then.
+void serve(lcm_t* lcm, RxRingHeader* hdr, int sock, pid_t parent) {
+  long long drops_read = 0;
+  while (getppid() == parent) {
+    lcm_handle_timeout(lcm, 100);
+    if (const long long now = now_ns(); now - drops_read > 50000000LL) {  // at most 20 reads per second
+      hdr->socket_drops.store(kernel_drops(sock), std::memory_order_relaxed);
+      drops_read = now;
+    }
+  }
+}
+
 }  // namespace
 
 int rx_child_main(int argc, char** argv) {
@@ -292,97 +401,19 @@ int rx_child_main(int argc, char** argv) {
   const char* url = argv[2];
   const int shm_fd = std::atoi(argv[3]), event_fd = std::atoi(argv[4]);
   const long rcvbuf = std::strtol(argv[5], nullptr, 10);
-  std::vector<Accept> acc;
-  for (int a = 6; a + 1 < argc; a += 2) {
-    Accept x;
-    x.channel = argv[a];
-    const unsigned long long h = std::strtoull(argv[a + 1], nullptr, 16);
-    for (int b = 0; b < 8; ++b) x.hash[b] = static_cast<unsigned char>(h >> (56 - 8 * b));
-    acc.push_back(x);
-  }
-  struct stat st;
-  if (fstat(shm_fd, &st) != 0 || st.st_size < static_cast<off_t>(sizeof(RxRingHeader))) return 3;
-  void* p = mmap(nullptr, static_cast<size_t>(st.st_size), PROT_READ | PROT_WRITE, MAP_SHARED, shm_fd, 0);
-  if (p == MAP_FAILED) return 3;
-  auto* hdr = static_cast<RxRingHeader*>(p);
-  if (hdr->magic != kMagic || ring_size(static_cast<int>(hdr->slots), static_cast<int>(hdr->slot_bytes)) > static_cast<size_t>(st.st_size))
-    return 3;
-  struct Ctx {
-    RxRingHeader* hdr;
-    unsigned char* base;
-    int event_fd;
-    const std::vector<Accept>* acc;
-  } ctx{hdr, static_cast<unsigned char*>(p) + 64 * ((sizeof(RxRingHeader) + 63) / 64), event_fd, &acc};
+  const std::vector<Accept> acc = accepted_from_args(argc, argv);
+  RxRingHeader* hdr = map_ring(shm_fd);
+  if (!hdr) return 3;
+  ChildRing ring{hdr, reinterpret_cast<unsigned char*>(hdr) + 64 * ((sizeof(RxRingHeader) + 63) / 64), event_fd, &acc};
   lcm_t* lcm = lcm_create(url);
   if (!lcm) return 4;
-  // the channels are matched literally: LCM takes a regular expression, so escape them
-  std::string re;
-  for (const Accept& a : acc) {
-    if (!re.empty()) re += '|';
-    for (const char* c = a.channel.c_str(); *c; ++c) {
-      if (std::strchr(".^$|()[]{}*+?\\", *c)) re += '\\';
-      re += *c;
-    }
-  }
-  re = "(" + re + ")";  // LCM anchors the expression as ^...$: group the alternatives
-  lcm_subscription_t* sub = lcm_subscribe(
-      lcm, re.c_str(),
-      [](const lcm_recv_buf_t* rb, const char* channel, void* user) {
-        Ctx& c = *static_cast<Ctx*>(user);
-        c.hdr->received.fetch_add(1, std::memory_order_relaxed);
-        // a coopdyn message of this channel's type, or nothing: no ring slot, no decode time
-        bool ours = false;
-        for (const Accept& a : *c.acc)
-          if (rb->data_size >= 8 && std::memcmp(rb->data, a.hash, 8) == 0 && a.channel == channel) ours = true;
-        if (!ours) {
-          c.hdr->filtered.fetch_add(1, std::memory_order_relaxed);
-          return;
-        }
-        const int slots = static_cast<int>(c.hdr->slots), bytes = static_cast<int>(c.hdr->slot_bytes);
-        const uint64_t head = c.hdr->head.load(std::memory_order_relaxed);
-        if (rb->data_size > static_cast<uint32_t>(bytes) || head - c.hdr->tail.load(std::memory_order_acquire) >= static_cast<uint64_t>(slots)) {
-          c.hdr->dropped.fetch_add(1, std::memory_order_relaxed);
-          return;
-        }
-        unsigned char* s = slot_at(c.base, bytes, head, slots);
-        const uint32_t len = rb->data_size;
-        const int64_t t = now_ns();
-        std::memcpy(s, &len, sizeof len);
-        std::memcpy(s + sizeof len, &t, sizeof t);
-        std::memcpy(s + sizeof len + sizeof t, rb->data, len);
-        c.hdr->head.store(head + 1, std::memory_order_release);
-        const uint64_t one = 1;
-        (void)!write(c.event_fd, &one, sizeof one);
-      },
-      &ctx);
+  lcm_subscription_t* sub = lcm_subscribe(lcm, channel_regex(acc).c_str(), on_message, &ring);
   if (!sub) return 4;
   // LCM drops a message silently when its subscription already queues this many (default 30)
   lcm_subscription_set_queue_capacity(sub, static_cast<int>(hdr->slots));
-  // the receive socket exists now (LCM opens it on the first subscribe): buffer size and filter
-  const int sock = find_receive_socket(url_port(url));
-  if (sock < 0) {
-    hdr->filter.store(-1);
-  } else {
-    if (rcvbuf > 0) {
-      const int want = static_cast<int>(std::min<long>(rcvbuf, 1L << 30));
-      setsockopt(sock, SOL_SOCKET, SO_RCVBUF, &want, sizeof want);
-    }
-    std::vector<sock_filter> prog = build_filter(acc);
-    sock_fprog fp{static_cast<unsigned short>(prog.size()), prog.data()};
-    hdr->filter.store(setsockopt(sock, SOL_SOCKET, SO_ATTACH_FILTER, &fp, sizeof fp) == 0 ? 1 : -2);
-    int got = 0;
-    socklen_t gl = sizeof got;
-    if (getsockopt(sock, SOL_SOCKET, SO_RCVBUF, &got, &gl) == 0) hdr->rcvbuf.store(got);
-  }
+  const int sock = tune_receive_socket(hdr, url, rcvbuf, acc);
   hdr->alive.store(static_cast<uint64_t>(getpid()));
-  long long drops_read = 0;
-  while (getppid() == parent) {
-    lcm_handle_timeout(lcm, 100);
-    if (const long long now = now_ns(); now - drops_read > 50000000LL) {  // at most 20 reads per second
-      hdr->socket_drops.store(kernel_drops(sock), std::memory_order_relaxed);
-      drops_read = now;
-    }
-  }
+  serve(lcm, hdr, sock, parent);
   lcm_destroy(lcm);
   return 0;
 }

@@ -136,6 +136,10 @@ ServiceConfig load_config_string(const std::string& yaml_text, const std::string
 // Re-checks values (after command-line overrides); throws ConfigError.
 void validate(const ServiceConfig& c);
 
+// The table of keys of docs/reference/config.md (key, default, range, meaning), one row per key in
+// the order of the loader; coopdynd --print-config-reference prints it.
+std::string config_reference_markdown();
+
 const char* mode_name(ServiceMode m);
 bool parse_mode(const std::string& s, ServiceMode* m);
 const char* trigger_name(Trigger t);

@@ -159,6 +159,27 @@ void ServiceLoop::handle_control(const io::ControlSlot& c) {
   events_.push({EventCode::kControl, c.seq, static_cast<int64_t>(c.action) * 16 + (static_cast<int64_t>(ctrl_result_) + 1), 0});
 }
 
+// What an input is called this tick and which events its watchdog reports, per mode.
+struct ServiceLoop::InputWatch {
+  io::Input none, expired, fresh;
+  EventCode expired_event, resumed_event;
+};
+const ServiceLoop::InputWatch ServiceLoop::kCommandWatch{io::Input::kNoCommand, io::Input::kCommandExpired,
+                                                         io::Input::kCommand, EventCode::kCommandExpired,
+                                                         EventCode::kCommandResumed};
+const ServiceLoop::InputWatch ServiceLoop::kStateWatch{io::Input::kNoState, io::Input::kStateExpired, io::Input::kState,
+                                                       EventCode::kStateExpired, EventCode::kStateResumed};
+
+namespace {
+
+// An output that carries no evaluation: the status error and why.
+void put_error(io::OutputFrame& f, int16_t reason) {
+  f.valid = false;
+  f.status = static_cast<int8_t>(Status::kError);
+  f.reason = reason;
+}
+}  // namespace
+
 void ServiceLoop::tick(long long now) {
   if (!started_) {
     started_ = true;
@@ -166,167 +187,177 @@ void ServiceLoop::tick(long long now) {
   }
   io::OutputFrame f;
   f.tick = ticks_.load(std::memory_order_relaxed);
+  take_control(f);
+  if (cfg_.mode == ServiceMode::kSimulate) simulate(now, f);
+  else estimate(now, f);
+  publish_output(f);
+}
+
+void ServiceLoop::take_control(io::OutputFrame& f) {
   if (controls_.update()) handle_control(controls_.latest());
   f.paused = paused_;
   f.control_seq = ctrl_seq_;
   f.control_action = ctrl_action_;
   f.control_result = ctrl_result_;
+}
 
-  if (cfg_.mode == ServiceMode::kSimulate) {
-    f.mode = io::Mode::kSimulate;
-    if (commands_.update()) have_cmd_ = true;
-    const io::CommandSlot& c = commands_.latest();
-    io::Input in = !have_cmd_ ? io::Input::kNoCommand
-                   : now - c.recv_ns > watchdog_ns_ ? io::Input::kCommandExpired
-                                                    : io::Input::kCommand;
-    if (in == io::Input::kCommandExpired && !input_expired_) {
-      input_expired_ = true;
-      expired_.fetch_add(1, std::memory_order_relaxed);
-      commands_.note_expired();  // counted here, then the sequence rule may follow a restart
-      events_.push({EventCode::kCommandExpired, c.seq, (now - c.recv_ns) / 1000000, 0});
-    } else if (in == io::Input::kCommand && input_expired_) {
-      input_expired_ = false;
-      events_.push({EventCode::kCommandResumed, c.seq, 0, 0});
-    }
-    last_input_ = in;
-    if (in == io::Input::kCommand) {
-      tau_ = c.tau;
-      for (int k : locks_) set_lock_target(stepper_, k, c.lock_target[k]);
-    } else {
-      safe_torque(q_, v_);
-      // no command, or it expired: every lock holds the scene's q again
-      for (int k : locks_) set_lock_target(stepper_, k, sys_.constraints.specs[static_cast<size_t>(k)].q_target);
-    }
-    f.input = in;
-    f.input_seq = have_cmd_ ? c.seq : -1;
-    f.input_utime = have_cmd_ ? c.utime : -1;
-    f.sim_time = sim_time_;
-    f.tau = &tau_;
-    if (faulted_.load(std::memory_order_relaxed)) {
-      // latched: the state stays where it was last good, nothing is integrated
-      f.valid = false;
-      f.status = static_cast<int8_t>(Status::kError);
-      f.reason = static_cast<int16_t>(fault_reason_);
-      f.q = &q_;
-      f.v = &v_;
-    } else if (paused_) {
-      // paused: nothing is integrated; the outputs are the evaluation at the held state
-      const Diagnostics& d = evaluate(sys_, stepper_.ws, q_, v_, tau_);
-      f.q = &q_;
-      f.v = &v_;
-      f.ws = &stepper_.ws;
-      f.valid = d.status != Status::kError;
-      f.status = static_cast<int8_t>(d.status);
-      f.reason = static_cast<int16_t>(d.reason);
-      if (f.valid) {
-        compute_wrenches(sys_, stepper_.ws, wrenches_);
-        f.wrenches = &wrenches_;
-        closure_residual(sys_.constraints, fit_plan_, stepper_.ws.cd, &closure_);
-        f.closure = &closure_;
-      }
-    } else {
-      q_prev_ = q_;
-      v_prev_ = v_;
-      const Diagnostics& d = step(sys_, stepper_, cfg_.integrator, dt_, tau_, q_, v_);
-      const bool ok = d.status != Status::kError && q_.allFinite() && v_.allFinite();
-      f.q = &q_prev_;
-      f.v = &v_prev_;
-      f.ws = &stepper_.ws;
-      f.valid = ok;
-      if (ok) {
-        compute_wrenches(sys_, stepper_.ws, wrenches_);
-        f.wrenches = &wrenches_;
-        closure_residual(sys_.constraints, fit_plan_, stepper_.ws.cd, &closure_);
-        f.closure = &closure_;
-        f.status = static_cast<int8_t>(d.status);
-        f.reason = static_cast<int16_t>(d.reason);
-        sim_time_ += dt_;
-      } else {
-        q_ = q_prev_;
-        v_ = v_prev_;
-        fault_reason_ = d.status == Status::kError ? d.reason : Reason::kNonFiniteResult;
-        faulted_.store(true, std::memory_order_relaxed);
-        numerical_errors_.fetch_add(1, std::memory_order_relaxed);
-        events_.push({EventCode::kFault, static_cast<int64_t>(fault_reason_), f.tick, sim_time_});
-        f.status = static_cast<int8_t>(Status::kError);
-        f.reason = static_cast<int16_t>(fault_reason_);
-      }
-    }
+// The watchdog: takes the newest input, and says whether there is none yet, it expired or it is
+// fresh; an expiry is counted and reported once, and so is the return of a fresh input.
+template <class Inbox>
+io::Input ServiceLoop::watch_input(Inbox& inbox, bool& have, long long now, const InputWatch& w) {
+  if (inbox.update()) have = true;
+  const auto& x = inbox.latest();
+  const io::Input in = !have ? w.none : now - x.recv_ns > watchdog_ns_ ? w.expired : w.fresh;
+  if (in == w.expired && !input_expired_) {
+    input_expired_ = true;
+    expired_.fetch_add(1, std::memory_order_relaxed);
+    inbox.note_expired();  // counted here, then the sequence rule may follow a restart
+    events_.push({w.expired_event, x.seq, (now - x.recv_ns) / 1000000, 0});
+  } else if (in == w.fresh && input_expired_) {
+    input_expired_ = false;
+    events_.push({w.resumed_event, x.seq, 0, 0});
+  }
+  last_input_ = in;
+  return in;
+}
+
+void ServiceLoop::simulate(long long now, io::OutputFrame& f) {
+  f.mode = io::Mode::kSimulate;
+  const io::Input in = watch_input(commands_, have_cmd_, now, kCommandWatch);
+  const io::CommandSlot& c = commands_.latest();
+  apply_command(in, c);
+  f.input = in;
+  f.input_seq = have_cmd_ ? c.seq : -1;
+  f.input_utime = have_cmd_ ? c.utime : -1;
+  f.sim_time = sim_time_;
+  f.tau = &tau_;
+  if (faulted_.load(std::memory_order_relaxed)) {
+    // latched: the state stays where it was last good, nothing is integrated
+    put_error(f, static_cast<int16_t>(fault_reason_));
+    f.q = &q_;
+    f.v = &v_;
+  } else if (paused_) {
+    evaluate_held(f);
   } else {
-    f.mode = io::Mode::kEstimate;
-    if (states_.update()) have_state_ = true;
-    const io::StateSlot& s = states_.latest();
-    io::Input in = !have_state_ ? io::Input::kNoState
-                   : now - s.recv_ns > watchdog_ns_ ? io::Input::kStateExpired
-                                                    : io::Input::kState;
-    if (in == io::Input::kStateExpired && !input_expired_) {
-      input_expired_ = true;
-      expired_.fetch_add(1, std::memory_order_relaxed);
-      states_.note_expired();
-      events_.push({EventCode::kStateExpired, s.seq, (now - s.recv_ns) / 1000000, 0});
-    } else if (in == io::Input::kState && input_expired_) {
-      input_expired_ = false;
-      events_.push({EventCode::kStateResumed, s.seq, 0, 0});
-    }
-    last_input_ = in;
-    f.input = in;
-    f.input_seq = have_state_ ? s.seq : -1;
-    f.input_utime = have_state_ ? s.utime : -1;
-    f.sim_time = static_cast<double>(now - t0_ns_) * 1e-9;
-    f.q = &s.q;
-    f.v = &s.v;
-    f.tau = &s.tau;
-    if (in == io::Input::kState) {
-      // complete the state (the load's pose and twist from the joints, when omitted) and measure
-      // how well it closes the constraints
-      q_est_ = s.q;
-      v_est_ = s.v;
-      const Closure& cl = fit_state(sys_, fit_plan_, fit_ws_, s.fit_q, s.fit_v, q_est_, v_est_);
-      f.q = &q_est_;
-      f.v = &v_est_;
-      f.closure = &cl;
-      f.measured = &s;
-      f.state_fitted = static_cast<uint8_t>((s.fit_q ? 1 : 0) | (s.fit_v ? 2 : 0));
-      f.fit_iterations = cl.iterations;
-      int over = -1;  // the kind furthest above its tolerance (NaN counts as above)
-      double worst = 1.0;
-      for (int k = 0; k < 4; ++k) {
-        const double ratio = cl.value[k] / cfg_.closure_tolerance[k];
-        if (!(ratio <= worst)) {
-          worst = std::isnan(ratio) ? HUGE_VAL : ratio;
-          over = k;
-        }
-      }
-      if (over >= 0) {
-        // the arms disagree (or the measurement is far from the constraints): no wrenches
-        f.valid = false;
-        f.status = static_cast<int8_t>(Status::kError);
-        f.reason = io::kReasonClosure;
-        closure_rejected_.fetch_add(1, std::memory_order_relaxed);
-        if (!closure_open_)
-          events_.push({EventCode::kClosureOpen, s.seq, static_cast<int64_t>(over) * 65536 + (cl.spec[over] + 1), cl.value[over]});
-        closure_open_ = true;
-      } else {
-        if (closure_open_) events_.push({EventCode::kClosureBack, s.seq, 0, 0});
-        closure_open_ = false;
-        const Diagnostics& d = evaluate(sys_, ws_, q_est_, v_est_, s.tau);
-        f.valid = d.status != Status::kError;
-        f.ws = &ws_;
-        if (f.valid) {
-          compute_wrenches(sys_, ws_, wrenches_);
-          f.wrenches = &wrenches_;
-        }
-        f.status = static_cast<int8_t>(d.status);
-        f.reason = static_cast<int16_t>(d.reason);
-        if (!f.valid) numerical_errors_.fetch_add(1, std::memory_order_relaxed);
-      }
-    } else {
-      f.valid = false;
-      f.status = static_cast<int8_t>(Status::kError);
-      f.reason = in == io::Input::kNoState ? io::kReasonNoState : io::kReasonStateStale;
+    integrate(f);
+  }
+}
+
+// The torque and lock targets of this step: the command's, or without a fresh one the safe torque
+// and the scene's lock targets.
+void ServiceLoop::apply_command(io::Input in, const io::CommandSlot& c) {
+  if (in == io::Input::kCommand) {
+    tau_ = c.tau;
+    for (int k : locks_) set_lock_target(stepper_, k, c.lock_target[k]);
+  } else {
+    safe_torque(q_, v_);
+    // no command, or it expired: every lock holds the scene's q again
+    for (int k : locks_) set_lock_target(stepper_, k, sys_.constraints.specs[static_cast<size_t>(k)].q_target);
+  }
+}
+
+// paused: nothing is integrated; the outputs are the evaluation at the held state
+void ServiceLoop::evaluate_held(io::OutputFrame& f) {
+  const Diagnostics& d = evaluate(sys_, stepper_.ws, q_, v_, tau_);
+  f.q = &q_;
+  f.v = &v_;
+  put_evaluation(f, stepper_.ws, d, d.status != Status::kError);
+  if (f.valid) {
+    closure_residual(sys_.constraints, fit_plan_, stepper_.ws.cd, &closure_);
+    f.closure = &closure_;
+  }
+}
+
+// One step; the outputs are those of its start state. A failed step latches the fault and keeps
+// the start state.
+void ServiceLoop::integrate(io::OutputFrame& f) {
+  q_prev_ = q_;
+  v_prev_ = v_;
+  const Diagnostics& d = step(sys_, stepper_, cfg_.integrator, dt_, tau_, q_, v_);
+  const bool ok = d.status != Status::kError && q_.allFinite() && v_.allFinite();
+  f.q = &q_prev_;
+  f.v = &v_prev_;
+  put_evaluation(f, stepper_.ws, d, ok);
+  if (ok) {
+    closure_residual(sys_.constraints, fit_plan_, stepper_.ws.cd, &closure_);
+    f.closure = &closure_;
+    sim_time_ += dt_;
+    return;
+  }
+  q_ = q_prev_;
+  v_ = v_prev_;
+  fault_reason_ = d.status == Status::kError ? d.reason : Reason::kNonFiniteResult;
+  faulted_.store(true, std::memory_order_relaxed);
+  numerical_errors_.fetch_add(1, std::memory_order_relaxed);
+  events_.push({EventCode::kFault, static_cast<int64_t>(fault_reason_), f.tick, sim_time_});
+  put_error(f, static_cast<int16_t>(fault_reason_));
+}
+
+void ServiceLoop::estimate(long long now, io::OutputFrame& f) {
+  f.mode = io::Mode::kEstimate;
+  const io::Input in = watch_input(states_, have_state_, now, kStateWatch);
+  const io::StateSlot& s = states_.latest();
+  f.input = in;
+  f.input_seq = have_state_ ? s.seq : -1;
+  f.input_utime = have_state_ ? s.utime : -1;
+  f.sim_time = static_cast<double>(now - t0_ns_) * 1e-9;
+  f.q = &s.q;
+  f.v = &s.v;
+  f.tau = &s.tau;
+  if (in == io::Input::kState) evaluate_measured(s, f);
+  else put_error(f, in == io::Input::kNoState ? io::kReasonNoState : io::kReasonStateStale);
+}
+
+// Completes the state (the load's pose and twist from the joints, when omitted), measures how well
+// it closes the constraints, and evaluates it when it closes them within closure_tolerance.
+void ServiceLoop::evaluate_measured(const io::StateSlot& s, io::OutputFrame& f) {
+  q_est_ = s.q;
+  v_est_ = s.v;
+  const Closure& cl = fit_state(sys_, fit_plan_, fit_ws_, s.fit_q, s.fit_v, q_est_, v_est_);
+  f.q = &q_est_;
+  f.v = &v_est_;
+  f.closure = &cl;
+  f.measured = &s;
+  f.state_fitted = static_cast<uint8_t>((s.fit_q ? 1 : 0) | (s.fit_v ? 2 : 0));
+  f.fit_iterations = cl.iterations;
+  int over = -1;  // the kind furthest above its tolerance (NaN counts as above)
+  double worst = 1.0;
+  for (int k = 0; k < 4; ++k) {
+    const double ratio = cl.value[k] / cfg_.closure_tolerance[k];
+    if (!(ratio <= worst)) {
+      worst = std::isnan(ratio) ? HUGE_VAL : ratio;
+      over = k;
     }
   }
+  if (over >= 0) {
+    // the arms disagree (or the measurement is far from the constraints): no wrenches
+    put_error(f, io::kReasonClosure);
+    closure_rejected_.fetch_add(1, std::memory_order_relaxed);
+    if (!closure_open_)
+      events_.push({EventCode::kClosureOpen, s.seq, static_cast<int64_t>(over) * 65536 + (cl.spec[over] + 1), cl.value[over]});
+    closure_open_ = true;
+    return;
+  }
+  if (closure_open_) events_.push({EventCode::kClosureBack, s.seq, 0, 0});
+  closure_open_ = false;
+  const Diagnostics& d = evaluate(sys_, ws_, q_est_, v_est_, s.tau);
+  put_evaluation(f, ws_, d, d.status != Status::kError);
+  if (!f.valid) numerical_errors_.fetch_add(1, std::memory_order_relaxed);
+}
 
+// The frame's evaluation: its workspace, status and reason, and when it succeeded (ok) the
+// scene's wrenches of it.
+void ServiceLoop::put_evaluation(io::OutputFrame& f, Workspace& ws, const Diagnostics& d, bool ok) {
+  f.ws = &ws;
+  f.valid = ok;
+  f.status = static_cast<int8_t>(d.status);
+  f.reason = static_cast<int16_t>(d.reason);
+  if (!ok) return;
+  compute_wrenches(sys_, ws, wrenches_);
+  f.wrenches = &wrenches_;
+}
+
+void ServiceLoop::publish_output(io::OutputFrame& f) {
   f.utime = io::wall_us();
   bool sanitized = false;
   const int len = out_enc_.encode(f, out_buf_.data(), static_cast<int>(out_buf_.size()), &sanitized);

@@ -104,6 +104,22 @@ class ServiceLoop {
   io::StatsFrame totals() const;
 
  private:
+  // The stages of tick(): inputs -> simulate or estimate -> publish. Each stage fills its part of
+  // the output frame f.
+  struct InputWatch;  // what one kind of input is called when none, expired or fresh (.cc)
+  static const InputWatch kCommandWatch, kStateWatch;
+  template <class Inbox>
+  io::Input watch_input(Inbox& inbox, bool& have, long long now, const InputWatch& w);
+  void take_control(io::OutputFrame& f);
+  void simulate(long long now, io::OutputFrame& f);
+  void estimate(long long now, io::OutputFrame& f);
+  void apply_command(io::Input in, const io::CommandSlot& c);
+  void integrate(io::OutputFrame& f);
+  void evaluate_held(io::OutputFrame& f);
+  void evaluate_measured(const io::StateSlot& s, io::OutputFrame& f);
+  void put_evaluation(io::OutputFrame& f, Workspace& ws, const Diagnostics& d, bool ok);
+  void publish_output(io::OutputFrame& f);
+
   void safe_torque(const Eigen::VectorXd& q, const Eigen::VectorXd& v);
   void handle_control(const io::ControlSlot& c);
   void publish_stats();
