@@ -118,6 +118,33 @@ class CsvLine {
   size_t n_ = 0;
 };
 
+// n numbers of a source, read where they are (an Eigen vector, a std::vector; wrenches: 6 each, the
+// wrenches laid end to end as in a std::vector<Vec6>): a row copies nothing.
+struct CsvNumbers {
+  const double* data = nullptr;
+  size_t size = 0;
+};
+
+// One step's values in the order of shared_step_columns, whatever computed them (a simulated step,
+// a daemon's output_t).
+struct StepRow {
+  double t = 0;
+  CsvNumbers q, v, tau, vdot, wrenches, stress;  // wrenches: mx my mz fx fy fz of each
+  // per contact: friction needed, utilisation (contact_state.size() of each) and the state's word
+  const double* friction_needed = nullptr;
+  const double* utilisation = nullptr;
+  std::vector<const char*> contact_state;  // sized by the caller once per layout (no allocation per row)
+  const char* status = "";
+  const char* reason = "";
+  long long rows = 0, rank = 0, indeterminate = 0;
+  double condition = 0;  // -1: infinite, as output_t
+  double residual = 0;
+};
+
+// Starts line l with the shared cells of row r (t ... residual); the caller appends the columns of
+// its own source (l.sep() before each), then l.end().
+void write_step_cells(CsvLine& l, const StepRow& r);
+
 // The cells of one CSV line (no quoting: the schema's names and values hold no comma); a trailing
 // comma gives a last empty cell.
 std::vector<std::string> split_csv_line(const std::string& s);
