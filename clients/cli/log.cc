@@ -119,35 +119,6 @@ void add_log_columns(const StepSchema& s, CsvColumns* c) {
   for (const auto& w : s.wrenches) c->add(w.name + ".indeterminate_mask", "bits");
 }
 
-template <class V>
-CsvNumbers numbers(const V& x) {
-  return {x.data(), x.size()};
-}
-
-// The shared cells of an output_t (its contact states as words, in r's buffer).
-void step_row_of_output(const io::DecodedOutput& o, StepRow* r) {
-  static_assert(sizeof(o.wrench[0]) == 6 * sizeof(double), "the wrenches read as one array of numbers");
-  r->t = o.sim_time;
-  r->q = numbers(o.q);
-  r->v = numbers(o.v);
-  r->tau = numbers(o.tau);
-  r->vdot = numbers(o.vdot);
-  r->wrenches = {o.wrench.empty() ? nullptr : o.wrench.front().data(), 6 * o.wrench.size()};
-  r->stress = numbers(o.stress);
-  r->friction_needed = o.contact_friction_needed.data();
-  r->utilisation = o.contact_utilisation.data();
-  r->contact_state.resize(o.contact_names.size());  // a channel's layout is fixed: no allocation after its first row
-  for (size_t k = 0; k < o.contact_names.size(); ++k)
-    r->contact_state[k] = contact_state_name(static_cast<ContactState>(o.contact_state[k]));
-  r->status = o.status >= 0 && o.status <= 2 ? status_name(static_cast<Status>(o.status)) : "unknown";
-  r->reason = reason_key(o.reason);
-  r->rows = o.rows;
-  r->rank = o.rank;
-  r->indeterminate = o.indeterminate;
-  r->condition = o.condition;
-  r->residual = o.residual;
-}
-
 // The cells of the columns only a daemon has (add_log_columns), after the shared ones.
 void write_log_cells(CsvLine& l, const io::DecodedOutput& o, double log_time) {
   l.sep(), l.num(log_time);
@@ -169,6 +140,29 @@ void write_log_cells(CsvLine& l, const io::DecodedOutput& o, double log_time) {
     if (c >= 0 && c < static_cast<int>(o.constraint_names.size())) l.text(o.constraint_names[static_cast<size_t>(c)].c_str());
   }
   for (int m : o.indeterminate_mask) l.sep(), l.integer(m);
+}
+
+// The shared cells of an output_t (its contact states as words, in r's buffer).
+void step_row_of_output(const io::DecodedOutput& o, StepRow* r) {
+  r->t = o.sim_time;
+  r->q = csv_numbers(o.q);
+  r->v = csv_numbers(o.v);
+  r->tau = csv_numbers(o.tau);
+  r->vdot = csv_numbers(o.vdot);
+  r->wrenches = csv_wrenches(o.wrench);
+  r->stress = csv_numbers(o.stress);
+  r->friction_needed = o.contact_friction_needed.data();
+  r->utilisation = o.contact_utilisation.data();
+  r->contact_state.resize(o.contact_names.size());  // a channel's layout is fixed: no allocation after its first row
+  for (size_t k = 0; k < o.contact_names.size(); ++k)
+    r->contact_state[k] = contact_state_name(static_cast<ContactState>(o.contact_state[k]));
+  r->status = o.status >= 0 && o.status <= 2 ? status_name(static_cast<Status>(o.status)) : "unknown";
+  r->reason = reason_key(o.reason);
+  r->rows = o.rows;
+  r->rank = o.rank;
+  r->indeterminate = o.indeterminate;
+  r->condition = o.condition;
+  r->residual = o.residual;
 }
 
 void write_output_row(CsvLine& l, StepRow& r, const io::DecodedOutput& o, double log_time, std::FILE* f) {

@@ -89,22 +89,19 @@ void say_contact_changes(const System& sys, double t, SimRun& r) {
   }
 }
 
-CsvNumbers numbers(const Eigen::VectorXd& x) { return {x.data(), static_cast<size_t>(x.size())}; }
-
 // The row of the step that started at t from the state before it (the wrenches are computed here:
 // only for the rows written), then position_error.
 void write_sim_row(const System& sys, double t, const Diagnostics& d, SimRun& r, std::FILE* out) {
-  static_assert(sizeof(Vec6) == 6 * sizeof(double), "the wrenches read as one array of numbers");
   const Workspace& ws = r.st.ws;
   compute_wrenches(sys, ws, r.wd);
   StepRow& row = r.row;
   row.t = t;
-  row.q = numbers(r.q_prev);
-  row.v = numbers(r.v_prev);
-  row.tau = numbers(r.tau);
-  row.vdot = numbers(ws.vdot);
-  row.wrenches = {r.wd.W.empty() ? nullptr : r.wd.W.front().data(), 6 * r.wd.W.size()};
-  row.stress = numbers(ws.stress);
+  row.q = csv_numbers(r.q_prev);
+  row.v = csv_numbers(r.v_prev);
+  row.tau = csv_numbers(r.tau);
+  row.vdot = csv_numbers(ws.vdot);
+  row.wrenches = csv_wrenches(r.wd.W);
+  row.stress = csv_numbers(ws.stress);
   row.friction_needed = r.cts.friction_needed.data();
   row.utilisation = r.cts.utilisation.data();
   for (size_t k = 0; k < r.cts.spec.size(); ++k) row.contact_state[k] = contact_state_name(r.cts.state[k]);

@@ -11,8 +11,9 @@
 //
 // Names are the scene's (coordinates, wrench outputs, contacts), never positions; codes are words
 // (status ok, reason none, input command, ...); numbers are shortest round-trip (std::to_chars).
-// Readers skip the leading '#' lines (pandas: comment='#'); read_step_csv_header() returns the
-// names with their units.
+// Writers: write_step_csv_header() the header, write_step_cells() each row's shared cells, then the
+// source's own. Readers skip the leading '#' lines (pandas: comment='#'); read_step_csv_header()
+// returns the names with their units, split_csv_line() a row's cells.
 #pragma once
 
 #include <charconv>
@@ -124,6 +125,15 @@ struct CsvNumbers {
   const double* data = nullptr;
   size_t size = 0;
 };
+template <class V>  // std::vector<double>, Eigen::VectorXd
+CsvNumbers csv_numbers(const V& x) {
+  return {x.data(), static_cast<size_t>(x.size())};
+}
+template <class W>  // std::vector<Vec6>, std::vector<std::array<double, 6>>
+CsvNumbers csv_wrenches(const std::vector<W>& w) {
+  static_assert(sizeof(W) == 6 * sizeof(double), "a wrench is six numbers, the wrenches end to end");
+  return {w.empty() ? nullptr : w.front().data(), 6 * w.size()};
+}
 
 // One step's values in the order of shared_step_columns, whatever computed them (a simulated step,
 // a daemon's output_t).
