@@ -8,10 +8,11 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <mutex>
-#include <sstream>
 #include <thread>
 
 #include <unistd.h>
@@ -30,15 +31,6 @@ using namespace std::chrono_literals;
 
 namespace {
 
-std::vector<std::string> split(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  std::string c;
-  while (std::getline(ss, c, ',')) out.push_back(c);
-  if (!s.empty() && s.back() == ',') out.emplace_back();
-  return out;
-}
-
 struct Table {
   cli::CsvHeader h;
   std::vector<std::vector<std::string>> rows;
@@ -52,7 +44,7 @@ Table read_table(const std::string& path) {
   std::ifstream f(path);
   std::string err;
   EXPECT_TRUE(cli::read_step_csv_header(f, path, &t.h, &err)) << err;
-  for (std::string line; std::getline(f, line);) t.rows.push_back(split(line));
+  for (std::string line; std::getline(f, line);) t.rows.push_back(cli::split_csv_line(line));
   for (const auto& r : t.rows) EXPECT_EQ(r.size(), t.h.names.size()) << path;
   return t;
 }
@@ -263,4 +255,47 @@ TEST(StepCsv, UnitsLineRoundTrips) {
   EXPECT_FALSE(cli::read_step_csv_header(bad, path, &h, &err));
   EXPECT_EQ(err, path + ":1: 2 units for 3 columns");
   std::remove(path.c_str());
+}
+
+// A row's shared cells are one per shared column, in their order: numbers shortest round-trip,
+// the codes as the words given, a contact's three cells together.
+TEST(StepCsv, RowCellsFollowTheSharedColumns) {
+  cli::StepSchema s;
+  std::string err;
+  ASSERT_TRUE(cli::step_schema_from_names("s", {"a", "b"}, {"a"}, {"W"}, {0}, {"world"}, {"x"}, {"a"}, {"c"}, nullptr, &s, &err))
+      << err;
+  const cli::CsvColumns cols = cli::shared_step_columns(s);
+  const double q[2] = {1, 2}, v[1] = {3}, tau[1] = {4}, vdot[1] = {5}, w[6] = {6, 7, 8, 9, 10, 11}, stress[1] = {12};
+  const double friction_needed[1] = {0.5}, utilisation[1] = {0.25};
+  cli::StepRow r;
+  r.t = 0.125;
+  r.q = {q, 2};
+  r.v = {v, 1};
+  r.tau = {tau, 1};
+  r.vdot = {vdot, 1};
+  r.wrenches = {w, 6};
+  r.stress = {stress, 1};
+  r.friction_needed = friction_needed;
+  r.utilisation = utilisation;
+  r.contact_state = {"slip"};
+  r.status = "ok";
+  r.reason = "none";
+  r.rows = 3;
+  r.rank = 2;
+  r.indeterminate = 1;
+  r.condition = -1;
+  r.residual = 1e-9;
+  cli::CsvLine line(cols.names.size());
+  cli::write_step_cells(line, r);
+  line.sep(), line.text("own");  // a source's own column after the shared ones
+  line.end();
+  char* buf = nullptr;
+  size_t n = 0;
+  std::FILE* f = open_memstream(&buf, &n);
+  line.write(f);
+  std::fclose(f);
+  const std::string text(buf, n);
+  std::free(buf);
+  EXPECT_EQ(text, "0.125,1,2,3,4,5,6,7,8,9,10,11,12,0.5,0.25,slip,ok,none,3,2,1,-1,1e-09,own\n");
+  EXPECT_EQ(cli::split_csv_line(text.substr(0, text.size() - 1)).size(), cols.names.size() + 1);
 }

@@ -119,26 +119,8 @@ void add_log_columns(const StepSchema& s, CsvColumns* c) {
   for (const auto& w : s.wrenches) c->add(w.name + ".indeterminate_mask", "bits");
 }
 
-void write_output_row(CsvLine& l, const io::DecodedOutput& o, double log_time, std::FILE* f) {
-  l.clear();
-  l.num(o.sim_time);
-  for (const auto* x : {&o.q, &o.v, &o.tau, &o.vdot})
-    for (double y : *x) l.sep(), l.num(y);
-  for (const auto& w : o.wrench)
-    for (double y : w) l.sep(), l.num(y);
-  for (double y : o.stress) l.sep(), l.num(y);
-  for (size_t k = 0; k < o.contact_names.size(); ++k) {
-    l.sep(), l.num(o.contact_friction_needed[k]);
-    l.sep(), l.num(o.contact_utilisation[k]);
-    l.sep(), l.text(contact_state_name(static_cast<ContactState>(o.contact_state[k])));
-  }
-  l.sep(), l.text(o.status >= 0 && o.status <= 2 ? status_name(static_cast<Status>(o.status)) : "unknown");
-  l.sep(), l.text(reason_key(o.reason));
-  l.sep(), l.integer(o.rows);
-  l.sep(), l.integer(o.rank);
-  l.sep(), l.integer(o.indeterminate);
-  l.sep(), l.num(o.condition);
-  l.sep(), l.num(o.residual);
+// The cells of the columns only a daemon has (add_log_columns), after the shared ones.
+void write_log_cells(CsvLine& l, const io::DecodedOutput& o, double log_time) {
   l.sep(), l.num(log_time);
   l.sep(), l.integer(o.utime);
   l.sep(), l.integer(o.tick);
@@ -158,6 +140,35 @@ void write_output_row(CsvLine& l, const io::DecodedOutput& o, double log_time, s
     if (c >= 0 && c < static_cast<int>(o.constraint_names.size())) l.text(o.constraint_names[static_cast<size_t>(c)].c_str());
   }
   for (int m : o.indeterminate_mask) l.sep(), l.integer(m);
+}
+
+// The shared cells of an output_t (its contact states as words, in r's buffer).
+void step_row_of_output(const io::DecodedOutput& o, StepRow* r) {
+  r->t = o.sim_time;
+  r->q = csv_numbers(o.q);
+  r->v = csv_numbers(o.v);
+  r->tau = csv_numbers(o.tau);
+  r->vdot = csv_numbers(o.vdot);
+  r->wrenches = csv_wrenches(o.wrench);
+  r->stress = csv_numbers(o.stress);
+  r->friction_needed = o.contact_friction_needed.data();
+  r->utilisation = o.contact_utilisation.data();
+  r->contact_state.resize(o.contact_names.size());  // a channel's layout is fixed: no allocation after its first row
+  for (size_t k = 0; k < o.contact_names.size(); ++k)
+    r->contact_state[k] = contact_state_name(static_cast<ContactState>(o.contact_state[k]));
+  r->status = o.status >= 0 && o.status <= 2 ? status_name(static_cast<Status>(o.status)) : "unknown";
+  r->reason = reason_key(o.reason);
+  r->rows = o.rows;
+  r->rank = o.rank;
+  r->indeterminate = o.indeterminate;
+  r->condition = o.condition;
+  r->residual = o.residual;
+}
+
+void write_output_row(CsvLine& l, StepRow& r, const io::DecodedOutput& o, double log_time, std::FILE* f) {
+  step_row_of_output(o, &r);
+  write_step_cells(l, r);
+  write_log_cells(l, o, log_time);
   l.end();
   l.write(f);
 }
@@ -188,6 +199,195 @@ int plot(const Args& a, const std::string& out, const std::string& steps_csv, co
 
 bool ends_with(const std::string& s, const std::string& x) {
   return s.size() >= x.size() && s.compare(s.size() - x.size(), x.size(), x) == 0;
+}
+
+// --in FILE.csv: true when it reads as a per-step CSV, else false, the reason printed.
+bool is_step_csv(const std::string& in) {
+  std::ifstream f(in);
+  CsvHeader h;
+  std::string err;
+  if (!f || !read_step_csv_header(f, in, &h, &err)) {
+    std::fprintf(stderr, "coopdyn log: %s\n", f ? err.c_str() : ("cannot read '" + in + "'").c_str());
+    return false;
+  }
+  if (h.names.empty() || h.names[0] != "t" || h.units.empty()) {
+    std::fprintf(stderr, "coopdyn log: %s:%d: not a per-step CSV (expected a '# units:' line and t first)\n", in.c_str(),
+                 h.line_no);
+    return false;
+  }
+  return true;
+}
+
+// The scene's names for the channels that may come before the first output (commands without
+// names): from --scene, else from the log's first output_t; null when neither has them.
+std::unique_ptr<StepSchema> names_for_commands(const std::string& in, const System* sys) {
+  if (sys) return std::make_unique<StepSchema>(step_schema(*sys, "log"));
+  std::unique_ptr<StepSchema> names;
+  io::DecodedOutput o;
+  read_lcm_log(in, [&](const LogMessage& ev) {
+    if (ev.type != io::MessageType::kOutput || !io::decode_output(ev.data, ev.len, &o)) return true;
+    names = std::make_unique<StepSchema>();
+    std::string err;
+    step_schema_from_names("", o.q_names, o.v_names, o.wrench_names, o.wrench_kind, o.wrench_frames, o.wrench_by,
+                           o.stress_names, o.contact_names, nullptr, names.get(), &err);
+    return false;
+  });
+  return names;
+}
+
+double file_size(const std::string& path) {
+  struct stat st{};
+  stat(path.c_str(), &st);
+  return static_cast<double>(st.st_size);
+}
+
+// The log's conversion, message by message: each channel's CSV and counts.
+struct Conversion {
+  Conversion(const std::string& in_, const std::string& out_, const System* sys_, const StepSchema* names_)
+      : in(in_), out(out_), sys(sys_), names(names_), total_bytes(file_size(in_)) {}
+  std::string in, out;
+  const System* sys;        // --scene, or null
+  const StepSchema* names;  // names_for_commands, or null
+  double total_bytes;       // the log's size (progress)
+  double bytes = 0;
+  long messages = 0;
+  std::map<std::string, Channel> chans;
+  int64_t t_first = -1;
+  bool made_dir = false, write_failed = false;
+  std::string failure;
+  std::string header, row;  // io::to_csv's, of the last message
+  io::DecodedOutput o;
+  StepRow step;
+  std::unique_ptr<CsvLine> line;  // sized by the output_t channel's columns
+
+  bool fail(const std::string& why) {  // stops the reading
+    failure = why;
+    write_failed = true;
+    return false;
+  }
+};
+
+void report_progress(Progress& progress, Conversion& cv, const LogMessage& ev) {
+  cv.bytes += 28.0 + static_cast<double>(ev.channel.size()) + ev.len;  // an event's header, channel and data
+  if (!progress.on() || (++cv.messages & 255) != 0) return;
+  const double frac = cv.total_bytes > 0 ? std::min(1.0, cv.bytes / cv.total_bytes) : 1.0;
+  char what[96];
+  std::snprintf(what, sizeof what, "%ld messages (%.0f %% of the log)", cv.messages, 100 * frac);
+  progress.report(frac, what);
+}
+
+Channel& count_message(Conversion& cv, const LogMessage& ev) {
+  if (cv.t_first < 0) cv.t_first = ev.timestamp_us;
+  Channel& c = cv.chans[ev.channel];
+  if (c.count == 0) {
+    c.first_us = ev.timestamp_us;
+    c.type = ev.type;
+  }
+  ++c.count;
+  c.last_us = ev.timestamp_us;
+  return c;
+}
+
+bool open_csv(Conversion& cv, Channel& c, const std::string& channel) {
+  c.path = cv.out + "/" + channel + ".csv";
+  c.f = std::fopen(c.path.c_str(), "w");
+  if (!c.f) return cv.fail("cannot write '" + c.path + "'");
+  return true;
+}
+
+// The output_t channel's CSV from its first output: the schema of its names (the scene's, with
+// --scene), the header, the row buffer.
+bool start_output_csv(Conversion& cv, Channel& c, const std::string& channel) {
+  const io::DecodedOutput& o = cv.o;
+  StepSchema s;
+  std::string err;
+  if (!step_schema_from_names(cv.sys ? cv.sys->name : "", o.q_names, o.v_names, o.wrench_names, o.wrench_kind, o.wrench_frames,
+                              o.wrench_by, o.stress_names, o.contact_names, cv.sys, &s, &err))
+    return cv.fail(cv.in + ": channel " + channel + ": " + err);
+  if (s.scene.empty()) s.scene = "(not in the log; --scene names it)";
+  if (!open_csv(cv, c, channel)) return false;
+  CsvColumns cols = shared_step_columns(s);
+  add_log_columns(s, &cols);
+  write_step_csv_header(c.f, s, cols);
+  cv.line = std::make_unique<CsvLine>(cols.names.size());
+  c.q_names = o.q_names, c.v_names = o.v_names, c.wrench_names = o.wrench_names;
+  c.stress_names = o.stress_names, c.contact_names = o.contact_names;
+  return true;
+}
+
+bool convert_output(Conversion& cv, Channel& c, const LogMessage& ev, double log_time) {
+  const io::DecodedOutput& o = cv.o;
+  if (!io::decode_output(ev.data, ev.len, &cv.o)) {
+    ++c.bad;
+    return true;
+  }
+  if (!c.f) {
+    if (!start_output_csv(cv, c, ev.channel)) return false;
+  } else if (o.q_names != c.q_names || o.v_names != c.v_names || o.wrench_names != c.wrench_names ||
+             o.stress_names != c.stress_names || o.contact_names != c.contact_names) {
+    ++c.bad;  // a different scene mid-log: its rows do not fit these columns
+    return true;
+  }
+  write_output_row(*cv.line, cv.step, o, log_time, c.f);
+  return true;
+}
+
+// Any other coopdyn type: io::to_csv's row after log_time, control_t's action as a word.
+bool convert_other(Conversion& cv, Channel& c, const LogMessage& ev, double log_time) {
+  if (!io::to_csv(c.type, ev.data, ev.len, &cv.header, &cv.row)) {
+    ++c.bad;
+    return true;
+  }
+  if (!c.f) {
+    if (!open_csv(cv, c, ev.channel)) return false;
+    c.header = cv.header;
+    write_header(c.f, ev.channel + " (" + io::type_name(c.type) + ")", other_columns(c.type, cv.header, cv.names, &c.action_col));
+  }
+  if (cv.header != c.header) {  // a different scene mid-log: its rows do not fit these columns
+    ++c.bad;
+    return true;
+  }
+  std::string& row = cv.row;
+  if (c.action_col >= 0) {
+    std::vector<std::string> cells = split_csv_line(row);
+    cells[static_cast<size_t>(c.action_col)] = control_action_key(std::atoi(cells[static_cast<size_t>(c.action_col)].c_str()));
+    row.clear();
+    for (size_t k = 0; k < cells.size(); ++k) row += (k ? "," : "") + cells[k];
+  }
+  char lt[32];
+  *std::to_chars(lt, lt + sizeof lt - 1, log_time).ptr = 0;
+  std::fprintf(c.f, "%s,%s\n", lt, row.c_str());
+  return true;
+}
+
+// One message of the log; false stops the reading (a write failed).
+bool convert_message(Conversion& cv, Progress& progress, const LogMessage& ev) {
+  if (!cv.made_dir) {  // once the log reads: a missing log makes no directory
+    cv.made_dir = true;
+    if (mkdir(cv.out.c_str(), 0755) != 0 && errno != EEXIST) return cv.fail("cannot create directory '" + cv.out + "'");
+  }
+  report_progress(progress, cv, ev);
+  Channel& c = count_message(cv, ev);
+  const double log_time = static_cast<double>(ev.timestamp_us - cv.t_first) * 1e-6;
+  if (c.type == io::MessageType::kUnknown) return true;
+  if (c.type == io::MessageType::kOutput) return convert_output(cv, c, ev, log_time);
+  return convert_other(cv, c, ev, log_time);
+}
+
+// The table of channels (type, count, rate, CSV), closing the CSVs; the first output_t and
+// loop_stats_t CSVs for the plotter.
+void print_summary(std::map<std::string, Channel>& chans, std::string* out_csv, std::string* stats_csv) {
+  std::printf("%-20s %-26s %9s %10s  %s\n", "channel", "type", "messages", "rate_hz", "csv");
+  for (auto& [name, c] : chans) {
+    if (c.f) std::fclose(c.f);
+    const double span = static_cast<double>(c.last_us - c.first_us) * 1e-6;
+    const double rate = c.count > 1 && span > 0 ? static_cast<double>(c.count - 1) / span : 0.0;
+    std::printf("%-20s %-26s %9ld %10.1f  %s\n", name.c_str(), io::type_name(c.type), c.count, rate,
+                c.path.empty() ? "-" : c.path.c_str());
+    if (c.bad) std::printf("  (%ld messages of %s did not decode or changed layout; skipped)\n", c.bad, name.c_str());
+    if (c.type == io::MessageType::kOutput && out_csv->empty()) *out_csv = c.path;
+    if (c.type == io::MessageType::kLoopStats && stats_csv->empty()) *stats_csv = c.path;
+  }
 }
 }  // namespace
 
@@ -221,18 +421,7 @@ int cmd_log(const Args& a) {
     out += "_csv";
   }
   if (ends_with(in, ".csv")) {  // a per-step CSV: plots only
-    std::ifstream f(in);
-    CsvHeader h;
-    std::string err;
-    if (!f || !read_step_csv_header(f, in, &h, &err)) {
-      std::fprintf(stderr, "coopdyn log: %s\n", f ? err.c_str() : ("cannot read '" + in + "'").c_str());
-      return 1;
-    }
-    if (h.names.empty() || h.names[0] != "t" || h.units.empty()) {
-      std::fprintf(stderr, "coopdyn log: %s:%d: not a per-step CSV (expected a '# units:' line and t first)\n", in.c_str(),
-                   h.line_no);
-      return 1;
-    }
+    if (!is_step_csv(in)) return 1;
     if (a.has("no-plot")) return 0;
     if (mkdir(out.c_str(), 0755) != 0 && errno != EEXIST) {
       std::fprintf(stderr, "coopdyn log: cannot create directory '%s'\n", out.c_str());
@@ -245,151 +434,30 @@ int cmd_log(const Args& a) {
     sys = std::make_unique<System>();
     if (const int rc = load_cli_scene(a, "log", sys.get())) return rc;
   }
-  // the scene's names for the channels that may come before the first output (commands without
-  // names): from --scene, else from the log's first output_t
   std::unique_ptr<StepSchema> names;
-  io::DecodedOutput o;
   try {
-    if (sys) names = std::make_unique<StepSchema>(step_schema(*sys, "log"));
-    else
-      read_lcm_log(in, [&](const LogMessage& ev) {
-        if (ev.type != io::MessageType::kOutput || !io::decode_output(ev.data, ev.len, &o)) return true;
-        names = std::make_unique<StepSchema>();
-        std::string err;
-        step_schema_from_names("", o.q_names, o.v_names, o.wrench_names, o.wrench_kind, o.wrench_frames, o.wrench_by,
-                               o.stress_names, o.contact_names, nullptr, names.get(), &err);
-        return false;
-      });
+    names = names_for_commands(in, sys.get());
   } catch (const std::runtime_error& e) {
     std::fprintf(stderr, "coopdyn log: %s\n", e.what());
     return 1;
   }
-  struct stat st_in{};
-  stat(in.c_str(), &st_in);
-  const double total_bytes = static_cast<double>(st_in.st_size);
+  Conversion cv(in, out, sys.get(), names.get());
   Progress progress("coopdyn log", a.has("progress"));
-  double bytes = 0;
-  long messages = 0;
-
-  std::map<std::string, Channel> chans;
-  int64_t t_first = -1;
-  std::string header, row;
-  bool made_dir = false, write_failed = false;
-  std::string failure;
-  std::unique_ptr<CsvLine> line;
   try {
-    read_lcm_log(in, [&](const LogMessage& ev) {
-      if (!made_dir) {  // once the log reads: a missing log makes no directory
-        made_dir = true;
-        if (mkdir(out.c_str(), 0755) != 0 && errno != EEXIST) {
-          failure = "cannot create directory '" + out + "'";
-          write_failed = true;
-          return false;
-        }
-      }
-      bytes += 28.0 + static_cast<double>(ev.channel.size()) + ev.len;  // an event's header, channel and data
-      if (progress.on() && (++messages & 255) == 0) {
-        const double frac = total_bytes > 0 ? std::min(1.0, bytes / total_bytes) : 1.0;
-        char what[96];
-        std::snprintf(what, sizeof what, "%ld messages (%.0f %% of the log)", messages, 100 * frac);
-        progress.report(frac, what);
-      }
-      if (t_first < 0) t_first = ev.timestamp_us;
-      Channel& c = chans[ev.channel];
-      if (c.count == 0) {
-        c.first_us = ev.timestamp_us;
-        c.type = ev.type;
-      }
-      ++c.count;
-      c.last_us = ev.timestamp_us;
-      const double log_time = static_cast<double>(ev.timestamp_us - t_first) * 1e-6;
-      auto open = [&]() {
-        c.path = out + "/" + ev.channel + ".csv";
-        c.f = std::fopen(c.path.c_str(), "w");
-        if (!c.f) {
-          failure = "cannot write '" + c.path + "'";
-          write_failed = true;
-        }
-        return c.f != nullptr;
-      };
-      if (c.type == io::MessageType::kUnknown) return true;
-      if (c.type == io::MessageType::kOutput) {
-        if (!io::decode_output(ev.data, ev.len, &o)) {
-          ++c.bad;
-          return true;
-        }
-        if (!c.f) {
-          StepSchema s;
-          std::string err;
-          if (!step_schema_from_names(sys ? sys->name : "", o.q_names, o.v_names, o.wrench_names, o.wrench_kind, o.wrench_frames,
-                                      o.wrench_by, o.stress_names, o.contact_names, sys.get(), &s, &err)) {
-            failure = in + ": channel " + ev.channel + ": " + err;
-            write_failed = true;
-            return false;
-          }
-          if (s.scene.empty()) s.scene = "(not in the log; --scene names it)";
-          if (!open()) return false;
-          CsvColumns cols = shared_step_columns(s);
-          add_log_columns(s, &cols);
-          write_step_csv_header(c.f, s, cols);
-          line = std::make_unique<CsvLine>(cols.names.size());
-          c.q_names = o.q_names, c.v_names = o.v_names, c.wrench_names = o.wrench_names;
-          c.stress_names = o.stress_names, c.contact_names = o.contact_names;
-        } else if (o.q_names != c.q_names || o.v_names != c.v_names || o.wrench_names != c.wrench_names ||
-                   o.stress_names != c.stress_names || o.contact_names != c.contact_names) {
-          ++c.bad;  // a different scene mid-log: its rows do not fit these columns
-          return true;
-        }
-        write_output_row(*line, o, log_time, c.f);
-        return true;
-      }
-      if (!io::to_csv(c.type, ev.data, ev.len, &header, &row)) {
-        ++c.bad;
-        return true;
-      }
-      if (!c.f) {
-        if (!open()) return false;
-        c.header = header;
-        write_header(c.f, ev.channel + " (" + io::type_name(c.type) + ")", other_columns(c.type, header, names.get(), &c.action_col));
-      }
-      if (header != c.header) {  // a different scene mid-log: its rows do not fit these columns
-        ++c.bad;
-        return true;
-      }
-      if (c.action_col >= 0) {  // control_t's action as a word
-        std::vector<std::string> cells = split_csv_line(row);
-        cells[static_cast<size_t>(c.action_col)] = control_action_key(std::atoi(cells[static_cast<size_t>(c.action_col)].c_str()));
-        row.clear();
-        for (size_t k = 0; k < cells.size(); ++k) row += (k ? "," : "") + cells[k];
-      }
-      char lt[32];
-      *std::to_chars(lt, lt + sizeof lt - 1, log_time).ptr = 0;
-      std::fprintf(c.f, "%s,%s\n", lt, row.c_str());
-      return true;
-    });
+    read_lcm_log(in, [&](const LogMessage& ev) { return convert_message(cv, progress, ev); });
   } catch (const std::runtime_error& e) {
     std::fprintf(stderr, "coopdyn log: %s\n", e.what());
     return 1;
   }
-  progress.done(std::to_string(messages) + " messages");
-  if (write_failed) {
-    std::fprintf(stderr, "coopdyn log: %s\n", failure.c_str());
-    for (auto& [name, c] : chans)
+  progress.done(std::to_string(cv.messages) + " messages");
+  if (cv.write_failed) {
+    std::fprintf(stderr, "coopdyn log: %s\n", cv.failure.c_str());
+    for (auto& [name, c] : cv.chans)
       if (c.f) std::fclose(c.f);
     return 1;
   }
-  std::printf("%-20s %-26s %9s %10s  %s\n", "channel", "type", "messages", "rate_hz", "csv");
   std::string out_csv, stats_csv;
-  for (auto& [name, c] : chans) {
-    if (c.f) std::fclose(c.f);
-    const double span = static_cast<double>(c.last_us - c.first_us) * 1e-6;
-    const double rate = c.count > 1 && span > 0 ? static_cast<double>(c.count - 1) / span : 0.0;
-    std::printf("%-20s %-26s %9ld %10.1f  %s\n", name.c_str(), io::type_name(c.type), c.count, rate,
-                c.path.empty() ? "-" : c.path.c_str());
-    if (c.bad) std::printf("  (%ld messages of %s did not decode or changed layout; skipped)\n", c.bad, name.c_str());
-    if (c.type == io::MessageType::kOutput && out_csv.empty()) out_csv = c.path;
-    if (c.type == io::MessageType::kLoopStats && stats_csv.empty()) stats_csv = c.path;
-  }
+  print_summary(cv.chans, &out_csv, &stats_csv);
   if (a.has("no-plot") || out_csv.empty()) return 0;
   return plot(a, out, out_csv, stats_csv);
 }

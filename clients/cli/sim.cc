@@ -27,6 +27,138 @@
 
 namespace coopdyn::cli {
 
+namespace {
+
+// What the options asked for (read by cmd_sim).
+struct SimPlan {
+  double T, h;
+  long every;
+  Integrator integ;
+  const TorqueProfile& prof;
+  const TorqueProfile& steer;
+  const std::vector<int>& steer_dofs;   // steer.dofs()
+  const std::vector<int>& steer_locks;  // lock spec of each of steer_dofs
+};
+
+// The loop's state, sized once: a step allocates nothing.
+struct SimRun {
+  SimRun(const System& sys, size_t columns)
+      : cts(sys),
+        last_state(cts.spec.size(), ContactState::kOk),
+        st(sys),
+        wd(sys),
+        q(sys.q0),
+        v(sys.v0),
+        tau(sys.model.nv()),
+        target(sys.model.nv()),
+        q_prev(sys.model.nq()),
+        v_prev(sys.model.nv()),
+        line(columns) {
+    row.contact_state.resize(cts.spec.size());
+  }
+  ContactData cts;  // per rolling contact: friction needed, utilisation, state (contacts.h)
+  std::vector<ContactState> last_state;
+  Stepper st;
+  WrenchData wd;
+  Eigen::VectorXd q, v, tau, target, q_prev, v_prev;
+  StepRow row;
+  CsvLine line;
+};
+
+// The applied torques and the locks' targets at the step's start, held over the step.
+void apply_inputs(const SimPlan& p, double t, SimRun& r) {
+  p.prof.eval(t, r.tau);
+  if (p.steer_dofs.empty()) return;
+  p.steer.eval(t, r.target);
+  for (size_t k = 0; k < p.steer_dofs.size(); ++k) set_lock_target(r.st, p.steer_locks[k], r.target[p.steer_dofs[k]]);
+}
+
+// Every step: a change of a contact's state is said when it happens.
+void say_contact_changes(const System& sys, double t, SimRun& r) {
+  const ContactData& cts = r.cts;
+  for (size_t k = 0; k < cts.spec.size(); ++k) {
+    if (cts.state[k] == r.last_state[k]) continue;
+    const char* n = sys.constraints.specs[static_cast<size_t>(cts.spec[k])].name.c_str();
+    if (cts.state[k] == ContactState::kOk)
+      std::fprintf(stderr, "coopdyn sim: t=%g: wheel '%s' is back within its contact (ok)\n", t, n);
+    else
+      std::fprintf(stderr, "coopdyn sim: warning: t=%g: wheel '%s' %s (normal %.6g N, friction needed %.4g)\n", t, n,
+                   cts.state[k] == ContactState::kLiftOff ? "lifts off" : "needs more friction than its mu", cts.normal[k],
+                   cts.friction_needed[k]);
+    r.last_state[k] = cts.state[k];
+  }
+}
+
+// The row of the step that started at t from the state before it (the wrenches are computed here:
+// only for the rows written), then position_error.
+void write_sim_row(const System& sys, double t, const Diagnostics& d, SimRun& r, std::FILE* out) {
+  const Workspace& ws = r.st.ws;
+  compute_wrenches(sys, ws, r.wd);
+  StepRow& row = r.row;
+  row.t = t;
+  row.q = csv_numbers(r.q_prev);
+  row.v = csv_numbers(r.v_prev);
+  row.tau = csv_numbers(r.tau);
+  row.vdot = csv_numbers(ws.vdot);
+  row.wrenches = csv_wrenches(r.wd.W);
+  row.stress = csv_numbers(ws.stress);
+  row.friction_needed = r.cts.friction_needed.data();
+  row.utilisation = r.cts.utilisation.data();
+  for (size_t k = 0; k < r.cts.spec.size(); ++k) row.contact_state[k] = contact_state_name(r.cts.state[k]);
+  row.status = status_name(d.status);
+  row.reason = reason_key(static_cast<int>(d.reason));
+  row.rows = d.rows;
+  row.rank = d.rank;
+  row.indeterminate = d.indeterminate;
+  row.condition = std::isfinite(d.condition) ? d.condition : -1.0;  // -1: infinite, as output_t
+  row.residual = d.residual;
+  write_step_cells(r.line, row);
+  r.line.sep(), r.line.num(ws.cd.err.size() ? ws.cd.err.cwiseAbs().maxCoeff() : 0.0);
+  r.line.end();
+  r.line.write(out);
+}
+
+void say_stop(const System& sys, double t, const Diagnostics& d, const SimRun& r) {
+  std::fprintf(stderr, "coopdyn sim: stopped at t=%g: %s", t, reason_text(d.reason));
+  if (d.reason == Reason::kDiverged && d.bad_index >= 0)
+    std::fprintf(stderr, " (v:%s reached %.3g, bound solver.max_speed %.3g; the last row is the last good state)",
+                 sys.model.v_names[d.bad_index].c_str(), r.st.diverged_speed, sys.options.max_speed);
+  std::fprintf(stderr, "\n");
+}
+
+void report_progress(Progress& progress, long i, long steps, double t, double T) {
+  if (!progress.on() || (i & 255) != 0) return;
+  const double frac = steps > 0 ? double(i) / steps : 1.0;
+  char what[96];
+  std::snprintf(what, sizeof what, "t = %.3f of %.3f s (%.0f %%)", t, T, 100 * frac);
+  progress.report(frac, what);
+}
+
+// The run, one row per written step; 3 when a step fails (its row is written, then why).
+int simulate(const System& sys, const SimPlan& p, SimRun& r, Progress& progress, std::FILE* out) {
+  const long steps = std::lround(p.T / p.h);
+  for (long i = 0; i <= steps; ++i) {
+    const double t = i * p.h;
+    apply_inputs(p, t, r);
+    r.q_prev = r.q;  // no allocation: sized above
+    r.v_prev = r.v;
+    const Diagnostics& d =
+        i < steps ? step(sys, r.st, p.integ, p.h, r.tau, r.q, r.v) : evaluate(sys, r.st.ws, r.q, r.v, r.tau);
+    compute_contacts(sys, r.st.ws, r.cts);
+    say_contact_changes(sys, t, r);
+    if (i % p.every == 0 || d.status == Status::kError) write_sim_row(sys, t, d, r, out);
+    if (d.status == Status::kError) {
+      progress.break_line();
+      say_stop(sys, t, d, r);
+      return 3;
+    }
+    report_progress(progress, i, steps, t, p.T);
+  }
+  progress.done(std::to_string(steps) + " steps");
+  return 0;
+}
+
+}  // namespace
 
 void register_sim(Cli& cli) {
   Command& c = cli.add("sim",
@@ -99,90 +231,15 @@ int cmd_sim(const Args& a) {
   }
   static std::vector<char> iobuf(1 << 16);  // outlives stdout's last flush at exit
   std::setvbuf(out, iobuf.data(), _IOFBF, iobuf.size());
-  const Model& model = sys.model;
-  ContactData cts(sys);  // per rolling contact: friction needed, utilisation, state (contacts.h)
-  std::vector<ContactState> last_state(cts.spec.size(), ContactState::kOk);
   // the per-step CSV schema (clients/csv/step_csv.h): the shared columns, then position_error
   const StepSchema schema = step_schema(sys, "sim");
   CsvColumns cols = shared_step_columns(schema);
   cols.add("position_error", "m or rad");
   write_step_csv_header(out, schema, cols);
 
-  Stepper st(sys);
-  WrenchData wd(sys);
-  Eigen::VectorXd q = sys.q0, v = sys.v0, tau(model.nv()), target(model.nv());
-  Eigen::VectorXd q_prev(model.nq()), v_prev(model.nv());
-  CsvLine line(cols.names.size());
-  const long steps = std::lround(T / h);
+  SimRun run(sys, cols.names.size());
   Progress progress("coopdyn sim", a.has("progress"));
-  int rc = 0;
-  for (long i = 0; i <= steps; ++i) {
-    const double t = i * h;
-    prof.eval(t, tau);
-    if (!steer_dofs.empty()) {  // the locks' targets at the step's start, held over the step
-      steer.eval(t, target);
-      for (size_t k = 0; k < steer_dofs.size(); ++k) set_lock_target(st, steer_locks[k], target[steer_dofs[k]]);
-    }
-    q_prev = q;  // no allocation: sized above
-    v_prev = v;
-    const Diagnostics& d = i < steps ? step(sys, st, integ, h, tau, q, v) : evaluate(sys, st.ws, q, v, tau);
-    compute_contacts(sys, st.ws, cts);  // every step: a change of a contact's state is said when it happens
-    for (size_t k = 0; k < cts.spec.size(); ++k) {
-      if (cts.state[k] == last_state[k]) continue;
-      const char* n = sys.constraints.specs[static_cast<size_t>(cts.spec[k])].name.c_str();
-      if (cts.state[k] == ContactState::kOk)
-        std::fprintf(stderr, "coopdyn sim: t=%g: wheel '%s' is back within its contact (ok)\n", t, n);
-      else
-        std::fprintf(stderr, "coopdyn sim: warning: t=%g: wheel '%s' %s (normal %.6g N, friction needed %.4g)\n", t, n,
-                     cts.state[k] == ContactState::kLiftOff ? "lifts off" : "needs more friction than its mu", cts.normal[k],
-                     cts.friction_needed[k]);
-      last_state[k] = cts.state[k];
-    }
-    if (i % every == 0 || d.status == Status::kError) {  // the failing step's row is always written
-      line.clear();
-      line.num(t);
-      for (int k = 0; k < q_prev.size(); ++k) line.sep(), line.num(q_prev[k]);
-      for (int k = 0; k < v_prev.size(); ++k) line.sep(), line.num(v_prev[k]);
-      for (int k = 0; k < tau.size(); ++k) line.sep(), line.num(tau[k]);
-      for (Eigen::Index k = 0; k < st.ws.vdot.size(); ++k) line.sep(), line.num(st.ws.vdot[k]);
-      compute_wrenches(sys, st.ws, wd);
-      for (const Vec6& w : wd.W)
-        for (int k = 0; k < 6; ++k) line.sep(), line.num(w[k]);
-      for (Eigen::Index k = 0; k < st.ws.stress.size(); ++k) line.sep(), line.num(st.ws.stress[k]);
-      for (size_t k = 0; k < cts.spec.size(); ++k) {
-        line.sep(), line.num(cts.friction_needed[k]);
-        line.sep(), line.num(cts.utilisation[k]);
-        line.sep(), line.text(contact_state_name(cts.state[k]));
-      }
-      line.sep(), line.text(status_name(d.status));
-      line.sep(), line.text(reason_key(static_cast<int>(d.reason)));
-      line.sep(), line.integer(d.rows);
-      line.sep(), line.integer(d.rank);
-      line.sep(), line.integer(d.indeterminate);
-      line.sep(), line.num(std::isfinite(d.condition) ? d.condition : -1.0);  // -1: infinite, as output_t
-      line.sep(), line.num(d.residual);
-      line.sep(), line.num(st.ws.cd.err.size() ? st.ws.cd.err.cwiseAbs().maxCoeff() : 0.0);
-      line.end();
-      line.write(out);
-    }
-    if (d.status == Status::kError) {
-      progress.break_line();
-      std::fprintf(stderr, "coopdyn sim: stopped at t=%g: %s", t, reason_text(d.reason));
-      if (d.reason == Reason::kDiverged && d.bad_index >= 0)
-        std::fprintf(stderr, " (v:%s reached %.3g, bound solver.max_speed %.3g; the last row is the last good state)",
-                     model.v_names[d.bad_index].c_str(), st.diverged_speed, sys.options.max_speed);
-      std::fprintf(stderr, "\n");
-      rc = 3;
-      break;
-    }
-    if (progress.on() && (i & 255) == 0) {
-      const double frac = steps > 0 ? double(i) / steps : 1.0;
-      char what[96];
-      std::snprintf(what, sizeof what, "t = %.3f of %.3f s (%.0f %%)", t, T, 100 * frac);
-      progress.report(frac, what);
-    }
-  }
-  if (rc == 0) progress.done(std::to_string(steps) + " steps");
+  const int rc = simulate(sys, {T, h, every, integ, prof, steer, steer_dofs, steer_locks}, run, progress, out);
   if (out != stdout) std::fclose(out);
   else std::fflush(out);
   return rc;

@@ -166,6 +166,25 @@ void write_step_csv_header(std::FILE* f, const StepSchema& s, const CsvColumns& 
   std::fprintf(f, "\n");
 }
 
+void write_step_cells(CsvLine& l, const StepRow& r) {
+  l.clear();
+  l.num(r.t);
+  for (const CsvNumbers* x : {&r.q, &r.v, &r.tau, &r.vdot, &r.wrenches, &r.stress})
+    for (size_t k = 0; k < x->size; ++k) l.sep(), l.num(x->data[k]);
+  for (size_t k = 0; k < r.contact_state.size(); ++k) {
+    l.sep(), l.num(r.friction_needed[k]);
+    l.sep(), l.num(r.utilisation[k]);
+    l.sep(), l.text(r.contact_state[k]);
+  }
+  l.sep(), l.text(r.status);
+  l.sep(), l.text(r.reason);
+  l.sep(), l.integer(r.rows);
+  l.sep(), l.integer(r.rank);
+  l.sep(), l.integer(r.indeterminate);
+  l.sep(), l.num(r.condition);
+  l.sep(), l.num(r.residual);
+}
+
 bool read_step_csv_header(std::istream& in, const std::string& path, CsvHeader* h, std::string* err) {
   *h = CsvHeader{};
   std::string line, units_line;

@@ -11,8 +11,9 @@
 //
 // Names are the scene's (coordinates, wrench outputs, contacts), never positions; codes are words
 // (status ok, reason none, input command, ...); numbers are shortest round-trip (std::to_chars).
-// Readers skip the leading '#' lines (pandas: comment='#'); read_step_csv_header() returns the
-// names with their units.
+// Writers: write_step_csv_header() the header, write_step_cells() each row's shared cells, then the
+// source's own. Readers skip the leading '#' lines (pandas: comment='#'); read_step_csv_header()
+// returns the names with their units, split_csv_line() a row's cells.
 #pragma once
 
 #include <charconv>
@@ -117,6 +118,42 @@ class CsvLine {
   std::vector<char> buf_;
   size_t n_ = 0;
 };
+
+// n numbers of a source, read where they are (an Eigen vector, a std::vector; wrenches: 6 each, the
+// wrenches laid end to end as in a std::vector<Vec6>): a row copies nothing.
+struct CsvNumbers {
+  const double* data = nullptr;
+  size_t size = 0;
+};
+template <class V>  // std::vector<double>, Eigen::VectorXd
+CsvNumbers csv_numbers(const V& x) {
+  return {x.data(), static_cast<size_t>(x.size())};
+}
+template <class W>  // std::vector<Vec6>, std::vector<std::array<double, 6>>
+CsvNumbers csv_wrenches(const std::vector<W>& w) {
+  static_assert(sizeof(W) == 6 * sizeof(double), "a wrench is six numbers, the wrenches end to end");
+  return {w.empty() ? nullptr : w.front().data(), 6 * w.size()};
+}
+
+// One step's values in the order of shared_step_columns, whatever computed them (a simulated step,
+// a daemon's output_t).
+struct StepRow {
+  double t = 0;
+  CsvNumbers q, v, tau, vdot, wrenches, stress;  // wrenches: mx my mz fx fy fz of each
+  // per contact: friction needed, utilisation (contact_state.size() of each) and the state's word
+  const double* friction_needed = nullptr;
+  const double* utilisation = nullptr;
+  std::vector<const char*> contact_state;  // sized by the caller once per layout (no allocation per row)
+  const char* status = "";
+  const char* reason = "";
+  long long rows = 0, rank = 0, indeterminate = 0;
+  double condition = 0;  // -1: infinite, as output_t
+  double residual = 0;
+};
+
+// Starts line l with the shared cells of row r (t ... residual); the caller appends the columns of
+// its own source (l.sep() before each), then l.end().
+void write_step_cells(CsvLine& l, const StepRow& r);
 
 // The cells of one CSV line (no quoting: the schema's names and values hold no comma); a trailing
 // comma gives a last empty cell.

@@ -31,15 +31,6 @@ const char kPage[] =
 #include "view_page.inc"
     ;
 
-std::vector<std::string> split_csv(const std::string& s) {
-  std::vector<std::string> out;
-  std::string item;
-  std::stringstream ss(s);
-  while (std::getline(ss, item, ',')) out.push_back(item);
-  if (!s.empty() && s.back() == ',') out.emplace_back();
-  return out;
-}
-
 // A rotation taking +y to unit vector a (the three.js cylinder's axis to a wheel's axle).
 Mat3 y_to(const Vec3& a) {
   return Eigen::Quaterniond::FromTwoVectors(Vec3::UnitY(), a.normalized()).toRotationMatrix();
@@ -260,7 +251,7 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
   while (std::getline(in, line)) {
     ++ln;
     if (line.empty()) continue;
-    const std::vector<std::string> cells = split_csv(line);
+    const std::vector<std::string> cells = split_csv_line(line);
     const std::string where = path + ":" + std::to_string(ln);
     if (cells.size() != head.size())
       throw std::runtime_error(where + ": " + std::to_string(cells.size()) + " columns, the header has " +
@@ -392,65 +383,80 @@ std::string view_frame_json(const ViewFrames& vf, size_t i) {
   return d + "}";
 }
 
-std::string view_page(const System& sys, const ViewFrames& vf, const std::string& three_js, const std::string& source,
-                      bool live) {
-  const Model& m = sys.model;
-  Vec3 up = -m.gravity_W;
-  up = up.norm() > 0 ? Vec3(up.normalized()) : Vec3(Vec3::UnitZ());
+namespace {
 
-  // extent of the bodies over the run
-  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-  auto grow = [&](const Vec3& p, double r) {
+// An axis-aligned box grown point by point; empty (lo > hi) before the first.
+struct Box {
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
+  Vec3 hi = Vec3::Constant(-std::numeric_limits<double>::infinity());
+  void grow(const Vec3& p, double r) {
     lo = lo.cwiseMin(p - Vec3::Constant(r));
     hi = hi.cwiseMax(p + Vec3::Constant(r));
-  };
+  }
+  bool empty() const { return !(lo.array() <= hi.array()).all(); }
+};
+
+// The extent of the bodies over the run (a wheel: its radius about its centre; a box: half its
+// longest edge), the links' ends and the wrenches' origins; a point at the origin when none.
+Box bodies_extent(const ViewFrames& vf) {
+  Box b;
   for (size_t i = 0; i < vf.t.size(); ++i) {
     for (size_t s = 0; s < vf.shapes.size(); ++s) {
       const Vec3 p(vf.shape_pose[i][7 * s], vf.shape_pose[i][7 * s + 1], vf.shape_pose[i][7 * s + 2]);
       const Vec3& z = vf.shapes[s].size;
-      grow(p, vf.shapes[s].kind == "wheel" ? z[0] : 0.5 * z.maxCoeff());
+      b.grow(p, vf.shapes[s].kind == "wheel" ? z[0] : 0.5 * z.maxCoeff());
     }
     for (size_t s = 0; s < vf.segments.size(); ++s)
-      for (int e = 0; e < 2; ++e) grow(Vec3(vf.seg_ends[i][6 * s + 3 * e], vf.seg_ends[i][6 * s + 3 * e + 1], vf.seg_ends[i][6 * s + 3 * e + 2]), 0);
-    for (size_t w = 0; w < vf.wrenches.size(); ++w) grow(Vec3(vf.wrench_W[i][9 * w], vf.wrench_W[i][9 * w + 1], vf.wrench_W[i][9 * w + 2]), 0);
+      for (int e = 0; e < 2; ++e) b.grow(Vec3(vf.seg_ends[i][6 * s + 3 * e], vf.seg_ends[i][6 * s + 3 * e + 1], vf.seg_ends[i][6 * s + 3 * e + 2]), 0);
+    for (size_t w = 0; w < vf.wrenches.size(); ++w) b.grow(Vec3(vf.wrench_W[i][9 * w], vf.wrench_W[i][9 * w + 1], vf.wrench_W[i][9 * w + 2]), 0);
   }
-  if (!(lo.array() <= hi.array()).all()) lo = hi = Vec3::Zero();
-  const double size = std::max(0.2, (hi - lo).norm());
+  if (b.empty()) b.lo = b.hi = Vec3::Zero();
+  return b;
+}
 
-  // arrow scales: the largest force (moment) over the run is at most 0.4 of the scene's size
+struct ArrowScales {
+  double force, moment;  // N (N*m) per metre of arrow
+};
+
+// The largest force (moment) over the run is at most 0.4 of the scene's size.
+ArrowScales arrow_scales(const ViewFrames& vf, double size) {
   double fmax = 0, mmax = 0;
   for (const auto& ww : vf.wrench_W)
     for (size_t w = 0; w < vf.wrenches.size(); ++w) {
       fmax = std::max(fmax, Vec3(ww[9 * w + 3], ww[9 * w + 4], ww[9 * w + 5]).norm());
       mmax = std::max(mmax, Vec3(ww[9 * w + 6], ww[9 * w + 7], ww[9 * w + 8]).norm());
     }
-  const double fscale = nice_ceil(fmax / (0.4 * size)), mscale = nice_ceil(mmax / (0.4 * size));
-  for (size_t i = 0; i < vf.t.size(); ++i)  // the arrows in view too
+  return {nice_ceil(fmax / (0.4 * size)), nice_ceil(mmax / (0.4 * size))};
+}
+
+// The arrows in view too: their tips grow the box.
+void grow_by_arrows(const ViewFrames& vf, const ArrowScales& scale, Box* b) {
+  for (size_t i = 0; i < vf.t.size(); ++i)
     for (size_t w = 0; w < vf.wrenches.size(); ++w) {
       const double* x = &vf.wrench_W[i][9 * w];
       const Vec3 o(x[0], x[1], x[2]);
-      grow(o + Vec3(x[3], x[4], x[5]) / fscale, 0);
-      grow(o + Vec3(x[6], x[7], x[8]) / mscale, 0);
+      b->grow(o + Vec3(x[3], x[4], x[5]) / scale.force, 0);
+      b->grow(o + Vec3(x[6], x[7], x[8]) / scale.moment, 0);
     }
+}
 
-  const Vec3 centre = 0.5 * (lo + hi);
-  const double radius = 0.5 * std::max(0.2, (hi - lo).norm());
+struct GroundOut {  // a grid the page draws: origin, normal, an in-plane axis, edge length
+  Vec3 o, n, e1;
+  double size;
+};
 
-  // grounds: each plane the wheels roll on as declared (the scene's `ground`, a wheel's own), a grid
-  // in that plane about the scene's centre (a wheel's own plane: about its wheels' contacts, over the
-  // run); without wheels, a plane normal to gravity below everything
-  struct GroundOut {
-    Vec3 o, n, e1;
-    double size;
-  };
+Vec3 in_plane_axis(const Vec3& n) {  // the world axis least along n, made normal to it
+  int a = 0;
+  for (int k = 1; k < 3; ++k)
+    if (std::abs(n[k]) < std::abs(n[a]) - 1e-12) a = k;
+  const Vec3 e = Vec3::Unit(a) - n[a] * n;
+  return Vec3(e.normalized());
+}
+
+// Each plane the wheels roll on as declared (the scene's `ground`, a wheel's own), a grid in that
+// plane about the scene's centre (a wheel's own plane: about its wheels' contacts, over the run).
+std::vector<GroundOut> wheel_grounds(const System& sys, const ViewFrames& vf, const Vec3& centre, double radius) {
   std::vector<GroundOut> grounds;
-  auto in_plane_axis = [](const Vec3& n) {  // the world axis least along n, made normal to it
-    int a = 0;
-    for (int k = 1; k < 3; ++k)
-      if (std::abs(n[k]) < std::abs(n[a]) - 1e-12) a = k;
-    const Vec3 e = Vec3::Unit(a) - n[a] * n;
-    return Vec3(e.normalized());
-  };
   size_t main_plane = 0;
   for (size_t g = 0; g < vf.grounds.size(); ++g)
     if (vf.grounds[g].contacts.size() > vf.grounds[main_plane].contacts.size()) main_plane = g;
@@ -459,74 +465,103 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
     Vec3 c = centre;
     double gsize = nice_ceil(2.5 * radius);
     if (g != main_plane) {
-      Vec3 clo = Vec3::Constant(std::numeric_limits<double>::infinity()), chi = -clo;
+      Box cb;
       double r = 0;
       for (int k : gr.contacts) {
         r = std::max(r, sys.constraints.specs[static_cast<size_t>(vf.contacts[k].spec)].radius);
-        for (const auto& cp : vf.contact_p) {
-          const Vec3 p(cp[3 * k], cp[3 * k + 1], cp[3 * k + 2]);
-          clo = clo.cwiseMin(p);
-          chi = chi.cwiseMax(p);
-        }
+        for (const auto& cp : vf.contact_p) cb.grow(Vec3(cp[3 * k], cp[3 * k + 1], cp[3 * k + 2]), 0);
       }
-      if ((clo.array() <= chi.array()).all()) {
-        c = 0.5 * (clo + chi);
-        gsize = nice_ceil((chi - clo).norm() + 8 * r);
+      if (!cb.empty()) {
+        c = 0.5 * (cb.lo + cb.hi);
+        gsize = nice_ceil((cb.hi - cb.lo).norm() + 8 * r);
       }
     }
     grounds.push_back({c - (gr.n.dot(c) - gr.d) * gr.n, gr.n, in_plane_axis(gr.n), gsize});
   }
-  if (grounds.empty()) {
-    double lowest = std::numeric_limits<double>::infinity();
-    for (int c = 0; c < 8; ++c) {
-      const Vec3 p((c & 1) ? hi.x() : lo.x(), (c & 2) ? hi.y() : lo.y(), (c & 4) ? hi.z() : lo.z());
-      lowest = std::min(lowest, p.dot(up));
-    }
-    const double ground_h = lowest - 0.05 * size;
-    grounds.push_back({centre - (centre.dot(up) - ground_h) * up, up, in_plane_axis(up), nice_ceil(2.5 * radius)});
-  }
+  return grounds;
+}
 
-  // camera: along the world axis (normal to up) in which the scene is thinnest, a little from the
-  // side and above; the page moves it back to fit the window
+// Without wheels: a plane normal to gravity below everything.
+GroundOut ground_below(const Box& b, const Vec3& up, const Vec3& centre, double size, double radius) {
+  double lowest = std::numeric_limits<double>::infinity();
+  for (int c = 0; c < 8; ++c) {
+    const Vec3 p((c & 1) ? b.hi.x() : b.lo.x(), (c & 2) ? b.hi.y() : b.lo.y(), (c & 4) ? b.hi.z() : b.lo.z());
+    lowest = std::min(lowest, p.dot(up));
+  }
+  const double ground_h = lowest - 0.05 * size;
+  return {centre - (centre.dot(up) - ground_h) * up, up, in_plane_axis(up), nice_ceil(2.5 * radius)};
+}
+
+// The camera: along the world axis (normal to up) in which the scene is thinnest, a little from the
+// side and above; the page moves it back to fit the window.
+Vec3 view_direction(const Vec3& up, const Box& b) {
   int axes[3] = {0, 1, 2};
-  std::sort(axes, axes + 3, [&](int a, int b) { return std::abs(up[a]) < std::abs(up[b]); });
+  std::sort(axes, axes + 3, [&](int a, int c) { return std::abs(up[a]) < std::abs(up[c]); });
   int thin = axes[0], other = axes[1];
-  if ((hi - lo)[other] < (hi - lo)[thin]) std::swap(thin, other);
+  if ((b.hi - b.lo)[other] < (b.hi - b.lo)[thin]) std::swap(thin, other);
   const Vec3 e_thin = Vec3::Unit(thin), e_other = Vec3::Unit(other);
   const double sgn = up.cross(e_thin).dot(e_other) >= 0 ? 1.0 : -1.0;
-  const Vec3 dir = (sgn * e_thin + 0.45 * e_other + 0.5 * up).normalized();
+  return (sgn * e_thin + 0.45 * e_other + 0.5 * up).normalized();
+}
 
-  std::string d;
-  d.reserve(vf.t.size() * (vf.shapes.size() * 7 + vf.segments.size() * 6 + vf.wrenches.size() * 9) * 11 + 4096);
-  d += "{\"scene\":" + json_string(sys.name) + ",\"source\":" + json_string(source) + ",\"live\":" + (live ? "true" : "false") +
-       ",\"size\":";
-  jnum(d, size);
+// Where the page puts the scene: its size (the bodies' extent), centre and radius (the arrows'
+// too), the arrows' scales, the grounds and the camera.
+struct PageLayout {
+  Vec3 up, centre, view_dir;
+  double size, radius;
+  ArrowScales scale;
+  std::vector<GroundOut> grounds;
+};
+
+PageLayout page_layout(const System& sys, const ViewFrames& vf) {
+  PageLayout l;
+  const Vec3 up = -sys.model.gravity_W;
+  l.up = up.norm() > 0 ? Vec3(up.normalized()) : Vec3(Vec3::UnitZ());
+  Box b = bodies_extent(vf);
+  l.size = std::max(0.2, (b.hi - b.lo).norm());
+  l.scale = arrow_scales(vf, l.size);
+  grow_by_arrows(vf, l.scale, &b);
+  l.centre = 0.5 * (b.lo + b.hi);
+  l.radius = 0.5 * std::max(0.2, (b.hi - b.lo).norm());
+  l.grounds = wheel_grounds(sys, vf, l.centre, l.radius);
+  if (l.grounds.empty()) l.grounds.push_back(ground_below(b, l.up, l.centre, l.size, l.radius));
+  l.view_dir = view_direction(l.up, b);
+  return l;
+}
+
+// "size" .. "moment_scale": the layout's numbers.
+void append_layout_json(std::string& d, const PageLayout& l) {
+  jnum(d, l.size);
   d += ",\"up\":";
-  jvec(d, up.data(), 3);
+  jvec(d, l.up.data(), 3);
   d += ",\"centre\":";
-  jvec(d, centre.data(), 3);
+  jvec(d, l.centre.data(), 3);
   d += ",\"radius\":";
-  jnum(d, radius);
+  jnum(d, l.radius);
   d += ",\"view_dir\":";
-  jvec(d, dir.data(), 3);
+  jvec(d, l.view_dir.data(), 3);
   d += ",\"fov\":40,\"grounds\":[";
-  for (size_t g = 0; g < grounds.size(); ++g) {
+  for (size_t g = 0; g < l.grounds.size(); ++g) {
     d += g ? ",{\"origin\":" : "{\"origin\":";
-    jvec(d, grounds[g].o.data(), 3, "%.9g");
+    jvec(d, l.grounds[g].o.data(), 3, "%.9g");
     d += ",\"normal\":";
-    jvec(d, grounds[g].n.data(), 3, "%.17g");
+    jvec(d, l.grounds[g].n.data(), 3, "%.17g");
     d += ",\"e1\":";
-    jvec(d, grounds[g].e1.data(), 3, "%.17g");
+    jvec(d, l.grounds[g].e1.data(), 3, "%.17g");
     d += ",\"size\":";
-    jnum(d, grounds[g].size);
+    jnum(d, l.grounds[g].size);
     d += "}";
   }
   d += "],\"link_radius\":";
-  jnum(d, std::clamp(0.012 * size, 0.004, 0.04));
+  jnum(d, std::clamp(0.012 * l.size, 0.004, 0.04));
   d += ",\"force_scale\":";
-  jnum(d, fscale);
+  jnum(d, l.scale.force);
   d += ",\"moment_scale\":";
-  jnum(d, mscale);
+  jnum(d, l.scale.moment);
+}
+
+// "shapes" .. "pseudos": what the page draws, by name.
+void append_parts_json(std::string& d, const System& sys, const ViewFrames& vf) {
   d += ",\"shapes\":[";
   for (size_t s = 0; s < vf.shapes.size(); ++s) {
     d += (s ? ",{\"name\":" : "{\"name\":") + json_string(vf.shapes[s].name) + ",\"kind\":" + json_string(vf.shapes[s].kind) + ",\"size\":";
@@ -559,11 +594,15 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
   d += "],\"pseudos\":[";
   for (size_t k = 0; k < vf.pseudos.size(); ++k)
     d += (k ? ",{\"name\":" : "{\"name\":") + json_string(vf.pseudos[k].name) + ",\"unit\":" + json_string(vf.pseudos[k].unit) + "}";
+}
+
+// "t" .. "contact_state": one array over the frames per key.
+void append_frames_json(std::string& d, const ViewFrames& vf) {
   d += "],\"t\":";
   jvec(d, vf.t.data(), vf.t.size(), "%.9g");
   d += ",\"status\":[";
   for (size_t i = 0; i < vf.status.size(); ++i) d += (i ? "," : "") + json_string(vf.status[i]);
-  // one array over the frames: key, then write(i) appends frame i's value
+  // key, then write(i) appends frame i's value
   auto per_frame = [&](const char* key, const auto& write) {
     d += key;
     for (size_t i = 0; i < vf.t.size(); ++i) {
@@ -583,14 +622,32 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
   per_frame("],\"contact_u\":[", [&](size_t i) { jexact(d, vf.contact_u[i]); });
   per_frame("],\"contact_state\":[", [&](size_t i) { jints(d, vf.contact_state[i]); });
   d += "]}";
+}
 
+// The page template with the data and three.js in their places.
+std::string fill_page(const std::string& data, const std::string& three_js) {
   // three.js inline: a "</script" in it would end the element early
   std::string js = three_js;
   for (size_t at = 0; (at = js.find("</script", at)) != std::string::npos; at += 2) js.replace(at, 2, "<\\/");
   std::string page = kPage;
-  page = replace_once(page, "/*@VIEW_DATA@*/", d);
+  page = replace_once(page, "/*@VIEW_DATA@*/", data);
   page = replace_once(page, "/*@THREE_JS@*/", js);
   return page;
+}
+
+}  // namespace
+
+std::string view_page(const System& sys, const ViewFrames& vf, const std::string& three_js, const std::string& source,
+                      bool live) {
+  const PageLayout layout = page_layout(sys, vf);
+  std::string d;
+  d.reserve(vf.t.size() * (vf.shapes.size() * 7 + vf.segments.size() * 6 + vf.wrenches.size() * 9) * 11 + 4096);
+  d += "{\"scene\":" + json_string(sys.name) + ",\"source\":" + json_string(source) + ",\"live\":" + (live ? "true" : "false") +
+       ",\"size\":";
+  append_layout_json(d, layout);
+  append_parts_json(d, sys, vf);
+  append_frames_json(d, vf);
+  return fill_page(d, three_js);
 }
 
 bool read_three_js(const std::string& three_path, std::string* three) {

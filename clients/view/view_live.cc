@@ -59,51 +59,60 @@ std::string json_stats(const Counters& c, size_t clients, size_t queued, size_t 
   return buf;
 }
 
-}  // namespace
-
-int run_view_live(const System& sys, const std::string& three_js, const std::string& listen, const std::string& lcm_url,
-                  const std::string& channel, double max_rate_hz, int queue_frames) {
-  const size_t cap = static_cast<size_t>(queue_frames);
+// HOST:PORT (a bracketed IPv6 host unbracketed); false, the reason printed, when it is not that.
+bool parse_listen(const std::string& listen, std::string* host, std::string* port) {
   const auto colon = listen.rfind(':');
   if (colon == std::string::npos || colon == 0 || colon + 1 == listen.size()) {
     std::fprintf(stderr, "coopdyn view: --listen '%s': expected HOST:PORT (e.g. 127.0.0.1:8765)\n", listen.c_str());
-    return 2;
+    return false;
   }
-  std::string host = listen.substr(0, colon);
-  const std::string port = listen.substr(colon + 1);
-  if (host.size() > 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
+  *host = listen.substr(0, colon);
+  *port = listen.substr(colon + 1);
+  if (host->size() > 2 && host->front() == '[' && host->back() == ']') *host = host->substr(1, host->size() - 2);
+  return true;
+}
 
-  // the page: the scene at its initial state stands in until the first frame arrives
-  std::string page;
-  {
-    ViewFrames vf = view_geometry(sys);
-    Data data(sys.model);
-    ViewSample s0;
-    s0.t = 0;
-    s0.status = "waiting";
-    s0.q = sys.q0;
-    s0.w.assign(vf.wrenches.size(), Vec6::Zero());
-    add_view_frame(sys, data, s0, &vf);
-    page = view_page(sys, vf, three_js, "live: " + channel + " on " + lcm_url, true);
-  }
+// The page: the scene at its initial state stands in until the first frame arrives.
+std::string live_page(const System& sys, const std::string& three_js, const std::string& source) {
+  ViewFrames vf = view_geometry(sys);
+  Data data(sys.model);
+  ViewSample s0;
+  s0.t = 0;
+  s0.status = "waiting";
+  s0.q = sys.q0;
+  s0.w.assign(vf.wrenches.size(), Vec6::Zero());
+  add_view_frame(sys, data, s0, &vf);
+  return view_page(sys, vf, three_js, source, true);
+}
+
+// The server thread's state, and the inbox the LCM thread fills.
+struct LiveServer {
+  LiveServer(size_t cap_, std::string page_) : cap(cap_), page(std::move(page_)) {}
 
   Server server;
-  server.clear_access_channels(websocketpp::log::alevel::all);
-  server.clear_error_channels(websocketpp::log::elevel::all);  // a client gone mid-write is no error of ours
-  try {
-    server.init_asio();
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "coopdyn view: cannot start the server: %s\n", e.what());
-    return 1;
-  }
-  server.set_reuse_addr(true);
+  const size_t cap;  // frames queued at most, in the inbox and per client
+  const std::string page;
   Counters count;
   std::map<Hdl, Client, std::owner_less<Hdl>> clients;  // server thread only
   std::mutex inbox_mu;
   std::deque<std::shared_ptr<const std::string>> inbox;  // LCM thread -> server thread, at most cap
   std::atomic<bool> wake_posted{false};
 
-  auto flush = [&](const Hdl& h, Client& c) {
+  bool start() {
+    server.clear_access_channels(websocketpp::log::alevel::all);
+    server.clear_error_channels(websocketpp::log::elevel::all);  // a client gone mid-write is no error of ours
+    try {
+      server.init_asio();
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "coopdyn view: cannot start the server: %s\n", e.what());
+      return false;
+    }
+    server.set_reuse_addr(true);
+    return true;
+  }
+
+  // Sends from c's queue while the connection holds less than kMaxBuffered bytes unwritten.
+  void flush(const Hdl& h, Client& c) {
     websocketpp::lib::error_code ec;
     Server::connection_ptr con = server.get_con_from_hdl(h, ec);
     if (ec || !con || con->get_state() != websocketpp::session::state::open) return;
@@ -114,8 +123,10 @@ int run_view_live(const System& sys, const std::string& three_js, const std::str
       ++c.sent;
       ++count.sent;
     }
-  };
-  auto drain = [&]() {  // server thread: the inbox into every client's queue, then send what may be sent
+  }
+
+  // Server thread: the inbox into every client's queue, then send what may be sent.
+  void drain() {
     wake_posted = false;
     std::deque<std::shared_ptr<const std::string>> got;
     {
@@ -133,9 +144,20 @@ int run_view_live(const System& sys, const std::string& three_js, const std::str
       }
       flush(h, c);
     }
-  };
+  }
 
-  server.set_http_handler([&](Hdl h) {
+  // LCM thread: the frame into the inbox (the oldest dropped), the server thread woken once.
+  void post_frame(std::shared_ptr<const std::string> json) {
+    {
+      std::lock_guard<std::mutex> lk(inbox_mu);
+      inbox.push_back(std::move(json));
+      if (inbox.size() > cap) inbox.pop_front();
+    }
+    if (!wake_posted.exchange(true)) server.get_io_service().post([this] { drain(); });
+  }
+
+  // GET / (the page), /stats (the counters as JSON), anything else 404.
+  void serve_http(Hdl h) {
     Server::connection_ptr con = server.get_con_from_hdl(h);
     std::string res = con->get_resource();
     const auto q = res.find('?');
@@ -159,9 +181,9 @@ int run_view_live(const System& sys, const std::string& three_js, const std::str
       con->set_status(websocketpp::http::status_code::not_found);
       con->set_body("not found: the page is at /, its WebSocket at /ws\n");
     }
-  });
-  server.set_validate_handler([&](Hdl h) { return server.get_con_from_hdl(h)->get_resource() == "/ws"; });
-  server.set_open_handler([&](Hdl h) {
+  }
+
+  void open_client(Hdl h) {
     // a small kernel send buffer per client (the kernel would otherwise take megabytes of a client
     // that does not read before our bound applies) and no Nagle delay for the small frames
     asio::error_code ignore;
@@ -169,40 +191,53 @@ int run_view_live(const System& sys, const std::string& three_js, const std::str
     sock.set_option(asio::socket_base::send_buffer_size(kSocketSendBuffer), ignore);
     sock.set_option(asio::ip::tcp::no_delay(true), ignore);
     clients.emplace(h, Client{});
-  });
-  server.set_close_handler([&](Hdl h) { clients.erase(h); });
-  server.set_fail_handler([&](Hdl h) { clients.erase(h); });
+  }
 
-  websocketpp::lib::error_code ec;
-  server.listen(host, port, ec);
-  if (ec) {
-    std::fprintf(stderr, "coopdyn view: cannot listen on %s: %s\n", listen.c_str(), ec.message().c_str());
-    return 1;
+  void set_handlers() {
+    server.set_http_handler([this](Hdl h) { serve_http(h); });
+    server.set_validate_handler([this](Hdl h) { return server.get_con_from_hdl(h)->get_resource() == "/ws"; });
+    server.set_open_handler([this](Hdl h) { open_client(h); });
+    server.set_close_handler([this](Hdl h) { clients.erase(h); });
+    server.set_fail_handler([this](Hdl h) { clients.erase(h); });
   }
-  server.start_accept(ec);
-  if (ec) {
-    std::fprintf(stderr, "coopdyn view: cannot accept on %s: %s\n", listen.c_str(), ec.message().c_str());
-    return 1;
-  }
-  const auto ep = server.get_local_endpoint(ec);
 
-  std::unique_ptr<io::LcmBus> bus;
-  try {
-    bus = std::make_unique<io::LcmBus>(lcm_url);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "coopdyn view: %s\n", e.what());
-    return 1;
+  bool listen(const std::string& host, const std::string& port, const std::string& listen_arg) {
+    websocketpp::lib::error_code ec;
+    server.listen(host, port, ec);
+    if (ec) {
+      std::fprintf(stderr, "coopdyn view: cannot listen on %s: %s\n", listen_arg.c_str(), ec.message().c_str());
+      return false;
+    }
+    server.start_accept(ec);
+    if (ec) {
+      std::fprintf(stderr, "coopdyn view: cannot accept on %s: %s\n", listen_arg.c_str(), ec.message().c_str());
+      return false;
+    }
+    return true;
   }
-  // the LCM receive thread's own state
-  ViewFrames frame_vf = view_geometry(sys);
-  Data data(sys.model);
+};
+
+// The LCM receive thread's own state: each output taken (at most max_rate_hz) becomes a frame's
+// JSON in the server's inbox.
+struct FrameMaker {
+  FrameMaker(const System& sys_, const std::string& channel_, double max_rate_hz, LiveServer& live_)
+      : sys(sys_), channel(channel_), live(live_), vf(view_geometry(sys_)), data(sys_.model),
+        min_gap_ns(static_cast<long long>(1e9 / max_rate_hz)) {}
+
+  const System& sys;
+  const std::string& channel;
+  LiveServer& live;
+  ViewFrames vf;
+  Data data;
   io::DecodedOutput o;
   std::string why;
-  const long long min_gap_ns = static_cast<long long>(1e9 / max_rate_hz);
+  const long long min_gap_ns;
   long long last_ns = 0;
   bool warned = false;
   ViewSample s;
-  bus->subscribe(channel, [&](const void* d, int n, long long recv_ns) {
+
+  void on_output(const void* d, int n, long long recv_ns) {
+    Counters& count = live.count;
     ++count.received;
     if (last_ns != 0 && recv_ns - last_ns < min_gap_ns) {
       ++count.skipped_rate;
@@ -212,31 +247,51 @@ int run_view_live(const System& sys, const std::string& three_js, const std::str
       ++count.undecodable;
       return;
     }
-    if (!sample_of_output(sys, frame_vf, o, &s, &why)) {
+    if (!sample_of_output(sys, vf, o, &s, &why)) {
       if (!warned) std::fprintf(stderr, "coopdyn view: an output on '%s' %s: ignored\n", channel.c_str(), why.c_str());
       warned = true;
       ++count.mismatched;
       return;
     }
     last_ns = recv_ns;
-    frame_vf.clear_frames();
-    add_view_frame(sys, data, s, &frame_vf);
-    auto json = std::make_shared<const std::string>(view_frame_json(frame_vf, 0));
+    vf.clear_frames();
+    add_view_frame(sys, data, s, &vf);
+    auto json = std::make_shared<const std::string>(view_frame_json(vf, 0));
     ++count.framed;
-    {
-      std::lock_guard<std::mutex> lk(inbox_mu);
-      inbox.push_back(std::move(json));
-      if (inbox.size() > cap) inbox.pop_front();
-    }
-    if (!wake_posted.exchange(true)) server.get_io_service().post(drain);
-  });
+    live.post_frame(std::move(json));
+  }
+};
+
+}  // namespace
+
+int run_view_live(const System& sys, const std::string& three_js, const std::string& listen, const std::string& lcm_url,
+                  const std::string& channel, double max_rate_hz, int queue_frames) {
+  std::string host, port;
+  if (!parse_listen(listen, &host, &port)) return 2;
+  LiveServer live(static_cast<size_t>(queue_frames), live_page(sys, three_js, "live: " + channel + " on " + lcm_url));
+  Server& server = live.server;
+  if (!live.start()) return 1;
+  live.set_handlers();
+  if (!live.listen(host, port, listen)) return 1;
+  websocketpp::lib::error_code ec;
+  const auto ep = server.get_local_endpoint(ec);
+
+  std::unique_ptr<io::LcmBus> bus;
+  try {
+    bus = std::make_unique<io::LcmBus>(lcm_url);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "coopdyn view: %s\n", e.what());
+    return 1;
+  }
+  FrameMaker frames(sys, channel, max_rate_hz, live);
+  bus->subscribe(channel, [&](const void* d, int n, long long recv_ns) { frames.on_output(d, n, recv_ns); });
 
   asio::signal_set stop_signals(server.get_io_service(), SIGINT, SIGTERM);
   stop_signals.async_wait([&](const asio::error_code& e, int) {
     if (e) return;
     websocketpp::lib::error_code ignore;
     server.stop_listening(ignore);
-    for (auto& [h, c] : clients) server.close(h, websocketpp::close::status::going_away, "coopdyn view stops", ignore);
+    for (auto& [h, c] : live.clients) server.close(h, websocketpp::close::status::going_away, "coopdyn view stops", ignore);
     bus->stop();
     server.get_io_service().post([&] { server.stop(); });
   });
@@ -254,7 +309,7 @@ int run_view_live(const System& sys, const std::string& three_js, const std::str
     return 1;
   }
   bus->stop();
-  std::fprintf(stderr, "coopdyn view: stopped: %s\n", json_stats(count, clients.size(), 0, 0).c_str());
+  std::fprintf(stderr, "coopdyn view: stopped: %s\n", json_stats(live.count, live.clients.size(), 0, 0).c_str());
   return 0;
 }
 
