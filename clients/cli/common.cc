@@ -14,13 +14,6 @@
 
 namespace coopdyn::cli {
 
-std::vector<std::string> Args::all(const std::string& k) const {
-  std::vector<std::string> out;
-  auto r = kv.equal_range(k);
-  for (auto it = r.first; it != r.second; ++it) out.push_back(it->second);
-  return out;
-}
-
 namespace {
 void num(std::FILE* f, double x) {
   if (std::isfinite(x)) std::fprintf(f, "%.17g", x);  // round-trips
@@ -223,23 +216,23 @@ int warn_contacts(std::FILE* f, const char* cmd, const System& sys, const Worksp
   return n;
 }
 
-int load_cli_scene(const Args& a, const char* cmd, System* sys) {
-  if (!a.has("scene")) {
+int load_cli_scene(const SceneArgs& a, const char* cmd, System* sys) {
+  if (!a.scene) {
     std::fprintf(stderr, "coopdyn %s: --scene FILE is required\n", cmd);
     return 2;
   }
   SceneOverrides ov;
-  if (a.has("formulation")) {
+  if (a.formulation) {
     Formulation f;
-    if (!parse_formulation(a.get("formulation"), &f)) {
+    if (!parse_formulation(*a.formulation, &f)) {
       std::fprintf(stderr, "coopdyn %s: unknown formulation '%s' (mobile_platform, classic, pseudo_joint, svd)\n", cmd,
-                   a.get("formulation").c_str());
+                   a.formulation->c_str());
       return 2;
     }
     ov.formulation = f;
   }
   try {
-    *sys = load_scene(a.get("scene"), ov);
+    *sys = load_scene(*a.scene, ov);
   } catch (const SceneError& e) {
     std::fprintf(stderr, "coopdyn: %s\n", e.what());
     return 1;
@@ -248,9 +241,9 @@ int load_cli_scene(const Args& a, const char* cmd, System* sys) {
   return 0;
 }
 
-int load_cli_profile(const Args& a, const char* cmd, const System& sys, TorqueProfile* prof) {
+int load_cli_profile(const ProfileArgs& a, const char* cmd, const System& sys, TorqueProfile* prof) {
   try {
-    for (const auto& spec : a.all("torque")) prof->add(sys, spec);
+    for (const auto& spec : a.torque) prof->add(sys, spec);
   } catch (const std::runtime_error& e) {
     std::fprintf(stderr, "coopdyn %s: %s\n", cmd, e.what());
     return 2;
@@ -258,9 +251,9 @@ int load_cli_profile(const Args& a, const char* cmd, const System& sys, TorquePr
   return 0;
 }
 
-int load_cli_targets(const Args& a, const char* cmd, const System& sys, TorqueProfile* prof, std::vector<int>* locks) {
+int load_cli_targets(const ProfileArgs& a, const char* cmd, const System& sys, TorqueProfile* prof, std::vector<int>* locks) {
   try {
-    for (const auto& spec : a.all("steer")) prof->add(sys, spec);
+    for (const auto& spec : a.steer) prof->add(sys, spec);
   } catch (const std::runtime_error& e) {
     std::fprintf(stderr, "coopdyn %s: --steer: %s\n", cmd, e.what());
     return 2;

@@ -1,4 +1,4 @@
-// Shared pieces of the coopdyn command line: argument parsing, JSON output, torque profiles.
+// Shared pieces of the coopdyn command line: scene loading, JSON output, torque profiles.
 #pragma once
 
 #include <limits>
@@ -11,20 +11,9 @@
 
 #include "service/dynamics/constrained_dynamics.h"
 #include "service/dynamics/system.h"
+#include "clients/cli/commands.h"
 
 namespace coopdyn::cli {
-
-// The options given to a subcommand, as parsed by CLI11 (clients/cli/cli.h): --key value pairs (a bare
-// --flag has an empty value); repeated keys are kept in order.
-struct Args {
-  std::multimap<std::string, std::string> kv;
-  bool has(const std::string& k) const { return kv.count(k) > 0; }
-  std::string get(const std::string& k, const std::string& def = "") const {
-    auto it = kv.find(k);
-    return it == kv.end() ? def : it->second;
-  }
-  std::vector<std::string> all(const std::string& k) const;
-};
 
 // Writes the evaluation at (q, v, tau) as the JSON object documented in README.md.
 void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const Eigen::VectorXd& q,
@@ -70,37 +59,16 @@ int velocity_index(const System& sys, const std::string& name);  // -1 if absent
 
 // Loads --scene (with an optional --formulation override) for subcommand `cmd`; prints the reason
 // and returns the exit status (2 usage, 1 scene error) on failure, 0 on success.
-int load_cli_scene(const Args& a, const char* cmd, System* sys);
+int load_cli_scene(const SceneArgs& a, const char* cmd, System* sys);
 // Adds every --torque PROFILE to *prof; prints the reason and returns 2 on a bad one, else 0.
-int load_cli_profile(const Args& a, const char* cmd, const System& sys, TorqueProfile* prof);
+int load_cli_profile(const ProfileArgs& a, const char* cmd, const System& sys, TorqueProfile* prof);
 // Adds every --steer PROFILE (lock targets, rad or m) to *prof and lists their lock specs in *locks
 // (parallel to prof->dofs()); each joint must be a pseudo-joint lock with a target_limit and the
 // profile within it (checked at the profile's breakpoints); prints the reason and returns 2 if not.
-int load_cli_targets(const Args& a, const char* cmd, const System& sys, TorqueProfile* prof, std::vector<int>* locks);
+int load_cli_targets(const ProfileArgs& a, const char* cmd, const System& sys, TorqueProfile* prof, std::vector<int>* locks);
 
 // Reads q, v, tau (each optional) from a JSON or YAML state file in the scene's coordinate order;
 // prints the problem and returns false on a bad file.
 bool read_state(const std::string& path, const System& sys, Eigen::VectorXd& q, Eigen::VectorXd& v, Eigen::VectorXd& tau);
-
-// The subcommands: register_NAME declares the options of `coopdyn NAME` (clients/cli/cli.h), cmd_NAME runs it.
-class Cli;
-void register_eval(Cli& cli);
-void register_sim(Cli& cli);
-void register_send(Cli& cli);
-void register_log(Cli& cli);
-void register_control(Cli& cli);
-void register_track(Cli& cli);
-void register_view(Cli& cli);
-void register_bench(Cli& cli);
-void register_spy(Cli& cli);
-int cmd_eval(const Args& a);
-int cmd_track(const Args& a);
-int cmd_control(const Args& a);
-int cmd_sim(const Args& a);
-int cmd_send(const Args&);
-int cmd_log(const Args&);
-int cmd_view(const Args&);  // clients/view/view.cc
-int cmd_bench(const Args& a);  // clients/cli/bench.cc
-int cmd_spy(const Args& a);    // clients/cli/spy.cc
 
 }  // namespace coopdyn::cli

@@ -46,20 +46,20 @@ bool read_state(const std::string& path, const System& sys, Eigen::VectorXd& q, 
 }
 
 void register_eval(Cli& cli) {
-  Command& c = cli.add("eval",
-                       "Evaluate one state of a scene and print it as JSON: accelerations, wrenches, stresses, "
-                       "diagnostics (exit 3 on an error status).",
-                       cmd_eval);
-  scene_options(c, true);
-  c.value("--state", "FILE.json",
-          "q, v, tau (each optional) in the scene's coordinate order (default: the scene's initial state, zero torque)");
+  auto [c, a] = cli.add("eval",
+                        "Evaluate one state of a scene and print it as JSON: accelerations, wrenches, stresses, "
+                        "diagnostics (exit 3 on an error status).",
+                        cmd_eval);
+  scene_options(c, a, true);
+  value(c, "--state", a.state, "FILE.json",
+        "q, v, tau (each optional) in the scene's coordinate order (default: the scene's initial state, zero torque)");
 }
 
-int cmd_eval(const Args& a) {
+int cmd_eval(const EvalArgs& a) {
   System sys;
   if (const int rc = load_cli_scene(a, "eval", &sys)) return rc;
   Eigen::VectorXd q = sys.q0, v = sys.v0, tau = Eigen::VectorXd::Zero(sys.model.nv());
-  if (a.has("state") && !read_state(a.get("state"), sys, q, v, tau)) return 1;
+  if (a.state && !read_state(*a.state, sys, q, v, tau)) return 1;
   Workspace ws(sys);
   const Diagnostics& d = evaluate(sys, ws, q, v, tau);
   write_eval_json(stdout, sys, ws, q, v, tau);

@@ -101,55 +101,46 @@ double pct(std::vector<double> v, double p) {
 }  // namespace
 
 void register_send(Cli& cli) {
-  Command& c = cli.add("send",
-                       "Publish torque commands (or measured states, for estimate mode) to coopdynd at a fixed rate and "
-                       "read back what it did with them (exit 4 when commands went unused and the daemon rejected some, "
-                       "1 when no daemon answers).",
-                       cmd_send);
-  scene_options(c, true);
-  c.repeated("--torque", "PROFILE", "torque commands; repeat to combine (see below)");
-  c.repeated("--steer", "PROFILE", "lock targets in the commands (a steer angle, rad); repeat to combine (see below)");
-  c.value("--states", "SIM.csv", "replay the states of a coopdyn sim CSV as measured_state_t instead");
-  c.flag("--joints-only", "with --states: leave out the floating bodies' coordinates (the daemon fits them)");
-  c.number("--rate", "HZ", "messages per second, (0, 10000]", "100");
-  c.number("--duration", "S", "how long to send (default: 2; with --states the file's time span)");
-  c.number("--t0", "S", "profile (or replay) time of the first message", "0");
-  c.number("--seq", "N", "seq of the first message (then +1 per message)", "1");
-  c.value("--lcm-url", "URL", "LCM URL", kDefaultLcmUrl);
-  c.value("--channel", "C", "channel to publish on (default: COOPDYN_COMMAND; with --states COOPDYN_STATE)");
-  c.value("--output-channel", "C", "the daemon's output channel (read back, latency)", "COOPDYN_OUTPUT");
-  c.value("--output-url", "URL", "LCM URL of the daemon's outputs and stats, when its inputs come on another (its lcm_url_in; "
-          "default: --lcm-url)");
-  c.value("--stats-channel", "C", "the daemon's loop_stats_t channel (read back)", "COOPDYN_STATS");
-  c.flag("--measure-latency", "report the time from each command's publish to the first output that used it");
-  c.flag("--no-check", "do not read back what the daemon did");
-  c.flag("--quiet", "no summary line");
-  c.app->footer(kProfileHelp);
+  auto [c, a] = cli.add("send",
+                        "Publish torque commands (or measured states, for estimate mode) to coopdynd at a fixed rate and "
+                        "read back what it did with them (exit 4 when commands went unused and the daemon rejected some, "
+                        "1 when no daemon answers).",
+                        cmd_send);
+  scene_options(c, a, true);
+  profile_options(c, a, "torque commands; repeat to combine (see below)",
+                  "lock targets in the commands (a steer angle, rad); repeat to combine (see below)");
+  value(c, "--states", a.states, "SIM.csv", "replay the states of a coopdyn sim CSV as measured_state_t instead");
+  flag(c, "--joints-only", a.joints_only, "with --states: leave out the floating bodies' coordinates (the daemon fits them)");
+  number(c, "--rate", a.rate, "HZ", "messages per second, (0, 10000]", Default::kShown);
+  number(c, "--duration", a.duration, "S", "how long to send (default: 2; with --states the file's time span)");
+  number(c, "--t0", a.t0, "S", "profile (or replay) time of the first message", Default::kShown);
+  number(c, "--seq", a.seq, "N", "seq of the first message (then +1 per message)", Default::kShown);
+  value(c, "--lcm-url", a.lcm_url, "URL", "LCM URL", Default::kShown);
+  value(c, "--channel", a.channel, "C", "channel to publish on (default: COOPDYN_COMMAND; with --states COOPDYN_STATE)");
+  value(c, "--output-channel", a.output_channel, "C", "the daemon's output channel (read back, latency)", Default::kShown);
+  value(c, "--output-url", a.output_url, "URL",
+        "LCM URL of the daemon's outputs and stats, when its inputs come on another (its lcm_url_in; default: --lcm-url)");
+  value(c, "--stats-channel", a.stats_channel, "C", "the daemon's loop_stats_t channel (read back)", Default::kShown);
+  flag(c, "--measure-latency", a.measure_latency, "report the time from each command's publish to the first output that used it");
+  flag(c, "--no-check", a.no_check, "do not read back what the daemon did");
+  flag(c, "--quiet", a.quiet, "no summary line");
 }
 
-int cmd_send(const Args& a) {
-  const bool replay = a.has("states");
-  if (!a.has("scene") || (!a.has("torque") && !a.has("steer") && !replay)) {
+int cmd_send(const SendArgs& a) {
+  const bool replay = a.states.has_value();
+  if (a.torque.empty() && a.steer.empty() && !replay) {
     std::fprintf(stderr,
                  "coopdyn send: --scene FILE and at least one --torque or --steer PROFILE (commands) or --states FILE.csv "
                  "(measured states, estimate mode) are required\n");
     return 2;
   }
-  if (replay && a.has("steer")) {
+  if (replay && !a.steer.empty()) {
     std::fprintf(stderr, "coopdyn send: --steer goes with commands, not with --states\n");
     return 2;
   }
-  double rate = 100, duration = 2, t0 = 0;
-  long long seq0 = 1;
-  try {
-    if (a.has("rate")) rate = std::stod(a.get("rate"));
-    if (a.has("duration")) duration = std::stod(a.get("duration"));
-    if (a.has("seq")) seq0 = std::stoll(a.get("seq"));
-    if (a.has("t0")) t0 = std::stod(a.get("t0"));
-  } catch (const std::exception&) {
-    std::fprintf(stderr, "coopdyn send: --rate, --duration, --seq and --t0 must be numbers\n");
-    return 2;
-  }
+  const double rate = a.rate, t0 = a.t0;
+  double duration = a.duration.value_or(2);
+  const long long seq0 = a.seq;
   if (!(rate > 0 && rate <= 10000) || !(duration >= 0) || !std::isfinite(duration)) {
     std::fprintf(stderr, "coopdyn send: need 0 < rate <= 10000 and duration >= 0\n");
     return 2;
@@ -169,12 +160,12 @@ int cmd_send(const Args& a) {
   StateTable states;
   if (replay) {
     std::string err;
-    if (!read_states(a.get("states"), &states, &err)) {
+    if (!read_states(*a.states, &states, &err)) {
       std::fprintf(stderr, "coopdyn send: %s\n", err.c_str());
       return 2;
     }
-    if (!a.has("duration")) duration = states.t.back() - states.t.front();
-    if (a.has("joints-only")) {
+    if (!a.duration) duration = states.t.back() - states.t.front();
+    if (a.joints_only) {
       // what a robot's drivers publish: the joints only; the daemon fits the floating bodies' pose
       // and twist (the load's) from them (state_fit.h)
       const StateFitPlan plan = plan_state_fit(sys);
@@ -204,16 +195,16 @@ int cmd_send(const Args& a) {
       for (auto& r : states.tau) pick(keep_v, r);
     }
   }
-  const std::string url = a.get("lcm-url", kDefaultLcmUrl);
-  const std::string channel = a.get("channel", replay ? "COOPDYN_STATE" : "COOPDYN_COMMAND");
-  const std::string out_channel = a.get("output-channel", "COOPDYN_OUTPUT");
-  const bool measure = a.has("measure-latency");
-  const bool quiet = a.has("quiet");
+  const std::string url = a.lcm_url;
+  const std::string channel = a.channel.value_or(replay ? "COOPDYN_STATE" : "COOPDYN_COMMAND");
+  const std::string out_channel = a.output_channel;
+  const bool measure = a.measure_latency;
+  const bool quiet = a.quiet;
 
   std::unique_ptr<io::LcmBus> bus, out_bus;
   try {
     bus = std::make_unique<io::LcmBus>(url);
-    if (a.has("output-url") && a.get("output-url") != url) out_bus = std::make_unique<io::LcmBus>(a.get("output-url"));
+    if (a.output_url && *a.output_url != url) out_bus = std::make_unique<io::LcmBus>(*a.output_url);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "coopdyn send: %s\n", e.what());
     return 1;
@@ -225,7 +216,7 @@ int cmd_send(const Args& a) {
   long long last_seen = -1;
   // Read back what the daemon did (unless --no-check): the seqs its outputs used, and its counters
   // (loop_stats_t) at the first and the last stats message.
-  const bool check = !a.has("no-check");
+  const bool check = !a.no_check;
   std::unordered_map<long long, char> used;
   long long outputs = 0;
   io::StatsFrame stats_first, stats_last;
@@ -247,7 +238,7 @@ int cmd_send(const Args& a) {
         sent_ns.erase(it);
       }
     });
-    rx_bus.subscribe(a.get("stats-channel", "COOPDYN_STATS"), [&](const void* d, int n, long long) {
+    rx_bus.subscribe(a.stats_channel, [&](const void* d, int n, long long) {
       io::StatsFrame st;
       if (!io::decode_stats(d, n, &st)) return;
       std::lock_guard<std::mutex> lk(mu);

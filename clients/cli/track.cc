@@ -26,39 +26,25 @@ void on_track_signal(int) { g_track_stop = true; }
 }  // namespace
 
 void register_track(Cli& cli) {
-  Command& c = cli.add("track",
-                       "The reference controller in the loop: move the load along a circle while holding the squeeze "
-                       "between the arms, commanding coopdynd over LCM.",
-                       cmd_track);
-  scene_options(c, true);
-  const TrackOptions def;
-  c.number("--duration", "S", "how long to control", "6");
-  c.number("--radius", "M", "radius of the circle (y-z plane), [0, 10)", show(def.radius));
-  c.number("--period", "S", "one lap, > 0.1", show(def.period));
-  c.number("--squeeze", "N", "internal force set-point between the grasps", show(def.squeeze));
-  c.value("--out", "FILE.csv", "one row per command: reference, load, errors, squeeze, in_sync (default: none)");
-  c.value("--lcm-url", "URL", "LCM URL to send the commands on", kDefaultLcmUrl);
-  c.value("--output-url", "URL", "LCM URL of the daemon's outputs (default: --lcm-url)");
-  c.value("--channel", "C", "command channel", "COOPDYN_COMMAND");
-  c.value("--output-channel", "C", "the daemon's output channel", "COOPDYN_OUTPUT");
+  auto [c, a] = cli.add("track",
+                        "The reference controller in the loop: move the load along a circle while holding the squeeze "
+                        "between the arms, commanding coopdynd over LCM.",
+                        cmd_track);
+  scene_options(c, a, true);
+  number(c, "--duration", a.duration, "S", "how long to control", Default::kShown);
+  number(c, "--radius", a.control.radius, "M", "radius of the circle (y-z plane), [0, 10)", Default::kShown);
+  number(c, "--period", a.control.period, "S", "one lap, > 0.1", Default::kShown);
+  number(c, "--squeeze", a.control.squeeze, "N", "internal force set-point between the grasps", Default::kShown);
+  value(c, "--out", a.out, "FILE.csv", "one row per command: reference, load, errors, squeeze, in_sync (default: none)");
+  value(c, "--lcm-url", a.lcm_url, "URL", "LCM URL to send the commands on", Default::kShown);
+  value(c, "--output-url", a.output_url, "URL", "LCM URL of the daemon's outputs (default: --lcm-url)");
+  value(c, "--channel", a.channel, "C", "command channel", Default::kShown);
+  value(c, "--output-channel", a.output_channel, "C", "the daemon's output channel", Default::kShown);
 }
 
-int cmd_track(const Args& a) {
-  if (!a.has("scene")) {
-    std::fprintf(stderr, "coopdyn track: --scene FILE is required (the daemon's scene)\n");
-    return 2;
-  }
-  TrackOptions opt;
-  double duration = 6.0;
-  try {
-    if (a.has("duration")) duration = std::stod(a.get("duration"));
-    if (a.has("radius")) opt.radius = std::stod(a.get("radius"));
-    if (a.has("period")) opt.period = std::stod(a.get("period"));
-    if (a.has("squeeze")) opt.squeeze = std::stod(a.get("squeeze"));
-  } catch (const std::exception&) {
-    std::fprintf(stderr, "coopdyn track: --duration, --radius, --period and --squeeze must be numbers\n");
-    return 2;
-  }
+int cmd_track(const TrackArgs& a) {
+  const TrackOptions& opt = a.control;
+  const double duration = a.duration;
   if (!(duration > 0 && duration < 1e6) || !(opt.radius >= 0 && opt.radius < 10) || !(opt.period > 0.1) ||
       !std::isfinite(opt.squeeze)) {
     std::fprintf(stderr, "coopdyn track: need 0 < duration, 0 <= radius < 10 m, period > 0.1 s, a finite squeeze\n");
@@ -73,15 +59,15 @@ int cmd_track(const Args& a) {
     std::fprintf(stderr, "%s\n", e.what());
     return 2;
   }
-  const std::string url = a.get("lcm-url", kDefaultLcmUrl);
-  const std::string out_url = a.get("output-url", url);
-  const std::string cmd_channel = a.get("channel", "COOPDYN_COMMAND");
-  const std::string out_channel = a.get("output-channel", "COOPDYN_OUTPUT");
+  const std::string url = a.lcm_url;
+  const std::string out_url = a.output_url.value_or(url);
+  const std::string cmd_channel = a.channel;
+  const std::string out_channel = a.output_channel;
   std::FILE* csv = nullptr;
-  if (a.has("out")) {
-    csv = std::fopen(a.get("out").c_str(), "w");
+  if (a.out) {
+    csv = std::fopen(a.out->c_str(), "w");
     if (!csv) {
-      std::fprintf(stderr, "coopdyn track: cannot write '%s'\n", a.get("out").c_str());
+      std::fprintf(stderr, "coopdyn track: cannot write '%s'\n", a.out->c_str());
       return 1;
     }
     // the naming rules of the per-step CSV (docs/conventions.md): units in a '# units:' line, words for codes
