@@ -50,6 +50,8 @@ END { flush() }
 }
 
 cat <<'EOF'
+<!-- written by docs/reference/cli.sh from the programs' --help: edit the script, then
+     docs/reference/cli.sh build/bin > docs/reference/cli.md -->
 # Command-line reference
 
 Two programs: `coopdyn` (offline commands and the clients of the daemon) and `coopdynd` (the
