@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <set>
 #include <sstream>
 #include <string>
@@ -252,4 +253,17 @@ TEST(Cli, BenchOnAMissingOrBrokenSceneNamesTheFile) {
   EXPECT_EQ(b.rc, 1);
   EXPECT_TRUE(has(b.err, broken)) << b.err;
   EXPECT_EQ(b.out, "");
+}
+
+// docs/reference/cli.md is written by docs/reference/cli.sh from the programs' --help: the page in
+// the tree is what the script writes from these binaries.
+TEST(Cli, ReferencePageIsWhatItsScriptWritesFromTheHelp) {
+  const std::string bin = std::string(COOPDYN_PATH).substr(0, std::string(COOPDYN_PATH).rfind('/'));
+  const std::string docs = std::string(COOPDYN_SOURCE_DIR) + "/docs/reference/";
+  const Result r = run({"/bin/bash", docs + "cli.sh", bin}, "reference");
+  ASSERT_EQ(r.rc, 0) << r.err;
+  std::ifstream f(docs + "cli.md");
+  std::stringstream page;
+  page << f.rdbuf();
+  EXPECT_EQ(r.out, page.str()) << "the page is stale: docs/reference/cli.sh build/bin > docs/reference/cli.md";
 }

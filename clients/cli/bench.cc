@@ -102,26 +102,20 @@ Row measure(const std::string& name, double min_time, int reps, const std::funct
 }  // namespace
 
 void register_bench(Cli& cli) {
-  Command& c = cli.add("bench",
-                       "Time one evaluation (dynamics and wrenches, as the daemon's tick) and one step of each "
-                       "integrator on a scene: median, p10, p90 and MAD of the CPU time per call over repetitions.",
-                       cmd_bench);
-  scene_options(c, true);
-  c.number("--min-time", "S", "measured time per row, s (split over the repetitions; plus a tenth for warm-up)", "0.5");
-  c.number("--repetitions", "N", "timed repetitions per row", "15");
-  c.flag("--json", "print JSON instead of a table");
+  auto [c, a] = cli.add("bench",
+                        "Time one evaluation (dynamics and wrenches, as the daemon's tick) and one step of each "
+                        "integrator on a scene: median, p10, p90 and MAD of the CPU time per call over repetitions.",
+                        cmd_bench);
+  scene_options(c, a, true);
+  number(c, "--min-time", a.min_time, "S", "measured time per row, s (split over the repetitions; plus a tenth for warm-up)",
+         Default::kShown);
+  number(c, "--repetitions", a.repetitions, "N", "timed repetitions per row", Default::kShown);
+  flag(c, "--json", a.json, "print JSON instead of a table");
 }
 
-int cmd_bench(const Args& a) {
-  double min_time = 0.5;
-  int reps = 15;
-  try {
-    if (a.has("min-time")) min_time = std::stod(a.get("min-time"));
-    if (a.has("repetitions")) reps = std::stoi(a.get("repetitions"));
-  } catch (const std::exception&) {
-    std::fprintf(stderr, "coopdyn bench: --min-time and --repetitions must be numbers\n");
-    return 2;
-  }
+int cmd_bench(const BenchArgs& a) {
+  const double min_time = a.min_time;
+  const int reps = a.repetitions;
   if (!(min_time > 0) || !std::isfinite(min_time) || reps < 3 || reps > 10000) {
     std::fprintf(stderr, "coopdyn bench: need --min-time > 0 and --repetitions in 3..10000\n");
     return 2;
@@ -139,7 +133,7 @@ int cmd_bench(const Args& a) {
     WrenchData wd(sys);
     const Diagnostics& d = evaluate(sys, ws, sys.q0, sys.v0, tau);
     if (d.status == Status::kError) {
-      std::fprintf(stderr, "coopdyn bench: %s: the initial state does not evaluate: %s\n", a.get("scene").c_str(),
+      std::fprintf(stderr, "coopdyn bench: %s: the initial state does not evaluate: %s\n", a.scene->c_str(),
                    reason_text(d.reason));
       return 3;
     }
@@ -157,7 +151,7 @@ int cmd_bench(const Args& a) {
       const Diagnostics& d = step(s, st, integ, dt, tau, q, v);
       if (d.status == Status::kError) {
         std::fprintf(stderr, "coopdyn bench: %s: one %s step from the initial state fails: %s\n",
-                     a.get("scene").c_str(), integrator_name(integ), reason_text(d.reason));
+                     a.scene->c_str(), integrator_name(integ), reason_text(d.reason));
         return 3;
       }
       const std::string name = std::string("step:") + integrator_name(integ) + (with_proj ? "+projection" : "");
@@ -172,10 +166,10 @@ int cmd_bench(const Args& a) {
     }
   }
 
-  if (a.has("json")) {
+  if (a.json) {
     std::printf("{\"scene\": %s, \"name\": %s, \"formulation\": \"%s\", \"nq\": %d, \"nv\": %d, \"constraint_rows\": %d, "
                 "\"projection_iterations\": %d, \"dt\": 0.001, \"unit\": \"us\", \"clock\": \"thread_cpu\",\n \"rows\": [",
-                json_string(a.get("scene")).c_str(), json_string(sys.name).c_str(),
+                json_string(*a.scene).c_str(), json_string(sys.name).c_str(),
                 formulation_name(sys.options.formulation), sys.model.nq(), sys.model.nv(), sys.constraints.rows,
                 sys.options.projection_iterations);
     for (size_t i = 0; i < rows.size(); ++i) {
@@ -189,7 +183,7 @@ int cmd_bench(const Args& a) {
     std::printf("\n]}\n");
   } else {
     std::printf("scene %s (%s): nv %d, %d constraint rows, formulation %s, projection %s; dt 1 ms, zero torque\n",
-                a.get("scene").c_str(), sys.name.c_str(), sys.model.nv(), sys.constraints.rows,
+                a.scene->c_str(), sys.name.c_str(), sys.model.nv(), sys.constraints.rows,
                 formulation_name(sys.options.formulation),
                 has_projection ? (std::to_string(sys.options.projection_iterations) + " iterations").c_str() : "off");
     std::printf("CPU time per call, us (%d repetitions per row)\n", reps);

@@ -13,27 +13,27 @@
 namespace coopdyn::cli {
 
 void register_control(Cli& cli) {
-  Command& c = cli.add("control",
-                       "Send one control_t to coopdynd (reset, reset to a state, pause, resume, clear a fault) and wait "
-                       "for its acknowledgement (exit 3 when refused, 1 when none comes within 2 s).",
-                       cmd_control);
-  c.value("--action", "ACTION", "reset, reset_to_state, pause, resume or clear_fault")->required();
-  scene_options(c, false);
-  c.value("--state", "FILE.json", "reset_to_state: q, v in the scene's coordinate order (needs --scene)");
-  c.value("--lcm-url", "URL", "LCM URL to send on", kDefaultLcmUrl);
-  c.value("--output-url", "URL", "LCM URL of the daemon's outputs (default: --lcm-url)");
-  c.value("--channel", "C", "control channel", "COOPDYN_CONTROL");
-  c.value("--output-channel", "C", "the daemon's output channel (the acknowledgement)", "COOPDYN_OUTPUT");
-  c.number("--seq", "N", "the control's seq (default: the wall clock in microseconds, so that it keeps increasing)");
-  c.flag("--no-wait", "send and exit without waiting for the acknowledgement");
+  auto [c, a] = cli.add("control",
+                        "Send one control_t to coopdynd (reset, reset to a state, pause, resume, clear a fault) and wait "
+                        "for its acknowledgement (exit 3 when refused, 1 when none comes within 2 s).",
+                        cmd_control);
+  value(c, "--action", a.action, "ACTION", "reset, reset_to_state, pause, resume or clear_fault")->required();
+  scene_options(c, a, false);
+  value(c, "--state", a.state, "FILE.json", "reset_to_state: q, v in the scene's coordinate order (needs --scene)");
+  value(c, "--lcm-url", a.lcm_url, "URL", "LCM URL to send on", Default::kShown);
+  value(c, "--output-url", a.output_url, "URL", "LCM URL of the daemon's outputs (default: --lcm-url)");
+  value(c, "--channel", a.channel, "C", "control channel", Default::kShown);
+  value(c, "--output-channel", a.output_channel, "C", "the daemon's output channel (the acknowledgement)", Default::kShown);
+  number(c, "--seq", a.seq, "N", "the control's seq (default: the wall clock in microseconds, so that it keeps increasing)");
+  flag(c, "--no-wait", a.no_wait, "send and exit without waiting for the acknowledgement");
 }
 
-int cmd_control(const Args& a) {
+int cmd_control(const ControlArgs& a) {
   static const std::pair<const char*, io::ControlAction> actions[] = {
       {"reset", io::ControlAction::kReset},   {"reset_to_state", io::ControlAction::kResetToState},
       {"pause", io::ControlAction::kPause},   {"resume", io::ControlAction::kResume},
       {"clear_fault", io::ControlAction::kClearFault}};
-  const std::string name = a.get("action");
+  const std::string& name = a.action;
   int found = -1;
   for (int i = 0; i < 5; ++i)
     if (name == actions[i].first) found = i;
@@ -44,30 +44,30 @@ int cmd_control(const Args& a) {
   const io::ControlAction action = actions[found].second;
   std::vector<double> q, v;
   if (action == io::ControlAction::kResetToState) {
-    if (!a.has("scene") || !a.has("state")) {
+    if (!a.scene || !a.state) {
       std::fprintf(stderr, "coopdyn control: reset_to_state needs --scene FILE and --state FILE.json (q, v)\n");
       return 2;
     }
     System sys;
     if (const int rc = load_cli_scene(a, "control", &sys)) return rc;
     Eigen::VectorXd qs = sys.q0, vs = sys.v0, tau = Eigen::VectorXd::Zero(sys.model.nv());
-    if (!read_state(a.get("state"), sys, qs, vs, tau)) return 1;
+    if (!read_state(*a.state, sys, qs, vs, tau)) return 1;
     q.assign(qs.data(), qs.data() + qs.size());
     v.assign(vs.data(), vs.data() + vs.size());
   }
-  const std::string url = a.get("lcm-url", kDefaultLcmUrl);
-  const std::string out_url = a.get("output-url", url);
-  const std::string channel = a.get("channel", "COOPDYN_CONTROL");
-  const std::string out_channel = a.get("output-channel", "COOPDYN_OUTPUT");
+  const std::string url = a.lcm_url;
+  const std::string out_url = a.output_url.value_or(url);
+  const std::string channel = a.channel;
+  const std::string out_channel = a.output_channel;
   // seq: the wall clock in us unless given, so that successive invocations keep increasing
-  const int64_t seq = a.has("seq") ? std::stoll(a.get("seq")) : io::wall_us();
+  const int64_t seq = a.seq ? *a.seq : io::wall_us();
   try {
     io::LcmBus bus(url);
     std::unique_ptr<io::LcmBus> out_bus;
     std::mutex mu;
     int result = -2;
     bool paused = false;
-    const bool wait = !a.has("no-wait");
+    const bool wait = !a.no_wait;
     if (wait) {
       io::LcmBus* ob = &bus;
       if (out_url != url) {

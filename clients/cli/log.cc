@@ -174,9 +174,9 @@ void write_output_row(CsvLine& l, StepRow& r, const io::DecodedOutput& o, double
 }
 
 // Runs the plotter (clients/cli/log_plot.py) on a per-step CSV and a stats CSV ('' when none).
-int plot(const Args& a, const std::string& out, const std::string& steps_csv, const std::string& stats_csv) {
+int plot(const LogArgs& a, const std::string& out, const std::string& steps_csv, const std::string& stats_csv) {
   std::fflush(stdout);  // the table before the plotter's own lines
-  const std::string py = a.get("python", "/usr/bin/python3");
+  const std::string py = a.python;
   if (std::system((shell_quote(py) + " -c 'import matplotlib' >/dev/null 2>&1").c_str()) != 0) {
     std::printf(
         "coopdyn log: no PNG plots: %s cannot import matplotlib (Debian: apt-get install python3-matplotlib); "
@@ -392,28 +392,24 @@ void print_summary(std::map<std::string, Channel>& chans, std::string* out_csv, 
 }  // namespace
 
 void register_log(Cli& cli) {
-  Command& c = cli.add("log",
-                       "Convert an lcm-logger log to one CSV per channel and plot the wrenches, reactions and timing "
-                       "(PNG, when python3 has matplotlib); or plot a per-step CSV (a coopdyn sim --out file).",
-                       cmd_log);
-  c.value("--in", "FILE", "the log (FILE.lcmlog), or a per-step CSV (FILE.csv) to plot")->required();
-  c.value("--out", "DIR",
-          "directory for the CSVs and plots (default: the input's path without its extension, then _csv)");
-  c.value("--scene", "FILE",
-          "the run's scene: exact units of its joints and names for commands sent without names (default: from "
-          "the log's outputs)");
-  c.flag("--no-plot", "CSVs only");
-  c.flag("--progress", "report progress on stderr (default: only when stderr is a terminal)");
-  c.value("--python", "PATH", "the Python that plots", "/usr/bin/python3");
+  auto [c, a] = cli.add("log",
+                        "Convert an lcm-logger log to one CSV per channel and plot the wrenches, reactions and timing "
+                        "(PNG, when python3 has matplotlib); or plot a per-step CSV (a coopdyn sim --out file).",
+                        cmd_log);
+  value(c, "--in", a.in, "FILE", "the log (FILE.lcmlog), or a per-step CSV (FILE.csv) to plot")->required();
+  value(c, "--out", a.out, "DIR",
+        "directory for the CSVs and plots (default: the input's path without its extension, then _csv)");
+  value(c, "--scene", a.scene, "FILE",
+        "the run's scene: exact units of its joints and names for commands sent without names (default: from "
+        "the log's outputs)");
+  flag(c, "--no-plot", a.no_plot, "CSVs only");
+  flag(c, "--progress", a.progress, "report progress on stderr (default: only when stderr is a terminal)");
+  value(c, "--python", a.python, "PATH", "the Python that plots", Default::kShown);
 }
 
-int cmd_log(const Args& a) {
-  if (!a.has("in")) {
-    std::fprintf(stderr, "coopdyn log: --in FILE (an lcm-logger log) is required\n");
-    return 2;
-  }
-  const std::string in = a.get("in");
-  std::string out = a.get("out");
+int cmd_log(const LogArgs& a) {
+  const std::string in = a.in;
+  std::string out = a.out;
   if (out.empty()) {
     out = in;
     const auto dot = out.rfind('.');
@@ -422,7 +418,7 @@ int cmd_log(const Args& a) {
   }
   if (ends_with(in, ".csv")) {  // a per-step CSV: plots only
     if (!is_step_csv(in)) return 1;
-    if (a.has("no-plot")) return 0;
+    if (a.no_plot) return 0;
     if (mkdir(out.c_str(), 0755) != 0 && errno != EEXIST) {
       std::fprintf(stderr, "coopdyn log: cannot create directory '%s'\n", out.c_str());
       return 1;
@@ -430,7 +426,7 @@ int cmd_log(const Args& a) {
     return plot(a, out, in, "");
   }
   std::unique_ptr<System> sys;
-  if (a.has("scene")) {
+  if (a.scene) {
     sys = std::make_unique<System>();
     if (const int rc = load_cli_scene(a, "log", sys.get())) return rc;
   }
@@ -442,7 +438,7 @@ int cmd_log(const Args& a) {
     return 1;
   }
   Conversion cv(in, out, sys.get(), names.get());
-  Progress progress("coopdyn log", a.has("progress"));
+  Progress progress("coopdyn log", a.progress);
   try {
     read_lcm_log(in, [&](const LogMessage& ev) { return convert_message(cv, progress, ev); });
   } catch (const std::runtime_error& e) {
@@ -458,7 +454,7 @@ int cmd_log(const Args& a) {
   }
   std::string out_csv, stats_csv;
   print_summary(cv.chans, &out_csv, &stats_csv);
-  if (a.has("no-plot") || out_csv.empty()) return 0;
+  if (a.no_plot || out_csv.empty()) return 0;
   return plot(a, out, out_csv, stats_csv);
 }
 

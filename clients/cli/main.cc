@@ -46,6 +46,5 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;  // --help and --version: stdout, 0; errors: stderr, 2
   }
-  Command* c = cli.chosen();
-  return c ? c->run(c->args) : 2;
+  return cli.run_chosen();
 }

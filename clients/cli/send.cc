@@ -98,173 +98,130 @@ double pct(std::vector<double> v, double p) {
   const size_t i = static_cast<size_t>(p * static_cast<double>(v.size() - 1) + 0.5);
   return v[std::min(i, v.size() - 1)];
 }
-}  // namespace
 
-void register_send(Cli& cli) {
-  Command& c = cli.add("send",
-                       "Publish torque commands (or measured states, for estimate mode) to coopdynd at a fixed rate and "
-                       "read back what it did with them (exit 4 when commands went unused and the daemon rejected some, "
-                       "1 when no daemon answers).",
-                       cmd_send);
-  scene_options(c, true);
-  c.repeated("--torque", "PROFILE", "torque commands; repeat to combine (see below)");
-  c.repeated("--steer", "PROFILE", "lock targets in the commands (a steer angle, rad); repeat to combine (see below)");
-  c.value("--states", "SIM.csv", "replay the states of a coopdyn sim CSV as measured_state_t instead");
-  c.flag("--joints-only", "with --states: leave out the floating bodies' coordinates (the daemon fits them)");
-  c.number("--rate", "HZ", "messages per second, (0, 10000]", "100");
-  c.number("--duration", "S", "how long to send (default: 2; with --states the file's time span)");
-  c.number("--t0", "S", "profile (or replay) time of the first message", "0");
-  c.number("--seq", "N", "seq of the first message (then +1 per message)", "1");
-  c.value("--lcm-url", "URL", "LCM URL", kDefaultLcmUrl);
-  c.value("--channel", "C", "channel to publish on (default: COOPDYN_COMMAND; with --states COOPDYN_STATE)");
-  c.value("--output-channel", "C", "the daemon's output channel (read back, latency)", "COOPDYN_OUTPUT");
-  c.value("--output-url", "URL", "LCM URL of the daemon's outputs and stats, when its inputs come on another (its lcm_url_in; "
-          "default: --lcm-url)");
-  c.value("--stats-channel", "C", "the daemon's loop_stats_t channel (read back)", "COOPDYN_STATS");
-  c.flag("--measure-latency", "report the time from each command's publish to the first output that used it");
-  c.flag("--no-check", "do not read back what the daemon did");
-  c.flag("--quiet", "no summary line");
-  c.app->footer(kProfileHelp);
+// What is published: commands from the --torque and --steer profiles, or the rows of a sim CSV
+// (--states), with the scratch vectors the commands are computed in.
+struct Source {
+  bool replay = false;
+  TorqueProfile torque, steer;
+  std::vector<int> steer_locks, steer_dofs;  // lock spec and velocity index of each steered joint
+  std::vector<std::string> target_names;
+  StateTable states;
+  Eigen::VectorXd tau, target_v;
+  std::vector<double> targets;
+};
+
+// --joints-only: what a robot's drivers publish, the joints only; the daemon fits the floating
+// bodies' pose and twist (the load's) from them (state_fit.h). Prints the reason and returns 2 when
+// the scene cannot be fitted.
+int drop_fitted_coordinates(const System& sys, StateTable* states) {
+  const StateFitPlan plan = plan_state_fit(sys);
+  if (!plan.q_fittable || !plan.v_fittable) {
+    std::fprintf(stderr, "coopdyn send: --joints-only: %s\n", !plan.q_fittable ? plan.why_not_q : plan.why_not_v);
+    return 2;
+  }
+  auto is_fit = [](const std::vector<int>& idx, const std::vector<std::string>& names, const std::string& n) {
+    for (int i : idx)
+      if (names[i] == n) return true;
+    return false;
+  };
+  std::vector<size_t> keep_q, keep_v;
+  for (size_t i = 0; i < states->q_names.size(); ++i)
+    if (!is_fit(plan.fit_q, sys.model.q_names, states->q_names[i])) keep_q.push_back(i);
+  for (size_t i = 0; i < states->v_names.size(); ++i)
+    if (!is_fit(plan.fit_v, sys.model.v_names, states->v_names[i])) keep_v.push_back(i);
+  auto pick = [](const std::vector<size_t>& keep, auto& row) {
+    std::remove_reference_t<decltype(row)> out;
+    for (size_t i : keep) out.push_back(row[i]);
+    row = out;
+  };
+  pick(keep_q, states->q_names);
+  pick(keep_v, states->v_names);
+  for (auto& r : states->q) pick(keep_q, r);
+  for (auto& r : states->v) pick(keep_v, r);
+  for (auto& r : states->tau) pick(keep_v, r);
+  return 0;
 }
 
-int cmd_send(const Args& a) {
-  const bool replay = a.has("states");
-  if (!a.has("scene") || (!a.has("torque") && !a.has("steer") && !replay)) {
-    std::fprintf(stderr,
-                 "coopdyn send: --scene FILE and at least one --torque or --steer PROFILE (commands) or --states FILE.csv "
-                 "(measured states, estimate mode) are required\n");
+// The profiles, or with --states the CSV (whose time span is the default duration); prints the
+// reason and returns the exit status on a bad one.
+int load_source(const SendArgs& a, const System& sys, Source* src, double* duration) {
+  src->replay = a.states.has_value();
+  if (const int rc = load_cli_profile(a, "send", sys, &src->torque)) return rc;
+  if (const int rc = load_cli_targets(a, "send", sys, &src->steer, &src->steer_locks)) return rc;
+  src->steer_dofs = src->steer.dofs();
+  for (int d : src->steer_dofs) src->target_names.push_back(sys.model.v_names[static_cast<size_t>(d)]);
+  src->targets.resize(src->target_names.size());
+  src->tau.resize(sys.model.nv());
+  src->target_v.resize(sys.model.nv());
+  if (!src->replay) return 0;
+  std::string err;
+  if (!read_states(*a.states, &src->states, &err)) {
+    std::fprintf(stderr, "coopdyn send: %s\n", err.c_str());
     return 2;
   }
-  if (replay && a.has("steer")) {
-    std::fprintf(stderr, "coopdyn send: --steer goes with commands, not with --states\n");
-    return 2;
-  }
-  double rate = 100, duration = 2, t0 = 0;
-  long long seq0 = 1;
-  try {
-    if (a.has("rate")) rate = std::stod(a.get("rate"));
-    if (a.has("duration")) duration = std::stod(a.get("duration"));
-    if (a.has("seq")) seq0 = std::stoll(a.get("seq"));
-    if (a.has("t0")) t0 = std::stod(a.get("t0"));
-  } catch (const std::exception&) {
-    std::fprintf(stderr, "coopdyn send: --rate, --duration, --seq and --t0 must be numbers\n");
-    return 2;
-  }
-  if (!(rate > 0 && rate <= 10000) || !(duration >= 0) || !std::isfinite(duration)) {
-    std::fprintf(stderr, "coopdyn send: need 0 < rate <= 10000 and duration >= 0\n");
-    return 2;
-  }
-  System sys;
-  if (const int rc = load_cli_scene(a, "send", &sys)) return rc;
-  TorqueProfile prof;
-  if (const int rc = load_cli_profile(a, "send", sys, &prof)) return rc;
-  TorqueProfile steer;
-  std::vector<int> steer_locks;
-  if (const int rc = load_cli_targets(a, "send", sys, &steer, &steer_locks)) return rc;
-  std::vector<std::string> target_names;
-  const std::vector<int> steer_dofs = steer.dofs();
-  for (int d : steer_dofs) target_names.push_back(sys.model.v_names[static_cast<size_t>(d)]);
-  std::vector<double> targets(target_names.size());
-  Eigen::VectorXd target_v(sys.model.nv());
-  StateTable states;
-  if (replay) {
-    std::string err;
-    if (!read_states(a.get("states"), &states, &err)) {
-      std::fprintf(stderr, "coopdyn send: %s\n", err.c_str());
-      return 2;
-    }
-    if (!a.has("duration")) duration = states.t.back() - states.t.front();
-    if (a.has("joints-only")) {
-      // what a robot's drivers publish: the joints only; the daemon fits the floating bodies' pose
-      // and twist (the load's) from them (state_fit.h)
-      const StateFitPlan plan = plan_state_fit(sys);
-      if (!plan.q_fittable || !plan.v_fittable) {
-        std::fprintf(stderr, "coopdyn send: --joints-only: %s\n", !plan.q_fittable ? plan.why_not_q : plan.why_not_v);
-        return 2;
-      }
-      auto is_fit = [](const std::vector<int>& idx, const std::vector<std::string>& names, const std::string& n) {
-        for (int i : idx)
-          if (names[i] == n) return true;
-        return false;
-      };
-      std::vector<size_t> keep_q, keep_v;
-      for (size_t i = 0; i < states.q_names.size(); ++i)
-        if (!is_fit(plan.fit_q, sys.model.q_names, states.q_names[i])) keep_q.push_back(i);
-      for (size_t i = 0; i < states.v_names.size(); ++i)
-        if (!is_fit(plan.fit_v, sys.model.v_names, states.v_names[i])) keep_v.push_back(i);
-      auto pick = [](const std::vector<size_t>& keep, auto& row) {
-        std::remove_reference_t<decltype(row)> out;
-        for (size_t i : keep) out.push_back(row[i]);
-        row = out;
-      };
-      pick(keep_q, states.q_names);
-      pick(keep_v, states.v_names);
-      for (auto& r : states.q) pick(keep_q, r);
-      for (auto& r : states.v) pick(keep_v, r);
-      for (auto& r : states.tau) pick(keep_v, r);
-    }
-  }
-  const std::string url = a.get("lcm-url", kDefaultLcmUrl);
-  const std::string channel = a.get("channel", replay ? "COOPDYN_STATE" : "COOPDYN_COMMAND");
-  const std::string out_channel = a.get("output-channel", "COOPDYN_OUTPUT");
-  const bool measure = a.has("measure-latency");
-  const bool quiet = a.has("quiet");
+  if (!a.duration) *duration = src->states.t.back() - src->states.t.front();
+  return a.joints_only ? drop_fitted_coordinates(sys, &src->states) : 0;
+}
 
-  std::unique_ptr<io::LcmBus> bus, out_bus;
-  try {
-    bus = std::make_unique<io::LcmBus>(url);
-    if (a.has("output-url") && a.get("output-url") != url) out_bus = std::make_unique<io::LcmBus>(a.get("output-url"));
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "coopdyn send: %s\n", e.what());
-    return 1;
+// The message at profile (or replay) time t.
+std::vector<uint8_t> message_at(Source& src, double t, long long seq) {
+  if (src.replay) {
+    // the last row at or before t (rows are piecewise constant in time)
+    const StateTable& st = src.states;
+    const double tr = st.t.front() + t;
+    size_t r = static_cast<size_t>(std::upper_bound(st.t.begin(), st.t.end(), tr) - st.t.begin());
+    r = r == 0 ? 0 : r - 1;
+    return io::encode_measured_state(io::wall_us(), seq, st.q_names, st.q[r], st.v_names, st.v[r], st.tau[r]);
   }
-  // latency: publish time per seq (monotonic ns), first output per seq
+  static const std::vector<std::string> no_names;
+  src.torque.eval(t, src.tau);
+  src.steer.eval(t, src.target_v);
+  for (size_t k = 0; k < src.targets.size(); ++k) src.targets[k] = src.target_v[src.steer_dofs[k]];
+  return io::encode_torque_command(io::wall_us(), seq, no_names,
+                                   std::vector<double>(src.tau.data(), src.tau.data() + src.tau.size()), src.target_names,
+                                   src.targets);
+}
+
+// What the daemon did with the messages, read back from its outputs and its loop_stats_t (every
+// member under mu): the seqs its outputs used, the latency of each, and its counters at the first and
+// the last stats message.
+struct Readback {
   std::mutex mu;
-  std::unordered_map<long long, long long> sent_ns;
+  std::unordered_map<long long, long long> sent_ns;  // publish time per seq (monotonic ns), until its first output
   std::vector<double> latency_us;
   long long last_seen = -1;
-  // Read back what the daemon did (unless --no-check): the seqs its outputs used, and its counters
-  // (loop_stats_t) at the first and the last stats message.
-  const bool check = !a.has("no-check");
   std::unordered_map<long long, char> used;
   long long outputs = 0;
   io::StatsFrame stats_first, stats_last;
   long long stats_n = 0;
-  io::LcmBus& rx_bus = out_bus ? *out_bus : *bus;  // where the outputs are read back
-  if (measure || check) {
-    rx_bus.subscribe(out_channel, [&](const void* d, int n, long long recv_ns) {
-      io::DecodedOutput o;
-      if (!io::decode_output(d, n, &o)) return;
-      std::lock_guard<std::mutex> lk(mu);
-      ++outputs;
-      if (o.input_seq < 0) return;
-      used[o.input_seq] = 1;
-      if (o.input_seq == last_seen) return;
-      last_seen = o.input_seq;
-      auto it = sent_ns.find(o.input_seq);
-      if (it != sent_ns.end()) {
-        latency_us.push_back(static_cast<double>(recv_ns - it->second) * 1e-3);
-        sent_ns.erase(it);
-      }
-    });
-    rx_bus.subscribe(a.get("stats-channel", "COOPDYN_STATS"), [&](const void* d, int n, long long) {
-      io::StatsFrame st;
-      if (!io::decode_stats(d, n, &st)) return;
-      std::lock_guard<std::mutex> lk(mu);
-      if (stats_n++ == 0) stats_first = st;
-      stats_last = st;
-    });
-    rx_bus.start();
-  }
-  std::signal(SIGINT, on_sigint);
-  std::signal(SIGTERM, on_sigint);
+  bool have_baseline = false;
 
-  // The daemon's counters before the first command (loop_stats_t comes every stats_period_s, 1 s by
-  // default, longer in wall time when a loaded machine runs the loop below its rate): what it
-  // rejected of this run is its later counters less these, whatever it rejected before the run.
-  // Waits up to 10 s for one while the daemon's outputs come, and only 1 s when no daemon answers.
+  void on_output(const void* d, int n, long long recv_ns) {
+    io::DecodedOutput o;
+    if (!io::decode_output(d, n, &o)) return;
+    std::lock_guard<std::mutex> lk(mu);
+    ++outputs;
+    if (o.input_seq < 0) return;
+    used[o.input_seq] = 1;
+    if (o.input_seq == last_seen) return;
+    last_seen = o.input_seq;
+    auto it = sent_ns.find(o.input_seq);
+    if (it != sent_ns.end()) {
+      latency_us.push_back(static_cast<double>(recv_ns - it->second) * 1e-3);
+      sent_ns.erase(it);
+    }
+  }
+  void on_stats(const void* d, int n) {
+    io::StatsFrame st;
+    if (!io::decode_stats(d, n, &st)) return;
+    std::lock_guard<std::mutex> lk(mu);
+    if (stats_n++ == 0) stats_first = st;
+    stats_last = st;
+  }
   // polls done() under the lock every 10 ms, up to 10 s; done(k) gets the number of polls so far
-  auto wait_until = [&](auto done) {
+  template <class Done>
+  void wait_until(Done done) {
     for (int k = 0; k < 1000; ++k) {
       {
         std::lock_guard<std::mutex> lk(mu);
@@ -272,9 +229,12 @@ int cmd_send(const Args& a) {
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
-  };
-  bool have_baseline = false;
-  if (check) {
+  }
+  // The daemon's counters before the first command (loop_stats_t comes every stats_period_s, 1 s by
+  // default, longer in wall time when a loaded machine runs the loop below its rate): what it
+  // rejected of this run is its later counters less these, whatever it rejected before the run.
+  // Waits up to 10 s for one while the daemon's outputs come, and only 1 s when no daemon answers.
+  void take_baseline() {
     wait_until([&](int k) { return stats_n > 0 || (k >= 100 && outputs == 0); });
     std::lock_guard<std::mutex> lk(mu);
     if (stats_n > 0) {
@@ -283,10 +243,26 @@ int cmd_send(const Args& a) {
       have_baseline = true;
     }
   }
-  const long long period = static_cast<long long>(1e9 / rate + 0.5);
-  const long long n_msgs = static_cast<long long>(std::floor(duration * rate + 1e-9)) + 1;
-  Eigen::VectorXd tau(sys.model.nv());
-  const std::vector<std::string> no_names;
+  // And a stats message after the last command: loop_stats_t comes every stats_period_s of ticks
+  // (1 s by default, longer in wall time when a loaded machine runs the loop below its rate), so
+  // wait up to 10 s for one, but not at all when no daemon answered; with a baseline from before
+  // the run, one whose counters have received every command sent.
+  void wait_for_final_stats(long long sent) {
+    long long n0, outs;
+    {
+      std::lock_guard<std::mutex> lk(mu);
+      n0 = stats_n;
+      outs = outputs;
+    }
+    if (outs > 0)
+      wait_until([&](int) { return stats_n > n0 && (!have_baseline || stats_last.received - stats_first.received >= sent); });
+  }
+};
+
+// The messages: n_msgs at `rate` from now, until SIGINT or SIGTERM; returns how many were sent.
+long long publish_all(const SendArgs& a, io::LcmBus& bus, const std::string& channel, Source& src, long long n_msgs,
+                      Readback& rb) {
+  const long long period = static_cast<long long>(1e9 / a.rate + 0.5);
   long long next = io::monotonic_ns();
   long long sent = 0;
   // With --measure-latency each command leaves at a random phase within a millisecond, so the
@@ -295,102 +271,177 @@ int cmd_send(const Args& a) {
   std::mt19937_64 rng(static_cast<unsigned long long>(next));
   std::uniform_int_distribution<long long> phase(0, 999999);
   for (long long i = 0; i < n_msgs && !g_send_stop; ++i) {
-    const long long at = next + (measure ? phase(rng) : 0);
+    const long long at = next + (a.measure_latency ? phase(rng) : 0);
     timespec ts{static_cast<time_t>(at / 1000000000LL), static_cast<long>(at % 1000000000LL)};
     clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
-    const double t = t0 + static_cast<double>(i) / rate;
-    const long long seq = seq0 + i;
-    std::vector<uint8_t> bytes;
-    if (replay) {
-      // the last row at or before t (rows are piecewise constant in time)
-      const double tr = states.t.front() + t;
-      size_t r = static_cast<size_t>(std::upper_bound(states.t.begin(), states.t.end(), tr) - states.t.begin());
-      r = r == 0 ? 0 : r - 1;
-      bytes = io::encode_measured_state(io::wall_us(), seq, states.q_names, states.q[r], states.v_names, states.v[r],
-                                        states.tau[r]);
-    } else {
-      prof.eval(t, tau);
-      steer.eval(t, target_v);
-      for (size_t k = 0; k < targets.size(); ++k) targets[k] = target_v[steer_dofs[k]];
-      bytes = io::encode_torque_command(io::wall_us(), seq, no_names, std::vector<double>(tau.data(), tau.data() + tau.size()),
-                                        target_names, targets);
+    const double t = a.t0 + static_cast<double>(i) / a.rate;
+    const long long seq = a.seq + i;
+    const std::vector<uint8_t> bytes = message_at(src, t, seq);
+    if (a.measure_latency) {
+      std::lock_guard<std::mutex> lk(rb.mu);
+      rb.sent_ns[seq] = io::monotonic_ns();
     }
-    if (measure) {
-      std::lock_guard<std::mutex> lk(mu);
-      sent_ns[seq] = io::monotonic_ns();
-    }
-    if (bus->publish(channel.c_str(), bytes.data(), static_cast<int>(bytes.size())) != 0)
+    if (bus.publish(channel.c_str(), bytes.data(), static_cast<int>(bytes.size())) != 0)
       std::fprintf(stderr, "coopdyn send: publish failed (seq %lld)\n", seq);
     ++sent;
     next += period;
   }
-  if (measure || check) std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the last outputs
-  if (check) {
-    // and a stats message after them: loop_stats_t comes every stats_period_s of ticks (1 s by default,
-    // longer in wall time when a loaded machine runs the loop below its rate), so wait up to 10 s for
-    // one, but not at all when no daemon answered.
-    long long n0, outs;
-    {
-      std::lock_guard<std::mutex> lk(mu);
-      n0 = stats_n;
-      outs = outputs;
-    }
-    // (with a baseline from before the run: one whose counters have received every command sent)
-    if (outs > 0)
-      wait_until([&](int) { return stats_n > n0 && (!have_baseline || stats_last.received - stats_first.received >= sent); });
+  return sent;
+}
+
+// The daemon's counters as the judgement of unused commands reads them: deltas over the run when two
+// stats messages came, else its totals; -1 with no stats at all.
+long long counter(const Readback& rb, int64_t io::StatsFrame::*field) {
+  return rb.stats_n >= 2 ? rb.stats_last.*field - rb.stats_first.*field : rb.stats_n == 1 ? rb.stats_last.*field : -1;
+}
+
+// Why the daemon left commands unused, from its counters, on stderr (after "the daemon used N of M").
+void explain_unused(const Readback& rb) {
+  if (rb.stats_n >= 2)
+    std::fprintf(stderr, "; its counters over the run: rejected +%lld (malformed, wrong names or count, NaN, over "
+                 "tau_limit, stale or future utime), out of order +%lld (seq not above the last accepted)",
+                 static_cast<long long>(rb.stats_last.rejected - rb.stats_first.rejected),
+                 static_cast<long long>(rb.stats_last.out_of_order - rb.stats_first.out_of_order));
+  else if (rb.stats_n == 1)
+    std::fprintf(stderr, "; its counters since it started: rejected %lld (malformed, wrong names or count, NaN, "
+                 "over tau_limit, stale or future utime), out of order %lld (seq not above the last accepted)",
+                 static_cast<long long>(rb.stats_last.rejected), static_cast<long long>(rb.stats_last.out_of_order));
+  // by reason (loop_stats_t rejected_by_reason): over the run, or since start with one stats message
+  std::string by;
+  for (int k = 1; k < io::kRejectKinds; ++k) {
+    const long long n = rb.stats_n >= 2 ? rb.stats_last.rejected_by_reason[k] - rb.stats_first.rejected_by_reason[k]
+                        : rb.stats_n == 1 ? rb.stats_last.rejected_by_reason[k] : 0;
+    if (n > 0) by += (by.empty() ? "" : ", ") + std::string(io::reject_name(static_cast<io::Reject>(k))) + " " + std::to_string(n);
   }
-  rx_bus.stop();
-  if (!quiet)
-    std::printf("coopdyn send: %lld %s on %s at %g Hz (seq %lld..%lld)\n", sent, replay ? "measured states" : "commands",
-                channel.c_str(), rate, seq0, seq0 + sent - 1);
-  if (measure) {
-    std::lock_guard<std::mutex> lk(mu);
-    std::printf(
-        "coopdyn send: end-to-end latency (command publish -> first output using it) over %zu commands: "
-        "min %.1f us, p50 %.1f us, p99 %.1f us, p99.9 %.1f us, max %.1f us\n",
-        latency_us.size(), pct(latency_us, 0.0), pct(latency_us, 0.5), pct(latency_us, 0.99), pct(latency_us, 0.999), pct(latency_us, 1.0));
-  }
-  if (!check || sent == 0) return 0;
-  std::lock_guard<std::mutex> lk(mu);
-  if (outputs == 0) {
+  if (!by.empty()) std::fprintf(stderr, "; rejected by reason: %s", by.c_str());
+  std::fprintf(stderr, "; the daemon's log names each reason\n");
+}
+
+// The exit status from what the daemon did with the `sent` messages: 1 when it never answered, 4
+// when it left commands unused and rejected some, else 0.
+int judge_readback(const SendArgs& a, Readback& rb, const std::string& url, long long sent) {
+  std::lock_guard<std::mutex> lk(rb.mu);
+  if (rb.outputs == 0) {
     std::fprintf(stderr, "coopdyn send: no output from the daemon on %s (%s): is it running, on this URL? "
-                 "(--no-check skips this)\n", out_channel.c_str(), url.c_str());
+                 "(--no-check skips this)\n", a.output_channel.c_str(), url.c_str());
     return 1;
   }
   long long n_used = 0;
-  for (long long i = 0; i < sent; ++i) n_used += used.count(seq0 + i) ? 1 : 0;
+  for (long long i = 0; i < sent; ++i) n_used += rb.used.count(a.seq + i) ? 1 : 0;
   const long long unused = sent - n_used;
   // The daemon applies the newest command each tick, so a command can be overtaken by the next one
   // within a tick (at high rates, or when a loaded machine delays a tick): unused commands are an
-  // error only when the daemon's counters show rejections (deltas over the run when two stats
-  // messages came, else its totals), or, with no stats at all, when most of them went unused.
-  const long long refused = stats_n >= 2 ? (stats_last.rejected - stats_first.rejected) + (stats_last.out_of_order - stats_first.out_of_order)
-                            : stats_n == 1 ? stats_last.rejected + stats_last.out_of_order
-                                           : -1;
+  // error only when the daemon's counters show rejections, or, with no stats at all, when most of
+  // them went unused.
+  const long long refused = rb.stats_n == 0 ? -1 : counter(rb, &io::StatsFrame::rejected) + counter(rb, &io::StatsFrame::out_of_order);
   if (unused > std::max(2LL, sent / 20) && (refused > 0 || (refused < 0 && 2 * unused > sent))) {
     std::fprintf(stderr, "coopdyn send: the daemon used %lld of %lld %s (seq %lld..%lld)", n_used, sent,
-                 replay ? "measured states" : "commands", seq0, seq0 + sent - 1);
-    if (stats_n >= 2)
-      std::fprintf(stderr, "; its counters over the run: rejected +%lld (malformed, wrong names or count, NaN, over "
-                   "tau_limit, stale or future utime), out of order +%lld (seq not above the last accepted)",
-                   static_cast<long long>(stats_last.rejected - stats_first.rejected),
-                   static_cast<long long>(stats_last.out_of_order - stats_first.out_of_order));
-    else if (stats_n == 1)
-      std::fprintf(stderr, "; its counters since it started: rejected %lld (malformed, wrong names or count, NaN, "
-                   "over tau_limit, stale or future utime), out of order %lld (seq not above the last accepted)",
-                   static_cast<long long>(stats_last.rejected), static_cast<long long>(stats_last.out_of_order));
-    // by reason (loop_stats_t rejected_by_reason): over the run, or since start with one stats message
-    std::string by;
-    for (int k = 1; k < io::kRejectKinds; ++k) {
-      const long long n = stats_n >= 2 ? stats_last.rejected_by_reason[k] - stats_first.rejected_by_reason[k]
-                          : stats_n == 1 ? stats_last.rejected_by_reason[k] : 0;
-      if (n > 0) by += (by.empty() ? "" : ", ") + std::string(io::reject_name(static_cast<io::Reject>(k))) + " " + std::to_string(n);
-    }
-    if (!by.empty()) std::fprintf(stderr, "; rejected by reason: %s", by.c_str());
-    std::fprintf(stderr, "; the daemon's log names each reason\n");
+                 a.states ? "measured states" : "commands", a.seq, a.seq + sent - 1);
+    explain_unused(rb);
     return 4;
   }
   return 0;
+}
+
+// The summary line and, with --measure-latency, the latency percentiles, on stdout.
+void print_summary(const SendArgs& a, const std::string& channel, long long sent, Readback& rb) {
+  if (!a.quiet)
+    std::printf("coopdyn send: %lld %s on %s at %g Hz (seq %lld..%lld)\n", sent, a.states ? "measured states" : "commands",
+                channel.c_str(), a.rate, a.seq, a.seq + sent - 1);
+  if (a.measure_latency) {
+    std::lock_guard<std::mutex> lk(rb.mu);
+    const std::vector<double>& l = rb.latency_us;
+    std::printf(
+        "coopdyn send: end-to-end latency (command publish -> first output using it) over %zu commands: "
+        "min %.1f us, p50 %.1f us, p99 %.1f us, p99.9 %.1f us, max %.1f us\n",
+        l.size(), pct(l, 0.0), pct(l, 0.5), pct(l, 0.99), pct(l, 0.999), pct(l, 1.0));
+  }
+}
+
+// The option combinations and ranges the parser does not check; prints the reason and returns 2.
+int check_send_args(const SendArgs& a, double duration) {
+  if (a.torque.empty() && a.steer.empty() && !a.states) {
+    std::fprintf(stderr,
+                 "coopdyn send: --scene FILE and at least one --torque or --steer PROFILE (commands) or --states FILE.csv "
+                 "(measured states, estimate mode) are required\n");
+    return 2;
+  }
+  if (a.states && !a.steer.empty()) {
+    std::fprintf(stderr, "coopdyn send: --steer goes with commands, not with --states\n");
+    return 2;
+  }
+  if (!(a.rate > 0 && a.rate <= 10000) || !(duration >= 0) || !std::isfinite(duration)) {
+    std::fprintf(stderr, "coopdyn send: need 0 < rate <= 10000 and duration >= 0\n");
+    return 2;
+  }
+  return 0;
+}
+
+}  // namespace
+
+void register_send(Cli& cli) {
+  auto [c, a] = cli.add("send",
+                        "Publish torque commands (or measured states, for estimate mode) to coopdynd at a fixed rate and "
+                        "read back what it did with them (exit 4 when commands went unused and the daemon rejected some, "
+                        "1 when no daemon answers).",
+                        cmd_send);
+  scene_options(c, a, true);
+  profile_options(c, a, "torque commands; repeat to combine (see below)",
+                  "lock targets in the commands (a steer angle, rad); repeat to combine (see below)");
+  value(c, "--states", a.states, "SIM.csv", "replay the states of a coopdyn sim CSV as measured_state_t instead");
+  flag(c, "--joints-only", a.joints_only, "with --states: leave out the floating bodies' coordinates (the daemon fits them)");
+  number(c, "--rate", a.rate, "HZ", "messages per second, (0, 10000]", Default::kShown);
+  number(c, "--duration", a.duration, "S", "how long to send (default: 2; with --states the file's time span)");
+  number(c, "--t0", a.t0, "S", "profile (or replay) time of the first message", Default::kShown);
+  number(c, "--seq", a.seq, "N", "seq of the first message (then +1 per message)", Default::kShown);
+  value(c, "--lcm-url", a.lcm_url, "URL", "LCM URL", Default::kShown);
+  value(c, "--channel", a.channel, "C", "channel to publish on (default: COOPDYN_COMMAND; with --states COOPDYN_STATE)");
+  value(c, "--output-channel", a.output_channel, "C", "the daemon's output channel (read back, latency)", Default::kShown);
+  value(c, "--output-url", a.output_url, "URL",
+        "LCM URL of the daemon's outputs and stats, when its inputs come on another (its lcm_url_in; default: --lcm-url)");
+  value(c, "--stats-channel", a.stats_channel, "C", "the daemon's loop_stats_t channel (read back)", Default::kShown);
+  flag(c, "--measure-latency", a.measure_latency, "report the time from each command's publish to the first output that used it");
+  flag(c, "--no-check", a.no_check, "do not read back what the daemon did");
+  flag(c, "--quiet", a.quiet, "no summary line");
+}
+
+int cmd_send(const SendArgs& a) {
+  double duration = a.duration.value_or(2);
+  if (const int rc = check_send_args(a, duration)) return rc;
+  System sys;
+  if (const int rc = load_cli_scene(a, "send", &sys)) return rc;
+  Source src;
+  if (const int rc = load_source(a, sys, &src, &duration)) return rc;
+  const std::string& url = a.lcm_url;
+  const std::string channel = a.channel.value_or(src.replay ? "COOPDYN_STATE" : "COOPDYN_COMMAND");
+  std::unique_ptr<io::LcmBus> bus, out_bus;
+  try {
+    bus = std::make_unique<io::LcmBus>(url);
+    if (a.output_url && *a.output_url != url) out_bus = std::make_unique<io::LcmBus>(*a.output_url);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "coopdyn send: %s\n", e.what());
+    return 1;
+  }
+  // Read back what the daemon did (unless --no-check) and the latency (--measure-latency).
+  const bool check = !a.no_check, read_back = a.measure_latency || check;
+  Readback rb;
+  io::LcmBus& rx_bus = out_bus ? *out_bus : *bus;  // where the outputs are read back
+  if (read_back) {
+    rx_bus.subscribe(a.output_channel, [&rb](const void* d, int n, long long recv_ns) { rb.on_output(d, n, recv_ns); });
+    rx_bus.subscribe(a.stats_channel, [&rb](const void* d, int n, long long) { rb.on_stats(d, n); });
+    rx_bus.start();
+  }
+  std::signal(SIGINT, on_sigint);
+  std::signal(SIGTERM, on_sigint);
+  if (check) rb.take_baseline();
+  const long long n_msgs = static_cast<long long>(std::floor(duration * a.rate + 1e-9)) + 1;
+  const long long sent = publish_all(a, *bus, channel, src, n_msgs, rb);
+  if (read_back) std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the last outputs
+  if (check) rb.wait_for_final_stats(sent);
+  rx_bus.stop();
+  print_summary(a, channel, sent, rb);
+  if (!check || sent == 0) return 0;
+  return judge_readback(a, rb, url, sent);
 }
 
 }  // namespace coopdyn::cli

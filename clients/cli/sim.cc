@@ -161,56 +161,35 @@ int simulate(const System& sys, const SimPlan& p, SimRun& r, Progress& progress,
 }  // namespace
 
 void register_sim(Cli& cli) {
-  Command& c = cli.add("sim",
-                       "Simulate a scene with a fixed step and write CSV: time, state, torques, every reported wrench, "
-                       "stresses, diagnostics (exit 3 on a numerical failure).",
-                       cmd_sim);
-  scene_options(c, true);
-  c.number("--duration", "T", "simulated time, s")->required();
-  c.number("--dt", "H", "step, s")->required();
-  c.value("--integrator", "NAME", "semi_implicit_euler, rk4 or implicit_euler", "rk4");
-  c.repeated("--torque", "PROFILE", "applied torque; repeat to combine (see below)");
-  c.repeated("--steer", "PROFILE", "target of a locked joint (a steer angle, rad); repeat to combine (see below)");
-  c.value("--out", "FILE.csv", "where to write the CSV (default: stdout)");
-  c.number("--every", "N", "write every N-th step only (t = 0, N dt, 2 N dt, ...)", "1");
-  c.flag("--progress", "report progress on stderr (default: only when stderr is a terminal)");
-  c.app->footer(kProfileHelp);
+  auto [c, a] = cli.add("sim",
+                        "Simulate a scene with a fixed step and write CSV: time, state, torques, every reported wrench, "
+                        "stresses, diagnostics (exit 3 on a numerical failure).",
+                        cmd_sim);
+  scene_options(c, a, true);
+  number(c, "--duration", a.duration, "T", "simulated time, s")->required();
+  number(c, "--dt", a.dt, "H", "step, s")->required();
+  value(c, "--integrator", a.integrator, "NAME", "semi_implicit_euler, rk4 or implicit_euler", Default::kShown);
+  profile_options(c, a, "applied torque; repeat to combine (see below)",
+                  "target of a locked joint (a steer angle, rad); repeat to combine (see below)");
+  value(c, "--out", a.out, "FILE.csv", "where to write the CSV (default: stdout)");
+  number(c, "--every", a.every, "N", "write every N-th step only (t = 0, N dt, 2 N dt, ...)", Default::kShown);
+  flag(c, "--progress", a.progress, "report progress on stderr (default: only when stderr is a terminal)");
 }
 
-int cmd_sim(const Args& a) {
-  if (!a.has("duration") || !a.has("dt")) {
-    std::fprintf(stderr, "coopdyn sim: --duration and --dt are required\n");
-    return 2;
-  }
-  double T, h;
-  long every = 1;
-  try {
-    T = std::stod(a.get("duration"));
-    h = std::stod(a.get("dt"));
-  } catch (const std::exception&) {
-    std::fprintf(stderr, "coopdyn sim: --duration and --dt must be numbers\n");
-    return 2;
-  }
+int cmd_sim(const SimArgs& a) {
+  const double T = a.duration, h = a.dt;
   if (!(T >= 0) || !(h > 0) || !std::isfinite(T) || !std::isfinite(h)) {
     std::fprintf(stderr, "coopdyn sim: need duration >= 0 and dt > 0\n");
     return 2;
   }
-  if (a.has("every")) {
-    const std::string s = a.get("every");
-    size_t used = 0;
-    try {
-      every = std::stol(s, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used != s.size() || every < 1) {
-      std::fprintf(stderr, "coopdyn sim: --every must be a whole number >= 1 (got '%s')\n", s.c_str());
-      return 2;
-    }
+  if (!a.every.whole || a.every.value < 1) {
+    std::fprintf(stderr, "coopdyn sim: --every must be a whole number >= 1 (got '%s')\n", a.every.text.c_str());
+    return 2;
   }
+  const long every = a.every.value;
   Integrator integ = Integrator::kRk4;
-  if (a.has("integrator") && !parse_integrator(a.get("integrator"), &integ)) {
-    std::fprintf(stderr, "coopdyn sim: unknown integrator '%s' (semi_implicit_euler, rk4, implicit_euler)\n", a.get("integrator").c_str());
+  if (!parse_integrator(a.integrator, &integ)) {
+    std::fprintf(stderr, "coopdyn sim: unknown integrator '%s' (semi_implicit_euler, rk4, implicit_euler)\n", a.integrator.c_str());
     return 2;
   }
   System sys;
@@ -222,10 +201,10 @@ int cmd_sim(const Args& a) {
   if (const int rc = load_cli_targets(a, "sim", sys, &steer, &steer_locks)) return rc;
   const std::vector<int> steer_dofs = steer.dofs();
   std::FILE* out = stdout;
-  if (a.has("out")) {
-    out = std::fopen(a.get("out").c_str(), "w");
+  if (a.out) {
+    out = std::fopen(a.out->c_str(), "w");
     if (!out) {
-      std::fprintf(stderr, "coopdyn sim: cannot write '%s'\n", a.get("out").c_str());
+      std::fprintf(stderr, "coopdyn sim: cannot write '%s'\n", a.out->c_str());
       return 1;
     }
   }
@@ -238,7 +217,7 @@ int cmd_sim(const Args& a) {
   write_step_csv_header(out, schema, cols);
 
   SimRun run(sys, cols.names.size());
-  Progress progress("coopdyn sim", a.has("progress"));
+  Progress progress("coopdyn sim", a.progress);
   const int rc = simulate(sys, {T, h, every, integ, prof, steer, steer_dofs, steer_locks}, run, progress, out);
   if (out != stdout) std::fclose(out);
   else std::fflush(out);

@@ -25,9 +25,10 @@
 
 namespace coopdyn::cli {
 
-namespace {
+const char* const kLcmJar = COOPDYN_LCM_JAR;
+const char* const kJchart2dJar = "/usr/share/java/jchart2d.jar";
 
-constexpr const char* kJchart2dJar = "/usr/share/java/jchart2d.jar";
+namespace {
 
 bool is_file(const std::string& p, off_t* size = nullptr) {
   struct stat st;
@@ -66,24 +67,24 @@ std::string find_java() {
 }  // namespace
 
 void register_spy(Cli& cli) {
-  Command& c = cli.add("spy",
-                       "Run lcm-spy with coopdyn's message types (decoded fields, by name) on the daemon's LCM URL. "
-                       "Needs a Java runtime, liblcm-java, libjchart2d-java and coopdyn_types.jar (built only when a "
-                       "JDK and liblcm-java were present when cmake configured the build).",
-                       cmd_spy);
-  c.value("--lcm-url", "URL", "LCM URL to listen on (the daemon's lcm_url)", kDefaultLcmUrl);
-  c.value("--types-jar", "FILE",
-          "coopdyn's Java types (default: coopdyn_types.jar of the build tree next to bin/, or the installed "
-          "share/coopdyn/java/coopdyn_types.jar)");
-  c.value("--lcm-jar", "FILE", "LCM's Java library (Debian liblcm-java)", COOPDYN_LCM_JAR);
-  c.value("--jchart2d-jar", "FILE", "lcm-spy's chart library (Debian libjchart2d-java)", kJchart2dJar);
-  c.value("--java", "FILE", "the java command (default: $JAVA_HOME/bin/java, else java on PATH)");
-  c.flag("--print", "print the command instead of running it (after the same checks)");
+  auto [c, a] = cli.add("spy",
+                        "Run lcm-spy with coopdyn's message types (decoded fields, by name) on the daemon's LCM URL. "
+                        "Needs a Java runtime, liblcm-java, libjchart2d-java and coopdyn_types.jar (built only when a "
+                        "JDK and liblcm-java were present when cmake configured the build).",
+                        cmd_spy);
+  value(c, "--lcm-url", a.lcm_url, "URL", "LCM URL to listen on (the daemon's lcm_url)", Default::kShown);
+  value(c, "--types-jar", a.types_jar, "FILE",
+        "coopdyn's Java types (default: coopdyn_types.jar of the build tree next to bin/, or the installed "
+        "share/coopdyn/java/coopdyn_types.jar)");
+  value(c, "--lcm-jar", a.lcm_jar, "FILE", "LCM's Java library (Debian liblcm-java)", Default::kShown);
+  value(c, "--jchart2d-jar", a.jchart2d_jar, "FILE", "lcm-spy's chart library (Debian libjchart2d-java)", Default::kShown);
+  value(c, "--java", a.java, "FILE", "the java command (default: $JAVA_HOME/bin/java, else java on PATH)");
+  flag(c, "--print", a.print, "print the command instead of running it (after the same checks)");
 }
 
-int cmd_spy(const Args& a) {
+int cmd_spy(const SpyArgs& a) {
   std::vector<std::string> missing;
-  std::string java = a.get("java");
+  std::string java = a.java;
   if (java.empty()) {
     java = find_java();
     if (java.empty())
@@ -92,12 +93,12 @@ int cmd_spy(const Args& a) {
   } else if (access(java.c_str(), X_OK) != 0) {
     missing.push_back(java + " (--java): not an executable file");
   }
-  const std::string lcm_jar = a.get("lcm-jar", COOPDYN_LCM_JAR);
+  const std::string& lcm_jar = a.lcm_jar;
   if (!is_file(lcm_jar)) missing.push_back(lcm_jar + ": missing (LCM's Java library and lcm-spy; Debian: apt install liblcm-java)");
-  const std::string chart_jar = a.get("jchart2d-jar", kJchart2dJar);
+  const std::string& chart_jar = a.jchart2d_jar;
   if (!is_file(chart_jar))
     missing.push_back(chart_jar + ": missing (the chart library lcm-spy plots with; Debian: apt install libjchart2d-java)");
-  std::string types = a.get("types-jar");
+  std::string types = a.types_jar;
   const char* const kWhy =
       "it is built only when a JDK (javac, jar) and LCM's lcm.jar were present when cmake configured the build: "
       "apt install default-jdk-headless liblcm-java, then cmake -S . -B build && cmake --build build (and "
@@ -125,8 +126,8 @@ int cmd_spy(const Args& a) {
   }
   const std::vector<std::string> argv = {java,      "-server", "-Djava.net.preferIPv4Stack=true", "-Xmx128m", "-Xms64m", "-ea",
                                          "-cp",     lcm_jar + ":" + chart_jar + ":" + types,
-                                         "lcm.spy.Spy", "--lcm-url=" + a.get("lcm-url", kDefaultLcmUrl)};
-  if (a.has("print")) {
+                                         "lcm.spy.Spy", "--lcm-url=" + a.lcm_url};
+  if (a.print) {
     std::string line;
     for (const std::string& s : argv) line += (line.empty() ? "" : " ") + shell_quote(s);
     std::printf("%s\n", line.c_str());

@@ -23,42 +23,163 @@ namespace coopdyn::cli {
 namespace {
 std::atomic<bool> g_track_stop{false};
 void on_track_signal(int) { g_track_stop = true; }
+
+// The newest output's bytes, handed from the LCM thread to the control loop: a newer one replaces
+// one not yet taken.
+struct LatestOutput {
+  std::mutex mu;
+  std::condition_variable cv;
+  std::vector<uint8_t> bytes;
+  bool fresh = false;
+
+  void put(const void* d, int n) {
+    std::lock_guard<std::mutex> lk(mu);
+    bytes.assign(static_cast<const uint8_t*>(d), static_cast<const uint8_t*>(d) + n);
+    fresh = true;
+    cv.notify_one();
+  }
+};
+
+// What the summary reports: counts over the run, and the errors after the ramp and its transient.
+struct TrackTally {
+  long long used = 0, skipped_errors = 0, saturated = 0, n_sync = 0, n_stat = 0;
+  double t_last = std::nan(""), max_pos = 0, max_rot = 0, max_sq = 0, sum2 = 0;
+  bool daemon_gone = false;  // the outputs stopped before --duration
+};
+
+// The CSV of --out with its comment, units and header lines; prints the reason and returns nullptr
+// when it cannot be written.
+std::FILE* open_track_csv(const std::string& path, const System& sys) {
+  std::FILE* csv = std::fopen(path.c_str(), "w");
+  if (!csv) {
+    std::fprintf(stderr, "coopdyn track: cannot write '%s'\n", path.c_str());
+    return nullptr;
+  }
+  // the naming rules of the per-step CSV (docs/conventions.md): units in a '# units:' line, words for codes
+  std::fprintf(csv, "# coopdyn track CSV 1: scene %s, one row per command (docs/conventions.md)\n", sys.name.c_str());
+  std::fprintf(csv, "# units: s,m,m,m,m,m,m,m,rad,N,N,N,1,text,1,1\n");
+  std::fprintf(csv, "t,ref_x,ref_y,ref_z,x,y,z,position_error,orientation_error,squeeze,squeeze_target,"
+                    "squeeze_set,saturated,status,input_seq,in_sync\n");
+  return csv;
+}
+
+void write_track_row(std::FILE* csv, const CooperativeController& ctl, const TrackOptions& opt, double t, const Vec3& pr,
+                     double s, const io::DecodedOutput& o, bool in_sync) {
+  const Vec3& p = ctl.load_position();
+  std::fprintf(csv, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%d,%s,%lld,%d\n", t, pr.x(),
+               pr.y(), pr.z(), p.x(), p.y(), p.z(), ctl.position_error(), ctl.orientation_error(), s,
+               ctl.squeeze_target(), opt.squeeze, ctl.saturated() ? 1 : 0,
+               o.status >= 0 && o.status <= 2 ? status_name(static_cast<Status>(o.status)) : "unknown",
+               static_cast<long long>(o.input_seq), in_sync ? 1 : 0);
+}
+
+// The control loop: for each new output the controller's torques, published as a command, until
+// --duration of the daemon's time, a signal, or the outputs stop (5 s for the first, then 1 s).
+// Returns 0, or 1 when the outputs do not match the scene.
+int control_loop(const TrackArgs& a, const System& sys, CooperativeController& ctl, io::LcmBus& bus,
+                 LatestOutput& latest, std::FILE* csv, TrackTally* tally) {
+  const TrackOptions& opt = a.control;
+  const long long seq0 = io::wall_us();
+  long long seq = seq0;
+  double t0 = std::nan("");
+  const double settle = opt.ramp + 0.5;  // the summary covers the run after the ramp and its transient
+  std::vector<uint8_t> bytes;
+  auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (!g_track_stop) {
+    {
+      std::unique_lock<std::mutex> lk(latest.mu);
+      latest.cv.wait_for(lk, std::chrono::milliseconds(100), [&] { return latest.fresh; });
+      if (!latest.fresh) {
+        if (std::chrono::steady_clock::now() > give_up) {
+          tally->daemon_gone = !std::isnan(t0);
+          break;
+        }
+        continue;
+      }
+      give_up = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+      bytes.swap(latest.bytes);
+      latest.fresh = false;
+    }
+    io::DecodedOutput o;
+    if (!io::decode_output(bytes.data(), static_cast<int>(bytes.size()), &o)) continue;
+    if (o.q.size() != static_cast<size_t>(sys.model.nq()) || o.v.size() != static_cast<size_t>(sys.model.nv())) {
+      std::fprintf(stderr, "coopdyn track: the daemon's outputs do not match the scene (%zu q, %zu v; the scene has %d, %d)\n",
+                   o.q.size(), o.v.size(), sys.model.nq(), sys.model.nv());
+      return 1;
+    }
+    if (o.status == 2) {  // STATUS_ERROR: no wrenches to regulate from; the daemon holds
+      ++tally->skipped_errors;
+      continue;
+    }
+    if (std::isnan(t0)) t0 = o.sim_time;
+    const double t = o.sim_time - t0;
+    if (t >= a.duration) break;
+    const Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(o.q.data(), sys.model.nq());
+    const Eigen::VectorXd v = Eigen::Map<const Eigen::VectorXd>(o.v.data(), sys.model.nv());
+    const double s = ctl.squeeze(q, o.wrench[ctl.ee_output(0)], o.wrench[ctl.ee_output(1)]);
+    // in sync: this output came from a step under one of the controller's last 3 commands (computed
+    // from one of the last 3 outputs). A stall of either process breaks it: the daemon then applies
+    // an old command or, once the watchdog expires, its safe torque
+    const bool own = o.input == 0 && o.input_seq > seq0;  // INPUT_COMMAND, one of ours
+    const bool in_sync = own && o.input_seq >= seq - 2;
+    tally->n_sync += in_sync ? 1 : 0;
+    const double dt = std::isnan(tally->t_last) ? 0.0 : t - tally->t_last;
+    tally->t_last = t;
+    const Eigen::VectorXd& tau = ctl.compute(t, q, v, own ? s : std::nan(""), dt);
+    const auto cmd = io::encode_torque_command(io::wall_us(), ++seq, {}, std::vector<double>(tau.data(), tau.data() + tau.size()));
+    bus.publish(a.channel.c_str(), cmd.data(), static_cast<int>(cmd.size()));
+    ++tally->used;
+    tally->saturated += ctl.saturated() ? 1 : 0;
+    Vec3 pr, prd, prdd;
+    ctl.reference(t, &pr, &prd, &prdd);
+    if (t >= settle) {
+      tally->max_pos = std::max(tally->max_pos, ctl.position_error());
+      tally->max_rot = std::max(tally->max_rot, ctl.orientation_error());
+      tally->max_sq = std::max(tally->max_sq, std::abs(s - opt.squeeze));
+      tally->sum2 += ctl.position_error() * ctl.position_error();
+      ++tally->n_stat;
+    }
+    if (csv) write_track_row(csv, ctl, opt, t, pr, s, o, in_sync);
+  }
+  return 0;
+}
+
+void print_track_summary(const TrackArgs& a, const TrackTally& k) {
+  const TrackOptions& opt = a.control;
+  std::printf("coopdyn track: %lld commands on %s (radius %g m, period %g s, squeeze %g N); %lld error outputs skipped, "
+              "%lld commands clamped to tau_limit; %.1f %% of the outputs in sync (stepped under one of its last 3 "
+              "commands)\n",
+              k.used, a.channel.c_str(), opt.radius, opt.period, opt.squeeze, k.skipped_errors, k.saturated,
+              100.0 * static_cast<double>(k.n_sync) / static_cast<double>(k.used));
+  if (k.daemon_gone) std::printf("coopdyn track: the daemon's outputs stopped at t = %.3f s (before --duration)\n", k.t_last);
+  if (k.n_stat > 0)
+    std::printf("coopdyn track: after %.1f s: position error max %.3g m, rms %.3g m; orientation error max %.3g rad; "
+                "squeeze max |s - %g| = %.3g N\n",
+                opt.ramp + 0.5, k.max_pos, std::sqrt(k.sum2 / static_cast<double>(k.n_stat)), k.max_rot, opt.squeeze,
+                k.max_sq);
+}
 }  // namespace
 
 void register_track(Cli& cli) {
-  Command& c = cli.add("track",
-                       "The reference controller in the loop: move the load along a circle while holding the squeeze "
-                       "between the arms, commanding coopdynd over LCM.",
-                       cmd_track);
-  scene_options(c, true);
-  const TrackOptions def;
-  c.number("--duration", "S", "how long to control", "6");
-  c.number("--radius", "M", "radius of the circle (y-z plane), [0, 10)", show(def.radius));
-  c.number("--period", "S", "one lap, > 0.1", show(def.period));
-  c.number("--squeeze", "N", "internal force set-point between the grasps", show(def.squeeze));
-  c.value("--out", "FILE.csv", "one row per command: reference, load, errors, squeeze, in_sync (default: none)");
-  c.value("--lcm-url", "URL", "LCM URL to send the commands on", kDefaultLcmUrl);
-  c.value("--output-url", "URL", "LCM URL of the daemon's outputs (default: --lcm-url)");
-  c.value("--channel", "C", "command channel", "COOPDYN_COMMAND");
-  c.value("--output-channel", "C", "the daemon's output channel", "COOPDYN_OUTPUT");
+  auto [c, a] = cli.add("track",
+                        "The reference controller in the loop: move the load along a circle while holding the squeeze "
+                        "between the arms, commanding coopdynd over LCM.",
+                        cmd_track);
+  scene_options(c, a, true);
+  number(c, "--duration", a.duration, "S", "how long to control", Default::kShown);
+  number(c, "--radius", a.control.radius, "M", "radius of the circle (y-z plane), [0, 10)", Default::kShown);
+  number(c, "--period", a.control.period, "S", "one lap, > 0.1", Default::kShown);
+  number(c, "--squeeze", a.control.squeeze, "N", "internal force set-point between the grasps", Default::kShown);
+  value(c, "--out", a.out, "FILE.csv", "one row per command: reference, load, errors, squeeze, in_sync (default: none)");
+  value(c, "--lcm-url", a.lcm_url, "URL", "LCM URL to send the commands on", Default::kShown);
+  value(c, "--output-url", a.output_url, "URL", "LCM URL of the daemon's outputs (default: --lcm-url)");
+  value(c, "--channel", a.channel, "C", "command channel", Default::kShown);
+  value(c, "--output-channel", a.output_channel, "C", "the daemon's output channel", Default::kShown);
 }
 
-int cmd_track(const Args& a) {
-  if (!a.has("scene")) {
-    std::fprintf(stderr, "coopdyn track: --scene FILE is required (the daemon's scene)\n");
-    return 2;
-  }
-  TrackOptions opt;
-  double duration = 6.0;
-  try {
-    if (a.has("duration")) duration = std::stod(a.get("duration"));
-    if (a.has("radius")) opt.radius = std::stod(a.get("radius"));
-    if (a.has("period")) opt.period = std::stod(a.get("period"));
-    if (a.has("squeeze")) opt.squeeze = std::stod(a.get("squeeze"));
-  } catch (const std::exception&) {
-    std::fprintf(stderr, "coopdyn track: --duration, --radius, --period and --squeeze must be numbers\n");
-    return 2;
-  }
+int cmd_track(const TrackArgs& a) {
+  const TrackOptions& opt = a.control;
+  const double duration = a.duration;
   if (!(duration > 0 && duration < 1e6) || !(opt.radius >= 0 && opt.radius < 10) || !(opt.period > 0.1) ||
       !std::isfinite(opt.squeeze)) {
     std::fprintf(stderr, "coopdyn track: need 0 < duration, 0 <= radius < 10 m, period > 0.1 s, a finite squeeze\n");
@@ -73,27 +194,11 @@ int cmd_track(const Args& a) {
     std::fprintf(stderr, "%s\n", e.what());
     return 2;
   }
-  const std::string url = a.get("lcm-url", kDefaultLcmUrl);
-  const std::string out_url = a.get("output-url", url);
-  const std::string cmd_channel = a.get("channel", "COOPDYN_COMMAND");
-  const std::string out_channel = a.get("output-channel", "COOPDYN_OUTPUT");
+  const std::string& url = a.lcm_url;
+  const std::string out_url = a.output_url.value_or(url);
   std::FILE* csv = nullptr;
-  if (a.has("out")) {
-    csv = std::fopen(a.get("out").c_str(), "w");
-    if (!csv) {
-      std::fprintf(stderr, "coopdyn track: cannot write '%s'\n", a.get("out").c_str());
-      return 1;
-    }
-    // the naming rules of the per-step CSV (docs/conventions.md): units in a '# units:' line, words for codes
-    std::fprintf(csv, "# coopdyn track CSV 1: scene %s, one row per command (docs/conventions.md)\n", sys.name.c_str());
-    std::fprintf(csv, "# units: s,m,m,m,m,m,m,m,rad,N,N,N,1,text,1,1\n");
-    std::fprintf(csv, "t,ref_x,ref_y,ref_z,x,y,z,position_error,orientation_error,squeeze,squeeze_target,"
-                      "squeeze_set,saturated,status,input_seq,in_sync\n");
-  }
-  std::mutex mu;
-  std::condition_variable cv;
-  std::vector<uint8_t> latest;  // the newest output's bytes
-  bool fresh = false;
+  if (a.out && !(csv = open_track_csv(*a.out, sys))) return 1;
+  LatestOutput latest;
   try {
     io::LcmBus bus(url);
     std::unique_ptr<io::LcmBus> out_bus;
@@ -102,104 +207,20 @@ int cmd_track(const Args& a) {
       out_bus = std::make_unique<io::LcmBus>(out_url);
       ob = out_bus.get();
     }
-    ob->subscribe(out_channel, [&](const void* d, int n, long long) {
-      std::lock_guard<std::mutex> lk(mu);
-      latest.assign(static_cast<const uint8_t*>(d), static_cast<const uint8_t*>(d) + n);
-      fresh = true;
-      cv.notify_one();
-    });
+    ob->subscribe(a.output_channel, [&latest](const void* d, int n, long long) { latest.put(d, n); });
     ob->start();
     std::signal(SIGINT, on_track_signal);
     std::signal(SIGTERM, on_track_signal);
-    const long long seq0 = io::wall_us();
-    long long seq = seq0, used = 0, skipped_errors = 0, saturated = 0, n_sync = 0;
-    double t0 = std::nan(""), t_last = std::nan(""), max_pos = 0, max_rot = 0, max_sq = 0, sum2 = 0;
-    long long n_stat = 0;
-    const double settle = opt.ramp + 0.5;  // the summary covers the run after the ramp and its transient
-    std::vector<uint8_t> bytes;
-    // waits up to 5 s for the first output, then ends when the outputs stop for 1 s (the daemon stopped)
-    auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-    bool daemon_gone = false;
-    while (!g_track_stop) {
-      {
-        std::unique_lock<std::mutex> lk(mu);
-        cv.wait_for(lk, std::chrono::milliseconds(100), [&] { return fresh; });
-        if (!fresh) {
-          if (std::chrono::steady_clock::now() > give_up) {
-            daemon_gone = !std::isnan(t0);
-            break;
-          }
-          continue;
-        }
-        give_up = std::chrono::steady_clock::now() + std::chrono::seconds(1);
-        bytes.swap(latest);
-        fresh = false;
-      }
-      io::DecodedOutput o;
-      if (!io::decode_output(bytes.data(), static_cast<int>(bytes.size()), &o)) continue;
-      if (o.q.size() != static_cast<size_t>(sys.model.nq()) || o.v.size() != static_cast<size_t>(sys.model.nv())) {
-        std::fprintf(stderr, "coopdyn track: the daemon's outputs do not match the scene (%zu q, %zu v; the scene has %d, %d)\n",
-                     o.q.size(), o.v.size(), sys.model.nq(), sys.model.nv());
-        return 1;
-      }
-      if (o.status == 2) {  // STATUS_ERROR: no wrenches to regulate from; the daemon holds
-        ++skipped_errors;
-        continue;
-      }
-      if (std::isnan(t0)) t0 = o.sim_time;
-      const double t = o.sim_time - t0;
-      if (t >= duration) break;
-      const Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(o.q.data(), sys.model.nq());
-      const Eigen::VectorXd v = Eigen::Map<const Eigen::VectorXd>(o.v.data(), sys.model.nv());
-      const double s = ctl->squeeze(q, o.wrench[ctl->ee_output(0)], o.wrench[ctl->ee_output(1)]);
-      // in sync: this output came from a step under one of the controller's last 3 commands (computed
-      // from one of the last 3 outputs). A stall of either process breaks it: the daemon then applies
-      // an old command or, once the watchdog expires, its safe torque
-      const bool own = o.input == 0 && o.input_seq > seq0;  // INPUT_COMMAND, one of ours
-      const bool in_sync = own && o.input_seq >= seq - 2;
-      n_sync += in_sync ? 1 : 0;
-      const double dt = std::isnan(t_last) ? 0.0 : t - t_last;
-      t_last = t;
-      const Eigen::VectorXd& tau = ctl->compute(t, q, v, own ? s : std::nan(""), dt);
-      const auto cmd = io::encode_torque_command(io::wall_us(), ++seq, {}, std::vector<double>(tau.data(), tau.data() + tau.size()));
-      bus.publish(cmd_channel.c_str(), cmd.data(), static_cast<int>(cmd.size()));
-      ++used;
-      saturated += ctl->saturated() ? 1 : 0;
-      Vec3 pr, prd, prdd;
-      ctl->reference(t, &pr, &prd, &prdd);
-      if (t >= settle) {
-        max_pos = std::max(max_pos, ctl->position_error());
-        max_rot = std::max(max_rot, ctl->orientation_error());
-        max_sq = std::max(max_sq, std::abs(s - opt.squeeze));
-        sum2 += ctl->position_error() * ctl->position_error();
-        ++n_stat;
-      }
-      if (csv) {
-        const Vec3& p = ctl->load_position();
-        std::fprintf(csv, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%d,%s,%lld,%d\n", t, pr.x(),
-                     pr.y(), pr.z(), p.x(), p.y(), p.z(), ctl->position_error(), ctl->orientation_error(), s,
-                     ctl->squeeze_target(), opt.squeeze, ctl->saturated() ? 1 : 0,
-                     o.status >= 0 && o.status <= 2 ? status_name(static_cast<Status>(o.status)) : "unknown",
-                     static_cast<long long>(o.input_seq), in_sync ? 1 : 0);
-      }
-    }
+    TrackTally tally;
+    if (const int rc = control_loop(a, sys, *ctl, bus, latest, csv, &tally)) return rc;
     ob->stop();
     if (csv) std::fclose(csv);
-    if (used == 0) {
+    if (tally.used == 0) {
       std::fprintf(stderr, "coopdyn track: no usable output from the daemon on %s (%s): is it running (simulate mode), on this URL?\n",
-                   out_channel.c_str(), out_url.c_str());
+                   a.output_channel.c_str(), out_url.c_str());
       return 1;
     }
-    std::printf("coopdyn track: %lld commands on %s (radius %g m, period %g s, squeeze %g N); %lld error outputs skipped, "
-                "%lld commands clamped to tau_limit; %.1f %% of the outputs in sync (stepped under one of its last 3 "
-                "commands)\n",
-                used, cmd_channel.c_str(), opt.radius, opt.period, opt.squeeze, skipped_errors, saturated,
-                100.0 * static_cast<double>(n_sync) / static_cast<double>(used));
-    if (daemon_gone) std::printf("coopdyn track: the daemon's outputs stopped at t = %.3f s (before --duration)\n", t_last);
-    if (n_stat > 0)
-      std::printf("coopdyn track: after %.1f s: position error max %.3g m, rms %.3g m; orientation error max %.3g rad; "
-                  "squeeze max |s - %g| = %.3g N\n",
-                  settle, max_pos, std::sqrt(sum2 / static_cast<double>(n_stat)), max_rot, opt.squeeze, max_sq);
+    print_track_summary(a, tally);
   } catch (const std::exception& e) {
     if (csv) std::fclose(csv);
     std::fprintf(stderr, "coopdyn track: %s\n", e.what());

@@ -670,30 +670,33 @@ bool read_three_js(const std::string& three_path, std::string* three) {
 }
 
 void register_view(Cli& cli) {
-  Command& c = cli.add("view",
-                       "Show the scene in 3D with every end-effector, base, tip and wheel wrench as force and moment "
-                       "arrows: one self-contained HTML page (three.js inlined) of a sim CSV or a daemon log, or a live "
-                       "page served over HTTP and a WebSocket fed from the daemon's LCM outputs.",
-                       cmd_view);
-  scene_options(c, true);
-  CLI::Option* csv = c.value("--csv", "SIM.csv", "the run: a 'coopdyn sim --out' CSV of the same scene");
-  CLI::Option* log = c.value("--log", "RUN.lcmlog", "the run: an lcm-logger log of coopdynd running the same scene");
-  CLI::Option* live = c.flag("--live", "serve a live page fed from the daemon's LCM outputs (until SIGINT/SIGTERM)");
+  auto [c, a] = cli.add("view",
+                        "Show the scene in 3D with every end-effector, base, tip and wheel wrench as force and moment "
+                        "arrows: one self-contained HTML page (three.js inlined) of a sim CSV or a daemon log, or a live "
+                        "page served over HTTP and a WebSocket fed from the daemon's LCM outputs.",
+                        cmd_view);
+  scene_options(c, a, true);
+  CLI::Option* csv = value(c, "--csv", a.csv, "SIM.csv", "the run: a 'coopdyn sim --out' CSV of the same scene");
+  CLI::Option* log = value(c, "--log", a.log, "RUN.lcmlog", "the run: an lcm-logger log of coopdynd running the same scene");
+  CLI::Option* live = flag(c, "--live", a.live, "serve a live page fed from the daemon's LCM outputs (until SIGINT/SIGTERM)");
   csv->excludes(log)->excludes(live);
   log->excludes(live);
-  c.value("--out", "VIEW.html", "the page to write (--csv, --log)");
-  c.value("--channel", "NAME", "the output_t channel (--log, --live)", "COOPDYN_OUTPUT");
-  c.number("--max-frames", "N", "frames kept, evenly spaced (first and last always; --csv, --log)", "2000");
-  c.value("--listen", "HOST:PORT", "--live: the address to serve the page and its WebSocket on", "127.0.0.1:8765");
-  c.value("--lcm-url", "URL", "--live: the LCM URL of the daemon's outputs", kDefaultLcmUrl);
-  c.number("--rate", "HZ", "--live: frames sent to the page per second at most (the rest are skipped)", "50");
-  c.number("--queue", "N", "--live: frames queued per client at most; a client that falls behind loses the oldest", "32");
-  c.value("--three-js", "FILE", "three.js to inline (Debian libjs-three)", "/usr/share/javascript/three/three.min.js");
+  value(c, "--out", a.out, "VIEW.html", "the page to write (--csv, --log)");
+  value(c, "--channel", a.channel, "NAME", "the output_t channel (--log, --live)", Default::kShown);
+  number(c, "--max-frames", a.max_frames, "N", "frames kept, evenly spaced (first and last always; --csv, --log)",
+         Default::kShown);
+  value(c, "--listen", a.listen, "HOST:PORT", "--live: the address to serve the page and its WebSocket on", Default::kShown);
+  value(c, "--lcm-url", a.lcm_url, "URL", "--live: the LCM URL of the daemon's outputs", Default::kShown);
+  number(c, "--rate", a.rate, "HZ", "--live: frames sent to the page per second at most (the rest are skipped)",
+         Default::kShown);
+  number(c, "--queue", a.queue, "N", "--live: frames queued per client at most; a client that falls behind loses the oldest",
+         Default::kShown);
+  value(c, "--three-js", a.three_js, "FILE", "three.js to inline (Debian libjs-three)", Default::kShown);
 }
 
-int cmd_view(const Args& a) {
-  const int sources = a.has("csv") + a.has("log") + a.has("live");
-  if (sources != 1 || (!a.has("live") && !a.has("out"))) {
+int cmd_view(const ViewArgs& a) {
+  const int sources = a.csv.has_value() + a.log.has_value() + a.live;
+  if (sources != 1 || (!a.live && !a.out)) {
     std::fprintf(stderr,
                  "coopdyn view: --scene FILE and one of --csv SIM.csv --out VIEW.html, --log RUN.lcmlog --out VIEW.html "
                  "or --live are required\n");
@@ -701,40 +704,33 @@ int cmd_view(const Args& a) {
   }
   System sys;
   if (const int rc = load_cli_scene(a, "view", &sys)) return rc;
-  int max_frames = 2000;
-  if (a.has("max-frames")) {
-    try {
-      max_frames = std::stoi(a.get("max-frames"));
-    } catch (const std::exception&) {
-      max_frames = 0;
-    }
-    if (max_frames < 2) {
-      std::fprintf(stderr, "coopdyn view: --max-frames must be an integer >= 2\n");
-      return 2;
-    }
+  const int max_frames = a.max_frames;
+  if (max_frames < 2) {
+    std::fprintf(stderr, "coopdyn view: --max-frames must be an integer >= 2\n");
+    return 2;
   }
   std::string three;
-  if (!read_three_js(a.get("three-js", "/usr/share/javascript/three/three.min.js"), &three)) return 1;
-  const std::string channel = a.get("channel", "COOPDYN_OUTPUT");
-  if (a.has("live")) {
-    const double rate = std::strtod(a.get("rate", "50").c_str(), nullptr);
-    const int queue = std::atoi(a.get("queue", "32").c_str());
+  if (!read_three_js(a.three_js, &three)) return 1;
+  const std::string channel = a.channel;
+  if (a.live) {
+    const double rate = a.rate;
+    const int queue = a.queue;
     if (!(rate > 0) || queue < 1) {
       std::fprintf(stderr, "coopdyn view: --rate must be > 0 and --queue >= 1\n");
       return 2;
     }
-    return run_view_live(sys, three, a.get("listen", "127.0.0.1:8765"), a.get("lcm-url", kDefaultLcmUrl), channel,
+    return run_view_live(sys, three, a.listen, a.lcm_url, channel,
                          rate, queue);
   }
   std::string page;
   try {
     ViewFrames vf;
     std::string source;
-    if (a.has("csv")) {
-      source = a.get("csv");
+    if (a.csv) {
+      source = *a.csv;
       vf = read_view_frames(sys, source, max_frames);
     } else {
-      source = a.get("log");
+      source = *a.log;
       std::vector<ViewSample> samples = read_log_samples(sys, source, channel);
       vf = view_frames_of(sys, samples, max_frames);
     }
@@ -745,17 +741,17 @@ int cmd_view(const Args& a) {
     std::fprintf(stderr, "coopdyn view: %s\n", e.what());
     return 1;
   }
-  std::FILE* out = std::fopen(a.get("out").c_str(), "wb");
+  std::FILE* out = std::fopen(a.out->c_str(), "wb");
   bool ok = out != nullptr;
   if (out) {
     ok = std::fwrite(page.data(), 1, page.size(), out) == page.size();
     ok = std::fclose(out) == 0 && ok;
   }
   if (!ok) {
-    std::fprintf(stderr, "coopdyn view: cannot write '%s'\n", a.get("out").c_str());
+    std::fprintf(stderr, "coopdyn view: cannot write '%s'\n", a.out->c_str());
     return 1;
   }
-  std::fprintf(stderr, "coopdyn view: wrote %s (%zu bytes)\n", a.get("out").c_str(), page.size());
+  std::fprintf(stderr, "coopdyn view: wrote %s (%zu bytes)\n", a.out->c_str(), page.size());
   return 0;
 }
 

@@ -1,0 +1,73 @@
+#include "clients/cli/scene_load.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cstdio>
+
+#include "service/scene/scene.h"
+
+namespace coopdyn::cli {
+
+int load_cli_scene(const SceneArgs& a, const char* cmd, System* sys) {
+  if (!a.scene) {
+    std::fprintf(stderr, "coopdyn %s: --scene FILE is required\n", cmd);
+    return 2;
+  }
+  SceneOverrides ov;
+  if (a.formulation) {
+    Formulation f;
+    if (!parse_formulation(*a.formulation, &f)) {
+      std::fprintf(stderr, "coopdyn %s: unknown formulation '%s' (mobile_platform, classic, pseudo_joint, svd)\n", cmd,
+                   a.formulation->c_str());
+      return 2;
+    }
+    ov.formulation = f;
+  }
+  try {
+    *sys = load_scene(*a.scene, ov);
+  } catch (const SceneError& e) {
+    std::fprintf(stderr, "coopdyn: %s\n", e.what());
+    return 1;
+  }
+  for (const std::string& w : sys->warnings) std::fprintf(stderr, "coopdyn %s: warning: %s\n", cmd, w.c_str());
+  return 0;
+}
+
+// Reads q, v, tau from a JSON (or YAML) state file; sizes must match the scene.
+bool read_state(const std::string& path, const System& sys, Eigen::VectorXd& q, Eigen::VectorXd& v, Eigen::VectorXd& tau) {
+  YAML::Node n;
+  try {
+    n = YAML::LoadFile(path);
+  } catch (const YAML::BadFile&) {
+    std::fprintf(stderr, "coopdyn: %s: cannot open state file\n", path.c_str());
+    return false;
+  } catch (const YAML::Exception& e) {
+    std::fprintf(stderr, "coopdyn: %s:%d:%d: %s\n", path.c_str(), e.mark.line + 1, e.mark.column + 1, e.msg.c_str());
+    return false;
+  }
+  auto get = [&](const char* key, Eigen::VectorXd& out, int size) -> bool {
+    const YAML::Node x = n[key];
+    if (!x.IsDefined()) return true;  // keep the default
+    if (!x.IsSequence() || static_cast<int>(x.size()) != size) {
+      std::fprintf(stderr, "coopdyn: %s: '%s' must be a list of %d numbers (the scene's coordinate order)\n", path.c_str(),
+                   key, size);
+      return false;
+    }
+    for (int i = 0; i < size; ++i) {
+      try {
+        out[i] = x[i].as<double>();
+      } catch (const YAML::Exception&) {
+        std::fprintf(stderr, "coopdyn: %s: '%s'[%d] is not a number\n", path.c_str(), key, i);
+        return false;
+      }
+    }
+    return true;
+  };
+  if (!n.IsMap()) {
+    std::fprintf(stderr, "coopdyn: %s: a state file is an object with q, v, tau\n", path.c_str());
+    return false;
+  }
+  return get("q", q, sys.model.nq()) && get("v", v, sys.model.nv()) && get("tau", tau, sys.model.nv());
+}
+
+}  // namespace coopdyn::cli

@@ -1,0 +1,20 @@
+// The scene and state files given on the command line (--scene, --formulation, --state).
+#pragma once
+
+#include <string>
+
+#include <Eigen/Core>
+
+#include "clients/cli/commands.h"
+#include "service/dynamics/system.h"
+
+namespace coopdyn::cli {
+
+// Loads --scene (with an optional --formulation override) for subcommand `cmd`; prints the reason
+// and returns the exit status (2 usage, 1 scene error) on failure, 0 on success.
+int load_cli_scene(const SceneArgs& a, const char* cmd, System* sys);
+// Reads q, v, tau (each optional) from a JSON or YAML state file in the scene's coordinate order;
+// prints the problem and returns false on a bad file.
+bool read_state(const std::string& path, const System& sys, Eigen::VectorXd& q, Eigen::VectorXd& v, Eigen::VectorXd& tau);
+
+}  // namespace coopdyn::cli
