@@ -1,5 +1,5 @@
-// Helpers of the daemon process tests: a child process with its output in files, temporary paths,
-// reading a file, an LCM bus that may be unavailable (no multicast route).
+// Child processes of the tests: one with its output in files, a command run to its end, temporary
+// paths, an LCM bus that may be unavailable (no multicast route).
 #pragma once
 
 #include <fcntl.h>
@@ -10,9 +10,8 @@
 
 #include <chrono>
 #include <cstdio>
-#include <fstream>
+#include <functional>
 #include <memory>
-#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -20,6 +19,8 @@
 #include <gtest/gtest.h>
 
 #include "service/io/lcm_bus.h"
+#include "tests/support/files.h"
+#include "tests/support/private_udpm_url.h"
 
 extern char** environ;
 
@@ -27,24 +28,27 @@ namespace coopdyn::daemon_test {
 
 using namespace std::chrono_literals;
 
-// A private udpm URL on this host (ttl=0): port 20000 + 10 (pid % 3000) + k, k in [0, 10). Two test
-// processes alive at once never share a port (their pids would have to differ by a multiple of
-// 3000), and one test process has 10 ports of its own. The port, not the group, keeps tests apart:
-// LCM binds INADDR_ANY:port, and Linux hands such a socket the datagrams of every group joined on
-// the host (IP_MULTICAST_ALL).
-inline std::string private_udpm_url(int k, const std::string& group = "239.255.76.67") {
-  return "udpm://" + group + ":" + std::to_string(20000 + 10 * (getpid() % 3000) + k % 10) + "?ttl=0";
-}
+using testing::private_udpm_url;
+using testing::scene_path;
+using testing::slurp;
 
 inline std::string tmp_path(const std::string& what) {
   return (::testing::TempDir().empty() ? std::string("/tmp/") : ::testing::TempDir()) + "coopdynd_test_" +
          std::to_string(getpid()) + "_" + what;
 }
-inline std::string slurp(const std::string& p) {
-  std::ifstream f(p);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
+
+// Starts argv (argv[0] a path) with the descriptors set_fds arranges; its pid, or -1.
+inline pid_t spawn(const std::vector<std::string>& argv, const std::function<void(posix_spawn_file_actions_t*)>& set_fds) {
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  set_fds(&fa);
+  std::vector<char*> args;
+  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  pid_t pid = -1;
+  if (posix_spawn(&pid, args[0], &fa, nullptr, args.data(), environ) != 0) pid = -1;
+  posix_spawn_file_actions_destroy(&fa);
+  return pid;
 }
 
 // A child process with stdout and stderr to files.
@@ -52,15 +56,10 @@ struct Child {
   pid_t pid = -1;
   std::string out, err;
   Child(const std::vector<std::string>& argv, const std::string& name) : out(tmp_path(name + ".out")), err(tmp_path(name + ".err")) {
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_addopen(&fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    std::vector<char*> args;
-    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    if (posix_spawn(&pid, args[0], &fa, nullptr, args.data(), environ) != 0) pid = -1;
-    posix_spawn_file_actions_destroy(&fa);
+    pid = spawn(argv, [this](posix_spawn_file_actions_t* fa) {
+      posix_spawn_file_actions_addopen(fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      posix_spawn_file_actions_addopen(fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    });
   }
   // exit code, or -signal; waits at most `limit` and then kills
   int wait(std::chrono::milliseconds limit = 20s) {

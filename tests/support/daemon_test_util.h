@@ -18,12 +18,11 @@
 #include "service/io/bus.h"
 #include "service/io/codec.h"
 #include "service/scene/scene.h"
+#include "tests/support/files.h"
 
 namespace coopdyn::daemon_test {
 
-inline std::string scene_path(const std::string& name) {
-  return std::string(COOPDYN_SOURCE_DIR) + "/config/scenes/" + name + ".yaml";
-}
+using testing::scene_path;
 
 // Every scene in config/scenes that loads (scenes are the lead's; one that does not load is
 // reported by the scene tests, not here).

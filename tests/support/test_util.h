@@ -17,12 +17,9 @@
 #include "service/dynamics/constrained_dynamics.h"
 #include "service/dynamics/wrenches.h"
 #include "service/scene/scene.h"
+#include "tests/support/files.h"
 
 namespace coopdyn::testing {
-
-inline std::string scene_path(const std::string& name) {
-  return std::string(COOPDYN_SOURCE_DIR) + "/config/scenes/" + name + ".yaml";
-}
 
 inline const std::vector<std::string>& all_scenes() {
   static const std::vector<std::string> s = {"two_puma_load", "two_5dof_arms_load", "planar_arms_load", "four_bar", "two_iiwa_load"};
@@ -111,12 +108,7 @@ inline Vec6 total_momentum(const Model& m, const Eigen::VectorXd& q, const Eigen
 
 // The text of a shipped scene, and a copy of a text with one occurrence replaced (the test fails
 // if `from` is absent), for variants of the shipped scenes.
-inline std::string scene_text(const std::string& name) {
-  std::ifstream f(scene_path(name));
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
+inline std::string scene_text(const std::string& name) { return slurp(scene_path(name)); }
 inline std::string replace_once(std::string text, const std::string& from, const std::string& to) {
   const auto p = text.find(from);
   EXPECT_NE(p, std::string::npos) << "not in the scene: " << from;

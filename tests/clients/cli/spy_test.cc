@@ -43,7 +43,7 @@ struct Dir {
   ~Dir() { std::system(("rm -rf '" + path + "'").c_str()); }
 };
 
-const std::string kUrl = "udpm://239.255.76.67:7999?ttl=0";
+const std::string kUrl = private_udpm_url(0);
 
 }  // namespace
 
