@@ -5,6 +5,8 @@
 coopdyn_test(coopdynd_tests
   FILES
     runtime/service_loop_test.cc
+    runtime/triple_buffer_test.cc
+    runtime/histogram_test.cc
     runtime/service_loop_no_allocation_test.cc
     runtime/config_test.cc
     runtime/vehicle_command_test.cc

@@ -12,9 +12,7 @@
 
 #include "service/dynamics/integrators.h"
 #include "service/io/lcm_bus.h"
-#include "service/runtime/histogram.h"
 #include "service/runtime/service_loop.h"
-#include "service/runtime/triple_buffer.h"
 #include "tests/support/daemon_test_util.h"
 
 using namespace coopdyn;
@@ -46,58 +44,6 @@ struct Rig {
   }
 };
 }  // namespace
-
-TEST(TripleBuffer, ReaderSeesWholeNewestValues) {
-  struct Pair {
-    long a = 0, b = 0;
-  };
-  runtime::TripleBuffer<Pair> tb([](Pair&) {});
-  std::atomic<bool> done{false}, reading{false};
-  std::thread writer([&] {
-    while (!reading.load()) std::this_thread::yield();
-    for (long i = 1; i <= 200000; ++i) {
-      Pair& p = tb.write_slot();
-      p.a = i;
-      p.b = -i;
-      tb.publish();
-    }
-    done = true;
-  });
-  long last = 0, reads = 0, torn = 0, backwards = 0;
-  reading = true;
-  do {
-    tb.update();
-    const Pair& p = tb.read_slot();
-    torn += p.a != -p.b;
-    backwards += p.a < last;
-    last = p.a;
-    ++reads;
-  } while (!done.load());
-  writer.join();
-  EXPECT_EQ(torn, 0) << "a read saw half of one write and half of another";
-  EXPECT_EQ(backwards, 0) << "a read went back in time";
-  tb.update();
-  EXPECT_EQ(tb.read_slot().a, 200000);  // the newest value always arrives
-  EXPECT_GT(reads, 0);
-}
-
-TEST(Histogram, PercentilesWithinBucketResolution) {
-  runtime::Histogram h;
-  for (int i = 1; i <= 100000; ++i) h.record(i * 10);  // uniform 10 ns .. 1 ms
-  EXPECT_EQ(h.total(), 100000);
-  EXPECT_EQ(h.max(), 1000000);
-  for (double p : {0.5, 0.99, 0.999}) {
-    const double exact = p * 1e6;
-    EXPECT_NEAR(static_cast<double>(h.percentile(p)), exact, exact / 64 + 10) << p;
-  }
-  for (int64_t v : {0LL, 1LL, 127LL, 128LL, 1000LL, 123456789LL}) {
-    const int i = runtime::Histogram::index(static_cast<uint64_t>(v));
-    EXPECT_LE(v, runtime::Histogram::upper(i));
-    if (i > 0) {
-      EXPECT_GT(v, runtime::Histogram::upper(i - 1));
-    }
-  }
-}
 
 // Commands in, wrenches out: every scene, each output equal to the offline evaluation of the state
 // it carries, and the state advancing exactly like step() under the commanded torque.
