@@ -51,6 +51,7 @@
 #include "service/io/codec.h"
 #include "service/runtime/config.h"
 #include "service/scene/scene.h"
+#include "tests/support/files.h"
 
 using namespace coopdyn;
 
@@ -78,12 +79,7 @@ uint64_t env_u64(const char* name, uint64_t def) {
 }
 const uint64_t kSeed = env_u64("COOPDYN_FUZZ_SEED", 20240610);
 
-std::string slurp(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
+using coopdyn::testing::slurp;
 std::vector<std::string> list_dir(const std::string& dir, const std::string& suffix) {
   std::vector<std::string> out;
   if (DIR* d = opendir(dir.c_str())) {

@@ -1,0 +1,269 @@
+// The command lines of coopdyn and coopdynd (CLI11), run as real processes: unknown flags, missing
+// and malformed values are errors on stderr with exit 2 and nothing done; --help goes to stdout with
+// exit 0 and shows the options and their defaults; --version; the old flags keep their meaning.
+#include <gtest/gtest.h>
+#include <unistd.h>
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "service/version.h"
+#include "tests/support/child_process.h"
+
+using namespace coopdyn::daemon_test;
+
+namespace {
+
+std::string scene(const std::string& name) { return std::string(COOPDYN_SOURCE_DIR) + "/config/scenes/" + name + ".yaml"; }
+
+Result run(const std::vector<std::string>& argv, const std::string& tag) { return run_command(argv, "cli_" + tag); }
+bool has(const std::string& s, const std::string& what) { return s.find(what) != std::string::npos; }
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> f;
+  std::istringstream s(line);
+  for (std::string x; std::getline(s, x, ',');) f.push_back(x);
+  return f;
+}
+
+}  // namespace
+
+TEST(Cli, UnknownFlagIsAnErrorThatNamesIt) {
+  // each otherwise complete (a missing required option is reported first)
+  const std::string s = scene("two_puma_load");
+  const std::vector<std::vector<std::string>> cmds = {
+      {"eval", "--scene", s},
+      {"sim", "--scene", s, "--duration", "0.01", "--dt", "0.001"},
+      {"send", "--scene", s, "--torque", "arm1.q1:constant:1", "--lcm-url", "memq://", "--duration", "0"},
+      {"log", "--in", "/no/such.lcmlog"},
+      {"control", "--action", "pause", "--lcm-url", "memq://", "--no-wait"},
+      {"track", "--scene", s, "--lcm-url", "memq://", "--duration", "0.1"},
+      {"view", "--scene", s, "--csv", "/no/such.csv", "--out", "/tmp/coopdyn_cli_view.html"},
+  };
+  for (std::vector<std::string> argv : cmds) {
+    const std::string sub = argv[0];
+    SCOPED_TRACE(sub);
+    argv.insert(argv.begin(), COOPDYN_PATH);
+    argv.insert(argv.end(), {"--bogus", "1"});
+    const Result r = run(argv, "unknown_" + sub);
+    EXPECT_EQ(r.rc, 2);
+    EXPECT_TRUE(has(r.err, "--bogus")) << r.err;
+    EXPECT_EQ(r.out, "") << "nothing run";
+  }
+  const Result d = run({COOPDYND_PATH, "--scene", scene("two_puma_load"), "--bogus", "1"}, "unknown_d");
+  EXPECT_EQ(d.rc, 2);
+  EXPECT_TRUE(has(d.err, "--bogus")) << d.err;
+  EXPECT_EQ(d.out, "") << "the daemon did not run (no summary line)";
+}
+
+TEST(Cli, AMistypedOutFlagWritesNothingInsteadOfDumpingTheCsv) {
+  // the example: `--outt x.csv` used to run the simulation and print the CSV to stdout
+  const std::string path = tmp_path("outt.csv");
+  std::remove(path.c_str());
+  const Result r = run({COOPDYN_PATH, "sim", "--scene", scene("two_puma_load"), "--duration", "0.01", "--dt", "0.001",
+                     "--outt", path},
+                    "outt");
+  EXPECT_EQ(r.rc, 2);
+  EXPECT_TRUE(has(r.err, "--outt")) << r.err;
+  EXPECT_EQ(r.out, "");
+  EXPECT_NE(access(path.c_str(), F_OK), 0) << "no file written";
+}
+
+TEST(Cli, AMissingOrMalformedValueIsAnError) {
+  const Result r = run({COOPDYN_PATH, "sim", "--scene", scene("two_puma_load"), "--dt", "0.001", "--duration"}, "no_value");
+  EXPECT_EQ(r.rc, 2);
+  EXPECT_TRUE(has(r.err, "--duration")) << r.err;
+  EXPECT_EQ(r.out, "");
+  // a value that is the next option is not taken as the value
+  const Result n = run({COOPDYN_PATH, "sim", "--scene", scene("two_puma_load"), "--duration", "--dt", "0.001"}, "next_opt");
+  EXPECT_EQ(n.rc, 2);
+  EXPECT_TRUE(has(n.err, "--duration")) << n.err;
+  const Result x = run({COOPDYN_PATH, "sim", "--scene", scene("two_puma_load"), "--duration", "abc", "--dt", "0.001"}, "nan");
+  EXPECT_EQ(x.rc, 2);
+  EXPECT_TRUE(has(x.err, "--duration") && has(x.err, "abc")) << x.err;
+  EXPECT_EQ(x.out, "");
+  const Result req = run({COOPDYN_PATH, "sim", "--scene", scene("two_puma_load"), "--dt", "0.001"}, "required");
+  EXPECT_EQ(req.rc, 2);
+  EXPECT_TRUE(has(req.err, "--duration")) << req.err;
+  const Result d = run({COOPDYND_PATH, "--scene", scene("two_puma_load"), "--duration"}, "no_value_d");
+  EXPECT_EQ(d.rc, 2);
+  EXPECT_TRUE(has(d.err, "--duration")) << d.err;
+  EXPECT_EQ(d.out, "") << "the daemon did not run";
+  const Result ds = run({COOPDYND_PATH, "--duration", "1"}, "no_scene_d");
+  EXPECT_EQ(ds.rc, 2);
+  EXPECT_TRUE(has(ds.err, "--scene")) << ds.err;
+}
+
+TEST(Cli, EverySubcommandHasHelpOnStdoutWithItsOptionsAndDefaults) {
+  struct Case {
+    const char* sub;
+    std::vector<std::string> shows;  // options and the defaults the code applies (CLI11 2.1: NAME=default)
+  };
+  const std::vector<Case> cases = {
+      {"eval", {"--scene", "--state", "--formulation"}},
+      {"sim", {"--scene", "--duration", "--dt", "--integrator NAME=rk4", "--torque", "--out", "--every N=1", "--progress",
+               "JOINT:pulse:VALUE:T0:T1"}},
+      {"send", {"--torque", "--states", "--joints-only", "--rate HZ=100", "--lcm-url URL=udpm://239.255.76.67:7667?ttl=0",
+                "--measure-latency", "--no-check", "--output-url"}},
+      {"log", {"--in", "--out", "--scene", "--no-plot", "--progress", "--python PATH=/usr/bin/python3"}},
+      {"control", {"--action", "reset_to_state", "--state", "--no-wait", "--channel C=COOPDYN_CONTROL"}},
+      {"track", {"--duration S=6", "--radius M=0.05", "--period S=4", "--squeeze N=20", "--out"}},
+      {"view", {"--scene", "--csv", "--log", "--live", "--out", "--max-frames N=2000", "--channel NAME=COOPDYN_OUTPUT",
+                "--listen HOST:PORT=127.0.0.1:8765", "--lcm-url URL=udpm://239.255.76.67:7667?ttl=0", "--rate HZ=50",
+                "--queue N=32", "--three-js FILE=/usr/share/javascript/three/three.min.js"}},
+      {"bench", {"--scene", "--min-time S=0.5", "--repetitions N=15", "--json", "--formulation"}},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.sub);
+    const Result r = run({COOPDYN_PATH, c.sub, "--help"}, std::string("help_") + c.sub);
+    EXPECT_EQ(r.rc, 0);
+    EXPECT_EQ(r.err, "");
+    for (const std::string& s : c.shows) EXPECT_TRUE(has(r.out, s)) << "missing '" << s << "' in\n" << r.out;
+  }
+  const Result top = run({COOPDYN_PATH, "--help"}, "help_top");
+  EXPECT_EQ(top.rc, 0);
+  EXPECT_EQ(top.err, "");
+  for (const char* sub : {"eval", "sim", "send", "log", "control", "track", "view", "bench"}) EXPECT_TRUE(has(top.out, sub)) << top.out;
+  const Result d = run({COOPDYND_PATH, "--help"}, "help_d");
+  EXPECT_EQ(d.rc, 0);
+  EXPECT_EQ(d.err, "");
+  for (const char* o : {"--scene", "--config", "--lcm-url", "--mode", "--trigger WHEN=tick", "--rate", "--duration", "--version"})
+    EXPECT_TRUE(has(d.out, o)) << d.out;
+}
+
+TEST(Cli, NoSubcommandPrintsTheUsageAsAnError) {
+  const Result r = run({COOPDYN_PATH}, "none");
+  EXPECT_NE(r.rc, 0);
+  EXPECT_EQ(r.out, "");
+  for (const char* sub : {"eval", "sim", "send", "log", "control", "track", "view", "bench"}) EXPECT_TRUE(has(r.err, sub)) << r.err;
+  const Result u = run({COOPDYN_PATH, "bogus"}, "unknown_sub");
+  EXPECT_EQ(u.rc, 2);
+  EXPECT_TRUE(has(u.err, "bogus")) << u.err;
+}
+
+TEST(Cli, VersionOfBothBinariesIsTheProjectVersion) {
+  EXPECT_STREQ(COOPDYN_VERSION, COOPDYN_PROJECT_VERSION) << "service/version.h is generated from project(VERSION)";
+  const Result c = run({COOPDYN_PATH, "--version"}, "version");
+  EXPECT_EQ(c.rc, 0);
+  EXPECT_EQ(c.out, std::string("coopdyn ") + COOPDYN_PROJECT_VERSION + "\n");
+  EXPECT_EQ(c.err, "");
+  const Result d = run({COOPDYND_PATH, "--version"}, "version_d");
+  EXPECT_EQ(d.rc, 0);
+  EXPECT_EQ(d.out, std::string("coopdynd (coopdyn) ") + COOPDYN_PROJECT_VERSION + "\n");
+  EXPECT_EQ(d.err, "");
+}
+
+TEST(Cli, OldFlagsKeepTheirMeaning) {
+  // --key=value, a repeated --torque (both applied, in the scene's order) and a negative value
+  const Result r = run({COOPDYN_PATH, "sim", "--scene=" + scene("two_puma_load"), "--duration", "0.002", "--dt", "0.001",
+                     "--torque", "arm1.q1:constant:1.5", "--torque", "arm2.q2:constant:-0.5"},
+                    "old_flags");
+  ASSERT_EQ(r.rc, 0) << r.err;
+  std::istringstream csv(r.out);
+  std::string header, first;
+  while (std::getline(csv, header) && !header.empty() && header[0] == '#') {}  // the comment and units lines
+  ASSERT_TRUE(std::getline(csv, first));
+  const std::vector<std::string> h = split(header), v = split(first);
+  ASSERT_EQ(h.size(), v.size());
+  int seen = 0;
+  for (size_t i = 0; i < h.size(); ++i) {
+    if (h[i].rfind("tau:", 0) != 0) continue;
+    const double tau = std::strtod(v[i].c_str(), nullptr);
+    if (h[i] == "tau:arm1.q1" || h[i] == "tau:arm2.q2") {
+      EXPECT_EQ(tau, h[i] == "tau:arm1.q1" ? 1.5 : -0.5);
+      ++seen;
+    } else {
+      EXPECT_EQ(tau, 0.0) << h[i];
+    }
+  }
+  EXPECT_EQ(seen, 2);
+  // a bare flag between options (--no-plot), the required --in
+  const Result l = run({COOPDYN_PATH, "log", "--no-plot", "--in", "/no/such.lcmlog"}, "log_flag");
+  EXPECT_EQ(l.rc, 1) << "got to reading the log: " << l.err;
+  EXPECT_TRUE(has(l.err, "/no/such.lcmlog")) << l.err;
+}
+
+// coopdyn bench on shipped scenes: the JSON parses, every number is finite and positive, and the rows
+// are the evaluation plus one step per integrator, twice (with and without) where the scene projects.
+// No wall-clock limit is asserted; --min-time keeps the run short.
+TEST(Cli, BenchPrintsOneRowPerIntegratorAndProjectionWithFinitePositiveCosts) {
+  struct Case {
+    const char* scene;
+    bool projects;
+  };
+  for (const Case& c : {Case{"two_puma_load", false}, Case{"two_wheel_vehicle", true}}) {
+    SCOPED_TRACE(c.scene);
+    const Result r = run({COOPDYN_PATH, "bench", "--scene", scene(c.scene), "--min-time", "0.03", "--repetitions", "5",
+                          "--json"},
+                         std::string("bench_") + c.scene);
+    ASSERT_EQ(r.rc, 0) << r.err;
+    YAML::Node j;
+    ASSERT_NO_THROW(j = YAML::Load(r.out)) << r.out;
+    EXPECT_EQ(j["name"].as<std::string>(), c.scene);
+    EXPECT_EQ(j["projection_iterations"].as<int>() > 0, c.projects);
+    std::set<std::string> names, want = {"evaluate", "step:semi_implicit_euler", "step:rk4", "step:implicit_euler"};
+    if (c.projects)
+      for (const char* i : {"semi_implicit_euler", "rk4", "implicit_euler"}) want.insert(std::string("step:") + i + "+projection");
+    ASSERT_TRUE(j["rows"].IsSequence()) << r.out;
+    for (const YAML::Node& row : j["rows"]) {
+      const std::string name = row["name"].as<std::string>();
+      EXPECT_TRUE(names.insert(name).second) << "row twice: " << name;
+      for (const char* k : {"median", "p10", "p90", "wall_median"}) {
+        const double x = row[k].as<double>();
+        EXPECT_TRUE(std::isfinite(x) && x > 0.0) << name << "." << k << " = " << x;
+      }
+      const double mad = row["mad"].as<double>();
+      EXPECT_TRUE(std::isfinite(mad) && mad >= 0.0) << name;
+      EXPECT_LE(row["p10"].as<double>(), row["median"].as<double>()) << name;
+      EXPECT_LE(row["median"].as<double>(), row["p90"].as<double>()) << name;
+      EXPECT_GE(row["batch"].as<long>(), 1) << name;
+      EXPECT_EQ(row["repetitions"].as<int>(), 5) << name;
+      EXPECT_EQ(row["projection"].as<bool>(), name.find("+projection") != std::string::npos) << name;
+    }
+    EXPECT_EQ(names, want);
+  }
+  // the table form: a header and one line per row
+  const Result t = run({COOPDYN_PATH, "bench", "--scene", scene("unicycle"), "--min-time", "0.02", "--repetitions", "3"},
+                       "bench_table");
+  ASSERT_EQ(t.rc, 0) << t.err;
+  for (const char* row : {"evaluate", "step:semi_implicit_euler", "step:rk4", "step:implicit_euler", "median", "p90"})
+    EXPECT_TRUE(has(t.out, row)) << t.out;
+}
+
+TEST(Cli, BenchOnAMissingOrBrokenSceneNamesTheFile) {
+  const Result m = run({COOPDYN_PATH, "bench", "--scene", "/no/such/scene.yaml"}, "bench_missing");
+  EXPECT_EQ(m.rc, 1);
+  EXPECT_TRUE(has(m.err, "/no/such/scene.yaml")) << m.err;
+  EXPECT_EQ(m.out, "");
+  const std::string broken = "/tmp/coopdyn_cli_bench_broken_" + std::to_string(getpid()) + ".yaml";
+  {
+    std::FILE* f = std::fopen(broken.c_str(), "w");
+    ASSERT_TRUE(f);
+    std::fputs("name: broken\nbodies: [unclosed\n", f);
+    std::fclose(f);
+  }
+  const Result b = run({COOPDYN_PATH, "bench", "--scene", broken}, "bench_broken");
+  std::remove(broken.c_str());
+  EXPECT_EQ(b.rc, 1);
+  EXPECT_TRUE(has(b.err, broken)) << b.err;
+  EXPECT_EQ(b.out, "");
+}
+
+// docs/reference/cli.md is written by docs/reference/cli.sh from the programs' --help: the page in
+// the tree is what the script writes from these binaries.
+TEST(Cli, ReferencePageIsWhatItsScriptWritesFromTheHelp) {
+  const std::string bin = std::string(COOPDYN_PATH).substr(0, std::string(COOPDYN_PATH).rfind('/'));
+  const std::string docs = std::string(COOPDYN_SOURCE_DIR) + "/docs/reference/";
+  const Result r = run({"/bin/bash", docs + "cli.sh", bin}, "reference");
+  ASSERT_EQ(r.rc, 0) << r.err;
+  std::ifstream f(docs + "cli.md");
+  std::stringstream page;
+  page << f.rdbuf();
+  EXPECT_EQ(r.out, page.str()) << "the page is stale: docs/reference/cli.sh build/bin > docs/reference/cli.md";
+}

@@ -1,0 +1,207 @@
+// The loop's step path allocates nothing: thousands of ServiceLoop::tick() calls (dynamics, input
+// handoff, watchdog, lock targets of the commands, output and stats encoding, publish) of every
+// scene in both modes, and run()
+// with its absolute-deadline sleeps, under the counting heap. Inputs are offered between ticks
+// outside the count (the receive thread is not the loop).
+#define COOPDYN_COUNTING_ALLOCATOR_IMPL
+#include "tests/support/counting_allocator.h"
+
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <thread>
+
+#include "service/io/lcm_bus.h"
+#include "service/runtime/service_loop.h"
+#include "tests/support/child_process.h"
+#include "tests/support/daemon_test_util.h"
+
+using namespace coopdyn;
+using namespace coopdyn::daemon_test;
+using coopdyn::testing::AllocationCounter;
+using coopdyn::testing::kCountingAvailable;
+
+TEST(LoopNoAllocation, TickOfEverySceneBothModes) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  for (const auto& name : loadable_scenes()) {
+    for (auto mode : {runtime::ServiceMode::kSimulate, runtime::ServiceMode::kEstimate}) {
+      SCOPED_TRACE(name + (mode == runtime::ServiceMode::kSimulate ? " simulate" : " estimate"));
+      const System sys = load_scene(scene_path(name));
+      runtime::ServiceConfig cfg;
+      cfg.mode = mode;
+      cfg.stats_period_s = 0.05;  // stats every 50 ticks, inside the count
+      cfg.watchdog_ms = 20;       // expiries and resumptions inside the count too
+      FakeBus bus;
+      runtime::ServiceLoop loop(sys, cfg, bus);
+      const Eigen::VectorXd tau = some_torque(sys, 1, 0.5);
+      // commands carry lock targets where the scene lets them be commanded (a vehicle's steer
+      // angles), changing from one command to the next: the targets' path through the loop too
+      std::vector<std::string> tn;
+      for (const ConstraintSpec& sp : sys.constraints.specs)
+        if (sp.kind == ConstraintKind::kLock && sp.target_limit > 0) tn.push_back(sys.model.v_names[static_cast<size_t>(sp.dof)]);
+      const auto cmd = [&](int64_t seq) {
+        const double x = seq % 2 ? 0.02 : -0.01;
+        return io::encode_torque_command(runtime::realtime_us(), seq, {}, stdvec(tau), tn, std::vector<double>(tn.size(), x));
+      };
+      // full states, joints-only states (the load's pose and twist fitted: state_fit.h) and states
+      // that do not close (refused with REASON_CLOSURE), in turn
+      const StateFitPlan plan = plan_state_fit(sys);
+      std::vector<std::string> jq, jv;
+      std::vector<double> jqv, jvv, jtau;
+      for (int i = 0; i < sys.model.nq(); ++i)
+        if (std::find(plan.fit_q.begin(), plan.fit_q.end(), i) == plan.fit_q.end()) {
+          jq.push_back(sys.model.q_names[i]);
+          jqv.push_back(sys.q0[i]);
+        }
+      for (int i = 0; i < sys.model.nv(); ++i)
+        if (std::find(plan.fit_v.begin(), plan.fit_v.end(), i) == plan.fit_v.end()) {
+          jv.push_back(sys.model.v_names[i]);
+          jvv.push_back(sys.v0[i]);
+          jtau.push_back(tau[i]);
+        }
+      Eigen::VectorXd q_far = sys.q0;
+      if (!plan.fit_q.empty()) q_far[plan.fit_q[2]] += 1.0;  // z: a metre above where the constraints hold it
+      const auto state = [&](int64_t seq) {
+        if (seq % 3 == 1 && plan.q_fittable && plan.v_fittable)
+          return io::encode_measured_state(runtime::realtime_us(), seq, jq, jqv, jv, jvv, jtau);
+        if (seq % 3 == 2)
+          return io::encode_measured_state(runtime::realtime_us(), seq, {}, stdvec(q_far), {}, stdvec(sys.v0), stdvec(tau));
+        return io::encode_measured_state(runtime::realtime_us(), seq, {}, stdvec(sys.q0), {}, stdvec(sys.v0), stdvec(tau));
+      };
+      long allocations = 0;
+      const long long ms = 1000000;
+      for (int k = 0; k < 3000; ++k) {
+        if (k % 7 == 0 && (k / 500) % 2 == 0) {  // commands for 500 ticks, then silence (expiry)
+          const auto b = mode == runtime::ServiceMode::kSimulate ? cmd(k) : state(k);
+          if (mode == runtime::ServiceMode::kSimulate) loop.commands().offer(b.data(), static_cast<int>(b.size()), k * ms);
+          else loop.states().offer(b.data(), static_cast<int>(b.size()), k * ms);
+        }
+        AllocationCounter c;
+        loop.tick(k * ms);
+        loop.record_timing(1000, 20000);
+        allocations += c.count();
+      }
+      EXPECT_EQ(allocations, 0);
+      EXPECT_EQ(loop.ticks(), 3000);
+      EXPECT_GE(loop.expirations(), 2);
+      EXPECT_EQ(bus.count("COOPDYN_OUTPUT"), 3000);
+      EXPECT_EQ(bus.count("COOPDYN_STATS"), 60);
+      if (mode == runtime::ServiceMode::kEstimate && !plan.fit_q.empty()) {
+        EXPECT_GT(loop.closure_rejections(), 0);
+      }
+      runtime::Event e;
+      while (loop.events().pop(&e)) {
+      }
+    }
+  }
+}
+
+TEST(LoopNoAllocation, RunWithDeadlineSleeps) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  const System sys = load_scene(scene_path("two_puma_load"));
+  runtime::ServiceConfig cfg;
+  cfg.stats_period_s = 0.05;
+  FakeBus bus;
+  runtime::ServiceLoop loop(sys, cfg, bus);
+  std::atomic<bool> stop{false};
+  long allocations;
+  {
+    AllocationCounter c;
+    loop.run(stop, 300);  // 0.3 s at 1 kHz
+    allocations = c.count();
+  }
+  EXPECT_EQ(allocations, 0);
+  EXPECT_EQ(loop.ticks(), 300);
+  EXPECT_EQ(loop.totals().window_ticks, 300);
+  // realtime.spin_us: the warm-up evaluation and the busy wait before each deadline, both modes
+  for (auto mode : {runtime::ServiceMode::kSimulate, runtime::ServiceMode::kEstimate}) {
+    runtime::ServiceConfig spin = cfg;
+    spin.mode = mode;
+    spin.realtime.spin_us = 100;
+    runtime::ServiceLoop spinning(sys, spin, bus);
+    AllocationCounter c;
+    spinning.run(stop, 100);
+    EXPECT_EQ(c.count(), 0);
+    EXPECT_EQ(spinning.ticks(), 100);
+  }
+}
+
+// The event-driven estimate path (trigger: arrival): run() waiting on the doorbell, a tick per
+// state rung in (full states and states that do not close, in turn), the heartbeat ticks while the
+// state has expired, and the stats by wall time, under the counting heap on the loop's thread. The
+// states are offered and rung from another thread, as the receive thread does.
+TEST(LoopNoAllocation, RunOnArrivalOfStates) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  const System sys = load_scene(scene_path("two_puma_load"));
+  runtime::ServiceConfig cfg;
+  cfg.mode = runtime::ServiceMode::kEstimate;
+  cfg.trigger = runtime::Trigger::kArrival;
+  cfg.stats_period_s = 0.05;
+  cfg.watchdog_ms = 20;
+  FakeBus bus;
+  runtime::ServiceLoop loop(sys, cfg, bus);
+  const Eigen::VectorXd tau = some_torque(sys, 1, 0.5);
+  Eigen::VectorXd q_far = sys.q0;
+  q_far[0] += 0.3;
+  std::atomic<bool> stop{false};
+  std::atomic<long> allocations{-1};
+  std::thread loop_thread([&] {
+    AllocationCounter c;
+    loop.run(stop);
+    allocations = c.count();
+  });
+  int sent = 0;
+  for (int k = 0; k < 400; ++k) {
+    if (k < 150 || k >= 300) {  // 150 states, 150 ms of silence (expiry, heartbeats), 100 states
+      const auto b = io::encode_measured_state(runtime::realtime_us(), k + 1, {}, stdvec(k % 5 == 4 ? q_far : sys.q0), {},
+                                               stdvec(sys.v0), stdvec(tau));
+      if (loop.states().offer(b.data(), static_cast<int>(b.size()), io::monotonic_ns()) == runtime::Offer::kAccepted) {
+        loop.doorbell().ring();
+        ++sent;
+      }
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(60));
+  stop = true;
+  loop_thread.join();
+  EXPECT_EQ(allocations.load(), 0);
+  EXPECT_EQ(sent, 250);
+  EXPECT_GE(loop.expirations(), 1);
+  EXPECT_GT(loop.closure_rejections(), 0);
+  EXPECT_GE(bus.count("COOPDYN_STATS"), 4);
+  // at most one output per state, plus the heartbeats of the silences
+  EXPECT_GT(loop.ticks(), 100);
+  EXPECT_EQ(bus.count("COOPDYN_OUTPUT"), loop.ticks());
+  runtime::Event e;
+  while (loop.events().pop(&e)) {
+  }
+}
+
+// The loop publishes from its own thread with lcm_publish over udpm: that path must not allocate
+// either (LCM 1.3: one sendmsg per datagram; larger messages are fragmented in place).
+TEST(LoopNoAllocation, UdpmPublishOfEncodedBytes) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  std::unique_ptr<io::LcmBus> bus;
+  try {
+    bus = std::make_unique<io::LcmBus>(daemon_test::private_udpm_url(0));
+  } catch (const std::exception&) {
+    GTEST_SKIP() << "LCM udpm unavailable (no multicast route?)";
+  }
+  std::vector<uint8_t> small(1500, 1), large(100000, 2);  // one datagram, and a fragmented one
+  bus->publish("COOPDYN_WARMUP", small.data(), static_cast<int>(small.size()));
+  bus->publish("COOPDYN_WARMUP", large.data(), static_cast<int>(large.size()));
+  long allocations;
+  {
+    AllocationCounter c;
+    for (int k = 0; k < 500; ++k) {
+      bus->publish("COOPDYN_OUTPUT", small.data(), static_cast<int>(small.size()));
+      if (k % 50 == 0) bus->publish("COOPDYN_OUTPUT", large.data(), static_cast<int>(large.size()));
+    }
+    allocations = c.count();
+  }
+  EXPECT_EQ(allocations, 0);
+}

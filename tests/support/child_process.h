@@ -1,0 +1,116 @@
+// Child processes of the tests: one with its output in files, a command run to its end, temporary
+// paths, an LCM bus that may be unavailable (no multicast route).
+#pragma once
+
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <functional>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "service/io/lcm_bus.h"
+#include "tests/support/files.h"
+#include "tests/support/private_udpm_url.h"
+
+extern char** environ;
+
+namespace coopdyn::daemon_test {
+
+using namespace std::chrono_literals;
+
+using testing::private_udpm_url;
+using testing::scene_path;
+using testing::slurp;
+
+inline std::string tmp_path(const std::string& what) {
+  return (::testing::TempDir().empty() ? std::string("/tmp/") : ::testing::TempDir()) + "coopdynd_test_" +
+         std::to_string(getpid()) + "_" + what;
+}
+
+// Starts argv (argv[0] a path) with the descriptors set_fds arranges; its pid, or -1.
+inline pid_t spawn(const std::vector<std::string>& argv, const std::function<void(posix_spawn_file_actions_t*)>& set_fds) {
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  set_fds(&fa);
+  std::vector<char*> args;
+  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  pid_t pid = -1;
+  if (posix_spawn(&pid, args[0], &fa, nullptr, args.data(), environ) != 0) pid = -1;
+  posix_spawn_file_actions_destroy(&fa);
+  return pid;
+}
+
+// A child process with stdout and stderr to files.
+struct Child {
+  pid_t pid = -1;
+  std::string out, err;
+  Child(const std::vector<std::string>& argv, const std::string& name) : out(tmp_path(name + ".out")), err(tmp_path(name + ".err")) {
+    pid = spawn(argv, [this](posix_spawn_file_actions_t* fa) {
+      posix_spawn_file_actions_addopen(fa, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      posix_spawn_file_actions_addopen(fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    });
+  }
+  // exit code, or -signal; waits at most `limit` and then kills
+  int wait(std::chrono::milliseconds limit = 20s) {
+    const auto end = std::chrono::steady_clock::now() + limit;
+    int st = 0;
+    while (true) {
+      const pid_t r = waitpid(pid, &st, WNOHANG);
+      if (r == pid) break;
+      if (std::chrono::steady_clock::now() > end) {
+        kill(pid, SIGKILL);
+        waitpid(pid, &st, 0);
+        ADD_FAILURE() << "child did not exit in time";
+        break;
+      }
+      std::this_thread::sleep_for(10ms);
+    }
+    pid = -1;
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -WTERMSIG(st);
+  }
+  void signal(int s) { kill(pid, s); }
+  ~Child() {
+    if (pid > 0) {
+      kill(pid, SIGKILL);
+      waitpid(pid, nullptr, 0);
+    }
+    std::remove(out.c_str());
+    std::remove(err.c_str());
+  }
+};
+
+// A command run to its end (at most 60 s): its exit status and what it printed.
+struct Result {
+  int rc;
+  std::string out, err;
+};
+inline Result run_command(const std::vector<std::string>& argv, const std::string& tag) {
+  Child c(argv, tag);
+  EXPECT_GT(c.pid, 0) << argv[0];
+  Result r;
+  r.rc = c.wait(std::chrono::seconds(60));
+  r.out = slurp(c.out);
+  r.err = slurp(c.err);
+  return r;
+}
+
+inline std::unique_ptr<io::LcmBus> try_bus(const std::string& url) {
+  try {
+    return std::make_unique<io::LcmBus>(url);
+  } catch (const std::exception&) {
+    return nullptr;
+  }
+}
+
+}  // namespace coopdyn::daemon_test

@@ -1,0 +1,179 @@
+// Nothing the loop calls allocates after start-up: evaluate(), compute_wrenches() and step() of every
+// scene and every formulation, thousands of times, under a counting heap.
+#define COOPDYN_COUNTING_ALLOCATOR_IMPL
+#include "tests/support/counting_allocator.h"
+
+#include <gtest/gtest.h>
+
+#include <optional>
+
+#include "service/dynamics/integrators.h"
+#include "service/dynamics/contacts.h"
+#include "service/dynamics/wrenches.h"
+#include "tests/support/test_util.h"
+
+using namespace coopdyn;
+using namespace coopdyn::testing;
+
+TEST(NoAllocation, EvaluateAndStepOfEveryScene) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  for (const auto& name : all_scenes()) {
+    for (auto f : {Formulation::kMobilePlatform, Formulation::kClassic, Formulation::kPseudoJointSchur,
+                   Formulation::kSvdBaseline}) {
+      if (name == "four_bar" && f == Formulation::kMobilePlatform) continue;
+      if (name != "four_bar" && f == Formulation::kPseudoJointSchur) continue;
+      SCOPED_TRACE(name + " " + formulation_name(f));
+      const System sys = load_with_reactions(name, f);  // every wrench output, joint reactions included
+      Stepper st(sys);
+      WrenchData wd(sys);
+      std::mt19937 rng(5);
+      const int n = sys.model.nv();
+      std::vector<Eigen::VectorXd> qs, vs, taus;  // inputs prepared before counting
+      for (int k = 0; k < 16; ++k) {
+        Eigen::VectorXd q, v;
+        random_state(sys, rng, 0.2, q, v);
+        qs.push_back(q);
+        vs.push_back(v);
+        taus.push_back(Eigen::VectorXd::Random(n));
+      }
+      Eigen::VectorXd q = sys.q0, v = sys.v0;
+      const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
+      evaluate(sys, st.ws, q, v, zero);  // warm-up outside the count is not needed, but harmless
+      long evals = 0;
+      {
+        AllocationCounter c;
+        for (int k = 0; k < 2000; ++k) {
+          evaluate(sys, st.ws, qs[k % 16], vs[k % 16], taus[k % 16]);
+          compute_wrenches(sys, st.ws, wd);
+          ++evals;
+        }
+        for (int k = 0; k < 500; ++k) step(sys, st, k % 2 ? Integrator::kRk4 : Integrator::kSemiImplicitEuler, 1e-3, zero, q, v);
+        for (int k = 0; k < 5; ++k) step(sys, st, Integrator::kImplicitEuler, 1e-3, zero, q, v);
+        EXPECT_EQ(c.count(), 0);
+      }
+      EXPECT_EQ(evals, 2000);
+      EXPECT_TRUE(q.allFinite());
+    }
+  }
+}
+
+// The per-arm block solve of Q (dynamics/q_blocks.h): the arms-scaling scenes, where it is the
+// default, and forced on the two-arm scenes, including planar_arms_load (classic), whose dependent
+// rows make it fall back to the dense Q and the rank-revealing solve at every state.
+TEST(NoAllocation, BlockSolveOfQAndItsFallback) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  struct Case {
+    std::string path;
+    std::optional<Formulation> f;
+    bool blocks;  // the block factorization succeeds
+  };
+  const std::string arms = std::string(COOPDYN_SOURCE_DIR) + "/bench/scenes/pumas_";
+  for (const Case& c : {Case{arms + "4.yaml", std::nullopt, true}, Case{arms + "8.yaml", std::nullopt, true},
+                        Case{scene_path("two_puma_load"), Formulation::kClassic, true},
+                        Case{scene_path("planar_arms_load"), Formulation::kClassic, false}}) {
+    SCOPED_TRACE(c.path);
+    SceneOverrides ov;
+    ov.formulation = c.f;
+    const System sys = load_scene(c.path, ov);
+    Stepper st(sys);
+    ASSERT_TRUE(st.ws.qb.usable);
+    st.ws.use_q_blocks = true;
+    WrenchData wd(sys);
+    std::mt19937 rng(5);
+    std::vector<Eigen::VectorXd> qs, vs;
+    for (int k = 0; k < 8; ++k) {
+      Eigen::VectorXd q, v;
+      random_state(sys, rng, 0.2, q, v);
+      qs.push_back(q);
+      vs.push_back(v);
+    }
+    Eigen::VectorXd q = sys.q0, v = sys.v0;
+    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(sys.model.nv());
+    int by_blocks = 0;
+    {
+      AllocationCounter counter;
+      for (int k = 0; k < 400; ++k) {
+        evaluate(sys, st.ws, qs[k % 8], vs[k % 8], zero);
+        by_blocks += st.ws.q_blocks_active ? 1 : 0;
+        compute_wrenches(sys, st.ws, wd);
+      }
+      for (int k = 0; k < 100; ++k) step(sys, st, Integrator::kRk4, 1e-3, zero, q, v);
+      EXPECT_EQ(counter.count(), 0);
+    }
+    EXPECT_EQ(by_blocks, c.blocks ? 400 : 0);
+    EXPECT_TRUE(q.allFinite());
+  }
+}
+
+TEST(NoAllocation, EvaluateAndStepOfTheWheelScenes) {
+  // rolling constraints (the vehicle on its rank-deficient path), mobile platform and SVD baseline
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  for (const auto& name : wheel_scenes()) {
+    for (auto f : {Formulation::kMobilePlatform, Formulation::kSvdBaseline}) {
+      SCOPED_TRACE(name + " " + formulation_name(f));
+      const System sys = load_with_reactions(name, f);
+      Stepper st(sys);
+      WrenchData wd(sys);
+      ContactData cts(sys);
+      std::mt19937 rng(6);
+      const int n = sys.model.nv();
+      std::vector<Eigen::VectorXd> qs, vs, taus;
+      for (int k = 0; k < 16; ++k) {
+        Eigen::VectorXd q, v;
+        random_state(sys, rng, k % 2 ? 0.2 : 0.0, q, v);
+        qs.push_back(q);
+        vs.push_back(v);
+        taus.push_back(Eigen::VectorXd::Random(n));
+      }
+      Eigen::VectorXd q = sys.q0, v = sys.v0, tau = Eigen::VectorXd::Zero(n);
+      if (n > 6) tau[6] = 1.0;  // the vehicle's left drive torque
+      {
+        AllocationCounter c;
+        for (int k = 0; k < 2000; ++k) {
+          evaluate(sys, st.ws, qs[k % 16], vs[k % 16], taus[k % 16]);
+          compute_wrenches(sys, st.ws, wd);  // the vehicle: axles, and the null-space pass (rank 5 of 6)
+          compute_contacts(sys, st.ws, cts);
+        }
+        for (int k = 0; k < 500; ++k) step(sys, st, k % 2 ? Integrator::kRk4 : Integrator::kSemiImplicitEuler, 1e-3, tau, q, v);
+        EXPECT_EQ(c.count(), 0);
+      }
+      EXPECT_TRUE(q.allFinite());
+    }
+  }
+}
+
+TEST(NoAllocation, TheCounterSeesEigenAndStdAllocations) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  AllocationCounter c;
+  Eigen::VectorXd x(1000);
+  x.setOnes();
+  std::vector<int> v(10);
+  EXPECT_GE(c.count(), 2);
+  EXPECT_EQ(x.sum() + v.size(), 1010);
+}
+
+TEST(NoAllocation, RollingResistanceAndTheContactReport) {
+  // the car with rolling resistance: the fixed-point iterations on the factored Q, the contact
+  // report, and steps with projection
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  const System sys = load_scene_string(replace_once(scene_text("four_wheel_car"), "mu: 0.85}", "mu: 0.85, rolling_resistance: 0.012}"),
+                                       scene_path("four_wheel_car"));
+  Stepper st(sys);
+  WrenchData wd(sys);
+  ContactData cts(sys);
+  const int n = sys.model.nv();
+  Eigen::VectorXd q = sys.q0, v = Eigen::VectorXd::Zero(n), tau = Eigen::VectorXd::Zero(n);
+  v[3] = 15.0;
+  for (const char* w : {"fl_spin", "fr_spin", "rl_spin", "rr_spin"}) v[velocity_index_of(sys, w)] = 15.0 / 0.31;
+  {
+    AllocationCounter c;
+    for (int k = 0; k < 500; ++k) {
+      step(sys, st, Integrator::kRk4, 1e-3, tau, q, v);
+      compute_wrenches(sys, st.ws, wd);
+      compute_contacts(sys, st.ws, cts);
+    }
+    EXPECT_EQ(c.count(), 0);
+  }
+  EXPECT_GT(st.ws.rr_iterations, 1);
+  EXPECT_LT(v[3], 15.0);  // it slowed
+}
