@@ -68,7 +68,7 @@ std::string scene_file(const std::string& name) {
 }
 
 // Potential energy of gravity -sum m_i g . c_i plus kinetic energy 1/2 v^T M v (armatures
-// included), J. Same as tests/test_util.h energy(), with the caller's Data.
+// included), J. Same as tests/support/test_util.h energy(), with the caller's Data.
 double energy(const Model& m, Data& d, const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
   forward_kinematics(m, d, q, v);
   crba(m, d);
@@ -166,7 +166,7 @@ void init_planar(const System& sys, Eigen::VectorXd& q, Eigen::VectorXd& v) {
   v = A.completeOrthogonalDecomposition().solve(b);
 }
 
-// the unicycle leaning by phi on a circle of contact radius R (tests/wheel_test.cc,
+// the unicycle leaning by phi on a circle of contact radius R (tests/dynamics/wheel_test.cc,
 // RollingDiskSteadyCircleMatchesTheClassicalRelation)
 struct Disk {
   double r = 0.25, mass = 3.0, phi = 0.3, R = 2.0, Om = 0, sigma = 0, rho = 0;
@@ -201,7 +201,7 @@ struct Disk {
   }
 };
 
-// the vehicle in a steady left turn (tests/wheel_test.cc, SteadyTurnLateralForcesAreCentripetal):
+// the vehicle in a steady left turn (tests/dynamics/wheel_test.cc, SteadyTurnLateralForcesAreCentripetal):
 // axle midpoint on a circle of radius R about (0, R, 0) at speed V, wheels rolling
 struct Turn {
   double V = 1.5, R = 2.0, w = 0.25, r = 0.25, I3 = 0.09375;

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # bench/flood.sh [BUILD_DIR=build] [RUNS=3]: the command path under a flood of junk datagrams
-# (tests/flood_daemon_test.cc: 300 valid commands, each after 20 junk datagrams, random or carrying
+# (tests/daemon/flood_daemon_test.cc: 300 valid commands, each after 20 junk datagrams, random or carrying
 # the command fingerprint), run RUNS times; prints each run's [flood] line: junk rate, valid commands
 # applied and lost (the test asserts only that every loss is counted), and the daemon's tick rate
 # during the flood. Needs a multicast route (ip route add 224.0.0.0/4 dev lo).

@@ -1,6 +1,6 @@
 // Leaving out pays: the same system with and without what a scene can declare, so that the cost of
 // each declaration is measured, not assumed. Variants are built from the shipped scene texts by one
-// textual replacement (as tests/test_util.h does), so everything else stays identical:
+// textual replacement (as tests/support/test_util.h does), so everything else stays identical:
 //   pseudo-joints  four_bar with its two pseudo-joints locked (6 DOF, 5 rows) vs the same tree with
 //                  those joints declared fixed (4 DOF, 3 rows) vs the bare tree without the cut
 //   stabilization  the vehicle scenes with their shipped Baumgarte gains and projection vs each alone

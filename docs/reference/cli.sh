@@ -2,7 +2,7 @@
 # docs/reference/cli.sh BIN_DIR > docs/reference/cli.md
 # The command-line reference: the prose is written here, each option table comes from the --help of
 # the built programs in BIN_DIR (coopdyn, coopdynd), so the page says what the programs say.
-# A test (docs.cli_reference) checks that the committed page is what this script writes.
+# A test (Cli.ReferencePageIsWhatItsScriptWritesFromTheHelp) checks that the committed page is what this script writes.
 set -euo pipefail
 bin=${1:?usage: docs/reference/cli.sh BIN_DIR}
 
@@ -36,6 +36,7 @@ on && /^  -/ {
   spec = parts[1]; desc = parts[2]
   if (spec ~ /^-h,--help/ || spec ~ /^--version/) next
   required = sub(/ REQUIRED$/, "", spec)
+  sub(/ Excludes:.*$/, "", spec)  # CLI11 lists the options it excludes; the prose says so
   n = split(spec, w, " ")
   name = w[1]; type = ""; eq = ""
   if (n > 1) {

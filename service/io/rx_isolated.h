@@ -30,7 +30,7 @@
 // attached) and counts what it refuses as `filtered`. Without the filter, junk at the rate one
 // sender thread reaches on loopback (~100,000-170,000 datagrams/s) took 24 % of the datagrams in
 // the socket buffer, 46 % in LCM's subscription queue and 3.5 % in the ring, and half of the valid
-// commands with them (tests/flood_daemon_test.cc).
+// commands with them (tests/daemon/flood_daemon_test.cc).
 #pragma once
 
 #include <sched.h>
