@@ -102,10 +102,7 @@ Row measure(const std::string& name, double min_time, int reps, const std::funct
 }  // namespace
 
 void register_bench(Cli& cli) {
-  auto [c, a] = cli.add("bench",
-                        "Time one evaluation (dynamics and wrenches, as the daemon's tick) and one step of each "
-                        "integrator on a scene: median, p10, p90 and MAD of the CPU time per call over repetitions.",
-                        cmd_bench);
+  auto [c, a] = cli.add("bench", cmd_bench);
   scene_options(c, a, true);
   number(c, "--min-time", a.min_time, "S", "measured time per row, s (split over the repetitions; plus a tenth for warm-up)",
          Default::kShown);

@@ -6,6 +6,14 @@
 
 namespace coopdyn::cli {
 
+std::string command_description(const std::string& name) {
+#define COOPDYN_COMMAND(n, description) \
+  if (name == #n) return description;
+#include "clients/cli/commands.def"
+#undef COOPDYN_COMMAND
+  return "";
+}
+
 namespace {
 
 // Every option takes its value through a callback (not CLI11's own conversion): the numbers

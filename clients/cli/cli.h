@@ -2,7 +2,8 @@
 // members of its NameArgs (commands.h) in register_NAME, next to cmd_NAME(const NameArgs&). CLI11
 // parses and validates them (unknown flags, missing values, numbers) and writes --help with the
 // defaults, the members' initial values. Adding a subcommand: its NameArgs and declarations in
-// commands.h, register_NAME(Cli&) next to its cmd_NAME, and one line in main.cc.
+// commands.h, register_NAME(Cli&) next to its cmd_NAME, and its line in commands.def (its name and
+// the description --help shows).
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -19,6 +20,9 @@
 namespace coopdyn::cli {
 
 // A subcommand being registered: its CLI11 app and the struct its options bind into.
+// The line `coopdyn --help` shows for a subcommand (commands.def).
+std::string command_description(const std::string& name);
+
 template <class A>
 struct Bound {
   CLI::App* app;
@@ -30,9 +34,9 @@ class Cli {
   explicit Cli(CLI::App* app) : app_(app) {}
   // `coopdyn NAME`: its options bind into an A, which `run` gets after a successful parse
   template <class A>
-  Bound<A> add(const std::string& name, const std::string& description, int (*run)(const A&)) {
+  Bound<A> add(const std::string& name, int (*run)(const A&)) {
     auto args = std::make_shared<A>();
-    CLI::App* app = app_->add_subcommand(name, description);
+    CLI::App* app = app_->add_subcommand(name, command_description(name));
     commands_.push_back({app, [args, run] { return run(*args); }});
     return {app, *args};
   }

@@ -117,15 +117,10 @@ struct SpyArgs {
 };
 
 class Cli;
-void register_eval(Cli& cli);
-void register_sim(Cli& cli);
-void register_send(Cli& cli);
-void register_log(Cli& cli);
-void register_control(Cli& cli);
-void register_track(Cli& cli);
-void register_view(Cli& cli);  // clients/view/view.cc
-void register_bench(Cli& cli);
-void register_spy(Cli& cli);
+// register_NAME(Cli&) of every command in commands.def (register_view: clients/view/view.cc)
+#define COOPDYN_COMMAND(name, description) void register_##name(Cli& cli);
+#include "clients/cli/commands.def"
+#undef COOPDYN_COMMAND
 int cmd_eval(const EvalArgs& a);
 int cmd_sim(const SimArgs& a);
 int cmd_send(const SendArgs& a);

@@ -13,10 +13,7 @@
 namespace coopdyn::cli {
 
 void register_control(Cli& cli) {
-  auto [c, a] = cli.add("control",
-                        "Send one control_t to coopdynd (reset, reset to a state, pause, resume, clear a fault) and wait "
-                        "for its acknowledgement (exit 3 when refused, 1 when none comes within 2 s).",
-                        cmd_control);
+  auto [c, a] = cli.add("control", cmd_control);
   value(c, "--action", a.action, "ACTION", "reset, reset_to_state, pause, resume or clear_fault")->required();
   scene_options(c, a, false);
   value(c, "--state", a.state, "FILE.json", "reset_to_state: q, v in the scene's coordinate order (needs --scene)");

@@ -7,10 +7,7 @@
 namespace coopdyn::cli {
 
 void register_eval(Cli& cli) {
-  auto [c, a] = cli.add("eval",
-                        "Evaluate one state of a scene and print it as JSON: accelerations, wrenches, stresses, "
-                        "diagnostics (exit 3 on an error status).",
-                        cmd_eval);
+  auto [c, a] = cli.add("eval", cmd_eval);
   scene_options(c, a, true);
   value(c, "--state", a.state, "FILE.json",
         "q, v, tau (each optional) in the scene's coordinate order (default: the scene's initial state, zero torque)");

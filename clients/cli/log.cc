@@ -392,10 +392,7 @@ void print_summary(std::map<std::string, Channel>& chans, std::string* out_csv, 
 }  // namespace
 
 void register_log(Cli& cli) {
-  auto [c, a] = cli.add("log",
-                        "Convert an lcm-logger log to one CSV per channel and plot the wrenches, reactions and timing "
-                        "(PNG, when python3 has matplotlib); or plot a per-step CSV (a coopdyn sim --out file).",
-                        cmd_log);
+  auto [c, a] = cli.add("log", cmd_log);
   value(c, "--in", a.in, "FILE", "the log (FILE.lcmlog), or a per-step CSV (FILE.csv) to plot")->required();
   value(c, "--out", a.out, "DIR",
         "directory for the CSVs and plots (default: the input's path without its extension, then _csv)");

@@ -20,15 +20,9 @@ int main(int argc, char** argv) {
     return cmd + ": " + e.what() + "\nRun '" + cmd + " --help' for the options.\n";
   });
   Cli cli(&app);
-  register_eval(cli);
-  register_sim(cli);
-  register_send(cli);
-  register_log(cli);
-  register_control(cli);
-  register_track(cli);
-  register_view(cli);
-  register_bench(cli);
-  register_spy(cli);
+#define COOPDYN_COMMAND(name, description) register_##name(cli);
+#include "clients/cli/commands.def"
+#undef COOPDYN_COMMAND
   if (argc < 2) {  // no command: the usage, as an error
     std::cerr << app.help();
     return 2;

@@ -380,11 +380,7 @@ int check_send_args(const SendArgs& a, double duration) {
 }  // namespace
 
 void register_send(Cli& cli) {
-  auto [c, a] = cli.add("send",
-                        "Publish torque commands (or measured states, for estimate mode) to coopdynd at a fixed rate and "
-                        "read back what it did with them (exit 4 when commands went unused and the daemon rejected some, "
-                        "1 when no daemon answers).",
-                        cmd_send);
+  auto [c, a] = cli.add("send", cmd_send);
   scene_options(c, a, true);
   profile_options(c, a, "torque commands; repeat to combine (see below)",
                   "lock targets in the commands (a steer angle, rad); repeat to combine (see below)");

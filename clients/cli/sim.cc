@@ -161,10 +161,7 @@ int simulate(const System& sys, const SimPlan& p, SimRun& r, Progress& progress,
 }  // namespace
 
 void register_sim(Cli& cli) {
-  auto [c, a] = cli.add("sim",
-                        "Simulate a scene with a fixed step and write CSV: time, state, torques, every reported wrench, "
-                        "stresses, diagnostics (exit 3 on a numerical failure).",
-                        cmd_sim);
+  auto [c, a] = cli.add("sim", cmd_sim);
   scene_options(c, a, true);
   number(c, "--duration", a.duration, "T", "simulated time, s")->required();
   number(c, "--dt", a.dt, "H", "step, s")->required();

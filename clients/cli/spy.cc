@@ -67,11 +67,7 @@ std::string find_java() {
 }  // namespace
 
 void register_spy(Cli& cli) {
-  auto [c, a] = cli.add("spy",
-                        "Run lcm-spy with coopdyn's message types (decoded fields, by name) on the daemon's LCM URL. "
-                        "Needs a Java runtime, liblcm-java, libjchart2d-java and coopdyn_types.jar (built only when a "
-                        "JDK and liblcm-java were present when cmake configured the build).",
-                        cmd_spy);
+  auto [c, a] = cli.add("spy", cmd_spy);
   value(c, "--lcm-url", a.lcm_url, "URL", "LCM URL to listen on (the daemon's lcm_url)", Default::kShown);
   value(c, "--types-jar", a.types_jar, "FILE",
         "coopdyn's Java types (default: coopdyn_types.jar of the build tree next to bin/, or the installed "

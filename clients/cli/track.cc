@@ -161,10 +161,7 @@ void print_track_summary(const TrackArgs& a, const TrackTally& k) {
 }  // namespace
 
 void register_track(Cli& cli) {
-  auto [c, a] = cli.add("track",
-                        "The reference controller in the loop: move the load along a circle while holding the squeeze "
-                        "between the arms, commanding coopdynd over LCM.",
-                        cmd_track);
+  auto [c, a] = cli.add("track", cmd_track);
   scene_options(c, a, true);
   number(c, "--duration", a.duration, "S", "how long to control", Default::kShown);
   number(c, "--radius", a.control.radius, "M", "radius of the circle (y-z plane), [0, 10)", Default::kShown);

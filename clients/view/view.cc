@@ -670,11 +670,7 @@ bool read_three_js(const std::string& three_path, std::string* three) {
 }
 
 void register_view(Cli& cli) {
-  auto [c, a] = cli.add("view",
-                        "Show the scene in 3D with every end-effector, base, tip and wheel wrench as force and moment "
-                        "arrows: one self-contained HTML page (three.js inlined) of a sim CSV or a daemon log, or a live "
-                        "page served over HTTP and a WebSocket fed from the daemon's LCM outputs.",
-                        cmd_view);
+  auto [c, a] = cli.add("view", cmd_view);
   scene_options(c, a, true);
   CLI::Option* csv = value(c, "--csv", a.csv, "SIM.csv", "the run: a 'coopdyn sim --out' CSV of the same scene");
   CLI::Option* log = value(c, "--log", a.log, "RUN.lcmlog", "the run: an lcm-logger log of coopdynd running the same scene");

@@ -496,24 +496,15 @@ void EstimateReplay::replay_and_compare(bool joints_only) {
     ASSERT_EQ(sim.wait(), 0) << slurp(sim.err);
   }
   // the simulator's rows: q and the tip wrench columns
-  std::ifstream f(sim_csv);
-  std::string line;
-  while (std::getline(f, line) && !line.empty() && line[0] == '#') {}  // the comment and units lines
-  std::vector<std::string> head;
-  {
-    std::stringstream ss(line);
-    std::string c;
-    while (std::getline(ss, c, ',')) head.push_back(c);
-  }
+  const coopdyn::testing::CsvText sim_rows = coopdyn::testing::read_csv_text(sim_csv);
+  const std::vector<std::string>& head = sim_rows.head;
   std::map<std::vector<double>, std::map<std::string, double>> rows;  // q -> column -> value
-  while (std::getline(f, line)) {
-    std::stringstream ss(line);
-    std::string c;
+  for (const auto& cells : sim_rows.rows) {
     std::vector<double> q;
     std::map<std::string, double> cols;
-    for (size_t i = 0; std::getline(ss, c, ','); ++i) {
+    for (size_t i = 0; i < cells.size(); ++i) {
       if (i >= head.size() || head[i] == "status") break;
-      const double x = std::stod(c);
+      const double x = std::stod(cells[i]);
       if (head[i].rfind("q:", 0) == 0) q.push_back(x);
       cols[head[i]] = x;
     }

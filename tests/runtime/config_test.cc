@@ -14,6 +14,24 @@
 
 using namespace coopdyn::runtime;
 
+namespace {
+// Each config text is refused with a ConfigError whose message holds the expected words (no other
+// exception escapes).
+void expect_refused(const std::vector<std::pair<std::string, std::string>>& cases) {
+  for (const auto& [text, expect] : cases) {
+    SCOPED_TRACE(text);
+    try {
+      load_config_string(text, "t.yaml");
+      ADD_FAILURE() << "accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << "escaped as a " << typeid(e).name() << ": " << e.what();
+    }
+  }
+}
+}  // namespace
+
 // Every key of the table is written in the shipped file, with its default.
 TEST(DaemonConfig, ShippedConfigEqualsBuiltInDefaults) {
   const std::string path = std::string(COOPDYN_SOURCE_DIR) + "/config/coopdynd.yaml";
@@ -63,15 +81,7 @@ TEST(DaemonConfig, EveryBadValueNamesFileLineAndReason) {
       {"rate_hz: 5000\nrealtime: {spin_us: 300}\n", "realtime.spin_us must be in [0, 1000] us and below the period (200 us"},
       {"realtime: {cpu_dma_latency_zero: 0.5}\n", "'cpu_dma_latency_zero' must be true or false"},
   };
-  for (const auto& [text, expect] : cases) {
-    SCOPED_TRACE(text);
-    try {
-      load_config_string(text, "t.yaml");
-      ADD_FAILURE() << "accepted";
-    } catch (const ConfigError& e) {
-      EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
-    }
-  }
+  expect_refused(cases);
   EXPECT_THROW(load_config("/no/such/coopdynd.yaml"), ConfigError);
   const ServiceConfig c = load_config_string(
       "mode: estimate\ntrigger: arrival\noverrun: {policy: skip}\nrealtime: {spin_us: 50, cpu_dma_latency_zero: true}\n",
@@ -125,17 +135,7 @@ TEST(DaemonConfig, EveryValueBoundedWithTheLimitsInTheMessage) {
       {"realtime:\n  ? {x: 1}\n  : 2\n", "t.yaml:2:5: a key in realtime must be a plain name, not a list or mapping"},
       {"channels: {? [a]\n: b}\n", "t.yaml:1:"},
   };
-  for (const auto& [text, expect] : cases) {
-    SCOPED_TRACE(text);
-    try {
-      load_config_string(text, "t.yaml");
-      ADD_FAILURE() << "accepted";
-    } catch (const ConfigError& e) {
-      EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
-    } catch (const std::exception& e) {
-      ADD_FAILURE() << "escaped as a " << typeid(e).name() << ": " << e.what();
-    }
-  }
+  expect_refused(cases);
 }
 
 TEST(DaemonConfig, TheLimitsThemselvesAreRepresentable) {

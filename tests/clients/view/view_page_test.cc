@@ -402,26 +402,15 @@ TEST(ViewPlot, ClickedWrenchPlottedWithACursorOnTheSlider) {
     }
   }
   ASSERT_EQ(series.size(), 6u);
-  std::ifstream f(dir / "p.csv");
-  std::string line;
-  while (std::getline(f, line) && !line.empty() && line[0] == '#') {}  // the comment and units lines
-  std::vector<std::string> head;
-  {
-    std::stringstream ss(line);
-    std::string h;
-    while (std::getline(ss, h, ',')) head.push_back(h);
-  }
+  const coopdyn::testing::CsvText table = coopdyn::testing::read_csv_text(dir / "p.csv");
+  const std::vector<std::string>& head = table.head;
   const char* comp[6] = {"mx", "my", "mz", "fx", "fy", "fz"};
   std::vector<size_t> col;
   for (const char* cn : comp)
     col.push_back(static_cast<size_t>(std::find(head.begin(), head.end(), std::string("arm1.ee.") + cn) - head.begin()));
   std::vector<double> times;
   size_t rows = 0;
-  while (std::getline(f, line)) {
-    std::stringstream ss(line);
-    std::vector<std::string> cells;
-    std::string cell;
-    while (std::getline(ss, cell, ',')) cells.push_back(cell);
+  for (const auto& cells : table.rows) {
     times.push_back(std::stod(cells[0]));
     for (int j = 0; j < 6; ++j) {
       ASSERT_LT(rows, series[j].size());

@@ -189,26 +189,13 @@ inline int count_in_canvas(const Image& im, const PageState& p, bool (*is_colour
 
 // The CSV row at time t: every column by name.
 inline std::map<std::string, std::string> csv_row(const std::string& csv, double t) {
-  std::ifstream f(csv);
-  std::string line;
-  while (std::getline(f, line) && !line.empty() && line[0] == '#') {}  // the comment and units lines
-  std::vector<std::string> head;
-  {
-    std::stringstream ss(line);
-    std::string c;
-    while (std::getline(ss, c, ',')) head.push_back(c);
-  }
-  while (std::getline(f, line)) {
-    std::stringstream ss(line);
-    std::string c;
-    std::vector<std::string> cells;
-    while (std::getline(ss, c, ',')) cells.push_back(c);
-    if (cells.size() == head.size() && std::abs(std::stod(cells[0]) - t) < 1e-9) {
+  const coopdyn::testing::CsvText table = coopdyn::testing::read_csv_text(csv);
+  for (const auto& cells : table.rows)
+    if (cells.size() == table.head.size() && std::abs(std::stod(cells[0]) - t) < 1e-9) {
       std::map<std::string, std::string> r;
-      for (size_t i = 0; i < head.size(); ++i) r[head[i]] = cells[i];
+      for (size_t i = 0; i < table.head.size(); ++i) r[table.head[i]] = cells[i];
       return r;
     }
-  }
   return {};
 }
 
