@@ -23,7 +23,7 @@ function flush() {
   } else if (match(desc, /; default: [^)]*\)/)) {
     def = substr(desc, RSTART + 11, RLENGTH - 12)
     desc = substr(desc, 1, RSTART - 1) substr(desc, RSTART + RLENGTH - 1)
-  } else def = type == "" ? "off" : "none"
+  } else def = type == "" ? "off" : "not set"
   print "| `" name (type != "" ? " " type : "") "` | " def " | " desc " |"
   name = ""
 }
