@@ -7,6 +7,7 @@
 
 #include "clients/cli/lcm_log.h"
 #include "clients/view/view.h"
+#include "service/dynamics/wrenches.h"
 #include "service/io/codec.h"
 
 namespace coopdyn::cli {
@@ -44,7 +45,10 @@ bool sample_of_output(const System& sys, const ViewFrames& geo, const io::Decode
     return false;
   }
   r->t = o.sim_time;
-  r->status = o.status == 0 ? "ok" : o.status == 1 ? "indeterminate" : "error";
+  // the codes are the library's (static_asserts in codec.cc); anything else reads as an error
+  r->status = o.status == static_cast<int>(Status::kOk) || o.status == static_cast<int>(Status::kIndeterminate)
+                  ? status_name(static_cast<Status>(o.status))
+                  : status_name(Status::kError);
   r->q = Eigen::Map<const Eigen::VectorXd>(o.q.data(), static_cast<Eigen::Index>(o.q.size()));
   if (!configuration_valid(m, r->q)) {
     *why = "not a valid configuration of scene '" + sys.name + "'";
@@ -82,13 +86,13 @@ bool sample_of_output(const System& sys, const ViewFrames& geo, const io::Decode
     r->contact_u.push_back(o.contact_friction_needed[k]);
     r->contact_state.push_back(o.contact_state[k] >= 0 && o.contact_state[k] <= 2 ? o.contact_state[k] : 0);
   }
-  static const char* kFree[] = {"wheel_normal", "wheel_lateral", "wheel_longitudinal", "force", "moment", "lock", "mixed"};
-  int count[7] = {0, 0, 0, 0, 0, 0, 0};
+  int count[kFreeClasses] = {};
   for (int c : o.free_class)
-    if (c >= 0 && c < 7) ++count[c];
+    if (c >= 0 && c < kFreeClasses) ++count[c];
   r->free.clear();
-  for (int c = 0; c < 7; ++c)
-    if (count[c]) r->free += (r->free.empty() ? "" : ", ") + std::to_string(count[c]) + " " + kFree[c];
+  for (int c = 0; c < kFreeClasses; ++c)
+    if (count[c])
+      r->free += (r->free.empty() ? "" : ", ") + std::to_string(count[c]) + " " + free_class_name(static_cast<FreeClass>(c));
   return true;
 }
 

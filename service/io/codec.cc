@@ -36,7 +36,17 @@ static_assert(static_cast<int>(Reason::kNonFiniteResult) == coopdyn::output_t::R
 static_assert(static_cast<int>(Reason::kOverconstrained) == coopdyn::output_t::REASON_OVERCONSTRAINED, "core reasons");
 static_assert(static_cast<int>(Reason::kDiverged) == coopdyn::output_t::REASON_DIVERGED, "core reasons");
 static_assert(static_cast<int>(Reason::kSvdDropped) == coopdyn::output_t::REASON_SVD_DROPPED, "core reasons");
+static_assert(static_cast<int>(Status::kOk) == coopdyn::output_t::STATUS_OK, "status codes");
+static_assert(static_cast<int>(Status::kIndeterminate) == coopdyn::output_t::STATUS_INDETERMINATE, "status codes");
 static_assert(static_cast<int>(Status::kError) == coopdyn::output_t::STATUS_ERROR, "status codes");
+static_assert(static_cast<int>(FreeClass::kWheelNormal) == coopdyn::output_t::FREE_WHEEL_NORMAL &&
+                  static_cast<int>(FreeClass::kWheelLateral) == coopdyn::output_t::FREE_WHEEL_LATERAL &&
+                  static_cast<int>(FreeClass::kWheelLongitudinal) == coopdyn::output_t::FREE_WHEEL_LONGITUDINAL &&
+                  static_cast<int>(FreeClass::kForce) == coopdyn::output_t::FREE_FORCE &&
+                  static_cast<int>(FreeClass::kMoment) == coopdyn::output_t::FREE_MOMENT &&
+                  static_cast<int>(FreeClass::kLock) == coopdyn::output_t::FREE_LOCK &&
+                  static_cast<int>(FreeClass::kMixed) == coopdyn::output_t::FREE_MIXED && kFreeClasses == 7,
+              "free-direction classes");
 static_assert(static_cast<int>(WrenchKind::kEndEffector) == coopdyn::output_t::KIND_END_EFFECTOR, "wrench kinds");
 static_assert(static_cast<int>(WrenchKind::kBase) == coopdyn::output_t::KIND_BASE, "wrench kinds");
 static_assert(static_cast<int>(WrenchKind::kTip) == coopdyn::output_t::KIND_TIP, "wrench kinds");
