@@ -13,16 +13,16 @@ namespace coopdyn::runtime {
 
 const char* mode_name(ServiceMode m) { return m == ServiceMode::kSimulate ? "simulate" : "estimate"; }
 bool parse_mode(const std::string& s, ServiceMode* m) {
-  if (s == "simulate") *m = ServiceMode::kSimulate;
-  else if (s == "estimate") *m = ServiceMode::kEstimate;
+  if (s == mode_name(ServiceMode::kSimulate)) *m = ServiceMode::kSimulate;
+  else if (s == mode_name(ServiceMode::kEstimate)) *m = ServiceMode::kEstimate;
   else return false;
   return true;
 }
 
 const char* trigger_name(Trigger t) { return t == Trigger::kTick ? "tick" : "arrival"; }
 bool parse_trigger(const std::string& s, Trigger* t) {
-  if (s == "tick") *t = Trigger::kTick;
-  else if (s == "arrival") *t = Trigger::kArrival;
+  if (s == trigger_name(Trigger::kTick)) *t = Trigger::kTick;
+  else if (s == trigger_name(Trigger::kArrival)) *t = Trigger::kArrival;
   else return false;
   return true;
 }

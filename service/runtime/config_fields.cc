@@ -69,8 +69,9 @@ void set_choice(ServiceConfig& c, const FieldValue& v, const char* const* words)
     if (v.s == words[k]) c.*M = values[k];
 }
 
-const char* const kModeWords[] = {"simulate", "estimate"};
-const char* const kTriggerWords[] = {"tick", "arrival"};
+// the words are mode_name's and trigger_name's (config.cc), in the order of their enums
+const char* const kModeWords[] = {mode_name(ServiceMode::kSimulate), mode_name(ServiceMode::kEstimate)};
+const char* const kTriggerWords[] = {trigger_name(Trigger::kTick), trigger_name(Trigger::kArrival)};
 const char* const kIntegratorWords[] = {"rk4", "semi_implicit_euler", "implicit_euler"};
 const char* const kSafeTorqueWords[] = {"hold", "zero", "damping"};
 const char* const kOverrunWords[] = {"catch_up", "skip"};
@@ -114,7 +115,7 @@ std::string check_channel(const ConfigField& f, const FieldValue& v, const Servi
          std::to_string(v.s.size());
 }
 std::string check_trigger(const ConfigField&, const FieldValue& v, const ServiceConfig& c) {
-  if (v.s == "tick" || c.mode == ServiceMode::kEstimate) return "";
+  if (v.s == trigger_name(Trigger::kTick) || c.mode == ServiceMode::kEstimate) return "";
   return "trigger: arrival computes on arrival of a measured state and applies to mode estimate only (mode is simulate)";
 }
 std::string check_watchdog(const ConfigField& f, const FieldValue& v, const ServiceConfig&) {
