@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "service/scene/scene_yaml.h"
+#include "service/scene/urdf_file.h"
 
 namespace coopdyn::scene_detail {
 
@@ -40,6 +41,11 @@ Transform chain_motion(const ChainJoint& j, double q);
 
 // A robot given in the scene (or a robot file) as standard DH links.
 Robot parse_robot(const Ctx& c, const YAML::Node& n, const std::string& name);
+
+// One URDF joint as a ChainJoint with its child link's inertia (plus `side`: rigid subtrees kept on
+// the child link, by link name): type, axis, effort and position limits, and its source line.
+ChainJoint urdf_chain_joint(const Ctx& c, const YAML::Node& where, const UrdfFile& f, const urdf::Joint& jt,
+                            const std::map<std::string, Inertia>& side);
 
 // A serial chain from a URDF file (urdfdom): from `base` link to `tip` link (defaults: the root and
 // its only leaf). Revolute/continuous and prismatic joints move; fixed joints stay fixed. Nothing

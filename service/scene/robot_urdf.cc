@@ -16,22 +16,6 @@ namespace coopdyn::scene_detail {
 
 namespace {
 
-Transform urdf_pose(const urdf::Pose& p) {
-  double x, y, z, w;
-  p.rotation.getQuaternion(x, y, z, w);
-  return Transform(Quat(w, x, y, z).normalized().toRotationMatrix(), Vec3(p.position.x, p.position.y, p.position.z));
-}
-
-// a link's <inertial> in the link frame; a negative mass is an error
-Inertia link_inertia(const Ctx& c, const YAML::Node& where, const urdf::Link& l) {
-  const auto& in = *l.inertial;
-  if (in.mass < 0) fail(c, where, "URDF link '" + l.name + "': negative mass");
-  Mat3 Ic;
-  Ic << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
-  const Transform X = urdf_pose(in.origin);
-  return Inertia(in.mass, X.p, X.R * Ic * X.R.transpose());
-}
-
 // The joints from `base` down to `tip`, in order; an empty base is the root, an empty tip the only
 // leaf below base (both filled in).
 std::vector<urdf::JointConstSharedPtr> chain_joints(const Ctx& c, const YAML::Node& where, const UrdfFile& f,
@@ -56,31 +40,6 @@ std::vector<urdf::JointConstSharedPtr> chain_joints(const Ctx& c, const YAML::No
   }
   std::reverse(chain.begin(), chain.end());
   return chain;
-}
-
-// Nothing the file gives is lost silently: an <inertial> urdfdom could not read is an error, a
-// moving link without one a warning.
-void check_link_inertial(const Ctx& c, const YAML::Node& where, const UrdfFile& f, const urdf::Joint& jt, Robot& r) {
-  const std::string& xml = f.xml;
-  urdf::LinkConstSharedPtr child = f.model->getLink(jt.child_link_name);
-  const std::string text = urdf_link_text(xml, child->name);
-  const bool given = text.find("<inertial") != std::string::npos;
-  // urdfdom logs a malformed <inertial> (a misspelt attribute) and goes on with a zero mass: read
-  // the <mass value=...> ourselves and require the two to agree
-  static const std::regex mass_re("<mass\\s+value\\s*=\\s*[\"']([^\"']*)[\"']");
-  std::smatch mm;
-  const bool read = given && child->inertial && std::regex_search(text, mm, mass_re) &&
-                    std::abs(std::strtod(mm[1].str().c_str(), nullptr) - child->inertial->mass) <=
-                        1e-12 * std::max(1.0, std::abs(child->inertial->mass));
-  if (given && !read)
-    fail(c, where, "URDF '" + f.path + "' line " + std::to_string(line_of(xml, xml.find(text))) + ": link '" + child->name +
-                       "' has an <inertial> that urdfdom could not read (see its message above: a misspelt attribute?); "
-                       "its mass would be lost");
-  if (given) return;
-  const bool frame_only = jt.type == urdf::Joint::FIXED;  // a flange or tool frame: massless by design
-  if (!frame_only)
-    r.warnings.push_back("URDF '" + f.path + "': link '" + child->name + "' (after moving joint '" + jt.name +
-                         "') has no <inertial>: it moves no mass");
 }
 
 // The links off the chain, reported as left out when one of them moves (a finger) or has mass; a
@@ -143,8 +102,10 @@ std::map<std::string, Inertia> keep_side_branches(const Ctx& c, const YAML::Node
   return side;
 }
 
+}  // namespace
+
 // One joint of the chain with its child link's inertia (plus the side branches kept on it).
-ChainJoint chain_joint(const Ctx& c, const YAML::Node& where, const UrdfFile& f, const urdf::Joint& jt,
+ChainJoint urdf_chain_joint(const Ctx& c, const YAML::Node& where, const UrdfFile& f, const urdf::Joint& jt,
                        const std::map<std::string, Inertia>& side) {
   urdf::LinkConstSharedPtr child = f.model->getLink(jt.child_link_name);
   Inertia I;
@@ -175,7 +136,6 @@ ChainJoint chain_joint(const Ctx& c, const YAML::Node& where, const UrdfFile& f,
   return j;
 }
 
-}  // namespace
 
 Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path, const std::string& name,
                  std::string base, std::string tip, bool keep_branches) {
@@ -186,13 +146,13 @@ Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path,
   r.base_link = base;
   std::set<std::string> on_chain = {base};
   for (const auto& jt : chain) on_chain.insert(jt->child_link_name);
-  for (const auto& jt : chain) check_link_inertial(c, where, f, *jt, r);
+  for (const auto& jt : chain) check_link_inertial(c, where, f, *jt, &r.warnings);
   std::map<std::string, Inertia> side;
   if (keep_branches)
     side = keep_side_branches(c, where, f, on_chain, base, r);
   else
     report_left_out_links(f, on_chain, base, tip, r);
-  for (const auto& jt : chain) r.joints.push_back(chain_joint(c, where, f, *jt, side));
+  for (const auto& jt : chain) r.joints.push_back(urdf_chain_joint(c, where, f, *jt, side));
   if (r.joints.empty()) fail(c, where, "URDF '" + path + "': no joints between '" + base + "' and '" + tip + "'");
   return r;
 }
