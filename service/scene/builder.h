@@ -5,6 +5,7 @@
 #pragma once
 
 #include <map>
+#include <memory>
 #include <set>
 #include <string>
 #include <vector>
@@ -23,6 +24,9 @@ struct Builder {
   std::vector<double> tau_lim;
   std::vector<int> q_floating_idx;
   std::vector<std::pair<int, double>> target_limits;  // (velocity index, |target| allowed) of pseudo-joints
+  // the bodies placed from a whole URDF tree (build_tree.cc): body name -> (the tree, its link), for
+  // what a constraint reads off the URDF (a rolling wheel's axle and radius)
+  std::map<std::string, std::pair<std::shared_ptr<const UrdfTree>, std::string>> urdf_links;
 
   // adds a body (Model::add_body) with its joint's initial q, v (missing entries 0, marked not given)
   // and torque limit; returns its index
@@ -85,6 +89,10 @@ int add_chain(Builder& B, const ArmSpec& s, int parent, const std::string& by_ba
 
 // `load` + `arms`: the paper's cooperating arms, in the mobile-platform form or rooted at the world
 void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, Robot>& robots, bool mobile_platform);
+// A robot entry of `bodies` whose robot is a whole URDF tree (Robot::tree; build_tree.cc), below body
+// `parent` (-1: the world, named `by`): {name, robot, parent, placement, root: fixed | floating,
+// root_v, q, v: {joint: value}, fixed_joints, tool}.
+void add_robot_tree(Builder& B, const YAML::Node& b, const Robot& r, const std::string& name, int parent, const std::string& by);
 // `bodies` + `frames` + `constraints`: any tree closed by welds, points and rolling wheels
 // A body entry may be a robot instead: {robot: NAME, name: PREFIX, parent, placement, q, v,
 // fixed_joints, tool}, its chain added below `parent` (robots from `robots`, DH or URDF).

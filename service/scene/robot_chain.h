@@ -3,6 +3,7 @@
 #pragma once
 
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -10,6 +11,8 @@
 #include "service/scene/urdf_file.h"
 
 namespace coopdyn::scene_detail {
+
+struct UrdfTree;  // urdf_tree.h
 
 // A serial robot as a chain of joints, URDF-style: joint i sits at X_origin (its frame in the
 // previous link's frame, the robot base for i = 1), moves about `axis` (in the joint frame), and
@@ -34,6 +37,9 @@ struct Robot {
   std::vector<ChainJoint> joints;
   Transform X_last_EE;  // the end-effector frame in the last link's frame
   std::string base_link = "link0";
+  // A URDF declared without base and tip in a `bodies` scene: its whole tree (urdf_tree.h), placed by
+  // a robot entry of `bodies` (joints then empty: there is no chain).
+  std::shared_ptr<const UrdfTree> tree;
 };
 
 // the joint's motion X_JB(q): rotation about, or translation along, its axis

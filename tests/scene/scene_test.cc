@@ -557,11 +557,17 @@ TEST(Scene, ARobotInsideBodiesMakesAMobileManipulator) {
   };
   const Vec6 dP = (P(h) - P(-h)) / (2 * h);
   EXPECT_NEAR(dP[3], tau[0], 1e-6 * std::abs(tau[0]));
-  // the arm's first joint reaction is the cart's on the arm's first link
+  // the arm's first joint reaction is the base link's on the arm's first link (the URDF, declared
+  // without tip, is loaded whole: its root link 'base' is a body welded to the cart); the DH arm's,
+  // a chain, the cart's
   bool found = false;
   for (const WrenchOutput& o : su.wrenches.outputs)
     if (o.name == "arm.j1") {
       found = true;
+      EXPECT_EQ(o.by, "arm.base");
+    }
+  for (const WrenchOutput& o : sd.wrenches.outputs)
+    if (o.name == "arm.q1") {
       EXPECT_EQ(o.by, "cart");
     }
   EXPECT_TRUE(found);
