@@ -172,7 +172,6 @@ void add_robot_tree(Builder& B, const YAML::Node& b, const Robot& r, const std::
   std::vector<WrenchOutput>& outs = B.sys.wrenches.outputs;
   const TreeSpec s = read_tree_spec(c, b, r, name);
   const UrdfTree& t = *s.t;
-  tree_mimics(c, b, t, name, B);
   // the root link: welded at its placement, or on a floating joint whose q is the placement
   Joint jr;
   jr.name = name;
@@ -220,6 +219,7 @@ void add_robot_tree(Builder& B, const YAML::Node& b, const Robot& r, const std::
   } catch (const std::invalid_argument& e) {
     fail(c, b, e.what());
   }
+  tree_mimics(c, b, t, name, B);  // the tree's joints are in the model now, as PREFIX.<joint>
 }
 
 }  // namespace coopdyn::scene_detail
