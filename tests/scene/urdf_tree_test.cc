@@ -67,10 +67,22 @@ TEST(UrdfTree, TwoArmsOnASharedTorsoHoldABox) {
   ASSERT_EQ(s.model.v_names, e.model.v_names);
   EXPECT_EQ(s.model.nbodies(), 1 + 1 + 2 * 5 + 1);  // every URDF link a body (hands on fixed joints too), the box
   EXPECT_GE(s.model.frame_index("duo.arm_left_3_link"), 0);  // and a frame
-  // the holding torques (the box at rest in both hands) and a push on every actuated joint
+  // the holding torques (the box at rest in both hands): the world carries robot and box through
+  // the root link's weld (the reaction `duo`), 36 + 2 kg
   HoldWorkspace hw(s, default_actuated(s));
   Eigen::VectorXd tau = Eigen::VectorXd::Zero(s.model.nv());
   ASSERT_TRUE(holding_torque(s, hw, s.q0, s.v0, tau));
+  {
+    Workspace w0(s);
+    evaluate(s, w0, s.q0, s.v0, tau);
+    EXPECT_LT(w0.vdot.cwiseAbs().maxCoeff(), 1e-9);
+    WrenchData wd0(s);
+    compute_wrenches(s, w0, wd0);
+    const WorldWrench root = in_world(s, w0, wd0, "duo", Vec3::Zero());
+    EXPECT_NEAR(root.f.z(), 38.0 * 9.81, 1e-9 * 38.0 * 9.81);
+    EXPECT_LT(root.f.head<2>().norm(), 1e-9);
+  }
+  // then a push on every actuated joint
   for (int i = 0; i < 9; ++i) tau[i] += 0.7 * std::sin(1.0 + i);
   Workspace ws(s), we(e);
   ASSERT_EQ(evaluate(s, ws, s.q0, s.v0, tau).status, Status::kOk);  // 12 independent grasp rows
@@ -85,6 +97,25 @@ TEST(UrdfTree, TwoArmsOnASharedTorsoHoldABox) {
     EXPECT_LT((a - b).norm(), 1e-12 * (1 + a.norm())) << h << ": tree " << a.transpose() << " bodies " << b.transpose();
     std::printf("[ two_arm_torso_box ] %s: |W| %.6f, tree - bodies %.2e\n", h.c_str(), a.norm(), (a - b).norm());
     EXPECT_GT(a.tail<3>().norm(), 1.0) << h << " carries the box";
+  }
+  {  // and in motion (a velocity the grasps allow): the same accelerations and hands' wrenches
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> U(-1, 1);
+    Eigen::VectorXd v(s.model.nv());
+    for (int i = 0; i < v.size(); ++i) v[i] = U(rng);
+    Workspace w1(s), w2(e);
+    evaluate(s, w1, s.q0, v, tau);  // G at q0
+    v = project_velocity(w1.cd.G, v);
+    ASSERT_EQ(evaluate(s, w1, s.q0, v, tau).status, Status::kOk);
+    ASSERT_EQ(evaluate(e, w2, e.q0, v, tau).status, Status::kOk);
+    WrenchData x1(s), x2(e);
+    compute_wrenches(s, w1, x1);
+    compute_wrenches(e, w2, x2);
+    EXPECT_LT((w1.vdot - w2.vdot).norm(), 1e-12 * (1 + w1.vdot.norm()));
+    for (const std::string h : {"left_hand", "right_hand"}) {
+      const Vec6 a = x1.W[output_index(s, h)], b = x2.W[output_index(e, h)];
+      EXPECT_LT((a - b).norm(), 1e-12 * (1 + a.norm())) << h << " in motion";
+    }
   }
   const Model& m = s.model;
   const Vec3 g = m.gravity_W;
