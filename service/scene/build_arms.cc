@@ -354,7 +354,8 @@ void warn_closed_limits(const Ctx& c, const ArmSpec& given, const ArmSpec& s) {
   for (size_t i = 0, k = 0; i < s.robot->joints.size(); ++i) {
     const ChainJoint& cj = s.robot->joints[i];
     if (cj.fixed) continue;
-    const YAML::Node qk = given.node["q"][k++];
+    const YAML::Node& n = given.node;
+    const YAML::Node qk = n["q"][k++];
     if (std::abs(s.q[i] - given.q[i]) <= 1e-12 || (s.q[i] >= cj.lower - 1e-9 && s.q[i] <= cj.upper + 1e-9)) continue;
     std::ostringstream os;
     os.precision(6);

@@ -40,6 +40,7 @@ struct Builder {
   std::vector<std::pair<int, double>> target_limits;  // (velocity index, |target| allowed) of pseudo-joints
   std::vector<int> held_bodies;  // bodies whose joint close_initial_state never moves (a load at its given pose)
   std::vector<ArmSpec> arms;     // arms + load: the arms on the load (body load_body), for close_grasps_check
+                                 // (their robots are compile_scene's: not to be used after it)
   int load_body = -1;
 
   // adds a body (Model::add_body) with its joint's initial q, v (missing entries 0, marked not given)

@@ -241,6 +241,26 @@ TEST(GraspClose, UnreachableGraspIsRefusedAtItsLine) {
   EXPECT_NE(e3.find("arm 'arm2': grasp at_initial_state needs the load's 'pose'"), std::string::npos) << e3;
 }
 
+// A given velocity is projected onto the constraints at the closed state (as for explicit loops).
+TEST(GraspClose, VelocityIsProjectedAtTheClosedState) {
+  const Case& k = kCases[0];
+  for (Formulation f : {Formulation::kMobilePlatform, Formulation::kClassic}) {
+    SCOPED_TRACE(formulation_name(f));
+    const Reference ref = reference(k, f);
+    const std::string text = edited(scene_text(k.scene), perturbed(ref.q), ref.grasps);
+    const auto p = text.find("    grasp: ");  // arm 1's
+    SceneOverrides ov;
+    ov.formulation = f;
+    const System sys = load_scene_string(text.substr(0, p) + "    v: [0.2, 0.2, 0.2, 0.2, 0.2, 0.2]\n" + text.substr(p),
+                                         scene_path(k.scene), ov);
+    EXPECT_LT(constraint_error(sys), 1e-10);  // position and velocity
+    ASSERT_EQ(sys.warnings.size(), 2u) << sys.warnings.back();
+    EXPECT_NE(sys.warnings[0].find("initial state: "), std::string::npos) << sys.warnings[0];
+    EXPECT_NE(sys.warnings[1].find("initial velocity: projected onto the constraints"), std::string::npos) << sys.warnings[1];
+    EXPECT_GT(sys.v0.norm(), 0.01) << "the load and arm 2 follow arm 1, not everything stopped";
+  }
+}
+
 // keep: a kept joint does not move, the others close the grasps (the iiwa has one joint to spare).
 TEST(GraspClose, KeptJointsDoNotMove) {
   const Case& k = kCases[1];
