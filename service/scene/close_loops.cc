@@ -123,12 +123,10 @@ bool close_initial_state(System& sys, const std::vector<unsigned char>& q_given,
     std::ostringstream os;
     os.precision(6);
     os << "initial state: the constraints were open by " << e0 << " (rad, m); closed to " << left << " by moving " << which << ":";
-    int listed = 0;
     for (int i = 0; i < m.nq(); ++i)
       if (std::abs(sys.q0[i] - q_scene[i]) > 1e-12) {
-        if (listed++ < 12) os << " " << m.q_names[i] << " " << q_scene[i] << " -> " << sys.q0[i];
+        os << " " << m.q_names[i] << " " << q_scene[i] << " -> " << sys.q0[i];
       }
-    if (listed > 12) os << " (and " << listed - 12 << " more)";
     os << " (close_initial_state: false keeps the scene's values and makes this an error)";
     warnings->push_back(os.str());
     // the locks hold the pseudo-joints where they are; welds to the world keep their targets
