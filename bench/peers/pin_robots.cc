@@ -465,8 +465,8 @@ int main(int argc, char** argv) {
     lmax = std::max(lmax, lambda0.segment(R0.start[i], 6).cwiseAbs().maxCoeff());
   }
   std::printf("check constraintDynamics vs KKT without <mimic> rows: max |vdot diff| %.3e (max |vdot| %.3e), "
-              "max |weld wrench diff| %.3e (max %.3e), proximal iterations %d, residual %.3e%s\n",
-              (a_pin - vdot0).cwiseAbs().maxCoeff(), vdot0.cwiseAbs().maxCoeff(), dl, lmax,
-              settings.iter, settings.absolute_residual, redundant ? " (point contacts: mu 1e-8)" : "");
+              "max |weld wrench diff| %.3e (max %.3e), proximal iterations %d%s\n",
+              (a_pin - vdot0).cwiseAbs().maxCoeff(), vdot0.cwiseAbs().maxCoeff(), dl, lmax, settings.iter,
+              redundant ? " (point contacts: mu 1e-8)" : "");
   return 0;
 }

@@ -57,13 +57,14 @@ def coopdyn_state(args, scene, tmp):
         run([args.coopdyn, "sim", "--scene", scene, "--duration", str(args.sim), "--dt", "0.001",
              "--out", csv] + formulation(args))
         with open(csv) as f:
-            lines = [l.rstrip("\n").split(",") for l in f if l.strip()]
-        head, last = lines[0], lines[-1]
-        col = {h: i for i, h in enumerate(head)}
-        qn, vn = d["coordinates"]["q"], d["coordinates"]["v"]
-        pick = lambda names, pre: [float(last[col[c]]) for c in
-                                   (next(k for k in (pre + n, n) if k in col) for n in names)]
-        q, v = pick(qn, "q."), pick(vn, "v.")
+            lines = [l.rstrip("\n").split(",") for l in f if l.strip() and not l.startswith("#")]
+        col = {h: i for i, h in enumerate(lines[0])}
+        last = lines[-1]
+        try:
+            q = [float(last[col["q:" + n]]) for n in d["coordinates"]["q"]]
+            v = [float(last[col["v:" + n]]) for n in d["coordinates"]["v"]]
+        except KeyError as e:
+            sys.exit("coopdyn sim's CSV has no column %s" % e)
     rng = random.Random(args.seed)
     tau = [rng.uniform(-args.tau_scale, args.tau_scale) for _ in d["v"]]
     path = os.path.join(tmp, "state.json")
