@@ -17,6 +17,12 @@ Reported: max |vdot diff| over every coordinate (and relative to max |vdot|), an
 no rolling constraint; at v = 0 a rolling wheel's rows are a point contact's) the sum of the ground
 forces in world axes (the split between redundant wheels is not unique; each wheel is printed).
 Exit 1 when a difference exceeds --tol (default 1e-9, relative).
+
+--pin-only: no coopdyn (before the tree loader is merged): the coordinates are every non-fixed,
+non-<mimic> joint of the peer's URDFs and the free-flyers, q from the peer file's "state" (joint
+values, free-flyers as [x y z qw qx qy qz]; others 0), v uniform in [-V, V] (--v-scale V, default 0),
+random torques; the welds are taken where that state puts the hands, and pin_robots' own check
+(constraintDynamics against its KKT) is the result.
 """
 import argparse
 import json
@@ -26,6 +32,7 @@ import random
 import subprocess
 import sys
 import tempfile
+import xml.etree.ElementTree as ET
 
 REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
 
@@ -101,6 +108,36 @@ def problem_text(peer, d):
     return "\n".join(L) + "\n"
 
 
+def pin_only_state(peer, args):
+    """coopdyn-like eval output for --pin-only: every non-fixed, non-mimic URDF joint a coordinate."""
+    given = peer.get("state", {})
+    qn, vn, q = [], [], []
+    ff_q = ("x", "y", "z", "qw", "qx", "qy", "qz")
+    ff_v = ("wx", "wy", "wz", "vx", "vy", "vz")
+    for r in peer["robots"]:
+        if r.get("root") == "floating":
+            qn += [r["prefix"] + "." + c for c in ff_q]
+            q += given.get(r["prefix"], [0, 0, 0, 1, 0, 0, 0])
+            vn += [r["prefix"] + "." + c for c in ff_v]
+        for j in ET.parse(os.path.join(REPO, r["urdf"])).getroot().findall("joint"):
+            if j.get("type") in ("fixed", "floating", "planar") or j.find("mimic") is not None:
+                continue
+            n = r["prefix"] + "." + j.get("name")
+            qn.append(n)
+            vn.append(n)
+            q.append(given.get(n, 0.0))
+    for b in peer.get("bodies", []):
+        qn += [b["name"] + "." + c for c in ff_q]
+        q += given[b["name"]]
+        vn += [b["name"] + "." + c for c in ff_v]
+    rng = random.Random(args.seed)
+    v = [rng.uniform(-args.v_scale, args.v_scale) for _ in vn]
+    tau = [rng.uniform(-args.tau_scale, args.tau_scale) for _ in vn]
+    for w in peer.get("welds", []):
+        w["placement"] = "at_state"
+    return {"coordinates": {"q": qn, "v": vn}, "q": q, "v": v, "tau": tau}
+
+
 def parse_pin(out):
     vdot, wrench, frame, checks = {}, {}, {}, []
     for line in out.splitlines():
@@ -130,12 +167,26 @@ def main():
     ap.add_argument("--formulation")
     ap.add_argument("--tol", type=float, default=1e-9)
     ap.add_argument("--keep", help="write the state, coopdyn's JSON and the problem file here")
+    ap.add_argument("--pin-only", action="store_true", help="no coopdyn: Pinocchio's own check only")
+    ap.add_argument("--v-scale", type=float, default=0.0, help="--pin-only: v uniform in [-V, V]")
     args = ap.parse_args()
     with open(args.peer) as f:
         peer = json.load(f)
     scene = os.path.join(REPO, peer["scene"])
     tmp = args.keep or tempfile.mkdtemp(prefix="pin_robots_")
     os.makedirs(tmp, exist_ok=True)
+    if args.pin_only:
+        if peer.get("points") and args.v_scale:
+            sys.exit("point contacts stand for wheels at v = 0 only: --v-scale 0")
+        prob = os.path.join(tmp, "problem.txt")
+        with open(prob, "w") as f:
+            f.write(problem_text(peer, pin_only_state(peer, args)))
+        pout, _ = run([args.pin, prob])
+        checks = parse_pin(pout)[3]
+        print("%s, Pinocchio only (v uniform in +-%g, torques in +-%g):" % (peer["scene"], args.v_scale, args.tau_scale))
+        for c in checks:
+            print("  " + c[6:])
+        return 0
     state = coopdyn_state(args, scene, tmp)
     out, err = run([args.coopdyn, "eval", "--scene", scene, "--state", state] + formulation(args))
     d = json.loads(out)
