@@ -18,6 +18,11 @@ no rolling constraint; at v = 0 a rolling wheel's rows are a point contact's) th
 forces in world axes (the split between redundant wheels is not unique; each wheel is printed).
 Exit 1 when a difference exceeds --tol (default 1e-9, relative).
 
+--strip-mimic (and --neutral-xacro-comments): run on copies, in the temporary folder, of the scene
+and its URDFs without their <mimic> elements (and with "xacro:" inside XML comments renamed), the
+peer's couplings off: the whole check while coopdyn's tree loader refuses <mimic> (and main's
+reader mistakes a commented xacro call for xacro). The shipped files are never changed.
+
 --pin-only: no coopdyn (before the tree loader is merged): the coordinates are every non-fixed,
 non-<mimic> joint of the peer's URDFs and the free-flyers, q from the peer file's "state" (joint
 values, free-flyers as [x y z qw qx qy qz]; others 0), v uniform in [-V, V] (--v-scale V, default 0),
@@ -82,6 +87,30 @@ def coopdyn_state(args, scene, tmp):
 
 def formulation(args):
     return ["--formulation", args.formulation] if args.formulation else []
+
+
+def workaround_copies(peer, args, tmp):
+    """--strip-mimic / --neutral-xacro-comments: the scene and URDFs copied into tmp, edited."""
+    import re
+    scene_text = open(os.path.join(REPO, peer["scene"])).read()
+    for r in peer["robots"]:
+        src = os.path.join(REPO, r["urdf"])
+        text = open(src).read()
+        if args.strip_mimic:
+            text = re.sub(r"[ \t]*<mimic\b[^>]*/>[ \t]*\n", "", text)
+        if args.neutral_xacro_comments:
+            text = re.sub(r"<!--.*?-->", lambda m: m.group(0).replace("xacro:", "xacro_"), text, flags=re.S)
+        dst = os.path.join(tmp, os.path.basename(src))
+        with open(dst, "w") as f:
+            f.write(text)
+        scene_text = scene_text.replace("../robots/" + os.path.basename(src), dst)
+        r["urdf"] = dst
+    scene = os.path.join(tmp, os.path.basename(peer["scene"]))
+    with open(scene, "w") as f:
+        f.write(scene_text)
+    if args.strip_mimic:
+        peer["nomimic"] = True
+    return scene
 
 
 def problem_text(peer, d):
@@ -168,6 +197,8 @@ def main():
     ap.add_argument("--tol", type=float, default=1e-9)
     ap.add_argument("--keep", help="write the state, coopdyn's JSON and the problem file here")
     ap.add_argument("--pin-only", action="store_true", help="no coopdyn: Pinocchio's own check only")
+    ap.add_argument("--strip-mimic", action="store_true", help="copies without <mimic>, couplings off")
+    ap.add_argument("--neutral-xacro-comments", action="store_true", help="copies with xacro: renamed in comments")
     ap.add_argument("--v-scale", type=float, default=0.0, help="--pin-only: v uniform in [-V, V]")
     args = ap.parse_args()
     with open(args.peer) as f:
@@ -175,6 +206,8 @@ def main():
     scene = os.path.join(REPO, peer["scene"])
     tmp = args.keep or tempfile.mkdtemp(prefix="pin_robots_")
     os.makedirs(tmp, exist_ok=True)
+    if args.strip_mimic or args.neutral_xacro_comments:
+        scene = workaround_copies(peer, args, tmp)
     if args.pin_only:
         if peer.get("points") and args.v_scale:
             sys.exit("point contacts stand for wheels at v = 0 only: --v-scale 0")
