@@ -1,0 +1,85 @@
+#!/bin/bash
+# Builds bench/peers/pin_robots.cc (the Pinocchio reference for scenes of whole robots holding a load)
+# in a scratch folder outside the repository; nothing here is part of coopdyn's build:
+#   bench/peers/pin_robots_build.sh SCRATCH_DIR [PINOCCHIO_GIT_DIR]
+#   bench/peers/pin_robots_compare.py --peer bench/peers/pin_robots/SCENE.json --pin SCRATCH_DIR/pin_robots
+# PINOCCHIO_GIT_DIR: a git (or bare) clone of github.com/stack-of-tasks/pinocchio
+#                    (default /work/.mirror/stack-of-tasks+pinocchio/repo)
+# Steps: 1. `git archive` Pinocchio into SCRATCH_DIR/pinocchio-src;
+#        2. Pinocchio header-only, as pin_arms_build.sh (config.hpp, parsers/config.hpp, deprecated.hpp,
+#           warning.hpp written into gen/pinocchio/), plus its URDF parser: src/parsers/urdf/model.cpp and
+#           utils.cpp compiled with -DPINOCCHIO_WITH_URDFDOM against Debian's urdfdom
+#           (geometry.cpp, which needs hpp-fcl, is left out: no geometry is read);
+#        3. pin_robots.cc compiled (it includes nothing of coopdyn) and linked with urdfdom.
+# Needs libboost-dev, libeigen3-dev and liburdfdom-dev (coopdyn's own build dependencies but Boost).
+# Builds run under nice with at most 2 jobs.
+set -euo pipefail
+SCRATCH=${1:?usage: pin_robots_build.sh SCRATCH_DIR [PINOCCHIO_GIT_DIR]}
+PEERS=$(cd "$(dirname "$0")" && pwd)
+PIN_GIT=${2:-/work/.mirror/stack-of-tasks+pinocchio/repo}
+REPO=$(cd "$PEERS/../.." && pwd)
+mkdir -p "$SCRATCH"
+HERE=$(cd "$SCRATCH" && pwd)
+case "$HERE/" in "$REPO"/*) echo "pin_robots_build.sh: SCRATCH_DIR must be outside the repository ($REPO)" >&2; exit 2;; esac
+cp "$PEERS/pin_robots.cc" "$HERE/"
+cd "$HERE"
+FLAGS="-std=c++17 -O2 -DNDEBUG -DPINOCCHIO_WITH_URDFDOM"
+CXX=${CXX:-g++}
+
+rm -rf pinocchio-src gen obj
+mkdir -p pinocchio-src gen/pinocchio obj
+git -C "$PIN_GIT" archive HEAD | tar -x -C pinocchio-src
+git -C "$PIN_GIT" rev-parse HEAD > pinocchio-src/COMMIT
+
+PV=$(sed -n 's:.*<version>\(.*\)</version>.*:\1:p' pinocchio-src/package.xml)
+IFS=. read -r PMAJ PMIN PPAT <<< "$PV"
+cat > gen/pinocchio/config.hpp <<EOH
+// Written by pin_robots_build.sh in place of the CMake-generated header (Pinocchio $PV, header-only use).
+#ifndef PINOCCHIO_CONFIG_HPP
+#define PINOCCHIO_CONFIG_HPP
+#define PINOCCHIO_VERSION "$PV"
+#define PINOCCHIO_MAJOR_VERSION $PMAJ
+#define PINOCCHIO_MINOR_VERSION $PMIN
+#define PINOCCHIO_PATCH_VERSION $PPAT
+#define PINOCCHIO_VERSION_AT_LEAST(major, minor, patch) \\
+  (PINOCCHIO_MAJOR_VERSION > major || (PINOCCHIO_MAJOR_VERSION >= major && (PINOCCHIO_MINOR_VERSION > minor || \\
+   (PINOCCHIO_MINOR_VERSION >= minor && PINOCCHIO_PATCH_VERSION >= patch))))
+#define PINOCCHIO_VERSION_AT_MOST(major, minor, patch) \\
+  (PINOCCHIO_MAJOR_VERSION < major || (PINOCCHIO_MAJOR_VERSION <= major && (PINOCCHIO_MINOR_VERSION < minor || \\
+   (PINOCCHIO_MINOR_VERSION <= minor && PINOCCHIO_PATCH_VERSION <= patch))))
+#define PINOCCHIO_DLLAPI
+#define PINOCCHIO_LOCAL
+#define PINOCCHIO_EXPLICIT_INSTANTIATION_DECLARATION_DLLAPI
+#define PINOCCHIO_EXPLICIT_INSTANTIATION_DEFINITION_DLLAPI
+#endif
+EOH
+mkdir -p gen/pinocchio/parsers
+cat > gen/pinocchio/parsers/config.hpp <<'EOH'
+// Written by pin_robots_build.sh in place of the CMake-generated header (the parsers' export macros).
+#ifndef PINOCCHIO_PARSERS_CONFIG_HPP
+#define PINOCCHIO_PARSERS_CONFIG_HPP
+#define PINOCCHIO_PARSERS_DLLAPI
+#define PINOCCHIO_PARSERS_LOCAL
+#endif
+EOH
+cat > gen/pinocchio/deprecated.hpp <<'EOH'
+// Written by pin_robots_build.sh in place of the CMake-generated header.
+#ifndef PINOCCHIO_DEPRECATED_HPP
+#define PINOCCHIO_DEPRECATED_HPP
+#define PINOCCHIO_DEPRECATED __attribute__((deprecated))
+#define PINOCCHIO_DEPRECATED_MESSAGE(message) __attribute__((deprecated(message)))
+#endif
+EOH
+cat > gen/pinocchio/warning.hpp <<'EOH'
+// Written by pin_robots_build.sh in place of the CMake-generated header.
+#ifndef PINOCCHIO_WARNING_HPP
+#define PINOCCHIO_WARNING_HPP
+#define PINOCCHIO_WARNING(message)
+#endif
+EOH
+
+INC="-Igen -Ipinocchio-src/include -I/usr/include/eigen3 $(pkg-config --cflags urdfdom)"
+printf '%s\n' pinocchio-src/src/parsers/urdf/model.cpp pinocchio-src/src/parsers/urdf/utils.cpp pin_robots.cc | \
+  nice -n 10 xargs -P 2 -I{} sh -c "$CXX $FLAGS $INC -w -c {} -o obj/\$(basename {} | sed 's/\.c[cp]*$/.o/')"
+$CXX $FLAGS obj/*.o -o pin_robots $(pkg-config --libs urdfdom)
+echo "built $HERE/pin_robots (Pinocchio $PV $(cat pinocchio-src/COMMIT))"
