@@ -21,21 +21,20 @@ namespace {
 std::vector<urdf::JointConstSharedPtr> chain_joints(const Ctx& c, const YAML::Node& where, const UrdfFile& f,
                                                     std::string& base, std::string& tip) {
   const urdf::ModelInterfaceSharedPtr& u = f.model;
-  const std::string& path = f.path;
   if (base.empty()) base = u->getRoot()->name;
   urdf::LinkConstSharedPtr lk = u->getLink(tip.empty() ? base : tip);
-  if (!u->getLink(base)) fail(c, where, "URDF '" + path + "': no link '" + base + "'");
+  if (!u->getLink(base)) fail(c, where, urdf_at(f) + ": no link '" + base + "'");
   if (tip.empty()) {
     urdf::LinkConstSharedPtr l = u->getLink(base);
     while (l->child_links.size() == 1) l = l->child_links[0];
-    if (!l->child_links.empty()) fail(c, where, "URDF '" + path + "' branches below '" + l->name + "': give robots.<name>.tip");
+    if (!l->child_links.empty()) fail(c, where, urdf_at(f) + ": branches below '" + l->name + "': give robots.<name>.tip");
     tip = l->name;
     lk = l;
   }
-  if (!lk) fail(c, where, "URDF '" + path + "': no link '" + tip + "'");
+  if (!lk) fail(c, where, urdf_at(f) + ": no link '" + tip + "'");
   std::vector<urdf::JointConstSharedPtr> chain;
   for (urdf::LinkConstSharedPtr l = lk; l && l->name != base; l = l->getParent()) {
-    if (!l->parent_joint) fail(c, where, "URDF '" + path + "': '" + tip + "' is not below '" + base + "'");
+    if (!l->parent_joint) fail(c, where, urdf_at(f) + ": '" + tip + "' is not below '" + base + "'");
     chain.push_back(l->parent_joint);
   }
   std::reverse(chain.begin(), chain.end());
@@ -63,7 +62,7 @@ void report_left_out_links(const UrdfFile& f, const std::set<std::string>& on_ch
   }
   if (!left.empty() && (mass > 0 || moving)) {
     std::ostringstream os;
-    os << "URDF '" << f.path << "': links off the chain " << base << " .. " << tip << " are left out: " << left << " ("
+    os << urdf_at(f) << ": links off the chain " << base << " .. " << tip << " are left out: " << left << " ("
        << mass << " kg; robots.<name>.branches: keep adds them rigidly)";
     r.warnings.push_back(os.str());
   }
@@ -77,6 +76,7 @@ std::map<std::string, Inertia> keep_side_branches(const Ctx& c, const YAML::Node
   std::map<std::string, Inertia> side;
   std::function<void(const urdf::LinkConstSharedPtr&, const Transform&, Inertia&, double&, std::string&)> add;
   add = [&](const urdf::LinkConstSharedPtr& l, const Transform& X_CL, Inertia& acc, double& m, std::string& names) {
+    check_urdf_inertial(c, where, f, l->name, &r.warnings);
     if (l->inertial) {
       acc += link_inertia(c, where, *l).transformed(X_CL);
       m += l->inertial->mass;
@@ -94,7 +94,7 @@ std::map<std::string, Inertia> keep_side_branches(const Ctx& c, const YAML::Node
       if (m <= 0) continue;
       side[ln] += acc;
       std::ostringstream os;
-      os << "URDF '" << f.path << "': " << names << " (" << m << " kg) kept rigidly on '" << ln
+      os << urdf_at(f) << ": " << names << " (" << m << " kg) kept rigidly on '" << ln
          << "' with their joints at zero (branches: keep)";
       if (ln == base) os << "; on the base link it is carried by the base and moves nothing";
       r.warnings.push_back(os.str());
@@ -131,8 +131,8 @@ ChainJoint urdf_chain_joint(const Ctx& c, const YAML::Node& where, const UrdfFil
     j.lower = jt.limits->lower;
     j.upper = jt.limits->upper;
   }
-  const size_t at = f.xml.find("name=\"" + jt.name + "\"");
-  j.source = "URDF '" + f.path + "'" + (at == std::string::npos ? "" : " line " + std::to_string(line_of(f.xml, at)));
+  size_t at = 0, end = 0;
+  j.source = urdf_element(f.xml, "joint", jt.name, &at, &end) ? urdf_at(f, at) : urdf_at(f);
   return j;
 }
 
@@ -153,7 +153,7 @@ Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path,
   else
     report_left_out_links(f, on_chain, base, tip, r);
   for (const auto& jt : chain) r.joints.push_back(urdf_chain_joint(c, where, f, *jt, side));
-  if (r.joints.empty()) fail(c, where, "URDF '" + path + "': no joints between '" + base + "' and '" + tip + "'");
+  if (r.joints.empty()) fail(c, where, urdf_at(f) + ": no joints between '" + base + "' and '" + tip + "'");
   return r;
 }
 
