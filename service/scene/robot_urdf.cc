@@ -169,7 +169,7 @@ ChainJoint urdf_chain_joint(const Ctx& c, const YAML::Node& where, const UrdfFil
     j.upper = jt.limits->upper;
   }
   size_t at = 0, end = 0;
-  j.source = urdf_element(f.xml, "joint", jt.name, &at, &end) ? urdf_at(f, at) : urdf_at(f);
+  j.source = urdf_element(f, "joint", jt.name, &at, &end) ? urdf_at(f, at) : urdf_at(f);
   return j;
 }
 

@@ -181,6 +181,33 @@ void check_mimic_elements(const Ctx& c, const YAML::Node& where, const UrdfFile&
   });
 }
 
+// UrdfFile::link_at and joint_at: the <link> and <joint> children of <robot> (a <joint> inside a
+// <transmission> is not one), in one scan.
+void index_elements(UrdfFile& f) {
+  int depth = 0;
+  std::map<std::string, std::pair<size_t, size_t>>* open = nullptr;
+  std::string open_name;
+  xml_tags(f.xml, 0, f.xml.size(), [&](const XmlTag& g) {
+    if (g.closing) {
+      if (--depth == 1 && open) {
+        (*open)[open_name].second = g.end;
+        open = nullptr;
+      }
+      return true;
+    }
+    if (depth == 1 && (g.name == "link" || g.name == "joint")) {
+      const std::string* n = g.attr("name");
+      auto& index = g.name == "link" ? f.link_at : f.joint_at;
+      if (n && !index.count(*n)) {
+        index[*n] = {g.begin, g.end};
+        if (!g.self_closing) open = &index, open_name = *n;
+      }
+    }
+    if (!g.self_closing) ++depth;
+    return true;
+  });
+}
+
 }  // namespace
 
 std::string urdf_at(const UrdfFile& f) { return "URDF " + f.path; }
@@ -205,6 +232,7 @@ UrdfFile read_urdf(const Ctx& c, const YAML::Node& where, const std::string& pat
   f.model = urdf::parseURDF(xml);
   if (!f.model) fail(c, where, urdf_at(f) + ": could not be parsed (see the urdfdom message above)");
   check_mimic_elements(c, where, f);
+  index_elements(f);
   return f;
 }
 
@@ -218,6 +246,15 @@ bool urdf_element(const std::string& xml, const std::string& kind, const std::st
         return g.name == kind && n && *n == name;
       },
       begin, end);
+}
+
+bool urdf_element(const UrdfFile& f, const std::string& kind, const std::string& name, size_t* begin, size_t* end) {
+  const auto& index = kind == "link" ? f.link_at : f.joint_at;
+  const auto it = index.find(name);
+  if (it == index.end()) return false;
+  *begin = it->second.first;
+  *end = it->second.second;
+  return true;
 }
 
 std::string urdf_link_text(const std::string& xml, const std::string& name) {
@@ -315,7 +352,7 @@ bool same_inertial(const TextInertial& t, const urdf::Inertial& u) {
 bool check_urdf_inertial(const Ctx& c, const YAML::Node& where, const UrdfFile& f, const std::string& link,
                          std::vector<std::string>* warnings) {
   size_t lb, le, b, e;
-  if (!urdf_element(f.xml, "link", link, &lb, &le)) return false;
+  if (!urdf_element(f, "link", link, &lb, &le)) return false;
   if (!find_element(f.xml, lb + 1, le, [](const XmlTag& g) { return g.name == "inertial"; }, &b, &e)) return false;
   const TextInertial t = read_text_inertial(c, where, f, link, b, e);
   const urdf::LinkConstSharedPtr l = f.model->getLink(link);
@@ -351,7 +388,7 @@ std::vector<UrdfMimic> read_mimics(const UrdfFile& f) {
     m.multiplier = j.mimic->multiplier;
     m.offset = j.mimic->offset;
     size_t b = 0, e = 0;
-    if (urdf_element(f.xml, "joint", j.name, &b, &e))
+    if (urdf_element(f, "joint", j.name, &b, &e))
       find_element(f.xml, b + 1, e, [](const XmlTag& g) { return g.name == "mimic"; }, &b, &e);
     m.source = urdf_at(f, b);
     out.push_back(m);

@@ -8,7 +8,9 @@
 
 #include <urdf_parser/urdf_parser.h>
 
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "service/scene/scene_yaml.h"
@@ -19,6 +21,9 @@ struct UrdfFile {
   std::string path;
   std::string xml;
   urdf::ModelInterfaceSharedPtr model;
+  // where each <link> and <joint> element (children of <robot>, outside comments) is in xml:
+  // name -> [begin, end), filled by read_urdf (one scan, so lookups stay linear in the file)
+  std::map<std::string, std::pair<size_t, size_t>> link_at, joint_at;
 };
 
 // Reads and parses `path`; a file too large or nested too deep, a xacro macro (an element or an
@@ -35,6 +40,8 @@ std::string urdf_at(const UrdfFile& f, size_t pos);
 // Where the element <kind name="NAME" ...> (kind "link" or "joint", outside comments) is in the
 // text: [*begin, *end) holds it whole; false if absent.
 bool urdf_element(const std::string& xml, const std::string& kind, const std::string& name, size_t* begin, size_t* end);
+// the same from read_urdf's index (UrdfFile::link_at, joint_at): kind "link" or "joint"
+bool urdf_element(const UrdfFile& f, const std::string& kind, const std::string& name, size_t* begin, size_t* end);
 // The text of the <link name="NAME" ...> element of a URDF (outside comments), "" if absent.
 std::string urdf_link_text(const std::string& xml, const std::string& name);
 
