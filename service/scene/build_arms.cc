@@ -4,6 +4,7 @@
 #include <set>
 #include <sstream>
 
+#include "service/algorithms/kinematics.h"
 #include "service/scene/builder.h"
 
 namespace coopdyn::scene_detail {
@@ -97,6 +98,7 @@ struct LoadSpec {
   explicit LoadSpec(const YAML::Node& n) : node(n) {}  // copied, not assigned: an absent load may be an invalid node
   YAML::Node node;
   bool given = false;
+  bool pose_given = false;  // no `pose`: solved with the grasps (close_grasps)
   std::string name = "load";
   double tau_limit = 0;
   Inertia I;
@@ -115,7 +117,8 @@ LoadSpec read_load(const Ctx& c, const YAML::Node& root) {
   // (thrusters, a positioner): tau_limit 0 = a command must be exactly 0 there (Reject::kUnactuated)
   l.tau_limit = get_bool(c, load, "actuated", false) ? std::numeric_limits<double>::infinity() : 0.0;
   l.I = get_inertia(c, load, "load");
-  l.X_W_L = get_pose(c, require(c, load, "pose", "load"), "load.pose");
+  l.pose_given = load["pose"].IsDefined() && !load["pose"].IsNull();
+  if (l.pose_given) l.X_W_L = get_pose(c, load["pose"], "load.pose");
   return l;
 }
 
@@ -148,20 +151,52 @@ std::vector<ArmSpec> read_arms(const Ctx& c, const YAML::Node& root, const std::
   return arms;
 }
 
-// grasps: given ones must close with the load pose, missing ones are read off the initial state
-void close_grasps(const Ctx& c, const Transform& X_W_L, std::vector<ArmSpec>& arms) {
+// the arm's end-effector (with its tool) in the world at the arm's q
+Transform ee_in_world(const ArmSpec& s) { return s.X_W_base * chain_forward(s) * s.tool; }
+
+// The grasp's miss: the end-effector in its grasp frame on the load, [wx wy wz vx vy vz] (rad, m)
+// in the end-effector frame; "wx 0.1 wy ..." in messages.
+Vec6 grasp_miss(const Transform& X_W_grasp, const Transform& X_W_EE) { return pose_error(X_W_grasp.inverse() * X_W_EE); }
+std::string per_axis(const Vec6& e) {
+  static const char* const axis[6] = {"wx", "wy", "wz", "vx", "vy", "vz"};
+  std::ostringstream os;
+  os.precision(6);
+  for (int k = 0; k < 6; ++k) os << (k ? " " : "") << axis[k] << " " << e[k];
+  return os.str();
+}
+
+// close_initial_state: false (an explicit false; a keep list or true closes)
+bool closing_off(const Ctx& c, const YAML::Node& root) {
+  const YAML::Node ci = root["close_initial_state"];
+  return ci.IsDefined() && ci.IsScalar() && !get_bool(c, root, "close_initial_state", true);
+}
+
+// Grasps: missing ones are read off the initial state; given ones are closed with the initial state
+// later (close_initial_state on the built system, then close_grasps_check) unless closing is off,
+// then they must close as given. Without a load pose, the load starts where the first arm's grasp
+// puts it (every arm then needs a grasp pose).
+void close_grasps(const Ctx& c, bool close, LoadSpec& load, std::vector<ArmSpec>& arms) {
+  if (!load.pose_given) {
+    for (const ArmSpec& s : arms)
+      if (!s.grasp_given)
+        fail(c, s.node["grasp"].IsDefined() ? s.node["grasp"] : s.node,
+             "arm '" + s.name + "': grasp at_initial_state needs the load's 'pose' (without it the load pose is solved "
+             "from the arms' grasps, so every arm needs a grasp pose)");
+    load.X_W_L = ee_in_world(arms[0]) * arms[0].X_L_EE.inverse();
+  }
   for (ArmSpec& s : arms) {
-    const Transform X_W_EE = s.X_W_base * chain_forward(s) * s.tool;
-    if (s.grasp_given) {
-      const Vec6 e = pose_error((X_W_L * s.X_L_EE).inverse() * X_W_EE);
-      if (e.cwiseAbs().maxCoeff() > 1e-6) {
-        std::ostringstream os;
-        os << "initial state does not close: arm '" << s.name << "' end-effector misses its grasp on the load by "
-           << e.tail<3>().norm() << " m and " << e.head<3>().norm() << " rad";
-        fail(c, s.node, os.str());
-      }
-    } else {
-      s.X_L_EE = X_W_L.inverse() * X_W_EE;
+    const Transform X_W_EE = ee_in_world(s);
+    if (!s.grasp_given) {
+      s.X_L_EE = load.X_W_L.inverse() * X_W_EE;
+      continue;
+    }
+    const Vec6 e = grasp_miss(load.X_W_L * s.X_L_EE, X_W_EE);
+    if (!close && e.cwiseAbs().maxCoeff() > 1e-6) {
+      std::ostringstream os;
+      os << "initial state does not close: arm '" << s.name << "' end-effector misses its grasp on the load by "
+         << e.tail<3>().norm() << " m and " << e.head<3>().norm() << " rad (" << per_axis(e)
+         << "; close_initial_state: false)";
+      fail(c, s.node, os.str());
     }
   }
 }
@@ -177,12 +212,20 @@ void read_load_coordinates(const Ctx& c, LoadSpec& load) {
   }
 }
 
-// Adds the load as a floating body at the root; returns its index.
+// Adds the load as a floating body at the root; returns its index. A given pose is held while the
+// initial state is closed; a solved one is a coordinate the scene gave no value.
 int add_load_body(Builder& B, const LoadSpec& load) {
   Joint jf;
   jf.type = JointType::kFloating;
   jf.name = load.name;
-  return B.add(load.name, -1, Transform(), jf, load.I, load.q, load.v, load.tau_limit, load.node);
+  const int L = B.add(load.name, -1, Transform(), jf, load.I, load.q, load.v, load.tau_limit, load.node);
+  const Joint& j = B.sys.model.bodies[L].joint;
+  if (load.pose_given)
+    B.held_bodies.push_back(L);
+  else
+    for (int k = 0; k < j.nq; ++k) B.q_given[j.idx_q + k] = 0;
+  B.load_body = L;
+  return L;
 }
 
 // A wrench output of a weld spec (the last one added): a base's to the world, or an end-effector's
@@ -281,21 +324,78 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
   LoadSpec load = read_load(c, root);
   if (!load.given) mobile_platform = false;
   std::vector<ArmSpec> arms = read_arms(c, root, robots, load.given);
-  if (load.given) close_grasps(c, load.X_W_L, arms);
+  if (load.given) close_grasps(c, !closing_off(c, root), load, arms);
   read_load_coordinates(c, load);
   if (mobile_platform) {
     // the load is the root; each arm hangs from it
     const int L = add_load_body(B, load);
     for (const ArmSpec& s : arms) hang_arm_from_load(B, s, L, load.name);
+    B.arms = arms;
   } else {
     for (const ArmSpec& s : arms) add_chain(B, s, -1, s.name + "." + s.robot->base_link, true);
     if (load.given) {
       const int L = add_load_body(B, load);
       for (const ArmSpec& s : arms) weld_arm_to_load(B, s, L, load.name);
+      B.arms = arms;
     }
   }
   // a URDF's <mimic>s: the arm's joints coupled (reversed joints keep their coordinates)
   for (const ArmSpec& s : arms) add_joint_couplings(c, s.node, B.sys.model, placed_mimics(*s.robot, s.name), B.sys.constraints);
+}
+
+namespace {
+// the arm's joint values in q (a held joint keeps its given value)
+void arm_q_from(const Model& model, const Eigen::VectorXd& q, ArmSpec& s) {
+  for (size_t i = 0; i < s.robot->joints.size(); ++i) {
+    const int b = model.joint_index(s.name + "." + s.robot->joints[i].name);
+    if (b >= 0 && model.bodies[b].joint.nq == 1) s.q[i] = q[model.bodies[b].joint.idx_q];
+  }
+}
+
+// a joint the closing moved outside its limits: a warning at its `q` entry
+void warn_closed_limits(const Ctx& c, const ArmSpec& given, const ArmSpec& s) {
+  for (size_t i = 0, k = 0; i < s.robot->joints.size(); ++i) {
+    const ChainJoint& cj = s.robot->joints[i];
+    if (cj.fixed) continue;
+    const YAML::Node& n = given.node;
+    const YAML::Node qk = n["q"][k++];
+    if (std::abs(s.q[i] - given.q[i]) <= 1e-12 || (s.q[i] >= cj.lower - 1e-9 && s.q[i] <= cj.upper + 1e-9)) continue;
+    std::ostringstream os;
+    os.precision(6);
+    os << "arm '" << s.name << "' joint " << cj.name << " q = " << s.q[i] << " (closed from " << given.q[i]
+       << ") is outside its limits [" << cj.lower << ", " << cj.upper << "] (" << cj.source << ")";
+    warn(c, qk, os.str());
+  }
+}
+}  // namespace
+
+void close_grasps_check(Builder& B, const Eigen::VectorXd& q, bool closed) {
+  if (B.arms.empty() || B.load_body < 0) return;
+  const Model& model = B.sys.model;
+  Data d(model);
+  forward_kinematics(model, d, q, Eigen::VectorXd::Zero(model.nv()));
+  const std::string load_name = model.bodies[B.load_body].name;
+  std::vector<std::pair<const ArmSpec*, Vec6>> missed;
+  size_t worst = 0;
+  for (const ArmSpec& given : B.arms) {
+    ArmSpec s = given;
+    arm_q_from(model, q, s);
+    const Vec6 e = grasp_miss(frame_pose(model, d, model.frame_index(load_name + "." + s.name)), ee_in_world(s));
+    if (closed) warn_closed_limits(B.c, given, s);
+    if (e.cwiseAbs().maxCoeff() <= 1e-6) continue;
+    if (!missed.empty() && e.cwiseAbs().maxCoeff() > missed[worst].second.cwiseAbs().maxCoeff()) worst = missed.size();
+    missed.emplace_back(&given, e);
+  }
+  if (missed.empty()) return;
+  // the error is at the grasp that misses most; the others that miss are named in it
+  const ArmSpec& w = *missed[worst].first;
+  std::string msg = "arm '" + w.name + "' cannot reach its grasp (close_initial_state could not close the initial state): " +
+                    "at the closest state found its end-effector misses the grasp by " + per_axis(missed[worst].second) +
+                    " (rad, m; in the end-effector frame)";
+  for (size_t k = 0; k < missed.size(); ++k)
+    if (k != worst) msg += "; arm '" + missed[k].first->name + "' misses by " + per_axis(missed[k].second);
+  const YAML::Node g = w.node["grasp"];
+  fail(B.c, g.IsDefined() ? g : w.node, msg);
 }
 
 }  // namespace coopdyn::scene_detail

@@ -3,6 +3,7 @@
 #include <limits>
 
 #include "service/scene/builder.h"
+#include "service/scene/urdf_tree.h"
 
 namespace coopdyn::scene_detail {
 
@@ -47,10 +48,9 @@ int parent_body(const Ctx& c, const Model& model, const YAML::Node& b, const std
   return parent;
 }
 
-// a robot's chain as a subtree (a mobile base with an arm)
+// a robot's chain as a subtree (a mobile base with an arm), or its whole URDF tree (build_tree.cc)
 void add_robot_body(Builder& B, const YAML::Node& b, const std::map<std::string, Robot>& robots) {
   const Ctx& c = B.c;
-  check_keys(c, b, {"name", "robot", "parent", "placement", "q", "v", "fixed_joints", "tool"}, "robot body");
   ArmSpec s;
   s.node = YAML::Node(b);
   s.name = get_string(c, b, "name", "");
@@ -58,6 +58,8 @@ void add_robot_body(Builder& B, const YAML::Node& b, const std::map<std::string,
   s.robot = find_robot(c, b, robots, "robot body '" + s.name + "'");
   const std::string pn = get_string(c, b, "parent", "world");
   const int parent = parent_body(c, B.sys.model, b, pn, "robot body '" + s.name + "'");
+  if (s.robot->tree) return add_robot_tree(B, b, *s.robot, s.name, parent, pn);
+  check_keys(c, b, {"name", "robot", "parent", "placement", "q", "v", "fixed_joints", "tool"}, "robot body");
   s.X_W_base = get_pose(c, b["placement"], "robot body '" + s.name + "'.placement");
   s.tool = get_pose(c, b["tool"], "robot body '" + s.name + "'.tool");
   parse_arm_joints(c, b, s);
@@ -178,6 +180,32 @@ void add_frames(const Ctx& c, const YAML::Node& frames, Model& model) {
   }
 }
 
+// A wheel's axle and radius, given, or read off the URDF of a body placed from a whole tree
+// (build_tree.cc): the axis of its joint, the radius of its cylinder about that axis.
+void read_wheel_geometry(const Builder& B, const YAML::Node& k, const std::string& bname, ConstraintSpec& s) {
+  const Ctx& c = B.c;
+  const auto u = B.urdf_links.find(bname);
+  const std::string what = "constraint '" + s.name + "'";
+  Vec3 axle;
+  if (k["axle"] || u == B.urdf_links.end()) {
+    axle = as_vec3(c, require(c, k, "axle", what), what + ".axle");
+  } else if (!urdf_spin_axis(*u->second.first, u->second.second, &axle)) {
+    fail(c, k, what + ": missing 'axle' (the URDF joint above link '" + u->second.second + "' does not move: give axle)");
+  }
+  const double axle_norm = axle.norm();  // inf when a component is near DBL_MAX (the square overflows)
+  if (!(axle_norm >= 1e-9 && axle_norm <= 1e150))
+    fail(c, k["axle"], what + ": axle must be a nonzero vector of norm at most 1e150");
+  s.axle = axle.normalized();
+  if (k["radius"] || u == B.urdf_links.end()) {
+    s.radius = as_double(c, require(c, k, "radius", what), what + ".radius");
+  } else {
+    std::string why;
+    s.radius = urdf_wheel_radius(*u->second.first, u->second.second, s.axle, &why);
+    if (!(s.radius > 0)) fail(c, k, what + ": missing 'radius', and it cannot be read from the URDF: " + why);
+  }
+  if (!(s.radius > 0)) fail(c, k["radius"], what + ": radius must be > 0");
+}
+
 // a wheel rolling without slip on the ground (ConstraintKind::kRolling), into s
 void read_rolling(const Builder& B, const YAML::Node& k, const GroundSpec& ground, ConstraintSpec& s) {
   const Ctx& c = B.c;
@@ -188,13 +216,7 @@ void read_rolling(const Builder& B, const YAML::Node& k, const GroundSpec& groun
   s.body = B.sys.model.body_index(bname);
   if (s.body < 0) fail(c, k["body"].IsDefined() ? k["body"] : k, "constraint '" + s.name + "': unknown wheel body '" + bname + "'");
   if (s.name.empty()) s.name = bname;
-  const Vec3 axle = as_vec3(c, require(c, k, "axle", "constraint '" + s.name + "'"), "constraint '" + s.name + "'.axle");
-  const double axle_norm = axle.norm();  // inf when a component is near DBL_MAX (the square overflows)
-  if (!(axle_norm >= 1e-9 && axle_norm <= 1e150))
-    fail(c, k["axle"], "constraint '" + s.name + "': axle must be a nonzero vector of norm at most 1e150");
-  s.axle = axle.normalized();
-  s.radius = as_double(c, require(c, k, "radius", "constraint '" + s.name + "'"), "constraint '" + s.name + "'.radius");
-  if (!(s.radius > 0)) fail(c, k["radius"], "constraint '" + s.name + "': radius must be > 0");
+  read_wheel_geometry(B, k, bname, s);
   if (k["compliance"]) {  // scalar or [x, y, z] of the contact frame (m/N)
     const YAML::Node cn = k["compliance"];
     std::vector<double> l = cn.IsScalar() ? std::vector<double>(3, as_double(c, cn, "compliance"))

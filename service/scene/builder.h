@@ -5,6 +5,7 @@
 #pragma once
 
 #include <map>
+#include <memory>
 #include <set>
 #include <string>
 #include <vector>
@@ -15,6 +16,21 @@
 
 namespace coopdyn::scene_detail {
 
+// A robot placed in the scene: an arm of `arms`, or a robot subtree of `bodies`.
+struct ArmSpec {
+  std::string name;
+  const Robot* robot = nullptr;
+  Transform X_W_base;  // the robot's base frame in its parent (the world for arms)
+  Transform tool;
+  std::vector<double> q;
+  std::vector<double> v;
+  std::set<int> fixed;  // 1-based joint numbers held fixed
+  bool grasp_given = false;
+  Transform X_L_EE;
+  std::array<double, 6> compliance{{0, 0, 0, 0, 0, 0}};
+  YAML::Node node;
+};
+
 struct Builder {
   Ctx c;
   System sys;
@@ -23,6 +39,13 @@ struct Builder {
   std::vector<double> tau_lim;
   std::vector<int> q_floating_idx;
   std::vector<std::pair<int, double>> target_limits;  // (velocity index, |target| allowed) of pseudo-joints
+  // the bodies placed from a whole URDF tree (build_tree.cc): body name -> (the tree, its link), for
+  // what a constraint reads off the URDF (a rolling wheel's axle and radius)
+  std::map<std::string, std::pair<std::shared_ptr<const UrdfTree>, std::string>> urdf_links;
+  std::vector<int> held_bodies;  // bodies whose joint close_initial_state never moves (a load at its given pose)
+  std::vector<ArmSpec> arms;     // arms + load: the arms on the load (body load_body), for close_grasps_check
+                                 // (their robots are compile_scene's: not to be used after it)
+  int load_body = -1;
 
   // adds a body (Model::add_body) with its joint's initial q, v (missing entries 0, marked not given)
   // and torque limit; returns its index
@@ -56,21 +79,6 @@ WrenchOutput joint_output(const std::string& name, const std::string& frame, con
 // writes X as a floating joint's 7 coordinates at q[idx] (xyz, then the quaternion w x y z)
 void set_floating_q(Eigen::VectorXd& q, int idx, const Transform& X);
 
-// A robot placed in the scene: an arm of `arms`, or a robot subtree of `bodies`.
-struct ArmSpec {
-  std::string name;
-  const Robot* robot = nullptr;
-  Transform X_W_base;  // the robot's base frame in its parent (the world for arms)
-  Transform tool;
-  std::vector<double> q;
-  std::vector<double> v;
-  std::set<int> fixed;  // 1-based joint numbers held fixed
-  bool grasp_given = false;
-  Transform X_L_EE;
-  std::array<double, 6> compliance{{0, 0, 0, 0, 0, 0}};
-  YAML::Node node;
-};
-
 // The robot `n["robot"]` names, from the scene's `robots`; an unknown name is an error at its line.
 const Robot* find_robot(const Ctx& c, const YAML::Node& n, const std::map<std::string, Robot>& robots, const std::string& what);
 // the end-effector (before the tool) in the robot base frame at the arm's q
@@ -85,6 +93,10 @@ int add_chain(Builder& B, const ArmSpec& s, int parent, const std::string& by_ba
 
 // `load` + `arms`: the paper's cooperating arms, in the mobile-platform form or rooted at the world
 void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, Robot>& robots, bool mobile_platform);
+// A robot entry of `bodies` whose robot is a whole URDF tree (Robot::tree; build_tree.cc), below body
+// `parent` (-1: the world, named `by`): {name, robot, parent, placement, root: fixed | floating,
+// root_v, q, v: {joint: value}, fixed_joints, tool}.
+void add_robot_tree(Builder& B, const YAML::Node& b, const Robot& r, const std::string& name, int parent, const std::string& by);
 // `bodies` + `frames` + `constraints`: any tree closed by welds, points and rolling wheels
 // A body entry may be a robot instead: {robot: NAME, name: PREFIX, parent, placement, q, v,
 // fixed_joints, tool}, its chain added below `parent` (robots from `robots`, DH or URDF).
@@ -96,9 +108,16 @@ void build_wrench_outputs(const Ctx& c, const YAML::Node& root, System& sys);
 // The YAML entry of a constraint, by name (for errors); the scene's root if it has none of its own.
 YAML::Node constraint_node(const YAML::Node& root, const std::string& name);
 // Closes the loops of the initial state (Gauss-Newton on the position error, then the velocity
-// projected onto the constraints); what moved is appended to `warnings`. Leaves q0 as it was when
-// the constraints cannot be closed (the caller reports the constraint that stays open).
-void close_initial_state(System& sys, const std::vector<unsigned char>& q_given, const std::vector<unsigned char>& keep,
-                         std::vector<std::string>* warnings);
+// projected onto the constraints); what moved is appended to `warnings`. The joints of `keep` (per
+// body) and of the bodies `held` never move, nor pseudo-joints. Returns false and leaves q0 as it
+// was when the constraints cannot be closed (the caller reports the constraint that stays open);
+// then *q_closest (if given) is the closest state the solver found.
+bool close_initial_state(System& sys, const std::vector<unsigned char>& q_given, const std::vector<unsigned char>& keep,
+                         std::vector<std::string>* warnings, const std::vector<int>& held = {},
+                         Eigen::VectorXd* q_closest = nullptr);
+// arms + load, after the initial state was closed (q = sys.q0, closed) or not (q = the closest
+// state found): an arm whose end-effector misses its grasp is an error at its `grasp` line with the
+// miss per axis; a joint the closing moved outside its URDF limits is a warning.
+void close_grasps_check(Builder& B, const Eigen::VectorXd& q, bool closed);
 
 }  // namespace coopdyn::scene_detail

@@ -1,6 +1,7 @@
 // Loops that close themselves: the initial state moved onto the constraints.
 #include <Eigen/QR>
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -72,11 +73,11 @@ double close_over(const System& sys, const std::vector<int>& cols, Eigen::Vector
 }
 }  // namespace
 
-void close_initial_state(System& sys, const std::vector<unsigned char>& q_given, const std::vector<unsigned char>& keep,
-                         std::vector<std::string>* warnings) {
+bool close_initial_state(System& sys, const std::vector<unsigned char>& q_given, const std::vector<unsigned char>& keep,
+                         std::vector<std::string>* warnings, const std::vector<int>& held, Eigen::VectorXd* q_closest) {
   const Model& m = sys.model;
   const ConstraintSet& set = sys.constraints;
-  if (set.rows == 0) return;
+  if (set.rows == 0) return true;
   Data d(m);
   ConstraintData cd(m, set);
   forward_kinematics(m, d, sys.q0, sys.v0);
@@ -85,11 +86,14 @@ void close_initial_state(System& sys, const std::vector<unsigned char>& q_given,
   const Eigen::VectorXd q_scene = sys.q0;
   if (e0 > 1e-9) {
     // with a keep list: every joint but those; else first the coordinates the scene gave no value,
-    // then all (least change); pseudo-joints never (they are locked where the scene puts them)
+    // then all (least change); pseudo-joints and held bodies never (they stay where the scene puts them)
     std::vector<int> open, all;
+    std::string held_names;
     for (int bi = 0; bi < m.nbodies(); ++bi) {
       const Joint& j = m.bodies[bi].joint;
-      if (j.pseudo) continue;
+      const bool is_held = std::find(held.begin(), held.end(), bi) != held.end();
+      if (is_held && j.nv > 0) held_names += (held_names.empty() ? "" : ", ") + j.name;
+      if (j.pseudo || is_held) continue;
       bool given = false;
       for (int k = 0; k < j.nq; ++k) given = given || q_given[j.idx_q + k];
       const bool kept = !keep.empty() && keep[bi];
@@ -98,9 +102,10 @@ void close_initial_state(System& sys, const std::vector<unsigned char>& q_given,
         if (!given && keep.empty()) open.push_back(j.idx_v + k);
       }
     }
+    const std::string held_note = held_names.empty() ? "" : " (" + held_names + " held where the scene puts it)";
     Eigen::VectorXd q = sys.q0;
     double left = HUGE_VAL;
-    const char* which = "every joint not in close_initial_state.keep";
+    std::string which = "every joint not in close_initial_state.keep" + held_note;
     if (keep.empty()) {
       left = close_over(sys, open, q);
       which = "the coordinates the scene gives no initial value";
@@ -108,19 +113,20 @@ void close_initial_state(System& sys, const std::vector<unsigned char>& q_given,
     if (left > 1e-10) {
       q = sys.q0;
       left = close_over(sys, all, q);
-      if (keep.empty()) which = "every coordinate (least change)";
+      if (keep.empty()) which = "every coordinate (least change)" + held_note;
     }
-    if (left > 1e-6) return;  // the caller reports the constraint that stays open
+    if (left > 1e-6) {  // the caller reports the constraint that stays open
+      if (q_closest) *q_closest = q;
+      return false;
+    }
     sys.q0 = q;
     std::ostringstream os;
     os.precision(6);
     os << "initial state: the constraints were open by " << e0 << " (rad, m); closed to " << left << " by moving " << which << ":";
-    int listed = 0;
     for (int i = 0; i < m.nq(); ++i)
       if (std::abs(sys.q0[i] - q_scene[i]) > 1e-12) {
-        if (listed++ < 12) os << " " << m.q_names[i] << " " << q_scene[i] << " -> " << sys.q0[i];
+        os << " " << m.q_names[i] << " " << q_scene[i] << " -> " << sys.q0[i];
       }
-    if (listed > 12) os << " (and " << listed - 12 << " more)";
     os << " (close_initial_state: false keeps the scene's values and makes this an error)";
     warnings->push_back(os.str());
     // the locks hold the pseudo-joints where they are; welds to the world keep their targets
@@ -144,6 +150,7 @@ void close_initial_state(System& sys, const std::vector<unsigned char>& q_given,
       if (std::abs(sys.v0[i] - v_scene[i]) > 1e-12) os << " " << m.v_names[i] << " " << v_scene[i] << " -> " << sys.v0[i];
     warnings->push_back(os.str());
   }
+  return true;
 }
 
 }  // namespace coopdyn::scene_detail

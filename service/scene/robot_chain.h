@@ -3,6 +3,7 @@
 #pragma once
 
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -10,6 +11,8 @@
 #include "service/scene/urdf_file.h"
 
 namespace coopdyn::scene_detail {
+
+struct UrdfTree;  // urdf_tree.h
 
 // A serial robot as a chain of joints, URDF-style: joint i sits at X_origin (its frame in the
 // previous link's frame, the robot base for i = 1), moves about `axis` (in the joint frame), and
@@ -26,7 +29,7 @@ struct ChainJoint {
   double tau_limit = std::numeric_limits<double>::infinity();
   double lower = -std::numeric_limits<double>::infinity();  // joint limits (URDF <limit lower upper>)
   double upper = std::numeric_limits<double>::infinity();
-  std::string source;  // where the joint was declared ("URDF 'file' line N"), for messages
+  std::string source;  // where the joint was declared ("URDF PATH:LINE"), for messages
 };
 struct Robot {
   std::string name;
@@ -37,6 +40,9 @@ struct Robot {
   // the URDF's <mimic>s between joints of the chain (URDF joint names): each placement of the robot
   // couples its joints (add_joint_couplings, names prefixed with the arm's or body's name)
   std::vector<UrdfMimic> mimics;
+  // A URDF declared without base and tip in a `bodies` scene: its whole tree (urdf_tree.h), placed by
+  // a robot entry of `bodies` (joints then empty: there is no chain).
+  std::shared_ptr<const UrdfTree> tree;
 };
 
 // the joint's motion X_JB(q): rotation about, or translation along, its axis

@@ -27,7 +27,8 @@ std::vector<urdf::JointConstSharedPtr> chain_joints(const Ctx& c, const YAML::No
   if (tip.empty()) {
     urdf::LinkConstSharedPtr l = u->getLink(base);
     while (l->child_links.size() == 1) l = l->child_links[0];
-    if (!l->child_links.empty()) fail(c, where, urdf_at(f) + ": branches below '" + l->name + "': give robots.<name>.tip");
+    if (!l->child_links.empty())
+      fail(c, where, urdf_at(f) + ": branches below '" + l->name + "': give robots.<name>.tip, or load the whole tree in `bodies:`");
     tip = l->name;
     lk = l;
   }

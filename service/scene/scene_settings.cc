@@ -3,6 +3,8 @@
 #include <filesystem>
 #include <limits>
 
+#include "service/scene/urdf_tree.h"
+
 namespace coopdyn::scene_detail {
 
 namespace {
@@ -40,11 +42,22 @@ void read_solver(const Ctx& c, const YAML::Node& so, System& sys) {
   if (!(sys.options.max_speed > 0)) fail(c, ms, "solver.max_speed must be > 0 (rad/s or m/s per DOF) or 'off'");
 }
 
-// one entry of `robots`
-Robot read_robot(const Ctx& c, const std::string& rn, YAML::Node rnode) {
+// one entry of `robots`; whole: a URDF without base and tip is read as its whole tree (a `bodies`
+// scene places it whole; `arms` take a chain)
+Robot read_robot(const Ctx& c, const std::string& rn, YAML::Node rnode, bool whole) {
   if (rnode["urdf"]) {
     check_keys(c, rnode, {"urdf", "base", "tip", "source", "branches"}, "robot '" + rn + "'");
     const std::string path = (std::filesystem::path(c.dir) / rnode["urdf"].as<std::string>()).string();
+    if (whole && !rnode["base"] && !rnode["tip"]) {
+      if (rnode["branches"])
+        fail(c, rnode["branches"], "robot '" + rn + "': branches applies to a chain (give tip); without base and tip a "
+                                   "robot of a `bodies` scene is loaded whole, every branch included");
+      Robot r;
+      r.name = rn;
+      r.tree = read_urdf_tree(c, rnode["urdf"], path, &r.warnings);
+      r.base_link = r.tree->root_link;
+      return r;
+    }
     const std::string br = get_string(c, rnode, "branches", "report");
     if (br != "report" && br != "keep")
       fail(c, rnode["branches"], "robot '" + rn + "': branches must be report (default: listed as left out) or keep");
@@ -83,7 +96,7 @@ std::map<std::string, Robot> read_robots(const Ctx& c, YAML::Node root) {
   if (root["robots"])
     for (const auto& kv : root["robots"]) {
       const std::string rn = kv.first.as<std::string>();
-      robots[rn] = read_robot(c, rn, kv.second);
+      robots[rn] = read_robot(c, rn, kv.second, !root["arms"].IsDefined());
     }
   return robots;
 }

@@ -18,7 +18,8 @@ namespace coopdyn::scene_detail {
 // `solver` into sys.
 void read_settings(const Ctx& c, YAML::Node root, const SceneOverrides& ov, System& sys);
 
-// `robots`: each a URDF file, a robot file or standard DH links in the scene (robot_chain.h).
+// `robots`: each a URDF file, a robot file or standard DH links in the scene (robot_chain.h); in a
+// scene without `arms` a URDF declared without base and tip is read whole (Robot::tree).
 std::map<std::string, Robot> read_robots(const Ctx& c, YAML::Node root);
 
 }  // namespace coopdyn::scene_detail

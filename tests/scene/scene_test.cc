@@ -116,8 +116,8 @@ TEST(Scene, BrokenScenesNameFileLineAndReason) {
   // a four-bar whose lengths cannot close is an error even with close_initial_state on
   e = error_of(replaced(fb, "placement: {xyz: [1.0, 0, 0]}", "placement: {xyz: [3.0, 0, 0]}"), "fb.yaml");
   EXPECT_NE(e.find("does not close constraint 'coupler_cut' (close_initial_state could not close it)"), std::string::npos) << e;
-  // an explicit grasp that the arm does not reach
-  e = error_of(replaced(puma, "    grasp: at_initial_state\n  - name: arm2",
+  // an explicit grasp the arm's given angles do not reach, with closing off (grasp_close_test.cc: on)
+  e = error_of("close_initial_state: false\n" + replaced(puma, "    grasp: at_initial_state\n  - name: arm2",
                         "    grasp: {xyz: [0, -0.2, 0]}\n  - name: arm2"),
                std::string(COOPDYN_SOURCE_DIR) + "/config/scenes/p.yaml");
   EXPECT_NE(e.find("initial state does not close: arm 'arm1'"), std::string::npos) << e;
@@ -557,11 +557,17 @@ TEST(Scene, ARobotInsideBodiesMakesAMobileManipulator) {
   };
   const Vec6 dP = (P(h) - P(-h)) / (2 * h);
   EXPECT_NEAR(dP[3], tau[0], 1e-6 * std::abs(tau[0]));
-  // the arm's first joint reaction is the cart's on the arm's first link
+  // the arm's first joint reaction is the base link's on the arm's first link (the URDF, declared
+  // without tip, is loaded whole: its root link 'base' is a body welded to the cart); the DH arm's,
+  // a chain, the cart's
   bool found = false;
   for (const WrenchOutput& o : su.wrenches.outputs)
     if (o.name == "arm.j1") {
       found = true;
+      EXPECT_EQ(o.by, "arm.base");
+    }
+  for (const WrenchOutput& o : sd.wrenches.outputs)
+    if (o.name == "arm.q1") {
       EXPECT_EQ(o.by, "cart");
     }
   EXPECT_TRUE(found);

@@ -1,0 +1,131 @@
+// A URDF file (urdf_file.h) read whole: every link below the root, parents first, each joint
+// converted and each link checked as the chain reader does (robot_urdf.cc), and the cylinders a
+// wheel's radius is read from.
+#include "service/scene/urdf_tree.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <regex>
+#include <sstream>
+
+namespace coopdyn::scene_detail {
+
+namespace {
+
+// Where each <joint> element starts in the file, by joint name (comments skipped): the children of a
+// link are taken in the file's order, not urdfdom's (by joint name).
+std::map<std::string, size_t> joint_positions(const std::string& xml) {
+  std::map<std::string, size_t> at;
+  for (size_t p = xml.find('<'); p != std::string::npos; p = xml.find('<', p + 1)) {
+    if (xml.compare(p, 4, "<!--") == 0) {
+      p = xml.find("-->", p + 4);
+      if (p == std::string::npos) break;
+      continue;
+    }
+    if (xml.compare(p, 6, "<joint") != 0 || p + 6 >= xml.size() || !std::isspace(static_cast<unsigned char>(xml[p + 6]))) continue;
+    const size_t end = xml.find('>', p);
+    const std::string tag = xml.substr(p, end == std::string::npos ? std::string::npos : end - p);
+    static const std::regex name_re("\\sname\\s*=\\s*[\"']([^\"']*)[\"']");
+    std::smatch m;
+    if (std::regex_search(tag, m, name_re)) at.emplace(m[1].str(), p);
+  }
+  return at;
+}
+
+// the cylinders of a link's <collision>, then <visual>, elements
+std::vector<UrdfCylinder> link_cylinders(const urdf::Link& l) {
+  std::vector<UrdfCylinder> out;
+  auto add = [&](const urdf::GeometrySharedPtr& g, const urdf::Pose& origin, bool collision) {
+    if (!g || g->type != urdf::Geometry::CYLINDER) return;
+    const auto* cy = dynamic_cast<const urdf::Cylinder*>(g.get());
+    if (!cy) return;
+    UrdfCylinder c;
+    c.X_LG = urdf_pose(origin);
+    c.radius = cy->radius;
+    c.collision = collision;
+    out.push_back(c);
+  };
+  for (const auto& k : l.collision_array)
+    if (k) add(k->geometry, k->origin, true);
+  for (const auto& v : l.visual_array)
+    if (v) add(v->geometry, v->origin, false);
+  return out;
+}
+
+}  // namespace
+
+std::shared_ptr<const UrdfTree> read_urdf_tree(const Ctx& c, const YAML::Node& where, const std::string& path,
+                                               std::vector<std::string>* warnings) {
+  auto t = std::make_shared<UrdfTree>();
+  auto file = std::make_shared<UrdfFile>(read_urdf(c, where, path));
+  t->file = file;
+  const UrdfFile& f = *file;
+  const urdf::LinkConstSharedPtr root = f.model->getRoot();
+  t->root_link = root->name;
+  {  // the root link's <inertial> read as every other link's (a joint of type fixed: no warning without one)
+    urdf::Joint above;
+    above.type = urdf::Joint::FIXED;
+    above.child_link_name = root->name;
+    check_link_inertial(c, where, f, above, warnings);
+  }
+  if (root->inertial) t->root_inertia = link_inertia(c, where, *root);
+  const std::map<std::string, size_t> declared = joint_positions(f.xml);
+  std::vector<urdf::LinkConstSharedPtr> stack = {root};
+  while (!stack.empty()) {
+    const urdf::LinkConstSharedPtr l = stack.back();
+    stack.pop_back();
+    t->cylinders[l->name] = link_cylinders(*l);
+    if (l->child_links.size() > 1 && t->branch_link.empty()) t->branch_link = l->name;
+    if (l != root) {
+      const urdf::Joint& jt = *l->parent_joint;
+      check_link_inertial(c, where, f, jt, warnings);
+      t->joints.push_back({urdf_chain_joint(c, where, f, jt, {}), jt.parent_link_name});
+    }
+    std::vector<urdf::LinkConstSharedPtr> kids(l->child_links.begin(), l->child_links.end());
+    std::vector<size_t> at;
+    for (const auto& k : kids) {
+      const auto p = declared.find(k->parent_joint->name);
+      at.push_back(p == declared.end() ? f.xml.size() : p->second);
+    }
+    std::vector<size_t> order(kids.size());
+    for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return at[a] < at[b]; });
+    for (auto it = order.rbegin(); it != order.rend(); ++it) stack.push_back(kids[*it]);  // the first child on top
+  }
+  return t;
+}
+
+bool urdf_spin_axis(const UrdfTree& t, const std::string& link, Vec3* axis) {
+  for (const UrdfTreeJoint& tj : t.joints)
+    if (tj.j.link_name == link) {
+      if (tj.j.fixed) return false;
+      *axis = tj.j.axis.normalized();
+      return true;
+    }
+  return false;
+}
+
+double urdf_wheel_radius(const UrdfTree& t, const std::string& link, const Vec3& axle, std::string* why) {
+  const auto it = t.cylinders.find(link);
+  const std::string where = "URDF " + t.file->path + ": link '" + link + "'";
+  if (it == t.cylinders.end() || it->second.empty()) {
+    *why = where + " has no <cylinder> in its <collision> or <visual>";
+    return 0;
+  }
+  for (const UrdfCylinder& cy : it->second) {
+    // the cylinder's axis along the spin axis (to 1e-3 rad: files write pi/2 as 1.5708), its centre
+    // on the axle through the link origin (to 1e-3 of its radius): the wheel the constraint rolls
+    const Vec3 z = cy.X_LG.R.col(2);
+    const Vec3 off = cy.X_LG.p - axle * axle.dot(cy.X_LG.p);
+    if (z.cross(axle).norm() <= 1e-3 && off.norm() <= 1e-3 * cy.radius && cy.radius > 0) return cy.radius;
+  }
+  std::ostringstream os;
+  os << where << " has no <cylinder> about its spin axis [" << axle.x() << ", " << axle.y() << ", " << axle.z()
+     << "] through its origin (" << it->second.size() << " cylinder" << (it->second.size() == 1 ? "" : "s")
+     << " elsewhere)";
+  *why = os.str();
+  return 0;
+}
+
+}  // namespace coopdyn::scene_detail
