@@ -166,15 +166,15 @@ void write_contacts(std::FILE* f, const System& sys, const Workspace& ws) {
   std::fprintf(f, "%s],\n  \"contact_status\": \"%s\"", cts.spec.empty() ? "" : "\n  ", contact_state_name(cts.worst));
 }
 
-void write_stresses(std::FILE* f, const Model& model, const Workspace& ws) {
+void write_stresses(std::FILE* f, const System& sys, const Workspace& ws) {
   std::fprintf(f, ",\n  \"stresses\": [");
-  for (size_t a = 0; a < model.pseudo_dofs.size(); ++a) {
-    const int d = model.pseudo_dofs[a];
-    std::fprintf(f, "%s\n    {\"joint\": \"%s\", \"value\": ", a ? "," : "", model.v_names[d].c_str());
-    num(f, ws.stress[static_cast<Eigen::Index>(a)]);
-    std::fprintf(f, ", \"unit\": \"%s\"}", model.bodies[model.dof_body[d]].joint.type == JointType::kPrismatic ? "N" : "N*m");
+  const int n = num_stresses(sys);
+  for (int a = 0; a < n; ++a) {
+    std::fprintf(f, "%s\n    {\"joint\": \"%s\", \"value\": ", a ? "," : "", stress_name(sys, a).c_str());
+    num(f, ws.stress[a]);
+    std::fprintf(f, ", \"unit\": \"%s\"}", stress_unit(sys, a));
   }
-  std::fprintf(f, "%s]", model.pseudo_dofs.empty() ? "" : "\n  ");
+  std::fprintf(f, "%s]", n == 0 ? "" : "\n  ");
 }
 
 void write_diagnostics(std::FILE* f, const Diagnostics& d) {
@@ -195,7 +195,7 @@ void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const
   write_wrenches(f, sys, ws, wd);
   write_free_directions(f, sys, wd);
   write_contacts(f, sys, ws);
-  write_stresses(f, sys.model, ws);
+  write_stresses(f, sys, ws);
   write_diagnostics(f, ws.diag);
 }
 

@@ -66,9 +66,9 @@ StepSchema step_schema(const System& sys, const std::string& source) {
     }
   }
   for (const WrenchOutput& o : sys.wrenches.outputs) s.wrenches.push_back({o.name, wrench_kind_name(o.kind), o.frame, o.by});
-  for (int d : m.pseudo_dofs) {
-    s.stress_names.push_back(m.v_names[static_cast<size_t>(d)]);
-    s.stress_units.push_back(s.tau_units[static_cast<size_t>(d)]);
+  for (int k = 0; k < num_stresses(sys); ++k) {  // the pseudo-joints', then the joint couplings'
+    s.stress_names.push_back(stress_name(sys, k));
+    s.stress_units.push_back(stress_unit(sys, k));
   }
   for (const ConstraintSpec& c : sys.constraints.specs)
     if (c.kind == ConstraintKind::kRolling) s.contact_names.push_back(c.name);

@@ -188,7 +188,10 @@ void add_view_frame(const System& sys, Data& data, ViewSample& row, ViewFrames* 
   vf->seg_ends.push_back(std::move(se));
   vf->wrench_W.push_back(std::move(ww));
   vf->pseudo_p.push_back(std::move(pp));
-  vf->stress.push_back(row.stress.size() == vf->pseudos.size() ? row.stress : std::vector<double>{});
+  // the pseudo-joints' stresses lead (joint couplings' follow; the view draws the pseudo-joints')
+  vf->stress.push_back(row.stress.size() >= vf->pseudos.size()
+                           ? std::vector<double>(row.stress.begin(), row.stress.begin() + static_cast<long>(vf->pseudos.size()))
+                           : std::vector<double>{});
   vf->indet.push_back(row.indet.size() == vf->wrenches.size() ? row.indet : std::vector<int>{});
   vf->free.push_back(row.free);
 }

@@ -70,6 +70,18 @@ void lock_layout(const Model& model, const ConstraintSpec& c, SpecLayout& l, std
   l.sup = {c.dof};
 }
 
+void couple_layout(const Model& model, const ConstraintSpec& c, SpecLayout& l, std::vector<double>& comp) {
+  auto one_dof = [&](int d) { return d >= 0 && d < model.nv() && model.bodies[model.dof_body[d]].joint.nv == 1; };
+  if (!one_dof(c.dof) || !one_dof(c.couple_dof) || c.dof == c.couple_dof)
+    throw std::invalid_argument("constraint '" + c.name + "': a coupling needs two different one-DOF joints");
+  if (!std::isfinite(c.multiplier) || !std::isfinite(c.offset))
+    throw std::invalid_argument("constraint '" + c.name + "': coupling multiplier and offset must be finite");
+  l.ax[0] = 0;
+  l.n = 1;
+  comp.push_back(c.compliance[0]);
+  l.sup = {std::min(c.dof, c.couple_dof), std::max(c.dof, c.couple_dof)};
+}
+
 }  // namespace
 
 void ConstraintSet::compile(const Model& model) {
@@ -80,6 +92,7 @@ void ConstraintSet::compile(const Model& model) {
   row_axis.clear();
   support.clear();
   row_spec.clear();
+  couple_specs.clear();
   std::vector<double> comp;
   for (size_t s = 0; s < specs.size(); ++s) {
     const ConstraintSpec& c = specs[s];
@@ -88,6 +101,9 @@ void ConstraintSet::compile(const Model& model) {
       weld_layout(model, c, l, comp);
     } else if (c.kind == ConstraintKind::kRolling) {
       rolling_layout(model, c, l, comp, rolling_resistance);
+    } else if (c.kind == ConstraintKind::kCouple) {
+      couple_layout(model, c, l, comp);
+      couple_specs.push_back(static_cast<int>(s));
     } else {
       lock_layout(model, c, l, comp);
     }
@@ -181,6 +197,15 @@ void lock_rows(const ConstraintSpec& c, int s, int r0, const Eigen::VectorXd& q,
   cd.Gdot_v[r0] = 0.0;
   cd.err[r0] = q[c.q_index] - cd.lock_target[s];
   cd.Gv[r0] = v[c.dof];
+}
+
+// A coupling q_j = m q_i + o: one row e_j - m e_i, no Gdot v.
+void couple_rows(const ConstraintSpec& c, int r0, const Eigen::VectorXd& q, const Eigen::VectorXd& v, ConstraintData& cd) {
+  cd.G(r0, c.dof) = 1.0;
+  cd.G(r0, c.couple_dof) = -c.multiplier;
+  cd.Gdot_v[r0] = 0.0;
+  cd.err[r0] = q[c.q_index] - c.multiplier * q[c.couple_q] - c.offset;
+  cd.Gv[r0] = v[c.dof] - c.multiplier * v[c.couple_dof];
 }
 
 // A rolling wheel, rows: C^T u, u = v_R + w x p_RP the wheel's material velocity at the contact
@@ -320,6 +345,7 @@ void constraint_rows(const Model& model, const Data& data, const ConstraintSet& 
     const int s = static_cast<int>(i), r0 = set.row_offset[i];
     switch (c.kind) {
       case ConstraintKind::kLock: lock_rows(c, s, r0, q, v, cd); break;
+      case ConstraintKind::kCouple: couple_rows(c, r0, q, v, cd); break;
       case ConstraintKind::kRolling: rolling_rows(data, c, s, r0, set.support[i], cd); break;
       case ConstraintKind::kWeld: weld_rows(model, data, set, c, s, cd); break;
     }

@@ -37,6 +37,11 @@ enum class ConstraintKind {
   // Gdot*v is analytic (the motion of P around the rim and the rotation of C included). A wheel
   // lying flat (axle vertical, |a x n| -> 0) has no heading; rows stay finite but meaningless.
   kRolling,
+  // A coupling of two 1-DOF joints (a URDF <mimic>): q_j = m q_i + o, j the spec's `dof` (q_index),
+  // i its `couple_dof` (couple_q), m `multiplier`, o `offset`. One row: G = e_j - m e_i, position
+  // error q_j - m q_i - o, Gdot v = 0. Its multiplier lambda is the generalized force the coupling
+  // applies on joint j (-m lambda on joint i): reported with the stresses (constrained_dynamics.h).
+  kCouple,
 };
 
 struct ConstraintSpec {
@@ -46,7 +51,7 @@ struct ConstraintSpec {
   int frame_b = -1;              // weld: the other frame, -1 = the world
   Transform X_WA_target;         // weld to world: where frame A is held
   std::array<bool, 6> axes{{true, true, true, true, true, true}};  // [wx wy wz vx vy vz] of A
-  int dof = -1;                  // lock: velocity index
+  int dof = -1;                  // lock: velocity index (couple: of the mimicking joint j)
   int q_index = -1;              // lock: position index
   double q_target = 0.0;         // lock: held position (the scene's); a workspace may hold it
                                  // elsewhere (ConstraintData::lock_target, a commanded target)
@@ -66,6 +71,10 @@ struct ConstraintSpec {
   double rolling_resistance = 0.0;
   double mu = 0.0;               // rolling: friction coefficient for the utilisation report
                                  // (contacts.h); 0 = not given (friction needed still reported)
+  int couple_dof = -1;           // couple: velocity index of the mimicked joint i
+  int couple_q = -1;             // couple: its position index
+  double multiplier = 1.0;       // couple: q_j = multiplier q_i + offset
+  double offset = 0.0;
 };
 
 // Speed (m/s) over which the rolling-resistance moment's sign is smoothed: sgn(u) ~ u / sqrt(u^2 +
@@ -93,6 +102,8 @@ struct ConstraintSet {
   std::vector<int> row_spec;                // spec of each row
   Eigen::VectorXd row_compliance;           // (rows)
   bool rolling_resistance = false;          // some rolling spec has a rolling-resistance coefficient
+  std::vector<int> couple_specs;            // the kCouple specs, in order (their stresses follow the
+                                            // pseudo-joints' in Workspace::stress)
 
   void compile(const Model& model);
 };

@@ -59,6 +59,25 @@ const char* reason_key(Reason r) {
   return "unknown";
 }
 
+int num_stresses(const System& sys) {
+  return static_cast<int>(sys.model.pseudo_dofs.size() + sys.constraints.couple_specs.size());
+}
+
+namespace {
+int stress_dof(const System& sys, int k) {
+  const size_t p = sys.model.pseudo_dofs.size();
+  return static_cast<size_t>(k) < p ? sys.model.pseudo_dofs[static_cast<size_t>(k)]
+                                    : sys.constraints.specs[static_cast<size_t>(sys.constraints.couple_specs[k - p])].dof;
+}
+}  // namespace
+
+std::string stress_name(const System& sys, int k) { return sys.model.v_names[static_cast<size_t>(stress_dof(sys, k))]; }
+
+const char* stress_unit(const System& sys, int k) {
+  const Model& m = sys.model;
+  return m.bodies[m.dof_body[stress_dof(sys, k)]].joint.type == JointType::kPrismatic ? "N" : "N*m";
+}
+
 Workspace::Workspace(const System& sys)
     : data(sys.model), cd(sys.model, sys.constraints), qs(sys.constraints.rows) {
   const int n = sys.model.nv(), m = sys.constraints.rows;
@@ -66,7 +85,7 @@ Workspace::Workspace(const System& sys)
   tau_c0.setZero(n);
   vdot.setZero(n);
   lambda.setZero(m);
-  stress.setZero(static_cast<Eigen::Index>(sys.model.pseudo_dofs.size()));
+  stress.setZero(num_stresses(sys));
   diag.rows = m;
   Yt.setZero(n, m);
   const ConstraintSet& cs = sys.constraints;
@@ -518,6 +537,13 @@ void lock_stresses(const System& sys, Workspace& ws) {
       ws.stress[a++] = ws.lambda[sys.constraints.row_offset[s]];
 }
 
+// the couplings' forces on their mimicking joints: their rows' multipliers (every formulation)
+void couple_stresses(const System& sys, Workspace& ws) {
+  const std::vector<int>& cs = sys.constraints.couple_specs;
+  const size_t p = sys.model.pseudo_dofs.size();
+  for (size_t k = 0; k < cs.size(); ++k) ws.stress[p + k] = ws.lambda[sys.constraints.row_offset[cs[k]]];
+}
+
 }  // namespace
 
 const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
@@ -572,6 +598,7 @@ const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::Vecto
       lock_stresses(sys, ws);
       break;
   }
+  couple_stresses(sys, ws);
 
   dg.indeterminate = m - dg.rank;
   if (m > 0) {

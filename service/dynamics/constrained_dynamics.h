@@ -10,6 +10,7 @@
 // and is flagged per row. Nothing here allocates after the Workspace is built, logs or throws.
 #pragma once
 
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -49,6 +50,13 @@ struct Diagnostics {
                            // that broke solver.max_speed (kDiverged)
 };
 
+// The stresses a system reports (Workspace::stress): each pseudo-joint's locking force, then each
+// joint coupling's (ConstraintKind::kCouple, a URDF <mimic>) force on its mimicking joint. Names are
+// the joints' velocity names, units "N*m" (rotation) or "N" (translation).
+int num_stresses(const System& sys);
+std::string stress_name(const System& sys, int k);
+const char* stress_unit(const System& sys, int k);
+
 struct Workspace {
   explicit Workspace(const System& sys);
 
@@ -57,7 +65,8 @@ struct Workspace {
   Eigen::VectorXd tau_c;   // (nv) tau - h
   Eigen::VectorXd vdot;    // (nv) accelerations
   Eigen::VectorXd lambda;  // (rows) constraint multipliers
-  Eigen::VectorXd stress;  // (pseudo DOFs) generalized force locking each pseudo-joint
+  Eigen::VectorXd stress;  // (num_stresses) generalized force locking each pseudo-joint, then each
+                           // coupling's force on its mimicking joint (stress_names)
   Diagnostics diag;
 
   // Schur solve

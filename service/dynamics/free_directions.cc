@@ -63,7 +63,7 @@ std::string free_direction_reading(const System& sys, const WrenchData& wd, int 
       return "an internal force between " + names + " (a squeeze the rigid model cannot split): " + list;
     case FreeClass::kMoment:
       return "an internal moment between " + names + " (a twist the rigid model cannot split): " + list;
-    case FreeClass::kLock: return "pseudo-joint locks that carry nothing determinate: " + list;
+    case FreeClass::kLock: return "pseudo-joint locks or joint couplings that carry nothing determinate: " + list;
     case FreeClass::kMixed: break;
   }
   return "moves forces and moments together between " + names + ": " + list;

@@ -49,6 +49,7 @@ StateFitPlan plan_state_fit(const System& sys) {
           p.angular[r] = ax < 3 ? 1 : 0;
           break;
         case ConstraintKind::kLock:
+        case ConstraintKind::kCouple:
           p.holonomic[r] = 1;
           p.angular[r] = m.bodies[m.dof_body[c.dof]].joint.type == JointType::kPrismatic ? 0 : 1;
           break;

@@ -98,7 +98,8 @@ WrenchData::WrenchData(const System& sys) {
         case ConstraintKind::kRolling:
           c = ax == 5 ? FreeClass::kWheelNormal : ax == 4 ? FreeClass::kWheelLateral : FreeClass::kWheelLongitudinal;
           break;
-        case ConstraintKind::kLock: c = FreeClass::kLock; break;
+        case ConstraintKind::kLock:
+        case ConstraintKind::kCouple: c = FreeClass::kLock; break;
         default: c = ax < 3 ? FreeClass::kMoment : FreeClass::kForce; break;
       }
       row_class[static_cast<size_t>(cs.row_offset[s] + r)] = static_cast<uint8_t>(c);

@@ -20,7 +20,7 @@ enum class FreeClass : uint8_t {
   kWheelLongitudinal = 2,  // their longitudinal forces
   kForce = 3,              // force rows of welds and points (an internal force between grasps)
   kMoment = 4,             // moment rows of welds
-  kLock = 5,               // pseudo-joint locks
+  kLock = 5,               // pseudo-joint locks and joint couplings (URDF <mimic>)
   kMixed = 6,
 };
 constexpr int kFreeClasses = 7;

@@ -460,9 +460,9 @@ struct OutputEncoder::Impl {
     msg.contact_utilisation.assign(contacts.spec.size(), -1.0);
     msg.contact_state.assign(contacts.spec.size(), 0);
     msg.contact_status = 0;
-    msg.num_stresses = static_cast<int32_t>(model.pseudo_dofs.size());
-    for (int d : model.pseudo_dofs) msg.stress_names.push_back(model.v_names[d]);
-    msg.stress.assign(model.pseudo_dofs.size(), 0.0);
+    msg.num_stresses = static_cast<int32_t>(num_stresses(s));
+    for (int k = 0; k < num_stresses(s); ++k) msg.stress_names.push_back(stress_name(s, k));
+    msg.stress.assign(static_cast<size_t>(num_stresses(s)), 0.0);
     msg.nq = model.nq();
     msg.q_names = model.q_names;
     msg.q.assign(model.nq(), 0.0);

@@ -333,11 +333,14 @@ void build_arms(Builder& B, const YAML::Node& root, const std::map<std::string, 
     B.arms = arms;
   } else {
     for (const ArmSpec& s : arms) add_chain(B, s, -1, s.name + "." + s.robot->base_link, true);
-    if (!load.given) return;
-    const int L = add_load_body(B, load);
-    for (const ArmSpec& s : arms) weld_arm_to_load(B, s, L, load.name);
-    B.arms = arms;
+    if (load.given) {
+      const int L = add_load_body(B, load);
+      for (const ArmSpec& s : arms) weld_arm_to_load(B, s, L, load.name);
+      B.arms = arms;
+    }
   }
+  // a URDF's <mimic>s: the arm's joints coupled (reversed joints keep their coordinates)
+  for (const ArmSpec& s : arms) add_joint_couplings(c, s.node, B.sys.model, placed_mimics(*s.robot, s.name), B.sys.constraints);
 }
 
 namespace {

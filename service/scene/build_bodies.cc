@@ -64,6 +64,7 @@ void add_robot_body(Builder& B, const YAML::Node& b, const std::map<std::string,
   s.tool = get_pose(c, b["tool"], "robot body '" + s.name + "'.tool");
   parse_arm_joints(c, b, s);
   add_chain(B, s, parent, pn, false);
+  add_joint_couplings(c, b, B.sys.model, placed_mimics(*s.robot, s.name), B.sys.constraints);
 }
 
 JointType read_joint_type(const Ctx& c, const YAML::Node& jn, const std::string& name) {

@@ -85,7 +85,7 @@ void read_tree_values(const Ctx& c, const YAML::Node& n, const TreeSpec& s, cons
     const std::string jn = kv.first.IsScalar() ? kv.first.Scalar() : "";
     const int k = tree_joint(t, jn);
     if (k < 0)
-      fail(c, kv.first, what + ": unknown joint '" + jn + "' (URDF '" + t.file->path + "'; its moving joints: " +
+      fail(c, kv.first, what + ": unknown joint '" + jn + "' (URDF " + t.file->path + "; its moving joints: " +
                             moving_joint_list(t) + ")");
     if (t.joints[k].j.fixed) fail(c, kv.first, what + ": joint '" + jn + "' is fixed in the URDF: it takes no value");
     if (given[k]) fail(c, kv.first, what + ": joint '" + jn + "' given twice");
@@ -149,19 +149,15 @@ TreeSpec read_tree_spec(const Ctx& c, const YAML::Node& b, const Robot& r, const
   return s;
 }
 
-// TODO(merge, issue 26 point 3): rewire to helper A's mimic coupling (read_mimics + the function
-// that appends the coupling constraints). Until then a whole tree with a <mimic> joint is refused:
-// never dropped silently (its joint would move freely with its own torque).
+// The tree's <mimic>s: each coupling q_j = m q_i + o appended as a constraint row on the joints the
+// model now has as PREFIX.<joint> (a mimic of a fixed joint, a loop of mimics: errors there).
 void tree_mimics(const Ctx& c, const YAML::Node& where, const UrdfTree& t, const std::string& prefix, Builder& B) {
-  (void)prefix;
-  (void)B;
-  for (const UrdfTreeJoint& tj : t.joints) {
-    const urdf::JointConstSharedPtr jt = t.file->model->getJoint(tj.j.name);
-    if (jt && jt->mimic)
-      fail(c, where, tj.j.source + ": joint '" + tj.j.name + "' mimics joint '" + jt->mimic->joint_name +
-                         "' (<mimic>): mimic joints are not supported in a whole tree yet (load a chain without it: "
-                         "robots.<name>.tip)");
+  std::vector<UrdfMimic> m = read_mimics(*t.file);
+  for (UrdfMimic& x : m) {
+    x.joint = prefix + "." + x.joint;
+    x.mimicked = prefix + "." + x.mimicked;
   }
+  add_joint_couplings(c, where, B.sys.model, m, B.sys.constraints);
 }
 
 }  // namespace

@@ -21,22 +21,21 @@ namespace {
 std::vector<urdf::JointConstSharedPtr> chain_joints(const Ctx& c, const YAML::Node& where, const UrdfFile& f,
                                                     std::string& base, std::string& tip) {
   const urdf::ModelInterfaceSharedPtr& u = f.model;
-  const std::string& path = f.path;
   if (base.empty()) base = u->getRoot()->name;
   urdf::LinkConstSharedPtr lk = u->getLink(tip.empty() ? base : tip);
-  if (!u->getLink(base)) fail(c, where, "URDF '" + path + "': no link '" + base + "'");
+  if (!u->getLink(base)) fail(c, where, urdf_at(f) + ": no link '" + base + "'");
   if (tip.empty()) {
     urdf::LinkConstSharedPtr l = u->getLink(base);
     while (l->child_links.size() == 1) l = l->child_links[0];
-    if (!l->child_links.empty()) fail(c, where, "URDF '" + path + "' branches below '" + l->name +
-                                                        "': give robots.<name>.tip, or load the whole tree in `bodies:`");
+    if (!l->child_links.empty())
+      fail(c, where, urdf_at(f) + ": branches below '" + l->name + "': give robots.<name>.tip, or load the whole tree in `bodies:`");
     tip = l->name;
     lk = l;
   }
-  if (!lk) fail(c, where, "URDF '" + path + "': no link '" + tip + "'");
+  if (!lk) fail(c, where, urdf_at(f) + ": no link '" + tip + "'");
   std::vector<urdf::JointConstSharedPtr> chain;
   for (urdf::LinkConstSharedPtr l = lk; l && l->name != base; l = l->getParent()) {
-    if (!l->parent_joint) fail(c, where, "URDF '" + path + "': '" + tip + "' is not below '" + base + "'");
+    if (!l->parent_joint) fail(c, where, urdf_at(f) + ": '" + tip + "' is not below '" + base + "'");
     chain.push_back(l->parent_joint);
   }
   std::reverse(chain.begin(), chain.end());
@@ -64,26 +63,63 @@ void report_left_out_links(const UrdfFile& f, const std::set<std::string>& on_ch
   }
   if (!left.empty() && (mass > 0 || moving)) {
     std::ostringstream os;
-    os << "URDF '" << f.path << "': links off the chain " << base << " .. " << tip << " are left out: " << left << " ("
+    os << urdf_at(f) << ": links off the chain " << base << " .. " << tip << " are left out: " << left << " ("
        << mass << " kg; robots.<name>.branches: keep adds them rigidly)";
     r.warnings.push_back(os.str());
   }
 }
 
-// branches: keep: each side subtree (a gripper's fingers) is added rigidly, its joints at zero, to
-// the chain link it hangs from, so its mass and inertia count. Returns chain link -> the side
-// subtrees' inertia in its frame.
+// The value a joint off the chain is kept at (branches: keep): 0, or m * (its mimicked joint's
+// value) + o for a <mimic>, following the mimics (a loop or a mimicked chain joint is an error).
+double kept_joint_value(const Ctx& c, const YAML::Node& where, const UrdfFile& f, const std::set<std::string>& chain_joints,
+                        const std::map<std::string, UrdfMimic>& mimic_of, const std::string& joint, int depth = 0) {
+  const auto it = mimic_of.find(joint);
+  if (it == mimic_of.end()) return 0.0;
+  const UrdfMimic& mm = it->second;
+  if (depth > static_cast<int>(mimic_of.size()))
+    fail(c, where, mm.source + ": joint '" + joint + "' is in a loop of mimics (it follows itself)");
+  if (chain_joints.count(mm.mimicked))
+    fail(c, where, mm.source + ": joint '" + joint + "' off the chain mimics chain joint '" + mm.mimicked +
+                       "': a side branch kept rigidly (branches: keep) cannot follow it (make its link the tip, or leave the branch out)");
+  return mm.multiplier * kept_joint_value(c, where, f, chain_joints, mimic_of, mm.mimicked, depth + 1) + mm.offset;
+}
+
+// the placement of a kept side link in its parent: the joint's origin and its motion at `q`
+Transform kept_joint_pose(const urdf::Joint& jt, double q) {
+  const Transform X = urdf_pose(jt.parent_to_joint_origin_transform);
+  if (q == 0.0 || jt.type == urdf::Joint::FIXED) return X;
+  ChainJoint cj;
+  cj.axis = Vec3(jt.axis.x, jt.axis.y, jt.axis.z);
+  cj.prismatic = jt.type == urdf::Joint::PRISMATIC;
+  return X * chain_motion(cj, q);
+}
+
+// branches: keep: each side subtree (a gripper's fingers) is added rigidly, its joints at zero (a
+// mimic joint at m * 0 + o), to the chain link it hangs from, so its mass and inertia count.
+// Returns chain link -> the side subtrees' inertia in its frame.
 std::map<std::string, Inertia> keep_side_branches(const Ctx& c, const YAML::Node& where, const UrdfFile& f,
                                                   const std::set<std::string>& on_chain, const std::string& base, Robot& r) {
   std::map<std::string, Inertia> side;
+  std::map<std::string, UrdfMimic> mimic_of;
+  for (const UrdfMimic& mm : read_mimics(f)) mimic_of[mm.joint] = mm;
+  std::set<std::string> chain_joints;
+  for (const std::string& ln : on_chain)
+    if (ln != base) chain_joints.insert(f.model->getLink(ln)->parent_joint->name);
+  bool mimics = false;
+  auto pose = [&](const urdf::LinkConstSharedPtr& ch) {
+    const double q = kept_joint_value(c, where, f, chain_joints, mimic_of, ch->parent_joint->name);
+    mimics = mimics || mimic_of.count(ch->parent_joint->name);
+    return kept_joint_pose(*ch->parent_joint, q);
+  };
   std::function<void(const urdf::LinkConstSharedPtr&, const Transform&, Inertia&, double&, std::string&)> add;
   add = [&](const urdf::LinkConstSharedPtr& l, const Transform& X_CL, Inertia& acc, double& m, std::string& names) {
+    check_urdf_inertial(c, where, f, l->name, &r.warnings);
     if (l->inertial) {
       acc += link_inertia(c, where, *l).transformed(X_CL);
       m += l->inertial->mass;
     }
     names += (names.empty() ? "" : ", ") + l->name;
-    for (const auto& ch : l->child_links) add(ch, X_CL * urdf_pose(ch->parent_joint->parent_to_joint_origin_transform), acc, m, names);
+    for (const auto& ch : l->child_links) add(ch, X_CL * pose(ch), acc, m, names);
   };
   for (const std::string& ln : on_chain)
     for (const auto& ch : f.model->getLink(ln)->child_links) {
@@ -91,12 +127,13 @@ std::map<std::string, Inertia> keep_side_branches(const Ctx& c, const YAML::Node
       Inertia acc;
       double m = 0;
       std::string names;
-      add(ch, urdf_pose(ch->parent_joint->parent_to_joint_origin_transform), acc, m, names);
+      mimics = false;
+      add(ch, pose(ch), acc, m, names);
       if (m <= 0) continue;
       side[ln] += acc;
       std::ostringstream os;
-      os << "URDF '" << f.path << "': " << names << " (" << m << " kg) kept rigidly on '" << ln
-         << "' with their joints at zero (branches: keep)";
+      os << urdf_at(f) << ": " << names << " (" << m << " kg) kept rigidly on '" << ln
+         << "' with their joints at zero" << (mimics ? " (a mimic joint at its offset)" : "") << " (branches: keep)";
       if (ln == base) os << "; on the base link it is carried by the base and moves nothing";
       r.warnings.push_back(os.str());
     }
@@ -132,11 +169,80 @@ ChainJoint urdf_chain_joint(const Ctx& c, const YAML::Node& where, const UrdfFil
     j.lower = jt.limits->lower;
     j.upper = jt.limits->upper;
   }
-  const size_t at = f.xml.find("name=\"" + jt.name + "\"");
-  j.source = "URDF '" + f.path + "'" + (at == std::string::npos ? "" : " line " + std::to_string(line_of(f.xml, at)));
+  size_t at = 0, end = 0;
+  j.source = urdf_element(f, "joint", jt.name, &at, &end) ? urdf_at(f, at) : urdf_at(f);
   return j;
 }
 
+
+namespace {
+
+// The file's <mimic>s that couple joints of the chain, kept for the builders; one that couples a
+// chain joint with a joint off it, or mimics a fixed joint, is an error (it would be lost).
+void read_chain_mimics(const Ctx& c, const YAML::Node& where, const UrdfFile& f,
+                       const std::vector<urdf::JointConstSharedPtr>& chain, bool keep_branches, Robot& r) {
+  std::set<std::string> on;
+  for (const auto& jt : chain) on.insert(jt->name);
+  for (const UrdfMimic& mm : read_mimics(f)) {
+    const urdf::JointConstSharedPtr ji = f.model->getJoint(mm.mimicked), jj = f.model->getJoint(mm.joint);
+    const std::string what = mm.source + ": joint '" + mm.joint + "' mimics '" + mm.mimicked + "'";
+    if (!ji) fail(c, where, what + ", which the file does not have");
+    if (ji->type == urdf::Joint::FIXED || jj->type == urdf::Joint::FIXED)
+      fail(c, where, what + ", but a fixed joint has no coordinate to follow or to couple");
+    const bool j_on = on.count(mm.joint) > 0, i_on = on.count(mm.mimicked) > 0;
+    if (j_on && i_on)
+      r.mimics.push_back(mm);
+    else if (j_on)
+      fail(c, where, what + ", which is off the chain " + r.base_link + " .. " + chain.back()->child_link_name +
+                         ": the coupling would be lost (choose base and tip so that both joints are on the chain)");
+    else if (i_on && !keep_branches)
+      r.warnings.push_back(what + " on the chain; its link is left out with the links off the chain");
+  }
+}
+
+}  // namespace
+
+std::vector<UrdfMimic> placed_mimics(const Robot& r, const std::string& prefix) {
+  std::vector<UrdfMimic> out = r.mimics;
+  for (UrdfMimic& m : out) {
+    m.joint = prefix + "." + m.joint;
+    m.mimicked = prefix + "." + m.mimicked;
+  }
+  return out;
+}
+
+void add_joint_couplings(const Ctx& c, const YAML::Node& where, const Model& model, const std::vector<UrdfMimic>& couplings,
+                         ConstraintSet& cs) {
+  std::map<std::string, std::string> follows;  // joint -> the joint it mimics
+  for (const UrdfMimic& m : couplings) {
+    const std::string what = m.source + ": joint '" + m.joint + "' mimics '" + m.mimicked + "'";
+    ConstraintSpec s;
+    s.kind = ConstraintKind::kCouple;
+    s.name = "mimic:" + m.joint;
+    s.multiplier = m.multiplier;
+    s.offset = m.offset;
+    for (const std::string* nm : {&m.joint, &m.mimicked}) {
+      const int b = model.joint_index(*nm);
+      if (b < 0 || model.bodies[b].joint.nv != 1 || model.bodies[b].joint.pseudo)
+        fail(c, where, what + ", but '" + *nm + "' is not a moving one-DOF joint of the scene (a fixed joint, or one held by fixed_joints?)");
+      const Joint& j = model.bodies[b].joint;
+      (nm == &m.joint ? s.dof : s.couple_dof) = j.idx_v;
+      (nm == &m.joint ? s.q_index : s.couple_q) = j.idx_q;
+    }
+    if (m.joint == m.mimicked) fail(c, where, what + ": a joint cannot mimic itself");
+    if (!std::isfinite(m.multiplier) || !std::isfinite(m.offset)) fail(c, where, what + ": multiplier and offset must be numbers");
+    if (!follows.emplace(m.joint, m.mimicked).second) fail(c, where, what + ": the joint already mimics another");
+    cs.specs.push_back(s);
+  }
+  for (const auto& kv : follows) {  // a loop of mimics: the rows would contradict each other
+    std::string at = kv.first;
+    for (size_t n = 0; n <= follows.size() && follows.count(at); ++n) {
+      at = follows.at(at);
+      if (at == kv.first)
+        fail(c, where, "joint '" + kv.first + "' is in a loop of mimics (it follows itself through '" + kv.second + "')");
+    }
+  }
+}
 
 Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path, const std::string& name,
                  std::string base, std::string tip, bool keep_branches) {
@@ -154,7 +260,8 @@ Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path,
   else
     report_left_out_links(f, on_chain, base, tip, r);
   for (const auto& jt : chain) r.joints.push_back(urdf_chain_joint(c, where, f, *jt, side));
-  if (r.joints.empty()) fail(c, where, "URDF '" + path + "': no joints between '" + base + "' and '" + tip + "'");
+  if (!chain.empty()) read_chain_mimics(c, where, f, chain, keep_branches, r);
+  if (r.joints.empty()) fail(c, where, urdf_at(f) + ": no joints between '" + base + "' and '" + tip + "'");
   return r;
 }
 

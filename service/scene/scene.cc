@@ -133,7 +133,7 @@ void check_initial_state_closes(const Ctx& c, const YAML::Node& root, const Syst
          << (pe > 1e-6 ? "position error" : "velocity error") << " per axis";
       for (int k = 0; k < n; ++k) {
         const int ax = sys.constraints.row_axis[s][k];
-        os << " " << (sp.kind == ConstraintKind::kLock ? "q" : axis[ax]) << " " << (pe > 1e-6 ? cd.err[r0 + k] : cd.Gv[r0 + k]);
+        os << " " << (sp.kind == ConstraintKind::kLock || sp.kind == ConstraintKind::kCouple ? "q" : axis[ax]) << " " << (pe > 1e-6 ? cd.err[r0 + k] : cd.Gv[r0 + k]);
       }
       os << (sp.kind == ConstraintKind::kWeld ? " (rad, m; in the tip frame)" : "");
       fail(c, constraint_node(root, sp.name), os.str());

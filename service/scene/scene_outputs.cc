@@ -18,7 +18,7 @@ void build_wrench_outputs(const Ctx& c, const YAML::Node& root, System& sys) {
     if (o.spec >= 0) listed[o.spec] = 1;
   for (size_t k = 0; k < cs.specs.size(); ++k) {
     const ConstraintSpec& cp = cs.specs[k];
-    if (listed[k] || cp.kind == ConstraintKind::kLock) continue;
+    if (listed[k] || cp.kind == ConstraintKind::kLock || cp.kind == ConstraintKind::kCouple) continue;  // stresses
     WrenchOutput o;
     o.kind = WrenchKind::kTip;
     o.spec = static_cast<int>(k);

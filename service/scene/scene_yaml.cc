@@ -195,6 +195,13 @@ std::string inertia_plausibility(double m, const Mat3& I) {
   return os.str();
 }
 
+bool inertia_psd(const Mat3& I) {
+  Eigen::SelfAdjointEigenSolver<Mat3> es(I);
+  const Vec3 p = es.eigenvalues();
+  const double tol = 1e-12 * std::max(1.0, p.cwiseAbs().maxCoeff());
+  return I.allFinite() && !(p.minCoeff() < -tol);
+}
+
 // mass, com, inertia [ixx, iyy, izz, ixy, iyz, ixz] about the centre of mass
 Inertia get_inertia(const Ctx& c, const YAML::Node& n, const std::string& what) {
   const double m = get_double(c, n, "mass", 0.0, what);
@@ -208,10 +215,7 @@ Inertia get_inertia(const Ctx& c, const YAML::Node& n, const std::string& what) 
   if (n["inertia"]) {
     auto v = as_list(c, n["inertia"], 6, what + ".inertia");
     I << v[0], v[3], v[5], v[3], v[1], v[4], v[5], v[4], v[2];
-    Eigen::SelfAdjointEigenSolver<Mat3> es(I);
-    const Vec3 p = es.eigenvalues();
-    const double tol = 1e-12 * std::max(1.0, p.cwiseAbs().maxCoeff());
-    if (p.minCoeff() < -tol) fail(c, n["inertia"], what + ": inertia tensor is not positive semi-definite");
+    if (!inertia_psd(I)) fail(c, n["inertia"], what + ": inertia tensor is not positive semi-definite");
   }
   // positive semi-definiteness is what M needs; the rest is a warning (published models use
   // rotor-only inertias, PUMA link 1 is [0, 0.35, 0], which the check accepts)
@@ -267,7 +271,7 @@ void check_yaml_text(const std::string& text, const std::string& file) {
 
 YAML::Node load_yaml_file(const Ctx& c, const std::string& path, const YAML::Node& where) {
   std::string text, why;
-  if (!bounded::read_file(path, bounded::kMaxYamlBytes, "'" + path + "'", &text, &why)) fail(c, where, why);
+  if (!bounded::read_file(path, bounded::kMaxYamlBytes, path, &text, &why)) fail(c, where, why);
   check_yaml_text(text, path);
   try {
     return YAML::Load(text);

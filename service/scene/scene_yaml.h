@@ -52,6 +52,9 @@ Inertia get_inertia(const Ctx& c, const YAML::Node& n, const std::string& what);
 // the warnings of an inertia the scene or a URDF gives (mass above 1e5 kg; principal moments that
 // break the triangle inequality, except a rotor-only model with one nonzero moment); "" when none
 std::string inertia_plausibility(double mass, const Mat3& I_com);
+// whether a symmetric inertia tensor is positive semi-definite (to 1e-12 of its largest eigenvalue
+// magnitude, at least 1e-12 kg m^2): what M needs, an error when a scene or a URDF breaks it
+bool inertia_psd(const Mat3& I_com);
 std::array<bool, 6> get_axes(const Ctx& c, const YAML::Node& n, const std::string& what);  // absent = all six
 std::array<double, 6> get_compliance(const Ctx& c, const YAML::Node& n, const std::string& what);  // scalar or 6
 

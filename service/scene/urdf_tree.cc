@@ -108,7 +108,7 @@ bool urdf_spin_axis(const UrdfTree& t, const std::string& link, Vec3* axis) {
 
 double urdf_wheel_radius(const UrdfTree& t, const std::string& link, const Vec3& axle, std::string* why) {
   const auto it = t.cylinders.find(link);
-  const std::string where = "URDF '" + t.file->path + "' link '" + link + "'";
+  const std::string where = "URDF " + t.file->path + ": link '" + link + "'";
   if (it == t.cylinders.end() || it->second.empty()) {
     *why = where + " has no <cylinder> in its <collision> or <visual>";
     return 0;

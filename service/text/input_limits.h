@@ -16,7 +16,9 @@ inline constexpr size_t kMaxUrdfBytes = 4u << 20;    // 4 MiB per URDF (a 100-li
 inline constexpr int kMaxYamlDepth = 64;             // shipped files nest at most 6 levels
 inline constexpr int kMaxXmlDepth = 32;              // URDF nests 5 (robot/link/visual/geometry/mesh)
 inline constexpr size_t kMaxShownChars = 80;         // of one quoted value in an error message
-inline constexpr size_t kMaxMessageChars = 1000;     // of a whole error message
+// of a whole error message: room for two file paths of PATH_MAX (4096) each, printed whole and
+// unquoted ("PATH:LINE: reason": the scene file and a URDF or robot file it names), and the reason
+inline constexpr size_t kMaxMessageChars = 10000;
 
 // `value` if it has at most max_chars characters, else its first and last characters around "..."
 // (max_chars in all; the end is kept because a path's file name is there). Never splits a UTF-8
@@ -25,6 +27,8 @@ std::string shown(const std::string& value, size_t max_chars = kMaxShownChars);
 
 // msg with every quoted run ('...' or "...") longer than kMaxShownChars shortened by shown(), and
 // the whole message cut to kMaxMessageChars (" ... (N more characters)"), whatever its quoting.
+// File paths are written unquoted by the loaders, so they stay whole; values echoed from a file are
+// quoted, so they stay short.
 std::string cut_values(const std::string& msg);
 
 // Reads a regular file of at most max_bytes into *out. On failure returns false and sets *why to

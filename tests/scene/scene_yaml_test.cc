@@ -173,7 +173,7 @@ TEST(SceneValues, JointValuesOutsideUrdfLimitsAreWarnings) {
   text = replaced(text, "q: [0.6, -1.0, 0.4]", "q: [0.6, -1.0, 3.2]");
   System s = load_scene_string(text, "values.yaml");
   std::string w = all_warnings(s);
-  EXPECT_NE(w.find("arm 'arm1' joint j3 q = 3.2 is outside its limits [-3, 3] (URDF '" + path + "' line "), std::string::npos)
+  EXPECT_NE(w.find("arm 'arm1' joint j3 q = 3.2 is outside its limits [-3, 3] (URDF " + path + ":22)"), std::string::npos)
       << w;
   EXPECT_NE(w.find("values.yaml:"), std::string::npos) << w;
   std::remove(path.c_str());

@@ -258,18 +258,31 @@ TEST(UrdfTree, ErrorsNameTheProblemAndItsLine) {
   EXPECT_NE(e.find("root_v applies to a floating root"), std::string::npos) << e;
 }
 
-TEST(UrdfTree, AMimicJointIsRefusedNotDropped) {
+TEST(UrdfTree, AMimicJointInATreeIsCoupled) {
+  // arm_right_4 mimics arm_left_4 (multiplier -1; the scene's -0.2 and 0.2 satisfy it): a coupling
+  // row in the tree holding the box, the right wrist's accelerations the left's negated, the
+  // coupling's force reported as the right wrist's stress; a mimic of a fixed joint is refused
   std::string urdf = slurp(data_path("two_arm_torso.urdf"));
   const std::string j = "<joint name=\"arm_right_4_joint\" type=\"revolute\">";
-  urdf = replace_once(urdf, j, j + "<mimic joint=\"arm_left_4_joint\" multiplier=\"-1\"/>");
   const std::string path = ::testing::TempDir() + "coopdyn_tree_" + std::to_string(::getpid()) + ".urdf";
-  std::ofstream(path) << urdf;
-  const std::string e = error_of(replace_once(slurp(data_path("two_arm_torso_box.yaml")), "{urdf: two_arm_torso.urdf}",
-                                              "{urdf: " + path + "}"),
-                                 data_path("two_arm_torso_box.yaml"));
+  const std::string scene = replace_once(slurp(data_path("two_arm_torso_box.yaml")), "{urdf: two_arm_torso.urdf}", "{urdf: " + path + "}");
+  std::ofstream(path) << replace_once(urdf, j, j + "<mimic joint=\"arm_left_4_joint\" multiplier=\"-1\"/>");
+  const System s = load_scene_string(scene, data_path("two_arm_torso_box.yaml"));
+  const int l4 = velocity_index_of(s, "duo.arm_left_4_joint"), r4 = velocity_index_of(s, "duo.arm_right_4_joint");
+  ASSERT_GE(l4, 0);
+  ASSERT_GE(r4, 0);
+  Eigen::VectorXd tau = Eigen::VectorXd::Zero(s.model.nv());
+  for (int i = 0; i < s.model.nv(); ++i) tau[i] = s.tau_limit[i] > 0 ? 0.3 * std::cos(1.0 + i) : 0.0;
+  Workspace ws(s);
+  ASSERT_NE(evaluate(s, ws, s.q0, s.v0, tau).status, Status::kError);
+  EXPECT_NEAR(ws.vdot[r4], -ws.vdot[l4], 1e-10 * (1 + std::abs(ws.vdot[l4])));
+  ASSERT_EQ(num_stresses(s), 1);
+  EXPECT_EQ(stress_name(s, 0), "duo.arm_right_4_joint");
+  std::ofstream(path) << replace_once(urdf, j, j + "<mimic joint=\"arm_left_tool_joint\"/>");
+  const std::string e = error_of(scene, data_path("two_arm_torso_box.yaml"));
   std::remove(path.c_str());
-  EXPECT_NE(e.find("joint 'arm_right_4_joint' mimics joint 'arm_left_4_joint'"), std::string::npos) << e;
-  EXPECT_NE(e.find(path + "' line "), std::string::npos) << "names the file and line: " << e;
+  EXPECT_NE(e.find("URDF " + path + ":71: joint 'duo.arm_right_4_joint' mimics 'duo.arm_left_tool_joint', but "
+                   "'duo.arm_left_tool_joint' is not a moving one-DOF joint of the scene"), std::string::npos) << e;
 }
 
 TEST(UrdfTree, AFloatingRootMovesFreely) {

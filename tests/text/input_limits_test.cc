@@ -71,6 +71,17 @@ TEST(InputLimits, LongValuesAreCutKeepingBothEnds) {
   EXPECT_TRUE(valid_utf8(cut_values("'" + utf + "' and " + utf)));
 }
 
+TEST(InputLimits, TwoUnquotedPathsOfPathMaxStayWholeAValueStaysShort) {
+  // the loaders print paths unquoted ("PATH:LINE: reason"): a scene and a URDF path of PATH_MAX
+  // (4096) each fit a message whole, while a quoted value echoed from a file is still cut
+  const std::string scene = "/" + std::string(4090, 's') + ".yaml", urdf = "/" + std::string(4090, 'u') + ".urdf";
+  const std::string value(500, 'v');
+  const std::string m = cut_values(scene + ":3:5: URDF " + urdf + ":12: link '" + value + "': no <inertia> element");
+  EXPECT_NE(m.find(scene + ":3:5: URDF " + urdf + ":12: link '"), std::string::npos);
+  EXPECT_NE(m.find("': no <inertia> element"), std::string::npos) << m.substr(m.size() - 100);
+  EXPECT_EQ(m.find(value), std::string::npos) << "the value is cut to " << kMaxShownChars;
+}
+
 TEST(InputLimits, ReadFileRefusesDevicesFifosDirectoriesAndOversizeFiles) {
   std::string out, why;
   EXPECT_FALSE(read_file("/dev/zero", 1000, "the config", &out, &why));

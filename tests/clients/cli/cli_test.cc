@@ -267,3 +267,35 @@ TEST(Cli, ReferencePageIsWhatItsScriptWritesFromTheHelp) {
   page << f.rdbuf();
   EXPECT_EQ(r.out, page.str()) << "the page is stale: docs/reference/cli.sh build/bin > docs/reference/cli.md";
 }
+
+TEST(Cli, EvalAndSimReportAUrdfMimicCouplingAsAStress) {
+  // a two-joint URDF arm, j2 mimicking j1 (q2 = 2 q1 + 0.1), swinging under gravity in its plane:
+  // eval lists the coupling's force as the stress of arm.j2 and vdot_2 = 2 vdot_1; sim has its column
+  const std::string dir = ::testing::TempDir(), tag = std::to_string(::getpid());
+  const std::string urdf = dir + "cli_mimic_" + tag + ".urdf", yaml = dir + "cli_mimic_" + tag + ".yaml";
+  std::ofstream(urdf)
+      << "<robot name=\"m\"><link name=\"base\"/>\n"
+         "<link name=\"l1\"><inertial><origin xyz=\"0.25 0 0\"/><mass value=\"2\"/><inertia ixx=\"0.001\" iyy=\"0.04\" izz=\"0.04\" "
+         "ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n"
+         "<link name=\"l2\"><inertial><origin xyz=\"0.2 0 0\"/><mass value=\"1.5\"/><inertia ixx=\"0.001\" iyy=\"0.02\" izz=\"0.02\" "
+         "ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n"
+         "<joint name=\"j1\" type=\"continuous\"><parent link=\"base\"/><child link=\"l1\"/><axis xyz=\"0 0 1\"/></joint>\n"
+         "<joint name=\"j2\" type=\"continuous\"><parent link=\"l1\"/><child link=\"l2\"/><origin xyz=\"0.5 0 0\"/><axis xyz=\"0 0 1\"/>"
+         "<mimic joint=\"j1\" multiplier=\"2\" offset=\"0.1\"/></joint></robot>\n";
+  std::ofstream(yaml) << "name: cli_mimic\ngravity: [0, -9.81, 0]\nrobots:\n  m: {urdf: " << urdf
+                      << "}\narms:\n  - {name: arm, robot: m, base: {xyz: [0, 0, 0]}, q: [0.3, 0.7]}\n";
+  const Result e = run({COOPDYN_PATH, "eval", "--scene", yaml}, "mimic_eval");
+  ASSERT_EQ(e.rc, 0) << e.err;
+  const YAML::Node j = YAML::Load(e.out);
+  ASSERT_EQ(j["stresses"].size(), 1u) << e.out;
+  EXPECT_EQ(j["stresses"][0]["joint"].as<std::string>(), "arm.j2");
+  EXPECT_EQ(j["stresses"][0]["unit"].as<std::string>(), "N*m");
+  EXPECT_GT(std::abs(j["stresses"][0]["value"].as<double>()), 0.1) << "gravity loads the coupling";
+  const double a1 = j["vdot"][0].as<double>(), a2 = j["vdot"][1].as<double>();
+  EXPECT_NEAR(a2, 2 * a1, 1e-12 * (1 + std::abs(a1)));
+  const Result s = run({COOPDYN_PATH, "sim", "--scene", yaml, "--duration", "0.002", "--dt", "0.001"}, "mimic_sim");
+  ASSERT_EQ(s.rc, 0) << s.err;
+  EXPECT_TRUE(has(s.out, ",stress:arm.j2")) << s.out.substr(0, 400);
+  std::remove(urdf.c_str());
+  std::remove(yaml.c_str());
+}
