@@ -33,6 +33,7 @@ struct ProfileArgs {
 
 struct EvalArgs : SceneArgs {
   std::optional<std::string> state;
+  bool hold = false;
 };
 
 struct SimArgs : SceneArgs, ProfileArgs {
@@ -41,6 +42,7 @@ struct SimArgs : SceneArgs, ProfileArgs {
   std::optional<std::string> out;
   WholeNumber every{1, "1"};
   bool progress = false;
+  bool hold = false;
 };
 
 struct SendArgs : SceneArgs, ProfileArgs {

@@ -4,6 +4,7 @@
 
 #include <cstdio>
 
+#include "service/dynamics/holding_torque.h"
 #include "service/scene/scene.h"
 
 namespace coopdyn::cli {
@@ -68,6 +69,21 @@ bool read_state(const std::string& path, const System& sys, Eigen::VectorXd& q, 
     return false;
   }
   return get("q", q, sys.model.nq()) && get("v", v, sys.model.nv()) && get("tau", tau, sys.model.nv());
+}
+
+bool add_holding_torques(const char* cmd, const System& sys, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
+                         Eigen::VectorXd& tau) {
+  HoldWorkspace hw(sys, default_actuated(sys));
+  Eigen::VectorXd th(sys.model.nv());
+  if (!holding_torque(sys, hw, q, v, th)) {
+    std::fprintf(stderr, "coopdyn %s: --hold: the state is not valid (NaN/Inf or a non-unit quaternion)\n", cmd);
+    return false;
+  }
+  if (hw.residual > 1e-6)
+    std::fprintf(stderr, "coopdyn %s: warning: --hold: the actuators cannot hold this state (residual %.6g N*m or N)\n", cmd,
+                 hw.residual);
+  tau += th;
+  return true;
 }
 
 }  // namespace coopdyn::cli

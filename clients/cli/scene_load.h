@@ -16,5 +16,10 @@ int load_cli_scene(const SceneArgs& a, const char* cmd, System* sys);
 // Reads q, v, tau (each optional) from a JSON or YAML state file in the scene's coordinate order;
 // prints the problem and returns false on a bad file.
 bool read_state(const std::string& path, const System& sys, Eigen::VectorXd& q, Eigen::VectorXd& v, Eigen::VectorXd& tau);
+// --hold: adds the holding torques at (q, v) (holding_torque.h) to tau. A state the actuators cannot
+// hold (residual above 1e-6 N*m or N) is said on stderr, with the residual; false (printed) on an
+// invalid state.
+bool add_holding_torques(const char* cmd, const System& sys, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
+                         Eigen::VectorXd& tau);
 
 }  // namespace coopdyn::cli

@@ -13,6 +13,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -21,6 +22,7 @@
 #include "clients/cli/progress.h"
 #include "clients/csv/step_csv.h"
 #include "service/dynamics/contacts.h"
+#include "service/dynamics/holding_torque.h"
 #include "service/dynamics/integrators.h"
 #include "service/dynamics/wrenches.h"
 #include "service/scene/scene.h"
@@ -38,6 +40,7 @@ struct SimPlan {
   const TorqueProfile& steer;
   const std::vector<int>& steer_dofs;   // steer.dofs()
   const std::vector<int>& steer_locks;  // lock spec of each of steer_dofs
+  HoldWorkspace* hold;                  // --hold: the holding torques added every step; null without
 };
 
 // The loop's state, sized once: a step allocates nothing.
@@ -61,13 +64,18 @@ struct SimRun {
   Stepper st;
   WrenchData wd;
   Eigen::VectorXd q, v, tau, target, q_prev, v_prev;
+  Eigen::VectorXd tau_hold = Eigen::VectorXd::Zero(tau.size());
   StepRow row;
   CsvLine line;
 };
 
 // The applied torques and the locks' targets at the step's start, held over the step.
-void apply_inputs(const SimPlan& p, double t, SimRun& r) {
+void apply_inputs(const System& sys, const SimPlan& p, double t, SimRun& r) {
   p.prof.eval(t, r.tau);
+  if (p.hold) {
+    holding_torque(sys, *p.hold, r.q, r.v, r.tau_hold);
+    r.tau += r.tau_hold;
+  }
   if (p.steer_dofs.empty()) return;
   p.steer.eval(t, r.target);
   for (size_t k = 0; k < p.steer_dofs.size(); ++k) set_lock_target(r.st, p.steer_locks[k], r.target[p.steer_dofs[k]]);
@@ -139,7 +147,7 @@ int simulate(const System& sys, const SimPlan& p, SimRun& r, Progress& progress,
   const long steps = std::lround(p.T / p.h);
   for (long i = 0; i <= steps; ++i) {
     const double t = i * p.h;
-    apply_inputs(p, t, r);
+    apply_inputs(sys, p, t, r);
     r.q_prev = r.q;  // no allocation: sized above
     r.v_prev = r.v;
     const Diagnostics& d =
@@ -171,6 +179,8 @@ void register_sim(Cli& cli) {
   value(c, "--out", a.out, "FILE.csv", "where to write the CSV (default: stdout)");
   number(c, "--every", a.every, "N", "write every N-th step only (t = 0, N dt, 2 N dt, ...)", Default::kShown);
   flag(c, "--progress", a.progress, "report progress on stderr (default: only when stderr is a terminal)");
+  flag(c, "--hold", a.hold,
+       "add, every step, the holding torques at the step's start state (coopdynd's safe torque `hold`) to the profiles");
 }
 
 int cmd_sim(const SimArgs& a) {
@@ -214,8 +224,10 @@ int cmd_sim(const SimArgs& a) {
   write_step_csv_header(out, schema, cols);
 
   SimRun run(sys, cols.names.size());
+  std::optional<HoldWorkspace> hold;
+  if (a.hold) hold.emplace(sys, default_actuated(sys));
   Progress progress("coopdyn sim", a.progress);
-  const int rc = simulate(sys, {T, h, every, integ, prof, steer, steer_dofs, steer_locks}, run, progress, out);
+  const int rc = simulate(sys, {T, h, every, integ, prof, steer, steer_dofs, steer_locks, hold ? &*hold : nullptr}, run, progress, out);
   if (out != stdout) std::fclose(out);
   else std::fflush(out);
   return rc;

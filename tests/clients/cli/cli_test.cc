@@ -299,3 +299,28 @@ TEST(Cli, EvalAndSimReportAUrdfMimicCouplingAsAStress) {
   std::remove(urdf.c_str());
   std::remove(yaml.c_str());
 }
+
+TEST(Cli, EvalAndSimHoldTheRobotStillWithHold) {
+  // --hold adds coopdynd's holding torques: the PR2 holding its box does not move (eval's vdot and a
+  // sim's last state), where without it the torso lift drops at g
+  const std::string s = scene("pr2_box");
+  const Result free = run({COOPDYN_PATH, "eval", "--scene", s}, "hold_free");
+  ASSERT_EQ(free.rc, 0) << free.err;
+  const Result held = run({COOPDYN_PATH, "eval", "--scene", s, "--hold"}, "hold_eval");
+  ASSERT_EQ(held.rc, 0) << held.err;
+  double a_free = 0, a_held = 0;
+  for (const auto& x : YAML::Load(free.out)["vdot"]) a_free = std::max(a_free, std::abs(x.as<double>()));
+  for (const auto& x : YAML::Load(held.out)["vdot"]) a_held = std::max(a_held, std::abs(x.as<double>()));
+  EXPECT_NEAR(a_free, 9.81, 1e-6);
+  EXPECT_LT(a_held, 1e-7);
+  const Result sim = run({COOPDYN_PATH, "sim", "--scene", s, "--hold", "--duration", "0.05", "--dt", "0.001"}, "hold_sim");
+  ASSERT_EQ(sim.rc, 0) << sim.err;
+  std::vector<std::string> rows;
+  std::istringstream in(sim.out);
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty() && line[0] != '#') rows.push_back(line);
+  ASSERT_GE(rows.size(), 3u);
+  const std::vector<std::string> head = split(rows[0]), first = split(rows[1]), last = split(rows.back());
+  for (size_t k = 0; k < head.size(); ++k)
+    if (head[k].rfind("q:", 0) == 0) EXPECT_NEAR(std::stod(last[k]), std::stod(first[k]), 1e-6) << head[k];
+}
