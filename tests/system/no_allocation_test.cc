@@ -9,6 +9,7 @@
 
 #include "service/dynamics/integrators.h"
 #include "service/dynamics/contacts.h"
+#include "service/dynamics/holding_torque.h"
 #include "service/dynamics/wrenches.h"
 #include "tests/support/test_util.h"
 
@@ -139,6 +140,43 @@ TEST(NoAllocation, EvaluateAndStepOfTheWheelScenes) {
       }
       EXPECT_TRUE(q.allFinite());
     }
+  }
+}
+
+TEST(NoAllocation, EvaluateStepAndHoldOfTheRealRobots) {
+  // whole URDF trees (36 and 45 DOF) with mimic couplings, grasps and, for TIAGo Pro, four wheels;
+  // the holding torques too (the daemon's safe torque when no command arrives)
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  for (const std::string name : {"pr2_box", "tiago_pro_box"}) {
+    SCOPED_TRACE(name);
+    const System sys = load_with_reactions(name, Formulation::kMobilePlatform);
+    Stepper st(sys);
+    WrenchData wd(sys);
+    ContactData cts(sys);
+    HoldWorkspace hw(sys, default_actuated(sys));
+    std::mt19937 rng(7);
+    const int n = sys.model.nv();
+    std::vector<Eigen::VectorXd> qs, vs, taus;
+    for (int k = 0; k < 8; ++k) {
+      Eigen::VectorXd q, v;
+      random_state(sys, rng, k % 2 ? 0.2 : 0.0, q, v);
+      qs.push_back(q);
+      vs.push_back(v);
+      taus.push_back(Eigen::VectorXd::Random(n));
+    }
+    Eigen::VectorXd q = sys.q0, v = sys.v0, tau = Eigen::VectorXd::Zero(n);
+    {
+      AllocationCounter c;
+      for (int k = 0; k < 200; ++k) {
+        evaluate(sys, st.ws, qs[k % 8], vs[k % 8], taus[k % 8]);
+        compute_wrenches(sys, st.ws, wd);
+        compute_contacts(sys, st.ws, cts);
+      }
+      for (int k = 0; k < 20; ++k) holding_torque(sys, hw, qs[k % 8], vs[k % 8], tau);
+      for (int k = 0; k < 50; ++k) step(sys, st, k % 2 ? Integrator::kRk4 : Integrator::kSemiImplicitEuler, 1e-3, tau, q, v);
+      EXPECT_EQ(c.count(), 0);
+    }
+    EXPECT_TRUE(q.allFinite());
   }
 }
 
