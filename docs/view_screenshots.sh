@@ -1,23 +1,28 @@
 #!/usr/bin/env bash
 # Screenshots of every shipped scene in `coopdyn view` (docs/guide/viewer.md): 1 s of `coopdyn sim`
-# (the inputs below), the page, and headless Chromium (software WebGL) at t = 0.5 s, paused; and the
+# (the inputs below; the real robots held still by --hold), the page, and headless Chromium
+# (software WebGL) at t = 0.5 s, paused; and the
 # plot of arm1's end-effector wrench in two_puma_load at 0.7 s.
 #   bash docs/view_screenshots.sh [build/bin] [docs/views]
 set -euo pipefail
 bin=${1:-build/bin}; out=${2:-docs/views}
 mkdir -p "$out"
+bin=$(cd "$bin" && pwd); out=$(cd "$out" && pwd); here=$(pwd)
 chromium=$(command -v chromium || command -v chromium-browser)
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 declare -A torque=(
   [two_wheel_vehicle]="--torque left_spin:pulse:1.0:0:0.5"
   [four_wheel_car]="--torque rl_spin:constant:1100 --torque rr_spin:constant:1100"
   [trike]="--torque rl_spin:constant:150 --torque rr_spin:constant:150"
+  [pr2_box]="--hold"
+  [tiago_pro_box]="--hold"
 )
 for f in config/scenes/*.yaml; do
   s=$(basename "$f" .yaml)
   # shellcheck disable=SC2086
   "$bin/coopdyn" sim --scene "$f" --duration 1 --dt 0.001 ${torque[$s]:-} --out "$tmp/$s.csv" 2>/dev/null
-  "$bin/coopdyn" view --scene "$f" --csv "$tmp/$s.csv" --out "$tmp/$s.html" > /dev/null 2>&1
+  # the page names its CSV: a relative name, not this machine's temporary folder
+  (cd "$tmp" && "$bin/coopdyn" view --scene "$here/$f" --csv "$s.csv" --out "$s.html" > /dev/null 2>&1)
   timeout 120 "$chromium" --headless --no-sandbox --disable-gpu --use-angle=swiftshader --enable-unsafe-swiftshader \
     --hide-scrollbars --mute-audio --no-first-run --user-data-dir="$tmp/profile" --window-size=900,600 \
     --virtual-time-budget=3000 --screenshot="$out/view_$s.png" "file://$tmp/$s.html#t=0.5&paused=1" 2>/dev/null
