@@ -38,43 +38,8 @@ git -C "$COOP_GIT" archive "$COOP_REV" | tar -x -C coopdyn-src
 git -C "$COOP_GIT" rev-parse "$COOP_REV" > coopdyn-src/COMMIT
 
 # --- Pinocchio: the generated headers, by hand (what jrl-cmakemodules would write) ---
-PV=$(sed -n 's:.*<version>\(.*\)</version>.*:\1:p' pinocchio-src/package.xml)
-IFS=. read -r PMAJ PMIN PPAT <<< "$PV"
-cat > gen/pinocchio/config.hpp <<EOF
-// Written by build.sh in place of the CMake-generated header (Pinocchio $PV, header-only use).
-#ifndef PINOCCHIO_CONFIG_HPP
-#define PINOCCHIO_CONFIG_HPP
-#define PINOCCHIO_VERSION "$PV"
-#define PINOCCHIO_MAJOR_VERSION $PMAJ
-#define PINOCCHIO_MINOR_VERSION $PMIN
-#define PINOCCHIO_PATCH_VERSION $PPAT
-#define PINOCCHIO_VERSION_AT_LEAST(major, minor, patch) \\
-  (PINOCCHIO_MAJOR_VERSION > major || (PINOCCHIO_MAJOR_VERSION >= major && (PINOCCHIO_MINOR_VERSION > minor || \\
-   (PINOCCHIO_MINOR_VERSION >= minor && PINOCCHIO_PATCH_VERSION >= patch))))
-#define PINOCCHIO_VERSION_AT_MOST(major, minor, patch) \\
-  (PINOCCHIO_MAJOR_VERSION < major || (PINOCCHIO_MAJOR_VERSION <= major && (PINOCCHIO_MINOR_VERSION < minor || \\
-   (PINOCCHIO_MINOR_VERSION <= minor && PINOCCHIO_PATCH_VERSION <= patch))))
-#define PINOCCHIO_DLLAPI
-#define PINOCCHIO_LOCAL
-#define PINOCCHIO_EXPLICIT_INSTANTIATION_DECLARATION_DLLAPI
-#define PINOCCHIO_EXPLICIT_INSTANTIATION_DEFINITION_DLLAPI
-#endif
-EOF
-cat > gen/pinocchio/deprecated.hpp <<'EOF'
-// Written by build.sh in place of the CMake-generated header.
-#ifndef PINOCCHIO_DEPRECATED_HPP
-#define PINOCCHIO_DEPRECATED_HPP
-#define PINOCCHIO_DEPRECATED __attribute__((deprecated))
-#define PINOCCHIO_DEPRECATED_MESSAGE(message) __attribute__((deprecated(message)))
-#endif
-EOF
-cat > gen/pinocchio/warning.hpp <<'EOF'
-// Written by build.sh in place of the CMake-generated header.
-#ifndef PINOCCHIO_WARNING_HPP
-#define PINOCCHIO_WARNING_HPP
-#define PINOCCHIO_WARNING(message)
-#endif
-EOF
+. "$PEERS/pin_headers.sh"
+write_pinocchio_headers pinocchio-src gen
 
 # --- coopdyn: the libraries the scene loader and the evaluation need ---
 CV=$(sed -n 's/^project(coopdyn VERSION \([0-9.]*\).*/\1/p' coopdyn-src/CMakeLists.txt)

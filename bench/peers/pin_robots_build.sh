@@ -31,52 +31,8 @@ mkdir -p pinocchio-src gen/pinocchio obj
 git -C "$PIN_GIT" archive HEAD | tar -x -C pinocchio-src
 git -C "$PIN_GIT" rev-parse HEAD > pinocchio-src/COMMIT
 
-PV=$(sed -n 's:.*<version>\(.*\)</version>.*:\1:p' pinocchio-src/package.xml)
-IFS=. read -r PMAJ PMIN PPAT <<< "$PV"
-cat > gen/pinocchio/config.hpp <<EOH
-// Written by pin_robots_build.sh in place of the CMake-generated header (Pinocchio $PV, header-only use).
-#ifndef PINOCCHIO_CONFIG_HPP
-#define PINOCCHIO_CONFIG_HPP
-#define PINOCCHIO_VERSION "$PV"
-#define PINOCCHIO_MAJOR_VERSION $PMAJ
-#define PINOCCHIO_MINOR_VERSION $PMIN
-#define PINOCCHIO_PATCH_VERSION $PPAT
-#define PINOCCHIO_VERSION_AT_LEAST(major, minor, patch) \\
-  (PINOCCHIO_MAJOR_VERSION > major || (PINOCCHIO_MAJOR_VERSION >= major && (PINOCCHIO_MINOR_VERSION > minor || \\
-   (PINOCCHIO_MINOR_VERSION >= minor && PINOCCHIO_PATCH_VERSION >= patch))))
-#define PINOCCHIO_VERSION_AT_MOST(major, minor, patch) \\
-  (PINOCCHIO_MAJOR_VERSION < major || (PINOCCHIO_MAJOR_VERSION <= major && (PINOCCHIO_MINOR_VERSION < minor || \\
-   (PINOCCHIO_MINOR_VERSION <= minor && PINOCCHIO_PATCH_VERSION <= patch))))
-#define PINOCCHIO_DLLAPI
-#define PINOCCHIO_LOCAL
-#define PINOCCHIO_EXPLICIT_INSTANTIATION_DECLARATION_DLLAPI
-#define PINOCCHIO_EXPLICIT_INSTANTIATION_DEFINITION_DLLAPI
-#endif
-EOH
-mkdir -p gen/pinocchio/parsers
-cat > gen/pinocchio/parsers/config.hpp <<'EOH'
-// Written by pin_robots_build.sh in place of the CMake-generated header (the parsers' export macros).
-#ifndef PINOCCHIO_PARSERS_CONFIG_HPP
-#define PINOCCHIO_PARSERS_CONFIG_HPP
-#define PINOCCHIO_PARSERS_DLLAPI
-#define PINOCCHIO_PARSERS_LOCAL
-#endif
-EOH
-cat > gen/pinocchio/deprecated.hpp <<'EOH'
-// Written by pin_robots_build.sh in place of the CMake-generated header.
-#ifndef PINOCCHIO_DEPRECATED_HPP
-#define PINOCCHIO_DEPRECATED_HPP
-#define PINOCCHIO_DEPRECATED __attribute__((deprecated))
-#define PINOCCHIO_DEPRECATED_MESSAGE(message) __attribute__((deprecated(message)))
-#endif
-EOH
-cat > gen/pinocchio/warning.hpp <<'EOH'
-// Written by pin_robots_build.sh in place of the CMake-generated header.
-#ifndef PINOCCHIO_WARNING_HPP
-#define PINOCCHIO_WARNING_HPP
-#define PINOCCHIO_WARNING(message)
-#endif
-EOH
+. "$PEERS/pin_headers.sh"
+write_pinocchio_headers pinocchio-src gen
 
 INC="-Igen -Ipinocchio-src/include -I/usr/include/eigen3 $(pkg-config --cflags urdfdom)"
 printf '%s\n' pinocchio-src/src/parsers/urdf/model.cpp pinocchio-src/src/parsers/urdf/utils.cpp pin_robots.cc | \
