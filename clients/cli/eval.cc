@@ -2,7 +2,7 @@
 #include <cstdio>
 
 #include "clients/cli/cli.h"
-#include "service/dynamics/holding_torque.h"
+#include "clients/cli/scene_load.h"
 #include "service/scene/scene.h"
 
 namespace coopdyn::cli {
@@ -14,7 +14,7 @@ void register_eval(Cli& cli) {
         "q, v, tau (each optional) in the scene's coordinate order (default: the scene's initial state, zero torque)");
   flag(c, "--hold", a.hold,
        "add the holding torques at the state to tau (coopdynd's safe torque `hold`: the least torques, as fractions of "
-       "each joint's limit, that leave the system at rest)");
+       "each joint's limit, that leave the system at rest, clamped to the limits)");
 }
 
 int cmd_eval(const EvalArgs& a) {
@@ -22,7 +22,13 @@ int cmd_eval(const EvalArgs& a) {
   if (const int rc = load_cli_scene(a, "eval", &sys)) return rc;
   Eigen::VectorXd q = sys.q0, v = sys.v0, tau = Eigen::VectorXd::Zero(sys.model.nv());
   if (a.state && !read_state(*a.state, sys, q, v, tau)) return 1;
-  if (a.hold && !add_holding_torques("eval", sys, q, v, tau)) return 1;
+  if (a.hold) {
+    HoldWorkspace hw(sys, default_actuated(sys));
+    Eigen::VectorXd th(sys.model.nv());
+    bool said = false;
+    if (!holding_torques("eval", sys, hw, q, v, th, &said)) return 1;
+    tau += th;
+  }
   Workspace ws(sys);
   const Diagnostics& d = evaluate(sys, ws, q, v, tau);
   write_eval_json(stdout, sys, ws, q, v, tau);

@@ -2,9 +2,9 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
 #include <cstdio>
 
-#include "service/dynamics/holding_torque.h"
 #include "service/scene/scene.h"
 
 namespace coopdyn::cli {
@@ -71,18 +71,26 @@ bool read_state(const std::string& path, const System& sys, Eigen::VectorXd& q, 
   return get("q", q, sys.model.nq()) && get("v", v, sys.model.nv()) && get("tau", tau, sys.model.nv());
 }
 
-bool add_holding_torques(const char* cmd, const System& sys, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
-                         Eigen::VectorXd& tau) {
-  HoldWorkspace hw(sys, default_actuated(sys));
-  Eigen::VectorXd th(sys.model.nv());
+bool holding_torques(const char* cmd, const System& sys, HoldWorkspace& hw, const Eigen::VectorXd& q,
+                     const Eigen::VectorXd& v, Eigen::VectorXd& th, bool* said) {
   if (!holding_torque(sys, hw, q, v, th)) {
     std::fprintf(stderr, "coopdyn %s: --hold: the state is not valid (NaN/Inf or a non-unit quaternion)\n", cmd);
     return false;
   }
-  if (hw.residual > 1e-6)
-    std::fprintf(stderr, "coopdyn %s: warning: --hold: the actuators cannot hold this state (residual %.6g N*m or N)\n", cmd,
-                 hw.residual);
-  tau += th;
+  if (!*said) {
+    for (int i : hw.act)
+      if (std::abs(th[i]) > sys.tau_limit[i]) {
+        std::fprintf(stderr, "coopdyn %s: warning: --hold: %s needs %.6g to hold, beyond its torque limit %.6g: clamped to it, as coopdynd's hold is\n",
+                     cmd, sys.model.v_names[i].c_str(), th[i], sys.tau_limit[i]);
+        *said = true;
+      }
+    if (hw.residual > 1e-6) {
+      std::fprintf(stderr, "coopdyn %s: warning: --hold: the actuators cannot hold this state (residual %.6g N*m or N)\n", cmd,
+                   hw.residual);
+      *said = true;
+    }
+  }
+  clamp_to_torque_limits(sys, hw, th);
   return true;
 }
 

@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 
 #include "clients/cli/commands.h"
+#include "service/dynamics/holding_torque.h"
 #include "service/dynamics/system.h"
 
 namespace coopdyn::cli {
@@ -16,10 +17,11 @@ int load_cli_scene(const SceneArgs& a, const char* cmd, System* sys);
 // Reads q, v, tau (each optional) from a JSON or YAML state file in the scene's coordinate order;
 // prints the problem and returns false on a bad file.
 bool read_state(const std::string& path, const System& sys, Eigen::VectorXd& q, Eigen::VectorXd& v, Eigen::VectorXd& tau);
-// --hold: adds the holding torques at (q, v) (holding_torque.h) to tau. A state the actuators cannot
-// hold (residual above 1e-6 N*m or N) is said on stderr, with the residual; false (printed) on an
-// invalid state.
-bool add_holding_torques(const char* cmd, const System& sys, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
-                         Eigen::VectorXd& tau);
+// --hold: the holding torques at (q, v) as coopdynd's safe torque `hold` applies them (holding_torque.h,
+// clamped to each joint's torque limit; without the daemon's damping term) into th. While *said is
+// false, what they cannot do is said on stderr and *said set: the joints clamped (torque needed and
+// limit), a residual above 1e-6 N*m or N. False (printed) on an invalid state.
+bool holding_torques(const char* cmd, const System& sys, HoldWorkspace& hw, const Eigen::VectorXd& q,
+                     const Eigen::VectorXd& v, Eigen::VectorXd& th, bool* said);
 
 }  // namespace coopdyn::cli

@@ -20,6 +20,7 @@
 
 #include "clients/cli/cli.h"
 #include "clients/cli/progress.h"
+#include "clients/cli/scene_load.h"
 #include "clients/csv/step_csv.h"
 #include "service/dynamics/contacts.h"
 #include "service/dynamics/holding_torque.h"
@@ -65,6 +66,7 @@ struct SimRun {
   WrenchData wd;
   Eigen::VectorXd q, v, tau, target, q_prev, v_prev;
   Eigen::VectorXd tau_hold = Eigen::VectorXd::Zero(tau.size());
+  bool hold_said = false;  // --hold: what the holding torques cannot do, said once
   StepRow row;
   CsvLine line;
 };
@@ -72,10 +74,7 @@ struct SimRun {
 // The applied torques and the locks' targets at the step's start, held over the step.
 void apply_inputs(const System& sys, const SimPlan& p, double t, SimRun& r) {
   p.prof.eval(t, r.tau);
-  if (p.hold) {
-    holding_torque(sys, *p.hold, r.q, r.v, r.tau_hold);
-    r.tau += r.tau_hold;
-  }
+  if (p.hold && holding_torques("sim", sys, *p.hold, r.q, r.v, r.tau_hold, &r.hold_said)) r.tau += r.tau_hold;
   if (p.steer_dofs.empty()) return;
   p.steer.eval(t, r.target);
   for (size_t k = 0; k < p.steer_dofs.size(); ++k) set_lock_target(r.st, p.steer_locks[k], r.target[p.steer_dofs[k]]);
@@ -180,7 +179,7 @@ void register_sim(Cli& cli) {
   number(c, "--every", a.every, "N", "write every N-th step only (t = 0, N dt, 2 N dt, ...)", Default::kShown);
   flag(c, "--progress", a.progress, "report progress on stderr (default: only when stderr is a terminal)");
   flag(c, "--hold", a.hold,
-       "add, every step, the holding torques at the step's start state (coopdynd's safe torque `hold`) to the profiles");
+       "add, every step, the holding torques at the step's start state (coopdynd's safe torque `hold`, clamped to the torque limits) to the profiles");
 }
 
 int cmd_sim(const SimArgs& a) {

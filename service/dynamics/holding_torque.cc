@@ -1,5 +1,6 @@
 #include "service/dynamics/holding_torque.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace coopdyn {
@@ -73,6 +74,17 @@ bool holding_torque(const System& sys, HoldWorkspace& hw, const Eigen::VectorXd&
   hw.b.noalias() -= hw.A * hw.x;
   hw.residual = hw.b.norm();
   return tau.allFinite();
+}
+
+int clamp_to_torque_limits(const System& sys, const HoldWorkspace& hw, Eigen::VectorXd& tau) {
+  int clamped = 0;
+  for (int i : hw.act) {
+    const double lim = sys.tau_limit[i];
+    if (std::abs(tau[i]) <= lim) continue;
+    tau[i] = std::max(-lim, std::min(lim, tau[i]));
+    ++clamped;
+  }
+  return clamped;
 }
 
 }  // namespace coopdyn

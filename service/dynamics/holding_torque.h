@@ -41,4 +41,9 @@ std::vector<unsigned char> default_actuated(const System& sys);
 bool holding_torque(const System& sys, HoldWorkspace& hw, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
                     Eigen::VectorXd& tau);
 
+// The holding torques as coopdynd applies them: each actuated DOF's (hw.act) clamped to +-its torque
+// limit (sys.tau_limit), a joint that cannot hold its share then holds what it can. Returns how many
+// DOFs were clamped. Allocation-free.
+int clamp_to_torque_limits(const System& sys, const HoldWorkspace& hw, Eigen::VectorXd& tau);
+
 }  // namespace coopdyn

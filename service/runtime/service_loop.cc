@@ -81,10 +81,8 @@ void ServiceLoop::safe_torque(const Eigen::VectorXd& q, const Eigen::VectorXd& v
   tau_.setZero();
   if (cfg_.safe_torque == SafeTorque::kHold) {
     holding_torque(sys_, *hold_, q, v, tau_);
-    for (int i : hold_->act) {
-      const double lim = sys_.tau_limit[i];
-      tau_[i] = std::max(-lim, std::min(lim, tau_[i] - cfg_.damping * v[i]));
-    }
+    for (int i : hold_->act) tau_[i] -= cfg_.damping * v[i];
+    clamp_to_torque_limits(sys_, *hold_, tau_);
     return;
   }
   if (cfg_.safe_torque != SafeTorque::kDamping) return;

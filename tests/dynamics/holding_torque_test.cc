@@ -36,6 +36,25 @@ TEST(HoldingTorque, HoldsTwoPumasStillAndTheBasesCarryTheWeight) {
   EXPECT_NEAR(fz, total_weight(sys.model), 1e-8 * total_weight(sys.model));
 }
 
+TEST(HoldingTorque, ClampedToTheLimitsAsTheDaemonAppliesIt) {
+  // a joint whose limit is below what holding needs holds its limit and the system moves; the
+  // others keep their holding torques (coopdynd's safe torque, `coopdyn eval --hold`)
+  System sys = load("two_puma_load");
+  HoldWorkspace hw(sys, default_actuated(sys));
+  Eigen::VectorXd tau(sys.model.nv());
+  ASSERT_TRUE(holding_torque(sys, hw, sys.q0, sys.v0, tau));
+  Eigen::Index k = 0;
+  tau.cwiseAbs().maxCoeff(&k);
+  const Eigen::VectorXd held = tau;
+  sys.tau_limit[k] = 0.5 * std::abs(held[k]);
+  EXPECT_EQ(clamp_to_torque_limits(sys, hw, tau), 1);
+  for (Eigen::Index i = 0; i < tau.size(); ++i)
+    EXPECT_EQ(tau[i], i == k ? std::copysign(sys.tau_limit[k], held[k]) : held[i]) << sys.model.v_names[i];
+  Workspace ws(sys);
+  ASSERT_NE(evaluate(sys, ws, sys.q0, sys.v0, tau).status, Status::kError);
+  EXPECT_GT(ws.vdot.cwiseAbs().maxCoeff(), 1e-3) << "half the torque it needs: " << sys.model.v_names[k] << " cannot hold";
+}
+
 TEST(HoldingTorque, IsTheLimitWeightedMinimumNormBalance) {
   // an independent solve: min |W^-1 tau_a| (W = the joints' torque limits) subject to
   // N^T (S_a^T tau_a - h) = 0, N from the kernel of G
