@@ -16,6 +16,26 @@
 using namespace coopdyn;
 using namespace coopdyn::testing;
 
+namespace {
+// Inputs prepared before counting: `count` states, every other one at rest (v = 0, spread 0) and the
+// others spread by 0.2 (random_state), with random torques.
+struct Inputs {
+  std::vector<Eigen::VectorXd> q, v, tau;
+};
+Inputs inputs_at_rest_and_moving(const System& sys, unsigned seed, int count) {
+  std::mt19937 rng(seed);
+  Inputs in;
+  for (int k = 0; k < count; ++k) {
+    Eigen::VectorXd q, v;
+    random_state(sys, rng, k % 2 ? 0.2 : 0.0, q, v);
+    in.q.push_back(q);
+    in.v.push_back(v);
+    in.tau.push_back(Eigen::VectorXd::Random(sys.model.nv()));
+  }
+  return in;
+}
+}  // namespace
+
 TEST(NoAllocation, EvaluateAndStepOfEveryScene) {
   if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
   for (const auto& name : all_scenes()) {
@@ -116,16 +136,11 @@ TEST(NoAllocation, EvaluateAndStepOfTheWheelScenes) {
       Stepper st(sys);
       WrenchData wd(sys);
       ContactData cts(sys);
-      std::mt19937 rng(6);
       const int n = sys.model.nv();
-      std::vector<Eigen::VectorXd> qs, vs, taus;
-      for (int k = 0; k < 16; ++k) {
-        Eigen::VectorXd q, v;
-        random_state(sys, rng, k % 2 ? 0.2 : 0.0, q, v);
-        qs.push_back(q);
-        vs.push_back(v);
-        taus.push_back(Eigen::VectorXd::Random(n));
-      }
+      const Inputs in = inputs_at_rest_and_moving(sys, 6, 16);
+      const auto& qs = in.q;
+      const auto& vs = in.v;
+      const auto& taus = in.tau;
       Eigen::VectorXd q = sys.q0, v = sys.v0, tau = Eigen::VectorXd::Zero(n);
       if (n > 6) tau[6] = 1.0;  // the vehicle's left drive torque
       {
@@ -154,16 +169,11 @@ TEST(NoAllocation, EvaluateStepAndHoldOfTheRealRobots) {
     WrenchData wd(sys);
     ContactData cts(sys);
     HoldWorkspace hw(sys, default_actuated(sys));
-    std::mt19937 rng(7);
     const int n = sys.model.nv();
-    std::vector<Eigen::VectorXd> qs, vs, taus;
-    for (int k = 0; k < 8; ++k) {
-      Eigen::VectorXd q, v;
-      random_state(sys, rng, k % 2 ? 0.2 : 0.0, q, v);
-      qs.push_back(q);
-      vs.push_back(v);
-      taus.push_back(Eigen::VectorXd::Random(n));
-    }
+    const Inputs in = inputs_at_rest_and_moving(sys, 7, 8);
+    const auto& qs = in.q;
+    const auto& vs = in.v;
+    const auto& taus = in.tau;
     Eigen::VectorXd q = sys.q0, v = sys.v0, tau = Eigen::VectorXd::Zero(n);
     {
       AllocationCounter c;
