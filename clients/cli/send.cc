@@ -167,9 +167,13 @@ int load_source(const SendArgs& a, const System& sys, Source* src, double* durat
 // The message at profile (or replay) time t.
 std::vector<uint8_t> message_at(Source& src, double t, long long seq) {
   if (src.replay) {
-    // the last row at or before t (rows are piecewise constant in time)
+    // the last row at or before t (rows are piecewise constant in time), the times compared to
+    // within a millionth of the rows' mean spacing: message i at the CSV's own rate then sends row i
+    // exactly, although its time i / rate may round just below the row's t_i = i h (at 1 kHz 282 of
+    // 2001 rows went twice and as many never, with an exact comparison)
     const StateTable& st = src.states;
-    const double tr = st.t.front() + t;
+    const double spacing = st.t.size() > 1 ? (st.t.back() - st.t.front()) / static_cast<double>(st.t.size() - 1) : 0.0;
+    const double tr = st.t.front() + t + 1e-6 * spacing;
     size_t r = static_cast<size_t>(std::upper_bound(st.t.begin(), st.t.end(), tr) - st.t.begin());
     r = r == 0 ? 0 : r - 1;
     return io::encode_measured_state(io::wall_us(), seq, st.q_names, st.q[r], st.v_names, st.v[r], st.tau[r]);

@@ -16,6 +16,7 @@
 
 #include "service/version.h"
 #include "tests/support/child_process.h"
+#include "tests/support/files.h"
 
 using namespace coopdyn::daemon_test;
 
@@ -323,4 +324,37 @@ TEST(Cli, EvalAndSimHoldTheRobotStillWithHold) {
   const std::vector<std::string> head = split(rows[0]), first = split(rows[1]), last = split(rows.back());
   for (size_t k = 0; k < head.size(); ++k)
     if (head[k].rfind("q:", 0) == 0) EXPECT_NEAR(std::stod(last[k]), std::stod(first[k]), 1e-6) << head[k];
+}
+
+TEST(Cli, SendReplaysEveryRowOfAOneKilohertzCsvOnceAtOneKilohertz) {
+  // coopdyn send --states at the CSV's own rate sends row k as message k, every row once, in order,
+  // although k / rate may round just below the row's time k h (before, 14 of these 1001 rows went
+  // twice). Recorded through LCM's file provider (no network: nothing can be lost), read back by
+  // coopdyn log, each message matched to its row by the values of q.
+  const std::string dir = ::testing::TempDir() + "cli_replay_" + std::to_string(::getpid());
+  ASSERT_EQ(std::system(("mkdir -p '" + dir + "'").c_str()), 0);
+  const std::string s = scene("two_puma_load"), csv = dir + "/sim.csv", log = dir + "/states.lcmlog";
+  const Result sim = run({COOPDYN_PATH, "sim", "--scene", s, "--duration", "1", "--dt", "0.001", "--out", csv}, "replay_sim");
+  ASSERT_EQ(sim.rc, 0) << sim.err;
+  const Result send = run({COOPDYN_PATH, "send", "--scene", s, "--states", csv, "--rate", "1000", "--no-check", "--lcm-url",
+                           "file://" + log + "?mode=w"},
+                          "replay_send");
+  ASSERT_EQ(send.rc, 0) << send.err;
+  const Result conv = run({COOPDYN_PATH, "log", "--in", log, "--out", dir + "/log", "--no-plot", "--scene", s}, "replay_log");
+  ASSERT_EQ(conv.rc, 0) << conv.err;
+  const coopdyn::testing::CsvText rows = coopdyn::testing::read_csv_text(csv);
+  const coopdyn::testing::CsvText sent = coopdyn::testing::read_csv_text(dir + "/log/COOPDYN_STATE.csv");
+  ASSERT_EQ(rows.rows.size(), 1001u);
+  ASSERT_EQ(sent.rows.size(), rows.rows.size()) << "one message per row";
+  std::vector<std::pair<size_t, size_t>> q_cols;  // (sim column, log column) of every q
+  for (size_t i = 0; i < rows.head.size(); ++i)
+    if (rows.head[i].rfind("q:", 0) == 0)
+      for (size_t j = 0; j < sent.head.size(); ++j)
+        if (sent.head[j] == rows.head[i]) q_cols.push_back({i, j});
+  ASSERT_GE(q_cols.size(), 18u);
+  for (size_t k = 0; k < rows.rows.size(); ++k)
+    for (const auto& [i, j] : q_cols)
+      ASSERT_EQ(std::strtod(sent.rows[k][j].c_str(), nullptr), std::strtod(rows.rows[k][i].c_str(), nullptr))
+          << "message " << k << " is not row " << k << " (" << rows.head[i] << ")";
+  std::system(("rm -rf '" + dir + "'").c_str());
 }
