@@ -323,7 +323,9 @@ TEST(Cli, EvalAndSimHoldTheRobotStillWithHold) {
   ASSERT_GE(rows.size(), 3u);
   const std::vector<std::string> head = split(rows[0]), first = split(rows[1]), last = split(rows.back());
   for (size_t k = 0; k < head.size(); ++k)
-    if (head[k].rfind("q:", 0) == 0) EXPECT_NEAR(std::stod(last[k]), std::stod(first[k]), 1e-6) << head[k];
+    if (head[k].rfind("q:", 0) == 0) {
+      EXPECT_NEAR(std::stod(last[k]), std::stod(first[k]), 1e-6) << head[k];
+    }
 }
 
 TEST(Cli, SendReplaysEveryRowOfAOneKilohertzCsvOnceAtOneKilohertz) {
