@@ -254,6 +254,11 @@ Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path,
   std::set<std::string> on_chain = {base};
   for (const auto& jt : chain) on_chain.insert(jt->child_link_name);
   for (const auto& jt : chain) check_link_inertial(c, where, f, *jt, &r.warnings);
+  {
+    std::vector<const urdf::Joint*> js;
+    for (const auto& jt : chain) js.push_back(jt.get());
+    note_unmodelled_dynamics(f, js, &r.warnings);
+  }
   std::map<std::string, Inertia> side;
   if (keep_branches)
     side = keep_side_branches(c, where, f, on_chain, base, r);

@@ -142,8 +142,8 @@ TEST(GraspClose, ArmsCloseTheirGraspsFromAnglesOff) {
       ov.formulation = f;
       const System sys = load_scene_string(edited(scene_text(k.scene), off, ref.grasps), scene_path(k.scene), ov);
       EXPECT_LT(constraint_error(sys), 1e-10);
-      ASSERT_EQ(sys.warnings.size(), 1u) << sys.warnings.back();
-      const std::string& w = sys.warnings[0];
+      ASSERT_EQ(warnings_besides_dynamics(sys).size(), 1u) << warnings_besides_dynamics(sys).back();
+      const std::string w = warnings_besides_dynamics(sys)[0];
       EXPECT_NE(w.find("initial state: the constraints were open by "), std::string::npos) << w;
       EXPECT_NE(w.find("by moving every coordinate (least change) (load held where the scene puts it):"), std::string::npos) << w;
       EXPECT_NE(w.find(" arm1." + k.joint + "2 "), std::string::npos) << w;
@@ -177,13 +177,13 @@ TEST(GraspClose, LoadPoseSolvedFromTheGrasps) {
       SceneOverrides ov;
       ov.formulation = f;
       const System exact = load_scene_string(edited(scene_text(k.scene), ref.q, ref.grasps, true), scene_path(k.scene), ov);
-      EXPECT_TRUE(exact.warnings.empty()) << exact.warnings.front();
+      EXPECT_TRUE(warnings_besides_dynamics(exact).empty()) << warnings_besides_dynamics(exact).front();
       for (int i = 0; i < exact.model.nq(); ++i) EXPECT_NEAR(exact.q0[i], ref.sys.q0[i], 1e-12) << exact.model.q_names[i];
       const System sys = load_scene_string(edited(scene_text(k.scene), perturbed(ref.q), ref.grasps, true), scene_path(k.scene), ov);
       EXPECT_LT(constraint_error(sys), 1e-10);
-      ASSERT_EQ(sys.warnings.size(), 1u) << sys.warnings.back();
-      EXPECT_NE(sys.warnings[0].find("by moving every coordinate (least change):"), std::string::npos) << sys.warnings[0];
-      EXPECT_NE(sys.warnings[0].find(" arm1." + k.joint), std::string::npos) << sys.warnings[0];
+      ASSERT_EQ(warnings_besides_dynamics(sys).size(), 1u) << warnings_besides_dynamics(sys).back();
+      EXPECT_NE(warnings_besides_dynamics(sys)[0].find("by moving every coordinate (least change):"), std::string::npos) << warnings_besides_dynamics(sys)[0];
+      EXPECT_NE(warnings_besides_dynamics(sys)[0].find(" arm1." + k.joint), std::string::npos) << warnings_besides_dynamics(sys)[0];
       // Newton-Euler of the load at the solved state: the arms' wrenches on it plus its weight
       const Model& m = sys.model;
       Eigen::VectorXd tau = Eigen::VectorXd::Zero(m.nv());
@@ -254,9 +254,9 @@ TEST(GraspClose, VelocityIsProjectedAtTheClosedState) {
     const System sys = load_scene_string(text.substr(0, p) + "    v: [0.2, 0.2, 0.2, 0.2, 0.2, 0.2]\n" + text.substr(p),
                                          scene_path(k.scene), ov);
     EXPECT_LT(constraint_error(sys), 1e-10);  // position and velocity
-    ASSERT_EQ(sys.warnings.size(), 2u) << sys.warnings.back();
-    EXPECT_NE(sys.warnings[0].find("initial state: "), std::string::npos) << sys.warnings[0];
-    EXPECT_NE(sys.warnings[1].find("initial velocity: projected onto the constraints"), std::string::npos) << sys.warnings[1];
+    ASSERT_EQ(warnings_besides_dynamics(sys).size(), 2u) << warnings_besides_dynamics(sys).back();
+    EXPECT_NE(warnings_besides_dynamics(sys)[0].find("initial state: "), std::string::npos) << warnings_besides_dynamics(sys)[0];
+    EXPECT_NE(warnings_besides_dynamics(sys)[1].find("initial velocity: projected onto the constraints"), std::string::npos) << warnings_besides_dynamics(sys)[1];
     EXPECT_GT(sys.v0.norm(), 0.01) << "the load and arm 2 follow arm 1, not everything stopped";
   }
 }
@@ -273,9 +273,9 @@ TEST(GraspClose, KeptJointsDoNotMove) {
   EXPECT_EQ(q_of(sys, "arm1.iiwa_joint_1"), off[0][0]);
   EXPECT_EQ(q_of(sys, "arm2.iiwa_joint_3"), off[1][2]);
   EXPECT_NE(q_of(sys, "arm1.iiwa_joint_2"), off[0][1]);
-  ASSERT_EQ(sys.warnings.size(), 1u) << sys.warnings.back();
-  EXPECT_NE(sys.warnings[0].find("every joint not in close_initial_state.keep (load held where the scene puts it)"), std::string::npos)
-      << sys.warnings[0];
+  ASSERT_EQ(warnings_besides_dynamics(sys).size(), 1u) << warnings_besides_dynamics(sys).back();
+  EXPECT_NE(warnings_besides_dynamics(sys)[0].find("every joint not in close_initial_state.keep (load held where the scene puts it)"), std::string::npos)
+      << warnings_besides_dynamics(sys)[0];
 }
 
 // The URDF limit warning is about the closed angle: iiwa joint 6 given 2.05 rad (inside its
@@ -285,8 +285,8 @@ TEST(GraspClose, LimitWarningIsAboutTheClosedAngle) {
   std::vector<std::vector<double>> q = {{0, 0.7, 0, -1.2, 0, 2.15, 0}, {0, 0.7, 0, -1.2, 0, 0.9, 0}};
   std::vector<std::string> at = {"at_initial_state", "at_initial_state"};
   const System beyond = load_scene_string(edited(scene_text(k.scene), q, at), scene_path(k.scene));
-  ASSERT_EQ(beyond.warnings.size(), 1u);  // the given 2.15 is outside: warned as given
-  EXPECT_NE(beyond.warnings[0].find("q = 2.15 is outside its limits"), std::string::npos) << beyond.warnings[0];
+  ASSERT_EQ(warnings_besides_dynamics(beyond).size(), 1u);  // the given 2.15 is outside: warned as given
+  EXPECT_NE(warnings_besides_dynamics(beyond)[0].find("q = 2.15 is outside its limits"), std::string::npos) << warnings_besides_dynamics(beyond)[0];
   const std::vector<std::string> grasps = {grasp_yaml(beyond, "arm1"), grasp_yaml(beyond, "arm2")};
   q[0][5] = 2.05;
   const std::string text = "close_initial_state: {keep: [arm1.iiwa_joint_1, arm1.iiwa_joint_2, arm1.iiwa_joint_3, "
@@ -294,8 +294,8 @@ TEST(GraspClose, LimitWarningIsAboutTheClosedAngle) {
                            edited(scene_text(k.scene), q, grasps);
   const System sys = load_scene_string(text, scene_path(k.scene));
   EXPECT_NEAR(q_of(sys, "arm1.iiwa_joint_6"), 2.15, 1e-9);
-  ASSERT_EQ(sys.warnings.size(), 2u) << sys.warnings.back();
-  EXPECT_NE(sys.warnings[1].find("arm 'arm1' joint iiwa_joint_6 q = 2.15 (closed from 2.05) is outside its limits [-2.0944, 2.0944]"),
+  ASSERT_EQ(warnings_besides_dynamics(sys).size(), 2u) << warnings_besides_dynamics(sys).back();
+  EXPECT_NE(warnings_besides_dynamics(sys)[1].find("arm 'arm1' joint iiwa_joint_6 q = 2.15 (closed from 2.05) is outside its limits [-2.0944, 2.0944]"),
             std::string::npos)
-      << sys.warnings[1];
+      << warnings_besides_dynamics(sys)[1];
 }
