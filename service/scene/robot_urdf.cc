@@ -160,7 +160,18 @@ ChainJoint urdf_chain_joint(const Ctx& c, const YAML::Node& where, const UrdfFil
     case urdf::Joint::CONTINUOUS: break;
     case urdf::Joint::PRISMATIC: j.prismatic = true; break;
     case urdf::Joint::FIXED: j.fixed = true; break;
-    default: fail(c, where, "URDF joint '" + jt.name + "': only revolute, continuous, prismatic and fixed joints");
+    default: {
+      size_t at = 0, end = 0;
+      const bool base = jt.type == urdf::Joint::FLOATING || jt.type == urdf::Joint::PLANAR;
+      fail(c, where,
+           (urdf_element(f, "joint", jt.name, &at, &end) ? urdf_at(f, at) : urdf_at(f)) + ": joint '" + jt.name + "' is " +
+               (jt.type == urdf::Joint::FLOATING ? "floating" : jt.type == urdf::Joint::PLANAR ? "planar" : "of an unknown type") +
+               ": coopdyn reads revolute, continuous, prismatic and fixed joints" +
+               (base ? "; a free base is the scene's (a whole robot's `root: floating`, or a `floating` body joint): "
+                       "load the robot from the joint's child link ('" + jt.child_link_name +
+                       "'), i.e. a copy of the file without this joint and its parent link"
+                     : ""));
+    }
   }
   if (!j.fixed && !(j.axis.norm() > 0)) fail(c, where, "URDF joint '" + jt.name + "': zero axis");
   if (!j.fixed && jt.limits && jt.limits->effort > 0) j.tau_limit = jt.limits->effort;

@@ -272,3 +272,24 @@ TEST(Urdf, TheShippedIiwaSceneHoldsItsBoxWithinTheUrdfLimits) {
 
 }  // namespace
 }  // namespace coopdyn::testing
+
+namespace coopdyn::testing {
+namespace {
+
+TEST(Urdf, AFloatingJointInTheFileIsRefusedWithItsLineAndTheSceneWay) {
+  // many descriptions hang the base from a `world` link by a floating joint: refused (coopdyn's free
+  // base is the scene's), at the joint's line, naming the child link to load the robot from
+  const std::string t = std::string("<robot name=\"f\"><link name=\"world\"/>\n") +
+                        "<link name=\"base\"><inertial><mass value=\"1\"/><inertia ixx=\"0.1\" iyy=\"0.1\" izz=\"0.1\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n"
+                        "<joint name=\"float\" type=\"floating\"><parent link=\"world\"/><child link=\"base\"/></joint>\n" +
+                        "<link name=\"l1\"><inertial><mass value=\"1\"/><inertia ixx=\"0.1\" iyy=\"0.1\" izz=\"0.1\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/></inertial></link>\n"
+                        "<joint name=\"j1\" type=\"revolute\"><parent link=\"base\"/><child link=\"l1\"/><axis xyz=\"0 0 1\"/>"
+                        "<limit effort=\"1\" lower=\"-1\" upper=\"1\" velocity=\"1\"/></joint></robot>\n";
+  const std::string e = error_of(t, ", tip: l1");
+  EXPECT_NE(e.find(urdf_tmp_path() + ":3: joint 'float' is floating"), std::string::npos) << e;
+  EXPECT_NE(e.find("root: floating"), std::string::npos) << e;
+  EXPECT_NE(e.find("child link ('base')"), std::string::npos) << e;
+}
+
+}  // namespace
+}  // namespace coopdyn::testing
