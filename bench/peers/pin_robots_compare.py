@@ -23,7 +23,7 @@ and its URDFs without their <mimic> elements (and with "xacro:" inside XML comme
 peer's couplings off: the whole check while coopdyn's tree loader refuses <mimic> (and main's
 reader mistakes a commented xacro call for xacro). The shipped files are never changed.
 
---pin-only: no coopdyn (before the tree loader is merged): the coordinates are every non-fixed,
+--pin-only: no coopdyn (Pinocchio checked against itself alone): the coordinates are every non-fixed,
 non-<mimic> joint of the peer's URDFs and the free-flyers, q from the peer file's "state" (joint
 values, free-flyers as [x y z qw qx qy qz]; others 0), v uniform in [-V, V] (--v-scale V, default 0),
 random torques; the welds are taken where that state puts the hands, and pin_robots' own check

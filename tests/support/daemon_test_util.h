@@ -24,7 +24,7 @@ namespace coopdyn::daemon_test {
 
 using testing::scene_path;
 
-// Every scene in config/scenes that loads (scenes are the lead's; one that does not load is
+// Every scene in config/scenes that loads (one that does not load is
 // reported by the scene tests, not here).
 inline std::vector<std::string> loadable_scenes() {
   std::vector<std::string> out;
