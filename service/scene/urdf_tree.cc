@@ -4,34 +4,12 @@
 #include "service/scene/urdf_tree.h"
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
-#include <regex>
 #include <sstream>
 
 namespace coopdyn::scene_detail {
 
 namespace {
-
-// Where each <joint> element starts in the file, by joint name (comments skipped): the children of a
-// link are taken in the file's order, not urdfdom's (by joint name).
-std::map<std::string, size_t> joint_positions(const std::string& xml) {
-  std::map<std::string, size_t> at;
-  for (size_t p = xml.find('<'); p != std::string::npos; p = xml.find('<', p + 1)) {
-    if (xml.compare(p, 4, "<!--") == 0) {
-      p = xml.find("-->", p + 4);
-      if (p == std::string::npos) break;
-      continue;
-    }
-    if (xml.compare(p, 6, "<joint") != 0 || p + 6 >= xml.size() || !std::isspace(static_cast<unsigned char>(xml[p + 6]))) continue;
-    const size_t end = xml.find('>', p);
-    const std::string tag = xml.substr(p, end == std::string::npos ? std::string::npos : end - p);
-    static const std::regex name_re("\\sname\\s*=\\s*[\"']([^\"']*)[\"']");
-    std::smatch m;
-    if (std::regex_search(tag, m, name_re)) at.emplace(m[1].str(), p);
-  }
-  return at;
-}
 
 // the cylinders of a link's <collision>, then <visual>, elements
 std::vector<UrdfCylinder> link_cylinders(const urdf::Link& l) {
@@ -70,7 +48,6 @@ std::shared_ptr<const UrdfTree> read_urdf_tree(const Ctx& c, const YAML::Node& w
     check_link_inertial(c, where, f, above, warnings);
   }
   if (root->inertial) t->root_inertia = link_inertia(c, where, *root);
-  const std::map<std::string, size_t> declared = joint_positions(f.xml);
   std::vector<urdf::LinkConstSharedPtr> stack = {root};
   std::vector<const urdf::Joint*> moving;  // in the tree's order, for the <dynamics> warning
   while (!stack.empty()) {
@@ -86,9 +63,9 @@ std::shared_ptr<const UrdfTree> read_urdf_tree(const Ctx& c, const YAML::Node& w
     }
     std::vector<urdf::LinkConstSharedPtr> kids(l->child_links.begin(), l->child_links.end());
     std::vector<size_t> at;
-    for (const auto& k : kids) {
-      const auto p = declared.find(k->parent_joint->name);
-      at.push_back(p == declared.end() ? f.xml.size() : p->second);
+    for (const auto& k : kids) {  // the children in the file's order (urdfdom's is by joint name)
+      const auto p = f.joint_at.find(k->parent_joint->name);
+      at.push_back(p == f.joint_at.end() ? f.xml.size() : p->second.first);
     }
     std::vector<size_t> order(kids.size());
     for (size_t i = 0; i < order.size(); ++i) order[i] = i;
