@@ -1,6 +1,9 @@
 #include "service/io/lcm_wire.h"
 
+#include <arpa/inet.h>
+
 #include <algorithm>
+#include <cstdlib>
 #include <cstring>
 
 namespace coopdyn::io::wire {
@@ -84,6 +87,53 @@ WireStatus parse_datagram(const void* buf, size_t len, Datagram* out) {
   if (out->data_len == 0) return WireStatus::kOutOfRange;  // an empty fragment covers nothing
   if (uint64_t{out->fragment_offset} + static_cast<uint64_t>(out->data_len) > out->msg_size) return WireStatus::kOutOfRange;
   return WireStatus::kPending;
+}
+
+bool parse_udpm_url(const std::string& given, UdpmUrl* out, std::string* why) {
+  *out = UdpmUrl{};
+  std::string url = given;
+  if (url.empty()) {
+    const char* env = std::getenv("LCM_DEFAULT_URL");
+    url = env && *env ? env : "udpm://";
+  }
+  if (url.rfind("udpm://", 0) != 0) {
+    *why = "not a udpm:// URL: '" + url + "'";
+    return false;
+  }
+  const std::string rest = url.substr(7);
+  const size_t q = rest.find('?');
+  const std::string addr = rest.substr(0, q), opts = q == std::string::npos ? "" : rest.substr(q + 1);
+  const size_t colon = addr.find(':');
+  if (colon != 0 && !addr.empty()) out->group = addr.substr(0, colon);
+  in_addr a{};
+  if (inet_pton(AF_INET, out->group.c_str(), &a) != 1 || !IN_MULTICAST(ntohl(a.s_addr))) {
+    *why = "the group '" + out->group + "' of '" + url + "' is not an IPv4 multicast address";
+    return false;
+  }
+  if (colon != std::string::npos) {
+    const std::string p = addr.substr(colon + 1);
+    char* end = nullptr;
+    const long port = std::strtol(p.c_str(), &end, 10);
+    if (p.empty() || *end != 0 || port <= 0 || port > 65535) {
+      *why = "the port '" + p + "' of '" + url + "' is not in 1..65535";
+      return false;
+    }
+    out->port = static_cast<uint16_t>(port);
+  }
+  for (size_t at = 0; at < opts.size();) {
+    const size_t amp = std::min(opts.find('&', at), opts.size());
+    const std::string kv = opts.substr(at, amp - at);
+    at = amp + 1;
+    if (kv.rfind("recv_buf_size=", 0) != 0) continue;
+    char* end = nullptr;
+    const long n = std::strtol(kv.c_str() + 14, &end, 10);
+    if (kv.size() == 14 || *end != 0 || n < 0 || n > (1L << 30)) {
+      *why = "recv_buf_size of '" + url + "' is not a size in bytes";
+      return false;
+    }
+    out->recv_buf_size = static_cast<int>(n);
+  }
+  return true;
 }
 
 Reassembler::Reassembler(int slots, int max_message_bytes, long long timeout_ns)

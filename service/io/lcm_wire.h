@@ -20,6 +20,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 namespace coopdyn::io::wire {
@@ -83,6 +84,17 @@ struct Message {
   const uint8_t* data = nullptr;
   int len = 0;
 };
+
+// An LCM udpm URL, udpm://GROUP:PORT?opt=value&..., by liblcm's rules: GROUP defaults to
+// 239.255.76.67, PORT to 7667; of the options only recv_buf_size (SO_RCVBUF, bytes) concerns
+// receiving. An empty URL is LCM_DEFAULT_URL's, else the default group and port.
+struct UdpmUrl {
+  std::string group = "239.255.76.67";
+  uint16_t port = 7667;
+  int recv_buf_size = 0;  // 0: not given
+};
+// false (with *why) when the URL is not udpm or its group, port or recv_buf_size is malformed.
+bool parse_udpm_url(const std::string& url, UdpmUrl* out, std::string* why);
 
 class Reassembler {
  public:

@@ -195,3 +195,23 @@ TEST(LcmWire, EveryStatusHasAKeyAndAText) {
     EXPECT_STRNE(wire_status_text(static_cast<WireStatus>(s)), "?");
   }
 }
+
+TEST(LcmWire, UdpmUrlsParseByLiblcmsRules) {
+  UdpmUrl u;
+  std::string why;
+  ASSERT_TRUE(parse_udpm_url("udpm://239.255.76.99:7701?ttl=0&recv_buf_size=2097152", &u, &why)) << why;
+  EXPECT_EQ(u.group, "239.255.76.99");
+  EXPECT_EQ(u.port, 7701);
+  EXPECT_EQ(u.recv_buf_size, 2097152);
+  ASSERT_TRUE(parse_udpm_url("udpm://", &u, &why)) << why;
+  EXPECT_EQ(u.group, "239.255.76.67");
+  EXPECT_EQ(u.port, 7667);
+  ASSERT_TRUE(parse_udpm_url("udpm://239.1.2.3?ttl=1", &u, &why)) << why;
+  EXPECT_EQ(u.group, "239.1.2.3");
+  EXPECT_EQ(u.port, 7667);
+  for (const char* bad : {"memq://", "udpm://10.0.0.1:7667", "udpm://239.1.2.3:0", "udpm://239.1.2.3:70000",
+                          "udpm://239.1.2.3:76x", "udpm://host:7667", "udpm://239.1.2.3:7667?recv_buf_size=-1"}) {
+    EXPECT_FALSE(parse_udpm_url(bad, &u, &why)) << bad;
+    EXPECT_FALSE(why.empty()) << bad;
+  }
+}
