@@ -223,6 +223,14 @@ void start_logging(const coopdyn::runtime::ServiceConfig& cfg) {
 // inputs: received by a supervised child process, never by this one (the bus only publishes)
 std::unique_ptr<coopdyn::io::IsolatedReceiver> make_receiver(const coopdyn::runtime::ServiceConfig& cfg) {
   using namespace coopdyn;
+  // the receive process reads udpm only: a malformed udpm URL stops here, another transport is said
+  io::wire::UdpmUrl u;
+  std::string why;
+  const std::string in = cfg.input_url();
+  if (!io::wire::parse_udpm_url(in, &u, &why)) {
+    if (in.empty() || in.rfind("udpm://", 0) == 0) throw std::runtime_error("input URL: " + why);
+    spdlog::warn("inputs on '{}' are not received: the receive process reads udpm:// only (memq:// is in-process)", in);
+  }
   char exe[4096];
   const ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
   if (n <= 0) throw std::runtime_error("cannot find its own executable (/proc/self/exe)");

@@ -410,6 +410,16 @@ TEST(DaemonStartup, BrokenSceneOrConfigStopsWithAClearMessage) {
     Child c({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", "/no/such/file.yaml"}, "no_cfg");
     EXPECT_EQ(c.wait(), 2);
   }
+  // an input URL the receive process cannot join (a group that is no multicast address)
+  const std::string bad_in = tmp_path("bad_in.yaml");
+  std::ofstream(bad_in) << "lcm_url_in: \"udpm://10.1.2.3:7667?ttl=0\"\n";
+  {
+    Child c({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", bad_in, "--lcm-url", "memq://"}, "bad_in");
+    EXPECT_EQ(c.wait(), 1);
+    EXPECT_NE(slurp(c.err).find("input URL: the group '10.1.2.3' of 'udpm://10.1.2.3:7667?ttl=0' is not an IPv4 multicast"),
+              std::string::npos) << slurp(c.err);
+  }
+  std::remove(bad_in.c_str());
   std::remove(bad_scene.c_str());
   std::remove(bad_cfg.c_str());
 }
