@@ -4,6 +4,7 @@
 # tests/CMakeLists.txt.
 coopdyn_test(coopdynd_tests
   FILES
+    io/lcm_wire_test.cc
     runtime/service_loop_test.cc
     runtime/triple_buffer_test.cc
     runtime/histogram_test.cc

@@ -5,7 +5,7 @@
 //
 // Processes and threads: the loop (ServiceLoop::run, optionally SCHED_FIFO) publishes through LCM
 // and never receives; inputs arrive in a supervised child process (coopdynd --rx-child,
-// io/rx_isolated.h) that copies raw bytes into a shared ring, drained by the receive thread here
+// io/rx_isolated.h: its own UDP socket and LCM wire parser, no liblcm) that copies raw bytes into a shared ring, drained by the receive thread here
 // (-> decode -> triple buffer), which also restarts the child when it dies; spdlog's async logger
 // thread; and this main
 // thread, which waits for SIGINT/SIGTERM (or --duration), drains the loop's event ring into the log
@@ -223,6 +223,14 @@ void start_logging(const coopdyn::runtime::ServiceConfig& cfg) {
 // inputs: received by a supervised child process, never by this one (the bus only publishes)
 std::unique_ptr<coopdyn::io::IsolatedReceiver> make_receiver(const coopdyn::runtime::ServiceConfig& cfg) {
   using namespace coopdyn;
+  // the receive process reads udpm only: a malformed udpm URL stops here, another transport is said
+  io::wire::UdpmUrl u;
+  std::string why;
+  const std::string in = cfg.input_url();
+  if (!io::wire::parse_udpm_url(in, &u, &why)) {
+    if (in.empty() || in.rfind("udpm://", 0) == 0) throw std::runtime_error("input URL: " + why);
+    spdlog::warn("inputs on '{}' are not received: the receive process reads udpm:// only (memq:// is in-process)", in);
+  }
   char exe[4096];
   const ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
   if (n <= 0) throw std::runtime_error("cannot find its own executable (/proc/self/exe)");
@@ -276,6 +284,7 @@ struct RejectionReport {
   std::atomic<long long> rejected_by[coopdyn::io::kRejectKinds] = {};
   std::atomic<long long> out_of_order{0};
   long long missed_logged = 0, filtered_logged = 0;
+  long long malformed_logged[coopdyn::io::wire::kWireStatuses] = {};
   std::chrono::steady_clock::time_point last_report = std::chrono::steady_clock::now() - std::chrono::seconds(2);
   void flush(bool force, const coopdyn::runtime::ServiceLoop& loop, const coopdyn::io::IsolatedReceiver& rx);
 };
@@ -298,6 +307,14 @@ void RejectionReport::flush(bool force, const coopdyn::runtime::ServiceLoop& loo
     what += (what.empty() ? "" : ", ") + std::to_string(f - filtered_logged) + " not coopdyn messages (refused by the receive process)";
     filtered_logged = f;
   }
+  std::string wire;  // malformed datagrams, by the wire parser's reason
+  for (int k = 0; k < io::wire::kWireStatuses; ++k) {
+    const long long m = rx.malformed(static_cast<io::wire::WireStatus>(k));
+    if (m > malformed_logged[k]) wire += (wire.empty() ? "" : ", ") + std::to_string(m - malformed_logged[k]) + " " +
+                                         io::wire::wire_status_text(static_cast<io::wire::WireStatus>(k));
+    malformed_logged[k] = m;
+  }
+  if (!wire.empty()) what += (what.empty() ? "" : ", ") + std::string("malformed LCM datagrams (") + wire + ")";
   if (what.empty()) return;
   spdlog::warn("inputs not applied: {}", what);
   last_report = now;
@@ -321,13 +338,13 @@ void start_receiving(coopdyn::io::IsolatedReceiver& rx, coopdyn::runtime::Servic
         }
         if (r == runtime::Offer::kRejected) rejections.rejected_by[static_cast<int>(why) % io::kRejectKinds].fetch_add(1);
         if (r == runtime::Offer::kOutOfOrder) rejections.out_of_order.fetch_add(1);
-        loop.set_receiver_counters(rx.restarts(), rx.dropped(), rx.filtered());
+        loop.set_receiver_counters(rx.restarts(), rx.dropped(), rx.filtered(), rx.malformed());
       },
       [&loop, &rx](int status, long long restarts) {
-        loop.set_receiver_counters(restarts, rx.dropped(), rx.filtered());
+        loop.set_receiver_counters(restarts, rx.dropped(), rx.filtered(), rx.malformed());
         if (WIFSIGNALED(status))
-          spdlog::error("receive process killed by signal {} ({}): restart {} (a hostile or malformed datagram); "
-                        "the loop keeps running, inputs resume when it is back",
+          spdlog::error("receive process killed by signal {} ({}): restart {}; the loop keeps running, inputs resume "
+                        "when it is back",
                         WTERMSIG(status), strsignal(WTERMSIG(status)), restarts);
         else
           spdlog::error("receive process exited with status {}: restart {}", WEXITSTATUS(status), restarts);
@@ -362,7 +379,7 @@ void wait_for_receiver(const coopdyn::io::IsolatedReceiver& rx, const coopdyn::r
     else
       spdlog::warn("receive socket filter not attached ({}): every datagram on the input URL reaches the receive process, "
                    "which still refuses what is not a coopdyn message",
-                   rx.filter_state() == -1 ? "LCM's receive socket not found" : "the kernel refused it");
+                   rx.filter_state() == -1 ? "the input URL is not udpm" : "the kernel refused it");
   }
 }
 
@@ -395,6 +412,8 @@ std::chrono::steady_clock::time_point run(coopdyn::runtime::ServiceLoop& loop, c
     }
     overruns.flush(false);
     rejections.flush(false, loop, rx);
+    // the receive process's counters also move without a message reaching the daemon (refused datagrams)
+    loop.set_receiver_counters(rx.restarts(), rx.dropped(), rx.filtered(), rx.malformed());
     if (duration >= 0 &&
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count() >= duration)
       g_stop.store(true);
@@ -424,7 +443,7 @@ void print_summary(const coopdyn::runtime::ServiceLoop& loop, const coopdyn::run
   std::printf(
       "coopdynd: stopped (%s) after %lld ticks in %.1f s: overruns %lld, skipped %lld; %s received %lld, accepted %lld, "
       "rejected %lld, out-of-order %lld, expired %lld, stale utime %lld, missed (seq gaps) %lld; receiver restarts %lld, "
-      "inputs dropped %lld, filtered %lld, socket drops (kernel filter and overflow) %lld; "
+      "inputs dropped %lld, filtered %lld, malformed %lld, socket drops (kernel filter and overflow) %lld; "
       "numerical errors %lld; lateness us p50 %.1f p99 %.1f p99.9 %.1f "
       "max %.1f; compute us p50 %.1f p99 %.1f p99.9 %.1f max %.1f\n",
       sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "duration", static_cast<long long>(s.tick), secs,
@@ -432,7 +451,7 @@ void print_summary(const coopdyn::runtime::ServiceLoop& loop, const coopdyn::run
       cfg.mode == runtime::ServiceMode::kSimulate ? "commands" : "states", static_cast<long long>(s.received),
       static_cast<long long>(s.accepted), static_cast<long long>(s.rejected), static_cast<long long>(s.out_of_order),
       static_cast<long long>(s.expired), stale, static_cast<long long>(ic.missed.load()), rx.restarts(), rx.dropped(),
-      rx.filtered(), rx.socket_drops(), static_cast<long long>(s.numerical_errors), s.lateness_us[0], s.lateness_us[1],
+      rx.filtered(), rx.malformed(), rx.socket_drops(), static_cast<long long>(s.numerical_errors), s.lateness_us[0], s.lateness_us[1],
       s.lateness_us[2], s.lateness_us[3], s.compute_us[0], s.compute_us[1], s.compute_us[2], s.compute_us[3]);
   std::fflush(stdout);
 }

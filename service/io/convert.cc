@@ -29,6 +29,10 @@ bool decode_msg(const void* data, int len, M* m) {
     return false;
   }
 }
+// loop_stats_t's fingerprint before inputs_malformed was appended: such a message (a log recorded
+// then) is the current encoding without the last field, read with inputs_malformed 0
+constexpr uint64_t kStatsHashBeforeMalformed = 0x7f11746fd02903b9ULL;
+
 int64_t hash_of(const void* data, int len) {
   if (len < 8) return 0;
   const uint8_t* b = static_cast<const uint8_t*>(data);
@@ -190,7 +194,15 @@ bool decode_output(const void* data, int len, DecodedOutput* out) {
 
 bool decode_stats(const void* data, int len, StatsFrame* s) {
   coopdyn::loop_stats_t o;
-  if (!decode_msg(data, len, &o)) return false;
+  if (len >= 8 && static_cast<uint64_t>(hash_of(data, len)) == kStatsHashBeforeMalformed) {
+    std::vector<uint8_t> now(static_cast<const uint8_t*>(data), static_cast<const uint8_t*>(data) + len);
+    const uint64_t h = static_cast<uint64_t>(coopdyn::loop_stats_t::getHash());
+    for (int i = 0; i < 8; ++i) now[static_cast<size_t>(i)] = static_cast<uint8_t>(h >> (56 - 8 * i));
+    now.insert(now.end(), 8, 0);
+    if (!decode_msg(now.data(), static_cast<int>(now.size()), &o)) return false;
+  } else if (!decode_msg(data, len, &o)) {
+    return false;
+  }
 #define COOPDYN_STATS_FIELD(lcm, frame, put) s->frame = o.lcm;
 #include "service/io/stats_fields.def"
   // by the reasons' keys, so that a sender built with another set of reasons still reads the ones it knows
@@ -207,7 +219,8 @@ MessageType identify(const void* data, int len) {
   if (h == coopdyn::torque_command_t::getHash()) return MessageType::kTorqueCommand;
   if (h == coopdyn::measured_state_t::getHash()) return MessageType::kMeasuredState;
   if (h == coopdyn::output_t::getHash() || h == coopdyn::output_v1_t::getHash()) return MessageType::kOutput;
-  if (h == coopdyn::loop_stats_t::getHash()) return MessageType::kLoopStats;
+  if (h == coopdyn::loop_stats_t::getHash() || static_cast<uint64_t>(h) == kStatsHashBeforeMalformed)
+    return MessageType::kLoopStats;
   if (h == coopdyn::control_t::getHash()) return MessageType::kControl;
   return MessageType::kUnknown;
 }

@@ -108,6 +108,7 @@ struct StatsFrame {
   int64_t missed = 0, inputs_filtered = 0;
   int64_t rejected_by_reason[kRejectKinds] = {};  // index: Reject (kNone stays 0)
   int64_t closure_rejected = 0;
+  int64_t inputs_malformed = 0;  // datagrams refused by the receive process's wire parser
 };
 
 // A decoded output_t, for clients and tests (allocates; never used by the loop).

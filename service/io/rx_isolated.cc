@@ -5,7 +5,6 @@
 #include <linux/filter.h>
 #include <linux/sock_diag.h>
 #include <netinet/in.h>
-#include <lcm/lcm.h>
 #include <poll.h>
 #include <pthread.h>
 #include <signal.h>
@@ -26,6 +25,8 @@
 #include <cstring>
 #include <stdexcept>
 #include <vector>
+
+#include "service/io/lcm_wire.h"
 
 extern char** environ;
 
@@ -65,7 +66,10 @@ IsolatedReceiver::IsolatedReceiver(std::string exe, std::string url, std::vector
     throw std::runtime_error(std::string("receive isolation: cannot create the shared ring: ") + std::strerror(errno));
   void* p = mmap(nullptr, shm_size_, PROT_READ | PROT_WRITE, MAP_SHARED, shm_fd_, 0);
   if (p == MAP_FAILED) throw std::runtime_error(std::string("receive isolation: mmap: ") + std::strerror(errno));
-  hdr_ = new (p) RxRingHeader{kMagic, static_cast<uint32_t>(slots_), static_cast<uint32_t>(slot_bytes_), {0}, {0}, {0}, {0}, {0}, {0}, {0}, {0}, {0}};
+  hdr_ = new (p) RxRingHeader;  // the memfd is zero-filled: every counter starts at 0
+  hdr_->magic = kMagic;
+  hdr_->slots = static_cast<uint32_t>(slots_);
+  hdr_->slot_bytes = static_cast<uint32_t>(slot_bytes_);
   base_ = static_cast<unsigned char*>(p) + 64 * ((sizeof(RxRingHeader) + 63) / 64);
   event_fd_ = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
   if (event_fd_ < 0) throw std::runtime_error(std::string("receive isolation: eventfd: ") + std::strerror(errno));
@@ -80,6 +84,15 @@ IsolatedReceiver::~IsolatedReceiver() {
 
 long long IsolatedReceiver::dropped() const { return static_cast<long long>(hdr_->dropped.load()); }
 long long IsolatedReceiver::child_received() const { return static_cast<long long>(hdr_->received.load()); }
+long long IsolatedReceiver::malformed() const {
+  long long n = 0;
+  for (int k = 0; k < wire::kWireStatuses; ++k)
+    if (wire::refused(static_cast<wire::WireStatus>(k))) n += static_cast<long long>(hdr_->malformed_by[k].load());
+  return n;
+}
+long long IsolatedReceiver::malformed(wire::WireStatus why) const {
+  return static_cast<long long>(hdr_->malformed_by[static_cast<int>(why)].load());
+}
 long long IsolatedReceiver::filtered() const { return static_cast<long long>(hdr_->filtered.load()); }
 long long IsolatedReceiver::socket_drops() const { return static_cast<long long>(hdr_->socket_drops.load()); }
 long long IsolatedReceiver::socket_buffer() const { return static_cast<long long>(hdr_->rcvbuf.load()); }
@@ -237,37 +250,6 @@ std::vector<sock_filter> build_filter(const std::vector<Accept>& acc) {
   return f;
 }
 
-// The UDP socket LCM bound to the URL's port (its receive socket), or -1.
-int find_receive_socket(uint16_t port) {
-  if (port == 0) return -1;  // not udpm (an unbound socket would report port 0)
-  rlimit rl{};
-  const int max_fd = getrlimit(RLIMIT_NOFILE, &rl) == 0 && rl.rlim_cur < 65536 ? static_cast<int>(rl.rlim_cur) : 65536;
-  int found = -1;
-  for (int fd = 0; fd < max_fd; ++fd) {
-    int type = 0;
-    socklen_t tl = sizeof type;
-    if (getsockopt(fd, SOL_SOCKET, SO_TYPE, &type, &tl) != 0 || type != SOCK_DGRAM) continue;
-    sockaddr_in a{};
-    socklen_t al = sizeof a;
-    if (getsockname(fd, reinterpret_cast<sockaddr*>(&a), &al) != 0 || a.sin_family != AF_INET || ntohs(a.sin_port) != port)
-      continue;
-    if (found >= 0) return -1;  // two candidates: not the layout this code knows
-    found = fd;
-  }
-  return found;
-}
-
-// udpm://ADDR:PORT?...: the port (LCM's default 7667 when absent), 0 if not udpm
-uint16_t url_port(const std::string& url) {
-  if (url.rfind("udpm://", 0) != 0) return 0;
-  std::string rest = url.substr(7);
-  rest = rest.substr(0, rest.find('?'));
-  const size_t c = rest.find(':');
-  if (c == std::string::npos) return 7667;
-  const long p = std::strtol(rest.c_str() + c + 1, nullptr, 10);
-  return p > 0 && p < 65536 ? static_cast<uint16_t>(p) : 0;
-}
-
 uint64_t kernel_drops(int fd) {
 #ifdef SO_MEMINFO
   uint32_t mi[SK_MEMINFO_VARS] = {};
@@ -314,77 +296,144 @@ RxRingHeader* map_ring(int shm_fd) {
   return hdr;
 }
 
-// the channels are matched literally: LCM takes a regular expression, so escape them
-std::string channel_regex(const std::vector<Accept>& acc) {
-  std::string re;
-  for (const Accept& a : acc) {
-    if (!re.empty()) re += '|';
-    for (const char* c = a.channel.c_str(); *c; ++c) {
-      if (std::strchr(".^$|()[]{}*+?\\", *c)) re += '\\';
-      re += *c;
-    }
-  }
-  return "(" + re + ")";  // LCM anchors the expression as ^...$: group the alternatives
-}
-
-// LCM's handler: a message into the next free slot with its receive time, then the doorbell.
-void on_message(const lcm_recv_buf_t* rb, const char* channel, void* user) {
-  ChildRing& c = *static_cast<ChildRing*>(user);
-  c.hdr->received.fetch_add(1, std::memory_order_relaxed);
-  // a coopdyn message of this channel's type, or nothing: no ring slot, no decode time
-  bool ours = false;
-  for (const Accept& a : *c.acc)
-    if (rb->data_size >= 8 && std::memcmp(rb->data, a.hash, 8) == 0 && a.channel == channel) ours = true;
-  if (!ours) {
-    c.hdr->filtered.fetch_add(1, std::memory_order_relaxed);
-    return;
-  }
-  const int slots = static_cast<int>(c.hdr->slots), bytes = static_cast<int>(c.hdr->slot_bytes);
-  const uint64_t head = c.hdr->head.load(std::memory_order_relaxed);
-  if (rb->data_size > static_cast<uint32_t>(bytes) || head - c.hdr->tail.load(std::memory_order_acquire) >= static_cast<uint64_t>(slots)) {
-    c.hdr->dropped.fetch_add(1, std::memory_order_relaxed);
-    return;
-  }
-  unsigned char* s = slot_at(c.base, bytes, head, slots);
-  const uint32_t len = rb->data_size;
-  const int64_t t = now_ns();
-  std::memcpy(s, &len, sizeof len);
-  std::memcpy(s + sizeof len, &t, sizeof t);
-  std::memcpy(s + sizeof len + sizeof t, rb->data, len);
-  c.hdr->head.store(head + 1, std::memory_order_release);
-  const uint64_t one = 1;
-  (void)!write(c.event_fd, &one, sizeof one);
-}
-
-// The receive socket (LCM opens it on the first subscribe): its buffer size and the kernel filter,
-// what they came to in the header. Returns the socket, or -1 if it was not found.
-int tune_receive_socket(RxRingHeader* hdr, const char* url, long rcvbuf, const std::vector<Accept>& acc) {
-  const int sock = find_receive_socket(url_port(url));
-  if (sock < 0) {
-    hdr->filter.store(-1);
-    return sock;
-  }
+// The receive socket: UDP, bound to the URL's port with SO_REUSEADDR (as liblcm does, so
+// lcm-logger and other subscribers on this host receive too), in the URL's group only, with the kernel
+// filter attached before it is bound (no datagram is queued unfiltered) and the buffer size asked
+// for (rcvbuf, else the URL's recv_buf_size, else the OS default); what the filter and the buffer
+// came to goes to the header. -1 if the socket cannot be set up.
+int open_receive_socket(RxRingHeader* hdr, const wire::UdpmUrl& u, long rcvbuf, const std::vector<Accept>& acc) {
+  const int sock = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+  if (sock < 0) return -1;
+  const int one = 1;
+  setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+  std::vector<sock_filter> prog = build_filter(acc);
+  sock_fprog fp{static_cast<unsigned short>(prog.size()), prog.data()};
+  hdr->filter.store(setsockopt(sock, SOL_SOCKET, SO_ATTACH_FILTER, &fp, sizeof fp) == 0 ? 1 : -2);
+  if (rcvbuf <= 0) rcvbuf = u.recv_buf_size;
   if (rcvbuf > 0) {
     const int want = static_cast<int>(std::min<long>(rcvbuf, 1L << 30));
     setsockopt(sock, SOL_SOCKET, SO_RCVBUF, &want, sizeof want);
   }
-  std::vector<sock_filter> prog = build_filter(acc);
-  sock_fprog fp{static_cast<unsigned short>(prog.size()), prog.data()};
-  hdr->filter.store(setsockopt(sock, SOL_SOCKET, SO_ATTACH_FILTER, &fp, sizeof fp) == 0 ? 1 : -2);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_ANY);
+  addr.sin_port = htons(u.port);
+  ip_mreq mreq{};
+  inet_pton(AF_INET, u.group.c_str(), &mreq.imr_multiaddr);
+  mreq.imr_interface.s_addr = htonl(INADDR_ANY);
+  const int zero = 0;  // only the URL's group (Linux otherwise delivers every group joined on the host at this port)
+  setsockopt(sock, IPPROTO_IP, IP_MULTICAST_ALL, &zero, sizeof zero);
+  if (bind(sock, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0 ||
+      setsockopt(sock, IPPROTO_IP, IP_ADD_MEMBERSHIP, &mreq, sizeof mreq) != 0) {
+    std::fprintf(stderr, "coopdynd receive process: cannot join %s:%d: %s\n", u.group.c_str(), u.port, std::strerror(errno));
+    close(sock);
+    return -1;
+  }
   int got = 0;
   socklen_t gl = sizeof got;
   if (getsockopt(sock, SOL_SOCKET, SO_RCVBUF, &got, &gl) == 0) hdr->rcvbuf.store(got);
   return sock;
 }
 
-// Handles messages until the parent is gone, reading the kernel's drop count now and then.
-void serve(lcm_t* lcm, RxRingHeader* hdr, int sock, pid_t parent) {
+// A coopdyn message of one of the accepted channels: the channel literally, then the payload's
+// first 8 bytes the type's fingerprint.
+bool accepted(const std::vector<Accept>& acc, const char* channel, int channel_len, const uint8_t* data, int len) {
+  for (const Accept& a : acc)
+    if (len >= 8 && std::memcmp(data, a.hash, 8) == 0 && a.channel.size() == static_cast<size_t>(channel_len) &&
+        std::memcmp(a.channel.data(), channel, a.channel.size()) == 0)
+      return true;
+  return false;
+}
+
+// A message into the next free slot with its receive time (the doorbell is rung per batch).
+// false if it was dropped (larger than a slot, or the ring full).
+bool push(ChildRing& c, const uint8_t* data, int len, int64_t t) {
+  const int slots = static_cast<int>(c.hdr->slots), bytes = static_cast<int>(c.hdr->slot_bytes);
+  const uint64_t head = c.hdr->head.load(std::memory_order_relaxed);
+  if (len > bytes || head - c.hdr->tail.load(std::memory_order_acquire) >= static_cast<uint64_t>(slots)) {
+    c.hdr->dropped.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  unsigned char* s = slot_at(c.base, bytes, head, slots);
+  const uint32_t n = static_cast<uint32_t>(len);
+  std::memcpy(s, &n, sizeof n);
+  std::memcpy(s + sizeof n, &t, sizeof t);
+  std::memcpy(s + sizeof n + sizeof t, data, n);
+  c.hdr->head.store(head + 1, std::memory_order_release);
+  return true;
+}
+
+// One datagram: parsed and reassembled (lcm_wire.h); a refused one counted by its reason, a
+// fragment 0 or a complete message of another channel or type counted as filtered. Returns true
+// when a message went into the ring.
+bool on_datagram(ChildRing& c, wire::Reassembler& reasm, const uint8_t* buf, size_t len, const sockaddr_in& from,
+                 int64_t t) {
+  wire::Datagram d;
+  wire::WireStatus st = wire::parse_datagram(buf, len, &d);
+  if (st == wire::WireStatus::kPending && d.fragment_no == 0 &&
+      !accepted(*c.acc, d.channel, d.channel_len, d.data, d.data_len)) {  // refused before it takes a slot
+    c.hdr->filtered.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  wire::Message m;
+  if (!wire::refused(st)) {
+    const uint64_t sender = (uint64_t{ntohl(from.sin_addr.s_addr)} << 16) | ntohs(from.sin_port);
+    st = reasm.add(buf, len, sender, t, &m);
+  }
+  if (wire::refused(st)) {
+    c.hdr->malformed_by[static_cast<int>(st)].fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  if (st != wire::WireStatus::kComplete) return false;
+  c.hdr->received.fetch_add(1, std::memory_order_relaxed);
+  if (!accepted(*c.acc, m.channel, m.channel_len, m.data, m.len)) {
+    c.hdr->filtered.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  return push(c, m.data, m.len, t);
+}
+
+constexpr int kBatch = 16;                      // datagrams per recvmmsg
+constexpr int kDatagramBytes = 65536;           // the largest UDP datagram
+constexpr int kReassemblySlots = 8;             // partial messages kept at once (one per sender)
+constexpr long long kReassemblyNs = 100000000;  // a partial message's life: 100 ms
+
+// Receives until the parent is gone: recvmmsg in batches, each datagram through on_datagram, the
+// doorbell rung once per batch that queued something, the kernel's drop count read now and then.
+void serve(ChildRing& c, int sock, pid_t parent) {
+  wire::Reassembler reasm(kReassemblySlots, static_cast<int>(c.hdr->slot_bytes), kReassemblyNs);
+  std::vector<uint8_t> bufs(static_cast<size_t>(kBatch) * kDatagramBytes);
+  mmsghdr msgs[kBatch];
+  iovec iov[kBatch];
+  sockaddr_in from[kBatch];
   long long drops_read = 0;
+  c.hdr->alive.store(static_cast<uint64_t>(getpid()));
   while (getppid() == parent) {
-    lcm_handle_timeout(lcm, 100);
-    if (const long long now = now_ns(); now - drops_read > 50000000LL) {  // at most 20 reads per second
-      hdr->socket_drops.store(kernel_drops(sock), std::memory_order_relaxed);
-      drops_read = now;
+    pollfd pfd{sock, POLLIN, 0};
+    if (sock < 0 || poll(&pfd, 1, 100) <= 0) {
+      if (sock < 0) poll(nullptr, 0, 100);
+      continue;
+    }
+    for (int k = 0; k < kBatch; ++k) {
+      iov[k] = iovec{bufs.data() + static_cast<size_t>(k) * kDatagramBytes, kDatagramBytes};
+      msgs[k].msg_hdr = msghdr{&from[k], sizeof from[k], &iov[k], 1, nullptr, 0, 0};
+      msgs[k].msg_len = 0;
+    }
+    const int n = recvmmsg(sock, msgs, kBatch, MSG_DONTWAIT, nullptr);
+    const int64_t t = now_ns();
+    bool queued = false;
+    for (int k = 0; k < n; ++k)
+      if (!(msgs[k].msg_hdr.msg_flags & MSG_TRUNC))  // a datagram over 64 KiB cannot be LCM's
+        queued |= on_datagram(c, reasm, static_cast<const uint8_t*>(iov[k].iov_base), msgs[k].msg_len, from[k], t);
+      else
+        c.hdr->malformed_by[static_cast<int>(wire::WireStatus::kTooLarge)].fetch_add(1, std::memory_order_relaxed);
+    if (queued) {
+      const uint64_t one = 1;
+      (void)!write(c.event_fd, &one, sizeof one);
+    }
+    if (t - drops_read > 50000000LL) {  // at most 20 reads per second
+      c.hdr->socket_drops.store(kernel_drops(sock), std::memory_order_relaxed);
+      drops_read = t;
     }
   }
 }
@@ -397,24 +446,27 @@ int rx_child_main(int argc, char** argv) {
     return 2;
   }
   prctl(PR_SET_PDEATHSIG, SIGKILL);
+  // a stop (Ctrl-C, a service manager's SIGTERM to the process group) is the daemon's to handle:
+  // it stops this process itself; the receive process dies with it (PR_SET_PDEATHSIG)
+  for (int sig : {SIGINT, SIGTERM, SIGHUP}) signal(sig, SIG_IGN);
   const pid_t parent = getppid();
-  const char* url = argv[2];
   const int shm_fd = std::atoi(argv[3]), event_fd = std::atoi(argv[4]);
   const long rcvbuf = std::strtol(argv[5], nullptr, 10);
   const std::vector<Accept> acc = accepted_from_args(argc, argv);
   RxRingHeader* hdr = map_ring(shm_fd);
   if (!hdr) return 3;
   ChildRing ring{hdr, reinterpret_cast<unsigned char*>(hdr) + 64 * ((sizeof(RxRingHeader) + 63) / 64), event_fd, &acc};
-  lcm_t* lcm = lcm_create(url);
-  if (!lcm) return 4;
-  lcm_subscription_t* sub = lcm_subscribe(lcm, channel_regex(acc).c_str(), on_message, &ring);
-  if (!sub) return 4;
-  // LCM drops a message silently when its subscription already queues this many (default 30)
-  lcm_subscription_set_queue_capacity(sub, static_cast<int>(hdr->slots));
-  const int sock = tune_receive_socket(hdr, url, rcvbuf, acc);
-  hdr->alive.store(static_cast<uint64_t>(getpid()));
-  serve(lcm, hdr, sock, parent);
-  lcm_destroy(lcm);
+  // udpm: our own socket; anything else (memq:// is in-process only) receives nothing here
+  wire::UdpmUrl u;
+  std::string why;
+  int sock = -1;
+  if (wire::parse_udpm_url(argv[2], &u, &why)) {
+    sock = open_receive_socket(hdr, u, rcvbuf, acc);
+    if (sock < 0) return 4;
+  } else {
+    hdr->filter.store(-1);
+  }
+  serve(ring, sock, parent);
   return 0;
 }
 

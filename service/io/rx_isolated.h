@@ -1,36 +1,39 @@
-// Receive isolation: LCM's receive code runs in a supervised child process, never in the daemon.
+// The daemon's receive path: its own UDP socket in a supervised child process; no liblcm.
 //
 // Why: liblcm 1.3.1's fragment reassembly writes out of bounds on a crafted LC03 datagram (one
 // 324-byte fragment with a huge offset; open upstream, in no release), and any process that
-// subscribes on the multicast group dies. So the daemon never subscribes: it only publishes (LCM's
-// udpm transport opens its receive socket on the first subscribe). A child process
+// subscribes with liblcm dies. So nothing of the daemon receives with liblcm (it only publishes:
+// LCM's udpm transport opens its receive socket on the first subscribe). A child process
 // (`coopdynd --rx-child`, the same binary, exec'd, so it shares nothing but what it is given)
-// subscribes to the input channels (commands or states, and controls) on the inbound URL and copies each message's raw bytes into
-// a shared-memory ring (single producer, single consumer, fixed slots); it decodes nothing. The
-// daemon's receive thread drains the ring and hands the bytes to the same decoders as before
-// (bounds-checked, codec.h), so a hostile datagram can at worst kill the child.
+// opens a UDP socket on the inbound URL's group and port (SO_REUSEADDR, as liblcm, so lcm-logger
+// listens beside it), reads datagrams with recvmmsg in batches and parses them with lcm_wire.h
+// (every length and offset checked, fragments reassembled in preallocated per-sender slots with a
+// timeout); a complete message on an input channel whose payload starts with that channel's type
+// fingerprint goes as raw bytes into a shared-memory ring (single producer, single consumer, fixed
+// slots); it decodes nothing. The daemon's receive thread drains the ring and hands the bytes to
+// the decoders (bounds-checked, codec.h). A refused datagram is counted by its reason
+// (malformed_by, `inputs_malformed` in loop_stats_t). The child stays as defence in depth: what
+// parses hostile bytes runs in a process that holds nothing but the ring.
 //
 // Supervision (the receive thread): the child is watched with waitpid(WNOHANG) at every wake-up
 // (at least every 20 ms); when it dies it is counted, reported through the on_restart callback
 // and respawned at once, then with a backoff doubling from 1 ms to 1 s while it keeps dying within
 // a second of its start. The loop keeps ticking and publishing meanwhile; commands expire through
-// the watchdog and the safe torque applies. The child dies with the daemon (PR_SET_PDEATHSIG).
-// Messages larger than a slot, or arriving when the ring is full, are dropped and counted by the
-// child in the shared header.
+// the watchdog and the safe torque applies. The child dies with the daemon (PR_SET_PDEATHSIG) and
+// ignores SIGINT, SIGTERM and SIGHUP (a stop signalled to the process group is the daemon's: it
+// stops the child itself, and that is no restart). Messages larger than a slot, or arriving when
+// the ring is full, are dropped and counted by the child in the shared header.
 //
-// Floods (README "Guarantees"): the child accepts only coopdyn messages. Once subscribed it finds
-// LCM's receive socket (the UDP socket bound to the URL's port), sets its SO_RCVBUF to the
-// configured size (0: the OS default) and attaches a classic BPF socket filter: a short LCM
-// datagram (LC02) passes only if its channel is one of the given channels and its payload starts
-// with that channel's type fingerprint (the 8-byte hash of the generated type); fragments (LC03)
-// pass (their channel is only in the first one; larger messages need them); everything else is
-// dropped by the kernel before it takes socket buffer space, CPU time in this process or a ring
-// slot. The kernel counts those drops with the socket's overflow drops (SO_MEMINFO, `socket_drops`).
-// The handler checks the channel and fingerprint again (fragments, or a filter that could not be
-// attached) and counts what it refuses as `filtered`. Without the filter, junk at the rate one
-// sender thread reaches on loopback (~100,000-170,000 datagrams/s) took 24 % of the datagrams in
-// the socket buffer, 46 % in LCM's subscription queue and 3.5 % in the ring, and half of the valid
-// commands with them (tests/daemon/flood_daemon_test.cc).
+// Floods (README "Guarantees"): the child accepts only coopdyn messages. Its socket gets the
+// configured SO_RCVBUF (0: the URL's recv_buf_size, else the OS default) and, before it is bound,
+// a classic BPF socket filter: a short LCM datagram (LC02) passes only if its channel is one of the
+// given channels and its payload starts with that channel's type fingerprint (the 8-byte hash of
+// the generated type); fragments (LC03) pass (their channel is only in the first one; messages
+// larger than a datagram need them); everything else is dropped by the kernel before it takes
+// socket buffer space, CPU time in this process or a ring slot. The kernel counts those drops with
+// the socket's overflow drops (SO_MEMINFO, `socket_drops`). The child checks the channel and
+// fingerprint again (a fragment 0 before it takes a reassembly slot, complete messages, or a
+// filter that could not be attached) and counts what it refuses as `filtered`.
 #pragma once
 
 #include <sched.h>
@@ -42,6 +45,8 @@
 #include <string>
 #include <thread>
 #include <vector>
+
+#include "service/io/lcm_wire.h"
 
 namespace coopdyn::io {
 
@@ -57,7 +62,9 @@ struct RxRingHeader {
   std::atomic<uint64_t> filtered; // messages the child refused: not a coopdyn message of its channel
   std::atomic<uint64_t> socket_drops;  // the kernel's drop count of the receive socket (filter + overflow)
   std::atomic<int64_t> rcvbuf;    // SO_RCVBUF as the kernel reports it (twice a request it granted; the OS default as is)
-  std::atomic<int64_t> filter;    // 1: socket filter attached; < 0: not (-1 no socket found, -2 refused)
+  std::atomic<int64_t> filter;    // 1: socket filter attached; < 0: not (-1 no socket (not udpm), -2 refused)
+  // datagrams the child refused as malformed LCM (lcm_wire.h), by reason (WireStatus)
+  std::atomic<uint64_t> malformed_by[wire::kWireStatuses];
 };
 static_assert(std::atomic<uint64_t>::is_always_lock_free, "the ring's counters must be lock-free across processes");
 
@@ -90,6 +97,8 @@ class IsolatedReceiver {
   long long dropped() const;
   long long child_received() const;
   long long filtered() const;      // refused by the child (not a coopdyn message of its channel)
+  long long malformed() const;     // datagrams refused by the child's wire parser (every reason)
+  long long malformed(wire::WireStatus why) const;
   long long socket_drops() const;  // dropped by the kernel at the receive socket (filter + overflow)
   long long socket_buffer() const; // SO_RCVBUF the kernel reports (0 until known)
   int filter_state() const;        // 1 attached, 0 not yet, -1 no receive socket found, -2 refused

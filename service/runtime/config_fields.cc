@@ -180,10 +180,11 @@ const std::vector<ConfigField> kFields = {
      "outputs and any flood on `lcm_url` never reach the receiver; senders then use that URL"},
     {"receive", "queue", K::kCount, "a number (messages)", 2, 4096, "{lo}..{hi}", {}, false,
      COOPDYN_MEMBER(S::receive_queue, x), check_receive, "",
-     "messages the isolated receive process can queue for the loop (also LCM's subscription queue)"},
+     "messages the isolated receive process can queue for the loop (ring slots)"},
     {"receive", "max_message_bytes", K::kCount, "a number (bytes)", 256, 4194304, "{lo}..{hi}", {}, false,
      COOPDYN_MEMBER(S::receive_max_bytes, x), check_receive, "",
-     "larger input messages are dropped and counted (`inputs_dropped`)"},
+     "larger input messages are refused and counted (`inputs_malformed`); also the size of each of the receive "
+     "process's 8 fragment reassembly slots"},
     {"receive", "socket_buffer_bytes", K::kCount, "a number (bytes)", kMinSocketBufferBytes, kMaxSocketBufferBytes,
      "0 or {lo}..{hi}", {}, false, COOPDYN_MEMBER(S::receive_socket_buffer, x),
      check_socket_buffer, " (the OS default, `net.core.rmem_default`)",

@@ -387,6 +387,7 @@ void ServiceLoop::fill_counters(io::StatsFrame& s) const {
   s.inputs_filtered = inputs_filtered_.load(std::memory_order_relaxed);
   for (int k = 0; k < io::kRejectKinds; ++k) s.rejected_by_reason[k] = c.by_reason[k].load(std::memory_order_relaxed);
   s.closure_rejected = closure_rejected_.load(std::memory_order_relaxed);
+  s.inputs_malformed = inputs_malformed_.load(std::memory_order_relaxed);
 }
 
 void ServiceLoop::publish_stats() {

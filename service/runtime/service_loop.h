@@ -88,7 +88,8 @@ class ServiceLoop {
   bool paused() const { return paused_; }  // loop thread
   const InputCounters& input_counters() const;
   // Fed by the daemon's receive supervision (io/rx_isolated.h), any thread; published in loop_stats_t.
-  void set_receiver_counters(int64_t restarts, int64_t dropped, int64_t filtered = 0) {
+  void set_receiver_counters(int64_t restarts, int64_t dropped, int64_t filtered = 0, int64_t malformed = 0) {
+    inputs_malformed_.store(malformed, std::memory_order_relaxed);
     receiver_restarts_.store(restarts, std::memory_order_relaxed);
     inputs_dropped_.store(dropped, std::memory_order_relaxed);
     inputs_filtered_.store(filtered, std::memory_order_relaxed);
@@ -170,7 +171,7 @@ class ServiceLoop {
   int64_t since_stats_ = 0;
 
   std::atomic<int64_t> ticks_{0}, overruns_{0}, skipped_{0}, expired_{0}, numerical_errors_{0};
-  std::atomic<int64_t> receiver_restarts_{0}, inputs_dropped_{0}, inputs_filtered_{0};
+  std::atomic<int64_t> receiver_restarts_{0}, inputs_dropped_{0}, inputs_filtered_{0}, inputs_malformed_{0};
   std::atomic<int64_t> closure_rejected_{0};  // estimate: measured states above closure_tolerance
   Histogram late_win_, comp_win_, late_all_, comp_all_;
   EventRing<256> events_;

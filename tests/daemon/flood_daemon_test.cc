@@ -49,7 +49,8 @@ struct FloodFigures {
 };
 
 struct Summary {
-  long received = 0, accepted = 0, rejected = 0, out_of_order = 0, missed = 0, dropped = 0, filtered = 0, socket_drops = 0;
+  long received = 0, accepted = 0, rejected = 0, out_of_order = 0, missed = 0, dropped = 0, filtered = 0, malformed = 0,
+       socket_drops = 0;
 };
 bool parse_summary(const std::string& text, Summary* s) {
   std::smatch m;
@@ -60,11 +61,12 @@ bool parse_summary(const std::string& text, Summary* s) {
   s->out_of_order = std::stol(m[4]);
   if (!std::regex_search(text, m, std::regex(R"(missed \(seq gaps\) (\d+))"))) return false;
   s->missed = std::stol(m[1]);
-  if (!std::regex_search(text, m, std::regex(R"(inputs dropped (\d+), filtered (\d+), socket drops \(kernel filter and overflow\) (\d+))")))
+  if (!std::regex_search(text, m, std::regex(R"(inputs dropped (\d+), filtered (\d+), malformed (\d+), socket drops \(kernel filter and overflow\) (\d+))")))
     return false;
   s->dropped = std::stol(m[1]);
   s->filtered = std::stol(m[2]);
-  s->socket_drops = std::stol(m[3]);
+  s->malformed = std::stol(m[3]);
+  s->socket_drops = std::stol(m[4]);
   return true;
 }
 
@@ -306,5 +308,6 @@ TEST(DaemonFlood, SocketFilterLetsOnlyCoopdynMessagesOfItsChannelsThrough) {
   ASSERT_TRUE(parse_summary(slurp(d.out), &s)) << slurp(d.out);
   EXPECT_EQ(s.received, 1) << "only the valid command reached the decoders";
   EXPECT_EQ(s.filtered, 0) << "nothing reached the receive process's own check";
+  EXPECT_EQ(s.malformed, 0) << "well-formed LCM datagrams, each refused by the filter, none by the wire parser";
   EXPECT_EQ(s.socket_drops, sent) << "the kernel dropped every other datagram at the socket";
 }

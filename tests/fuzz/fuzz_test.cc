@@ -3,7 +3,9 @@
 //     truncations, inserted / deleted / duplicated bytes, count and string-length fields set to
 //     hostile values, doubles set to NaN / Inf / huge / just over the limit, splices of two seeds;
 //   - load_scene_string on mutated shipped scenes (config/scenes/*.yaml) and the scene corpus;
-//   - load_config_string on mutated config/coopdynd.yaml and the config corpus.
+//   - load_config_string on mutated config/coopdynd.yaml and the config corpus;
+//   - the LCM wire parser and reassembler (service/io/lcm_wire.h) on mutated datagram sequences of
+//     the wire corpus (LC02, LC03 sets, the fragment that crashes liblcm 1.3.1).
 // Every input must end in a clean result or the documented error (a Reject, SceneError,
 // ConfigError): never a crash, a hang or another exception. A clean result is checked too: a
 // decoded command is finite, within tau_limit and exactly 0 on unactuated DOFs; a loaded scene has
@@ -18,7 +20,7 @@
 //   COOPDYN_FUZZ_SEED=S    base seed (default 20240610)
 //   COOPDYN_FUZZ_ITERS=N   iterations per target (default: the build's budget, below)
 //   COOPDYN_FUZZ_ONLY=I    run iteration I only (reproduce a failure)
-// `coopdyn_fuzz_tests --write-corpus DIR` regenerates the binary seeds (DIR/command, DIR/state).
+// `coopdyn_fuzz_tests --write-corpus DIR` regenerates the binary seeds (DIR/command, DIR/state, DIR/wire).
 #include <gtest/gtest.h>
 #include <fcntl.h>
 #include <signal.h>
@@ -49,6 +51,7 @@
 
 #include "service/dynamics/constrained_dynamics.h"
 #include "service/io/codec.h"
+#include "service/io/lcm_wire.h"
 #include "service/runtime/config.h"
 #include "service/scene/scene.h"
 #include "tests/support/files.h"
@@ -67,6 +70,7 @@ constexpr bool kSanitized = false;
 constexpr long kDecoderIters = kSanitized ? 50000 : 200000;
 constexpr long kSceneIters = kSanitized ? 2000 : 8000;
 constexpr long kConfigIters = kSanitized ? 5000 : 20000;
+constexpr long kWireIters = kSanitized ? 25000 : 100000;  // ~1.6 s in Release
 // An input that runs longer than this is a hang.
 constexpr long long kHangNs = (kSanitized ? 60LL : 10LL) * 1000000000LL;
 
@@ -546,6 +550,144 @@ int write_corpus(const std::string& dir) {
   return 0;
 }
 
+// ---- the LCM wire parser and reassembler (service/io/lcm_wire.h) -------------------------------
+// A wire input is a sequence of datagrams, each framed as [u8 sender][u16 length, big-endian][bytes]
+// (tests/fuzz/corpus/wire/*.bin). Mutations: a datagram's bytes (mutate_bytes), an LC03 header field
+// set to a hostile value, a datagram repeated, dropped or moved, another sender.
+struct Framed {
+  uint8_t sender;
+  std::string bytes;
+};
+std::vector<Framed> unframe(const std::string& s) {
+  std::vector<Framed> out;
+  for (size_t p = 0; p + 3 <= s.size();) {
+    const size_t n = std::min<size_t>((static_cast<unsigned char>(s[p + 1]) << 8) | static_cast<unsigned char>(s[p + 2]),
+                                      s.size() - p - 3);
+    out.push_back({static_cast<uint8_t>(s[p]), s.substr(p + 3, n)});
+    p += 3 + n;
+  }
+  return out;
+}
+std::string frame(const std::vector<Framed>& ds) {
+  std::string s;
+  for (const Framed& d : ds) {
+    const size_t n = std::min<size_t>(d.bytes.size(), 65535);
+    s.push_back(static_cast<char>(d.sender));
+    s.push_back(static_cast<char>(n >> 8));
+    s.push_back(static_cast<char>(n));
+    s.append(d.bytes, 0, n);
+  }
+  return s;
+}
+const uint32_t kHostileWire[] = {0, 1, 2, 3, 7, 8, 100, 255, 256, 1000, 1199, 1200, 2999, 3000, 3001, 4095, 4096, 4097,
+                                 65535, 65536, 0x7fffffffu, 0x80000000u, 0xFFFFFF00u, 0xFFFFFFFFu};
+std::string mutate_wire(const std::string& input, const std::vector<std::string>& seeds, std::mt19937_64& r) {
+  std::vector<Framed> ds = unframe(input);
+  if (ds.empty()) ds.push_back({0, std::string()});
+  const int n_mut = 1 + static_cast<int>(pick(r, 3));
+  for (int m = 0; m < n_mut; ++m) {
+    Framed& d = ds[pick(r, ds.size())];
+    switch (pick(r, 6)) {
+      case 0: d.bytes = mutate_bytes(d.bytes, seeds, nullptr, r); break;
+      case 1:
+      case 2: {  // an LC03 field: msg_size (8), fragment_offset (12), fragment_no (16) or n_fragments (18)
+        static const size_t kAt[] = {8, 12, 16, 18};
+        const size_t at = kAt[pick(r, 4)];
+        if (d.bytes.size() < at + 4) break;
+        const uint32_t v = kHostileWire[pick(r, std::size(kHostileWire))];
+        if (at >= 16) {
+          d.bytes[at] = static_cast<char>(v >> 8);
+          d.bytes[at + 1] = static_cast<char>(v);
+        } else {
+          put_be32(d.bytes, at, static_cast<int32_t>(v));
+        }
+        break;
+      }
+      case 3: ds.push_back(ds[pick(r, ds.size())]); break;                          // repeated (at the end)
+      case 4: if (ds.size() > 1) ds.erase(ds.begin() + static_cast<long>(pick(r, ds.size()))); break;  // dropped
+      case 5:
+        if (pick(r, 2)) std::swap(ds[pick(r, ds.size())], ds[pick(r, ds.size())]);  // moved
+        else d.sender = static_cast<uint8_t>(pick(r, 4));                             // another sender
+        break;
+    }
+  }
+  return frame(ds);
+}
+
+// The wire corpus: liblcm's datagrams of a command (LC02), of a 3000-byte message in three
+// fragments (in order, and reversed with a repeat), and the fragment that crashes liblcm 1.3.1.
+int write_wire_corpus(const std::string& dir) {
+  if (system(("mkdir -p '" + dir + "/wire'").c_str()) != 0) return 1;
+  auto be = [](std::string& s, uint32_t v, int bytes) {
+    for (int k = bytes - 1; k >= 0; --k) s.push_back(static_cast<char>(v >> (8 * k)));
+  };
+  auto save = [&](const std::string& name, const std::vector<Framed>& ds) {
+    const std::string s = frame(ds);
+    std::ofstream(dir + "/wire/" + name, std::ios::binary).write(s.data(), static_cast<std::streamsize>(s.size()));
+    std::printf("wrote %s/wire/%s (%zu bytes)\n", dir.c_str(), name.c_str(), s.size());
+  };
+  const std::vector<uint8_t> cmd = io::encode_torque_command(1718000000000000LL, 1, {}, {0.5, -0.25, 0.0, 1.0});
+  std::string lc02;
+  be(lc02, io::wire::kShortMagic, 4);
+  be(lc02, 7, 4);
+  lc02 += std::string("COOPDYN_COMMAND") + '\0' + std::string(cmd.begin(), cmd.end());
+  save("lc02_command.bin", {{0, lc02}});
+  std::string msg(3000, '\0');
+  for (size_t i = 0; i < msg.size(); ++i) msg[i] = static_cast<char>(i * 31 + 7);
+  std::memcpy(&msg[0], cmd.data(), 8);  // the command's fingerprint first
+  std::vector<Framed> frags;
+  const std::string channel = "COOPDYN_COMMAND";
+  const size_t first = 1200 - channel.size() - 1;
+  for (uint32_t k = 0, off = 0; k < 3; ++k) {
+    const size_t n = k == 0 ? first : std::min<size_t>(1200, msg.size() - off);
+    std::string f;
+    be(f, io::wire::kFragmentMagic, 4);
+    be(f, 9, 4);
+    be(f, 3000, 4);
+    be(f, off, 4);
+    be(f, k, 2);
+    be(f, 3, 2);
+    if (k == 0) f += channel + '\0';
+    f += msg.substr(off, n);
+    frags.push_back({1, f});
+    off += static_cast<uint32_t>(n);
+  }
+  save("lc03_three_fragments.bin", frags);
+  save("lc03_reversed_repeated.bin", {frags[2], frags[1], frags[1], frags[0]});
+  std::string crafted;
+  be(crafted, io::wire::kFragmentMagic, 4);
+  be(crafted, 1, 4);
+  be(crafted, 100, 4);
+  be(crafted, 0xFFFFFF00u, 4);
+  be(crafted, 0, 2);
+  be(crafted, 2, 2);
+  crafted += channel + '\0';
+  crafted.resize(324, '\xab');
+  save("crafted_liblcm_crash.bin", {{2, crafted}});
+  return 0;
+}
+
+// Feeds one input's datagrams to a fresh-state reassembler; "" or what went wrong. complete:
+// messages put together.
+std::string run_wire(io::wire::Reassembler& reasm, const std::string& input, long long* now, int* complete) {
+  for (const Framed& d : unframe(input)) {
+    io::wire::Message m;
+    *now += 1000;
+    const io::wire::WireStatus st = reasm.add(d.bytes.data(), d.bytes.size(), d.sender, *now, &m);
+    const int si = static_cast<int>(st);
+    if (si < 0 || si >= io::wire::kWireStatuses) return "status out of range";
+    if (reasm.busy_slots() > 4) return "more busy slots than the reassembler has";
+    if (st != io::wire::WireStatus::kComplete) continue;
+    ++*complete;
+    if (m.len < 0 || m.len > 4096) return "a complete message of " + std::to_string(m.len) + " bytes (max 4096)";
+    if (m.channel_len < 1 || m.channel_len > io::wire::kMaxChannel || std::strlen(m.channel) != static_cast<size_t>(m.channel_len))
+      return "a complete message with a malformed channel";
+    volatile uint8_t sum = 0;  // every byte readable (ASan checks)
+    for (int k = 0; k < m.len; ++k) sum = static_cast<uint8_t>(sum + m.data[k]);
+  }
+  return "";
+}
+
 // ---- checks of a clean result -----------------------------------------------------------------
 std::string check_command(const System& sys, const io::CommandSlot& c) {
   for (int i = 0; i < sys.model.nv(); ++i) {
@@ -766,8 +908,36 @@ TEST(Fuzz, ConfigLoader) {
   EXPECT_GT(errors, 0);
 }
 
+TEST(Fuzz, WireReassembler) {
+  std::vector<std::string> seeds;
+  for (const std::string& p : list_dir(kCorpus + "/wire", ".bin")) seeds.push_back(slurp(p));
+  ASSERT_GE(seeds.size(), 4u) << "corpus " << kCorpus << "/wire (regenerate: coopdyn_fuzz_tests --write-corpus)";
+  // the valid seeds each give one message, the crafted fragment none
+  for (const std::string& p : list_dir(kCorpus + "/wire", ".bin")) {
+    io::wire::Reassembler reasm(4, 4096, 100000);
+    long long now = 0;
+    int complete = 0;
+    ASSERT_EQ(run_wire(reasm, slurp(p), &now, &complete), "") << p;
+    EXPECT_EQ(complete, p.find("crafted") == std::string::npos ? 1 : 0) << p;
+  }
+  io::wire::Reassembler reasm(4, 4096, 100000);  // reused: partial messages carry over between inputs
+  long long now = 0;
+  long complete = 0;
+  run_target("WireReassembler", kWireIters, [&](long i) -> std::string {
+    std::mt19937_64 rng = rng_for("WireReassembler", i);
+    g_input = mutate_wire(seeds[static_cast<size_t>(i) % seeds.size()], seeds, rng);
+    int c = 0;
+    const std::string why = run_wire(reasm, g_input, &now, &c);
+    complete += c;
+    return why;
+  });
+  std::printf("[fuzz] WireReassembler: %ld complete messages, %lld partial expired, %lld abandoned\n", complete,
+              reasm.expired(), reasm.abandoned());
+  EXPECT_GT(complete, 0);  // mutations keep some messages whole: the reassembly itself is exercised
+}
+
 int main(int argc, char** argv) {
-  if (argc == 3 && std::string(argv[1]) == "--write-corpus") return write_corpus(argv[2]);
+  if (argc == 3 && std::string(argv[1]) == "--write-corpus") return write_corpus(argv[2]) || write_wire_corpus(argv[2]);
   ::testing::InitGoogleTest(&argc, argv);
   return RUN_ALL_TESTS();
 }

@@ -131,6 +131,7 @@ std::string stats_json(const io::StatsFrame& s) {
   j.add("numerical_errors", num(s.numerical_errors)).add("receiver_restarts", num(s.receiver_restarts));
   j.add("inputs_dropped", num(s.inputs_dropped)).add("commands_missed", num(s.missed));
   j.add("inputs_filtered", num(s.inputs_filtered)).add("closure_rejected", num(s.closure_rejected));
+  j.add("inputs_malformed", num(s.inputs_malformed));
   std::vector<std::string> keys;
   std::vector<long long> counts;
   for (int k = 1; k < io::kRejectKinds; ++k) {
