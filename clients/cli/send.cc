@@ -305,12 +305,12 @@ long long counter(const Readback& rb, int64_t io::StatsFrame::*field) {
 void explain_unused(const Readback& rb) {
   if (rb.stats_n >= 2)
     std::fprintf(stderr, "; its counters over the run: rejected +%lld (malformed, wrong names or count, NaN, over "
-                 "tau_limit, stale or future utime), out of order +%lld (seq not above the last accepted)",
+                 "tau_limit, stale or future utime, not authenticated), out of order +%lld (seq not above the last accepted)",
                  static_cast<long long>(rb.stats_last.rejected - rb.stats_first.rejected),
                  static_cast<long long>(rb.stats_last.out_of_order - rb.stats_first.out_of_order));
   else if (rb.stats_n == 1)
     std::fprintf(stderr, "; its counters since it started: rejected %lld (malformed, wrong names or count, NaN, "
-                 "over tau_limit, stale or future utime), out of order %lld (seq not above the last accepted)",
+                 "over tau_limit, stale or future utime, not authenticated), out of order %lld (seq not above the last accepted)",
                  static_cast<long long>(rb.stats_last.rejected), static_cast<long long>(rb.stats_last.out_of_order));
   // by reason (loop_stats_t rejected_by_reason): over the run, or since start with one stats message
   std::string by;

@@ -176,7 +176,7 @@ TEST(AuthMac, SignedMessageVerifiesAndAnyChangeFails) {
   crypto_auth_hmacsha256_update(&st, reinterpret_cast<const unsigned char*>("what do ya want for nothing?"), 28);
   crypto_auth_hmacsha256_final(&st, out);
   const unsigned char rfc[32] = {0x5b, 0xdc, 0xc1, 0x46, 0xbf, 0x60, 0x75, 0x4e, 0x6a, 0x04, 0x24, 0x26, 0x08, 0x95, 0x75, 0xc7,
-                                 0x5a, 0x00, 0x3f, 0x08, 0x9d, 0xb3, 0x9a, 0x83, 0x9d, 0xec, 0x58, 0xb9, 0x64, 0xec, 0x38, 0x43};
+                                 0x5a, 0x00, 0x3f, 0x08, 0x9d, 0x27, 0x39, 0x83, 0x9d, 0xec, 0x58, 0xb9, 0x64, 0xec, 0x38, 0x43};
   EXPECT_EQ(std::memcmp(out, rfc, 32), 0);
 }
 
@@ -300,17 +300,17 @@ TEST(AuthDaemon, UdpmSignedClientsAppliedUnsignedRejected) {
   Child d({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", config, "--lcm-url", url, "--duration", "20"},
           "auth_daemon");
   ASSERT_TRUE(sink.wait_output([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d.err);
-  auto send = [&](bool with_key, const std::string& name) {
+  auto send = [&](bool with_key, const std::string& name, const char* seq) {
     std::vector<std::string> argv = {COOPDYN_PATH, "send", "--scene", scene_path("two_puma_load"), "--lcm-url", url,
-                                     "--rate", "100", "--duration", "0.3", "--torque", "arm1.q1:constant:0.1"};
+                                     "--rate", "100", "--duration", "0.3", "--torque", "arm1.q1:constant:0.1", "--seq", seq};
     if (with_key) argv.insert(argv.end(), {"--key-file", key});
     Child c(argv, name);
     const int rc = c.wait();
     return std::make_pair(rc, slurp(c.out) + slurp(c.err));
   };
-  auto [rc_signed, out_signed] = send(true, "send_signed");
+  auto [rc_signed, out_signed] = send(true, "send_signed", "1");
   EXPECT_EQ(rc_signed, 0) << out_signed;
-  auto [rc_plain, out_plain] = send(false, "send_plain");
+  auto [rc_plain, out_plain] = send(false, "send_plain", "101");  // seqs of its own: none of them used
   EXPECT_EQ(rc_plain, 4) << out_plain;
   EXPECT_NE(out_plain.find("the daemon used 0 of 31 commands"), std::string::npos) << out_plain;
   EXPECT_NE(out_plain.find("unauthenticated (no MAC) 31"), std::string::npos) << out_plain;
@@ -351,7 +351,8 @@ TEST(AuthDaemon, KeyFileReadableByOthersRefusedAtStart) {
   for (const auto& [k, why] : {std::make_pair(key, "mode 0644"), std::make_pair(short_key, "expected 64 hex digits")}) {
     for (const char* cmd : {"send", "control"}) {
       std::vector<std::string> argv = {COOPDYN_PATH, cmd, "--lcm-url", "memq://", "--key-file", k};
-      if (std::string(cmd) == "send") argv.insert(argv.end(), {"--scene", scene_path("two_puma_load")});
+      if (std::string(cmd) == "send")
+        argv.insert(argv.end(), {"--scene", scene_path("two_puma_load"), "--torque", "arm1.q1:constant:0.1"});
       else argv.insert(argv.end(), {"--action", "pause"});
       const Result c = run_command(argv, std::string("auth_client_") + cmd);
       EXPECT_EQ(c.rc, 2) << cmd << ": " << c.err;
