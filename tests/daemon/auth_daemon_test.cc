@@ -285,6 +285,42 @@ TEST(AuthRoundTrip, MemqForgedUnsignedReplayedRejectedSignedApplied) {
   EXPECT_EQ(sink.outs.back().paused, 1) << "the unsigned RESUME was applied";
 }
 
+// Estimate mode: measured states are checked the same way (their own channel's name in the MAC).
+TEST(AuthRoundTrip, MemqEstimateSignedStateAppliedUnsignedRejected) {
+  const System sys = load_scene(scene_path("two_puma_load"));
+  runtime::ServiceConfig cfg;
+  cfg.mode = runtime::ServiceMode::kEstimate;
+  cfg.auth_key_file = write_file("key_estimate", kKeyHex, 0600);
+  io::LcmBus bus("memq://");
+  runtime::ServiceLoop loop(sys, cfg, bus);
+  bus.subscribe(cfg.state_channel, [&](const void* d, int n, long long t) { loop.states().offer(d, n, t); });
+  Sink sink;
+  sink.attach(bus);
+  bus.start();
+  std::atomic<bool> stop{false};
+  std::thread th([&] { loop.run(stop); });
+  auto state = [&](int64_t seq, bool sign, const std::string& signed_for) {
+    auto b = io::encode_measured_state(io::wall_us(), seq, {}, stdvec(sys.q0), {}, stdvec(sys.v0), stdvec(some_torque(sys, 2)));
+    if (sign) io::sign(b, signed_for, test_key(), io::MessageType::kMeasuredState);
+    bus.publish("COOPDYN_STATE", b.data(), static_cast<int>(b.size()));
+    std::this_thread::sleep_for(3ms);
+  };
+  state(1, false, "");
+  state(2, true, "COOPDYN_COMMAND");  // signed for another channel
+  state(3, true, "COOPDYN_STATE");
+  const bool got = sink.wait_output([](const io::DecodedOutput& o) { return o.input_seq == 3; }, 5s);
+  stop = true;
+  th.join();
+  bus.stop();
+  ASSERT_TRUE(got);
+  EXPECT_FALSE(sink.any_output(1));
+  EXPECT_FALSE(sink.any_output(2));
+  const runtime::InputCounters& c = loop.states().counters();
+  EXPECT_EQ(c.accepted.load(), 1);
+  EXPECT_EQ(c.by_reason[static_cast<int>(io::Reject::kUnauthenticated)].load(), 1);
+  EXPECT_EQ(c.by_reason[static_cast<int>(io::Reject::kBadMac)].load(), 1);
+}
+
 // udpm:// against coopdynd with auth.key_file: `coopdyn send --key-file` applied, `coopdyn send`
 // without it rejected as unauthenticated (exit 4, the reason printed), `coopdyn control --key-file
 // pause` acknowledged, without the key no acknowledgement.
