@@ -4,13 +4,16 @@ add_subdirectory(${PROJECT_SOURCE_DIR}/lcmtypes ${CMAKE_BINARY_DIR}/lcmtypes)
 
 # coopdyn_io: the only library that sees generated lcmtypes (privately)
 add_library(coopdyn_io
+  ${CMAKE_CURRENT_LIST_DIR}/io/auth.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/codec.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/convert.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/lcm_bus.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/lcm_wire.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/rx_isolated.cc
 )
-target_link_libraries(coopdyn_io PUBLIC coopdyn_core Threads::Threads PkgConfig::LCM
+# libsodium: HMAC-SHA256 of authenticated inputs (io/auth.h), allocation-free; its header is in auth.h
+pkg_check_modules(SODIUM REQUIRED IMPORTED_TARGET GLOBAL libsodium)
+target_link_libraries(coopdyn_io PUBLIC coopdyn_core Threads::Threads PkgConfig::LCM PkgConfig::SODIUM
                                  PRIVATE coopdyn_lcmtypes)
 add_dependencies(coopdyn_io coopdyn_lcmtypes_gen)
 

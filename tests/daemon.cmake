@@ -14,6 +14,7 @@ coopdyn_test(coopdynd_tests
     daemon/lcm_daemon_test.cc
     daemon/flood_daemon_test.cc
     daemon/netns_test.cc
+    daemon/auth_daemon_test.cc
     dynamics/vehicle_test.cc
     clients/cli/sim_test.cc
     clients/csv/step_csv_test.cc

@@ -58,6 +58,7 @@ struct SendArgs : SceneArgs, ProfileArgs {
   std::optional<std::string> output_url;
   std::string stats_channel = "COOPDYN_STATS";
   bool measure_latency = false, no_check = false, quiet = false;
+  std::optional<std::string> key_file;  // sign with the daemon's auth key
 };
 
 struct LogArgs : SceneArgs {  // --scene only: a log has no --formulation
@@ -76,6 +77,7 @@ struct ControlArgs : SceneArgs {
   std::string output_channel = "COOPDYN_OUTPUT";
   std::optional<long long> seq;  // the wall clock in microseconds
   bool no_wait = false;
+  std::optional<std::string> key_file;
 };
 
 struct TrackArgs : SceneArgs {
@@ -86,6 +88,7 @@ struct TrackArgs : SceneArgs {
   std::optional<std::string> output_url;  // --lcm-url
   std::string channel = "COOPDYN_COMMAND";
   std::string output_channel = "COOPDYN_OUTPUT";
+  std::optional<std::string> key_file;
 };
 
 struct ViewArgs : SceneArgs {

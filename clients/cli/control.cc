@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "clients/cli/cli.h"
+#include "clients/cli/key_file.h"
 #include "service/io/codec.h"
 #include "service/io/lcm_bus.h"
 #include "service/scene/scene.h"
@@ -23,6 +24,7 @@ void register_control(Cli& cli) {
   value(c, "--output-channel", a.output_channel, "C", "the daemon's output channel (the acknowledgement)", Default::kShown);
   number(c, "--seq", a.seq, "N", "the control's seq (default: the wall clock in microseconds, so that it keeps increasing)");
   flag(c, "--no-wait", a.no_wait, "send and exit without waiting for the acknowledgement");
+  value(c, "--key-file", a.key_file, "FILE", kKeyFileHelp);
 }
 
 int cmd_control(const ControlArgs& a) {
@@ -39,6 +41,8 @@ int cmd_control(const ControlArgs& a) {
     return 2;
   }
   const io::ControlAction action = actions[found].second;
+  std::optional<io::AuthKey> key;
+  if (const int rc = load_cli_key(a.key_file, "control", &key)) return rc;
   std::vector<double> q, v;
   if (action == io::ControlAction::kResetToState) {
     if (!a.scene || !a.state) {
@@ -80,7 +84,8 @@ int cmd_control(const ControlArgs& a) {
       });
       ob->start();
     }
-    const auto b = io::encode_control(io::wall_us(), seq, action, q, v);
+    auto b = io::encode_control(io::wall_us(), seq, action, q, v);
+    sign_if(b, key, channel, io::MessageType::kControl);
     bus.publish(channel.c_str(), b.data(), static_cast<int>(b.size()));
     if (!wait) {
       std::printf("coopdyn control: %s sent (seq %lld)\n", name.c_str(), static_cast<long long>(seq));

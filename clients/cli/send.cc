@@ -18,6 +18,7 @@
 #include <unordered_map>
 
 #include "clients/cli/cli.h"
+#include "clients/cli/key_file.h"
 #include "clients/csv/step_csv.h"
 #include "service/io/codec.h"
 #include "service/io/lcm_bus.h"
@@ -265,7 +266,7 @@ struct Readback {
 
 // The messages: n_msgs at `rate` from now, until SIGINT or SIGTERM; returns how many were sent.
 long long publish_all(const SendArgs& a, io::LcmBus& bus, const std::string& channel, Source& src, long long n_msgs,
-                      Readback& rb) {
+                      Readback& rb, const std::optional<io::AuthKey>& key) {
   const long long period = static_cast<long long>(1e9 / a.rate + 0.5);
   long long next = io::monotonic_ns();
   long long sent = 0;
@@ -280,7 +281,8 @@ long long publish_all(const SendArgs& a, io::LcmBus& bus, const std::string& cha
     clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
     const double t = a.t0 + static_cast<double>(i) / a.rate;
     const long long seq = a.seq + i;
-    const std::vector<uint8_t> bytes = message_at(src, t, seq);
+    std::vector<uint8_t> bytes = message_at(src, t, seq);
+    sign_if(bytes, key, channel, src.replay ? io::MessageType::kMeasuredState : io::MessageType::kTorqueCommand);
     if (a.measure_latency) {
       std::lock_guard<std::mutex> lk(rb.mu);
       rb.sent_ns[seq] = io::monotonic_ns();
@@ -303,12 +305,12 @@ long long counter(const Readback& rb, int64_t io::StatsFrame::*field) {
 void explain_unused(const Readback& rb) {
   if (rb.stats_n >= 2)
     std::fprintf(stderr, "; its counters over the run: rejected +%lld (malformed, wrong names or count, NaN, over "
-                 "tau_limit, stale or future utime), out of order +%lld (seq not above the last accepted)",
+                 "tau_limit, stale or future utime, not authenticated), out of order +%lld (seq not above the last accepted)",
                  static_cast<long long>(rb.stats_last.rejected - rb.stats_first.rejected),
                  static_cast<long long>(rb.stats_last.out_of_order - rb.stats_first.out_of_order));
   else if (rb.stats_n == 1)
     std::fprintf(stderr, "; its counters since it started: rejected %lld (malformed, wrong names or count, NaN, "
-                 "over tau_limit, stale or future utime), out of order %lld (seq not above the last accepted)",
+                 "over tau_limit, stale or future utime, not authenticated), out of order %lld (seq not above the last accepted)",
                  static_cast<long long>(rb.stats_last.rejected), static_cast<long long>(rb.stats_last.out_of_order));
   // by reason (loop_stats_t rejected_by_reason): over the run, or since start with one stats message
   std::string by;
@@ -403,6 +405,7 @@ void register_send(Cli& cli) {
   flag(c, "--measure-latency", a.measure_latency, "report the time from each command's publish to the first output that used it");
   flag(c, "--no-check", a.no_check, "do not read back what the daemon did");
   flag(c, "--quiet", a.quiet, "no summary line");
+  value(c, "--key-file", a.key_file, "FILE", kKeyFileHelp);
 }
 
 int cmd_send(const SendArgs& a) {
@@ -412,6 +415,8 @@ int cmd_send(const SendArgs& a) {
   if (const int rc = load_cli_scene(a, "send", &sys)) return rc;
   Source src;
   if (const int rc = load_source(a, sys, &src, &duration)) return rc;
+  std::optional<io::AuthKey> key;
+  if (const int rc = load_cli_key(a.key_file, "send", &key)) return rc;
   const std::string& url = a.lcm_url;
   const std::string channel = a.channel.value_or(src.replay ? "COOPDYN_STATE" : "COOPDYN_COMMAND");
   std::unique_ptr<io::LcmBus> bus, out_bus;
@@ -435,7 +440,7 @@ int cmd_send(const SendArgs& a) {
   std::signal(SIGTERM, on_sigint);
   if (check) rb.take_baseline();
   const long long n_msgs = static_cast<long long>(std::floor(duration * a.rate + 1e-9)) + 1;
-  const long long sent = publish_all(a, *bus, channel, src, n_msgs, rb);
+  const long long sent = publish_all(a, *bus, channel, src, n_msgs, rb, key);
   if (read_back) std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the last outputs
   if (check) rb.wait_for_final_stats(sent);
   rx_bus.stop();

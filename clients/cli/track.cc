@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "clients/cli/cli.h"
+#include "clients/cli/key_file.h"
 #include "clients/control/cooperative_controller.h"
 #include "service/io/codec.h"
 #include "service/io/lcm_bus.h"
@@ -77,7 +78,7 @@ void write_track_row(std::FILE* csv, const CooperativeController& ctl, const Tra
 // --duration of the daemon's time, a signal, or the outputs stop (5 s for the first, then 1 s).
 // Returns 0, or 1 when the outputs do not match the scene.
 int control_loop(const TrackArgs& a, const System& sys, CooperativeController& ctl, io::LcmBus& bus,
-                 LatestOutput& latest, std::FILE* csv, TrackTally* tally) {
+                 LatestOutput& latest, std::FILE* csv, TrackTally* tally, const std::optional<io::AuthKey>& key) {
   const TrackOptions& opt = a.control;
   const long long seq0 = io::wall_us();
   long long seq = seq0;
@@ -126,7 +127,8 @@ int control_loop(const TrackArgs& a, const System& sys, CooperativeController& c
     const double dt = std::isnan(tally->t_last) ? 0.0 : t - tally->t_last;
     tally->t_last = t;
     const Eigen::VectorXd& tau = ctl.compute(t, q, v, own ? s : std::nan(""), dt);
-    const auto cmd = io::encode_torque_command(io::wall_us(), ++seq, {}, std::vector<double>(tau.data(), tau.data() + tau.size()));
+    auto cmd = io::encode_torque_command(io::wall_us(), ++seq, {}, std::vector<double>(tau.data(), tau.data() + tau.size()));
+    sign_if(cmd, key, a.channel, io::MessageType::kTorqueCommand);
     bus.publish(a.channel.c_str(), cmd.data(), static_cast<int>(cmd.size()));
     ++tally->used;
     tally->saturated += ctl.saturated() ? 1 : 0;
@@ -171,6 +173,7 @@ void register_track(Cli& cli) {
   value(c, "--lcm-url", a.lcm_url, "URL", "LCM URL to send the commands on", Default::kShown);
   value(c, "--output-url", a.output_url, "URL", "LCM URL of the daemon's outputs (default: --lcm-url)");
   value(c, "--channel", a.channel, "C", "command channel", Default::kShown);
+  value(c, "--key-file", a.key_file, "FILE", kKeyFileHelp);
   value(c, "--output-channel", a.output_channel, "C", "the daemon's output channel", Default::kShown);
 }
 
@@ -184,6 +187,8 @@ int cmd_track(const TrackArgs& a) {
   }
   System sys;
   if (const int rc = load_cli_scene(a, "track", &sys)) return rc;
+  std::optional<io::AuthKey> key;
+  if (const int rc = load_cli_key(a.key_file, "track", &key)) return rc;
   std::unique_ptr<CooperativeController> ctl;
   try {
     ctl = std::make_unique<CooperativeController>(sys, opt);
@@ -209,7 +214,7 @@ int cmd_track(const TrackArgs& a) {
     std::signal(SIGINT, on_track_signal);
     std::signal(SIGTERM, on_track_signal);
     TrackTally tally;
-    if (const int rc = control_loop(a, sys, *ctl, bus, latest, csv, &tally)) return rc;
+    if (const int rc = control_loop(a, sys, *ctl, bus, latest, csv, &tally, key)) return rc;
     ob->stop();
     if (csv) std::fclose(csv);
     if (tally.used == 0) {

@@ -86,10 +86,21 @@ def components(w):
 _TYPES = None
 
 
+# The fingerprints of the inputs before they carried a MAC (mac_len, mac appended), by type name: such
+# a message is the current one without its trailing mac_len 0, so logs recorded before still read.
+_PRE_MAC = {bytes.fromhex("b5f5b8e960348f9c"): "torque_command_t", bytes.fromhex("1a87938cb56bb24b"): "measured_state_t",
+            bytes.fromhex("489f6be38cd3846e"): "control_t"}
+
+
 def decode(data):
     """The coopdyn message in data (by its fingerprint), decoded; None if it is another type."""
     global _TYPES
     if _TYPES is None:
         _TYPES = types()
-    t = _TYPES.get(bytes(data[:8]))
+    head = bytes(data[:8])
+    if head in _PRE_MAC:
+        import coopdyn
+        t = getattr(coopdyn, _PRE_MAC[head])
+        return t.decode(t._get_packed_fingerprint() + bytes(data[8:]) + b"\0\0\0\0")
+    t = _TYPES.get(head)
     return t.decode(data) if t else None

@@ -30,6 +30,7 @@
 #include <thread>
 
 #include "service/dynamics/constrained_dynamics.h"
+#include "service/io/auth.h"
 #include "service/io/codec.h"
 #include "service/io/lcm_bus.h"
 #include "service/io/rx_isolated.h"
@@ -189,6 +190,10 @@ int load(const Options& o, coopdyn::runtime::ServiceConfig* cfg_out, coopdyn::Sy
     if (!o.trigger_override.empty() && !runtime::parse_trigger(o.trigger_override, &cfg.trigger))
       throw runtime::ConfigError("--trigger must be tick or arrival");
     runtime::validate(cfg);
+    if (!cfg.auth_key_file.empty()) io::read_key_file(cfg.auth_key_file);  // refused here, before anything starts
+  } catch (const io::KeyError& e) {
+    std::fprintf(stderr, "coopdynd: config error: auth.key_file: %s\n", e.what());
+    return 2;
   } catch (const runtime::ConfigError& e) {
     std::fprintf(stderr, "coopdynd: config error: %s\n", e.what());
     return 2;
@@ -264,6 +269,11 @@ void log_startup(const coopdyn::System& sys, const coopdyn::runtime::ServiceConf
                                                                : "damping",
                cfg.overrun == runtime::OverrunPolicy::kSkip ? "skip"
                                                            : "catch_up (max " + std::to_string(cfg.max_catch_up) + ")");
+  if (!cfg.auth_key_file.empty())
+    spdlog::info("authentication on (key {}): inputs need an HMAC-SHA256 and a utime above the last accepted; "
+                 "unsigned, bad-MAC and replayed ones are rejected", cfg.auth_key_file);
+  else
+    spdlog::info("authentication off: any host that reaches the input URL can command (auth.key_file turns it on)");
   spdlog::info("LCM in {}: {} {} (isolated receive process, queue {} x {} bytes); out {}: {} (output), {} (stats every {} s)",
                cfg.input_url(), cfg.mode == runtime::ServiceMode::kSimulate ? "commands on" : "measured states on",
                cfg.mode == runtime::ServiceMode::kSimulate ? cfg.command_channel : cfg.state_channel, cfg.receive_queue,

@@ -187,6 +187,63 @@ std::vector<std::string> wrench_names(const System& s) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// The inputs' layouts, walked with every count and length checked before the generated decoder
+// runs (it trusts them). Each walk stops at the mac_len field; walk_mac() then passes the MAC.
+namespace {
+constexpr int32_t kMaxMacBytes = 64;  // 32 for HMAC-SHA256 (auth.h); room for another algorithm
+
+// hash, utime, seq, num_names, names[], num_torques, tau[], num_targets, target_names[], target[]
+struct CommandCounts {
+  int32_t names = 0, torques = 0, targets = 0;
+};
+bool walk_command(wire::Reader& r, CommandCounts* c) {
+  return r.hash(coopdyn::torque_command_t::getHash()) && r.skip(16) && r.count(&c->names) && r.strings(c->names) &&
+         r.count(&c->torques) && r.skip(8LL * c->torques) && r.count(&c->targets) && r.strings(c->targets) &&
+         r.skip(8LL * c->targets);
+}
+// hash, utime, seq, num_q_names, q_names[], num_q, q[], num_v_names, v_names[], num_v, v[], tau[],
+// num_wrenches, wrench_names[], wrench[][6]
+struct StateCounts {
+  int32_t q_names = 0, q = 0, v_names = 0, v = 0, wrenches = 0;
+};
+bool walk_state(wire::Reader& r, StateCounts* c) {
+  return r.hash(coopdyn::measured_state_t::getHash()) && r.skip(16) && r.count(&c->q_names) && r.strings(c->q_names) &&
+         r.count(&c->q) && r.skip(8LL * c->q) && r.count(&c->v_names) && r.strings(c->v_names) && r.count(&c->v) &&
+         r.skip(16LL * c->v) && r.count(&c->wrenches) && r.strings(c->wrenches) && r.skip(48LL * c->wrenches);
+}
+// hash, utime, seq, action (1 byte), nq, q[], nv, v[]
+struct ControlCounts {
+  int32_t q = 0, v = 0;
+};
+bool walk_control(wire::Reader& r, ControlCounts* c) {
+  return r.hash(coopdyn::control_t::getHash()) && r.skip(17) && r.count(&c->q) && r.skip(8LL * c->q) && r.count(&c->v) &&
+         r.skip(8LL * c->v);
+}
+// mac_len, mac[]: any length up to kMaxMacBytes (the decoders accept a signed message with
+// authentication off; auth.h checks it when on)
+bool walk_mac(wire::Reader& r) {
+  int32_t n = 0;
+  return r.count(&n) && n <= kMaxMacBytes && r.skip(n);
+}
+}  // namespace
+
+int mac_field_offset(MessageType t, const void* data, int len) {
+  wire::Reader r(data, len);
+  bool ok = false;
+  if (t == MessageType::kTorqueCommand) {
+    CommandCounts c;
+    ok = walk_command(r, &c);
+  } else if (t == MessageType::kMeasuredState) {
+    StateCounts c;
+    ok = walk_state(r, &c);
+  } else if (t == MessageType::kControl) {
+    ControlCounts c;
+    ok = walk_control(r, &c);
+  }
+  return ok ? r.pos() : -1;
+}
+
+// ---------------------------------------------------------------------------------------------
 struct CommandDecoder::Impl {
   const System& sys;
   NameMap v_index;
@@ -199,6 +256,7 @@ struct CommandDecoder::Impl {
     msg.tau.reserve(s.model.nv());
     msg.target_names.reserve(s.model.nv());
     msg.target.reserve(s.model.nv());
+    msg.mac.reserve(kMaxMacBytes);
     for (size_t k = 0; k < s.constraints.specs.size(); ++k)
       if (s.constraints.specs[k].kind == ConstraintKind::kLock) lock_of_dof[s.constraints.specs[k].dof] = static_cast<int>(k);
   }
@@ -210,13 +268,10 @@ CommandDecoder::~CommandDecoder() = default;
 Reject CommandDecoder::decode(const void* data, int len, CommandSlot& out) {
   Impl& m = *impl_;
   const int nv = m.sys.model.nv();
-  // layout: hash, utime, seq, num_names, names[], num_torques, tau[], num_targets, target_names[], target[]
   wire::Reader r(data, len);
-  if (!r.hash(coopdyn::torque_command_t::getHash()) || !r.skip(16)) return Reject::kDecode;
-  int32_t num_names = 0, num_torques = 0, num_targets = 0;
-  if (!r.count(&num_names) || !r.strings(num_names) || !r.count(&num_torques) || !r.skip(8LL * num_torques) ||
-      !r.count(&num_targets) || !r.strings(num_targets) || !r.skip(8LL * num_targets))
-    return Reject::kDecode;
+  CommandCounts c;
+  if (!walk_command(r, &c) || !walk_mac(r)) return Reject::kDecode;
+  const int32_t num_names = c.names, num_torques = c.torques, num_targets = c.targets;
   if (num_names > 4 * nv + 16 || num_torques > 4 * nv + 16 || num_targets > 4 * nv + 16) return Reject::kCount;
   try {
     if (m.msg.decode(data, 0, len) < 0) return Reject::kDecode;
@@ -280,6 +335,7 @@ struct StateDecoder::Impl {
         pseudo_q_mask(s.model.nq(), 0),
         pseudo_v_mask(s.model.nv(), 0),
         tmp_tau(s.model.nv()) {
+    msg.mac.reserve(kMaxMacBytes);
     for (int i : plan.fit_q) fit_q_mask[i] = 1;
     for (int i : plan.fit_v) fit_v_mask[i] = 1;
     for (int i : plan.pseudo_q) pseudo_q_mask[i] = 1;
@@ -313,13 +369,10 @@ const StateFitPlan& StateDecoder::plan() const { return impl_->plan; }
 Reject StateDecoder::decode(const void* data, int len, StateSlot& out) {
   Impl& m = *impl_;
   const int nq = m.sys.model.nq(), nv = m.sys.model.nv();
-  // layout: hash, utime, seq, num_q_names, q_names[], num_q, q[], num_v_names, v_names[], num_v, v[], tau[]
   wire::Reader r(data, len);
-  if (!r.hash(coopdyn::measured_state_t::getHash()) || !r.skip(16)) return Reject::kDecode;
-  int32_t nqn = 0, nqq = 0, nvn = 0, nvv = 0, nw = 0;
-  if (!r.count(&nqn) || !r.strings(nqn) || !r.count(&nqq) || !r.skip(8LL * nqq) || !r.count(&nvn) || !r.strings(nvn) ||
-      !r.count(&nvv) || !r.skip(16LL * nvv) || !r.count(&nw) || !r.strings(nw) || !r.skip(48LL * nw))
-    return Reject::kDecode;
+  StateCounts c;
+  if (!walk_state(r, &c) || !walk_mac(r)) return Reject::kDecode;
+  const int32_t nqn = c.q_names, nqq = c.q, nvn = c.v_names, nvv = c.v, nw = c.wrenches;
   const int n_out = static_cast<int>(m.sys.wrenches.outputs.size());
   if (nqn > 4 * nq + 16 || nqq > 4 * nq + 16 || nvn > 4 * nv + 16 || nvv > 4 * nv + 16 || nw > n_out) return Reject::kCount;
   try {
@@ -378,6 +431,7 @@ struct ControlDecoder::Impl {
   explicit Impl(const System& s) : sys(s) {
     msg.q.reserve(s.model.nq());
     msg.v.reserve(s.model.nv());
+    msg.mac.reserve(kMaxMacBytes);
   }
 };
 
@@ -387,12 +441,10 @@ ControlDecoder::~ControlDecoder() = default;
 Reject ControlDecoder::decode(const void* data, int len, ControlSlot& out) {
   Impl& m = *impl_;
   const int nq = m.sys.model.nq(), nv = m.sys.model.nv();
-  // layout: hash, utime, seq, action (1 byte), nq, q[], nv, v[]
   wire::Reader r(data, len);
-  int32_t cq = 0, cv = 0;
-  if (!r.hash(coopdyn::control_t::getHash()) || !r.skip(17) || !r.count(&cq) || !r.skip(8LL * cq) || !r.count(&cv) ||
-      !r.skip(8LL * cv))
-    return Reject::kDecode;
+  ControlCounts c;
+  if (!walk_control(r, &c) || !walk_mac(r)) return Reject::kDecode;
+  const int32_t cq = c.q, cv = c.v;
   if (!((cq == 0 && cv == 0) || (cq == nq && cv == nv))) return Reject::kCount;
   try {
     if (m.msg.decode(data, 0, len) < 0) return Reject::kDecode;

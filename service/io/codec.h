@@ -134,7 +134,11 @@ bool decode_stats(const void* data, int len, StatsFrame* out);
 enum class MessageType { kUnknown, kTorqueCommand, kMeasuredState, kOutput, kLoopStats, kControl };
 MessageType identify(const void* data, int len);
 int64_t fingerprint(MessageType t);  // the generated type's hash (the first 8 bytes of its encoding); 0: kUnknown
-const char* type_name(MessageType t);  // "coopdyn.output_t", ...
+const char* type_name(MessageType t);
+// Where the mac_len field (auth.h) of an encoded input (kTorqueCommand, kMeasuredState, kControl)
+// starts, found by walking its fields with every count and length checked; -1 if the bytes are not
+// such a message up to there. No allocation.
+int mac_field_offset(MessageType t, const void* data, int len);  // "coopdyn.output_t", ...
 // One CSV line per message: *header describes this message's columns (it depends on the scene's
 // names), *row its values, neither with a trailing newline. False if it does not decode, and for
 // kOutput: outputs are written in the per-step CSV schema (clients/csv/step_csv.h) from decode_output.

@@ -20,9 +20,25 @@ std::vector<uint8_t> encode_msg(const M& m) {
   m.encode(buf.data(), 0, static_cast<int>(buf.size()));
   return buf;
 }
+// The fingerprints of the inputs before they carried a MAC (mac_len, mac[] appended: auth.h), so that
+// logs recorded before still read: such a message is the current one with mac_len 0 removed.
+constexpr uint64_t kPreMacCommandHash = 0xb5f5b8e960348f9cULL, kPreMacStateHash = 0x1a87938cb56bb24bULL,
+                   kPreMacControlHash = 0x489f6be38cd3846eULL;
 template <class M>
 bool decode_msg(const void* data, int len, M* m) {
   if (len < 8) return false;
+  const uint8_t* b = static_cast<const uint8_t*>(data);
+  uint64_t h = 0;
+  for (int i = 0; i < 8; ++i) h = (h << 8) | b[i];
+  std::vector<uint8_t> now;  // a pre-MAC input rewritten as the current type with mac_len 0
+  if (h == kPreMacCommandHash || h == kPreMacStateHash || h == kPreMacControlHash) {
+    now.assign(b, b + len);
+    const uint64_t cur = static_cast<uint64_t>(M::getHash());
+    for (int i = 0; i < 8; ++i) now[static_cast<size_t>(i)] = static_cast<uint8_t>(cur >> (56 - 8 * i));
+    now.insert(now.end(), 4, 0);
+    data = now.data();
+    len = static_cast<int>(now.size());
+  }
   try {
     return m->decode(data, 0, len) >= 0;
   } catch (...) {
@@ -74,6 +90,7 @@ std::vector<uint8_t> encode_torque_command(int64_t utime, int64_t seq, const std
   m.target_names = target_names;
   m.target = targets;
   m.target.resize(target_names.size(), 0.0);  // the encoder writes num_targets values
+  m.mac_len = 0;  // unsigned (auth.h: sign())
   return encode_msg(m);
 }
 
@@ -99,6 +116,7 @@ std::vector<uint8_t> encode_measured_state(int64_t utime, int64_t seq, const std
   m.wrench_names = wrench_names;
   for (size_t i = 0; i < wrench_names.size(); ++i)
     m.wrench.push_back(i < wrenches.size() ? std::vector<double>(wrenches[i].begin(), wrenches[i].end()) : std::vector<double>(6, 0.0));
+  m.mac_len = 0;
   return encode_msg(m);
 }
 
@@ -112,6 +130,7 @@ std::vector<uint8_t> encode_control(int64_t utime, int64_t seq, ControlAction ac
   m.q = q;
   m.nv = static_cast<int32_t>(v.size());
   m.v = v;
+  m.mac_len = 0;
   return encode_msg(m);
 }
 
@@ -216,12 +235,12 @@ bool decode_stats(const void* data, int len, StatsFrame* s) {
 
 MessageType identify(const void* data, int len) {
   const int64_t h = hash_of(data, len);
-  if (h == coopdyn::torque_command_t::getHash()) return MessageType::kTorqueCommand;
-  if (h == coopdyn::measured_state_t::getHash()) return MessageType::kMeasuredState;
+  const uint64_t u = static_cast<uint64_t>(h);
+  if (h == coopdyn::torque_command_t::getHash() || u == kPreMacCommandHash) return MessageType::kTorqueCommand;
+  if (h == coopdyn::measured_state_t::getHash() || u == kPreMacStateHash) return MessageType::kMeasuredState;
   if (h == coopdyn::output_t::getHash() || h == coopdyn::output_v1_t::getHash()) return MessageType::kOutput;
-  if (h == coopdyn::loop_stats_t::getHash() || static_cast<uint64_t>(h) == kStatsHashBeforeMalformed)
-    return MessageType::kLoopStats;
-  if (h == coopdyn::control_t::getHash()) return MessageType::kControl;
+  if (h == coopdyn::loop_stats_t::getHash() || u == kStatsHashBeforeMalformed) return MessageType::kLoopStats;
+  if (h == coopdyn::control_t::getHash() || u == kPreMacControlHash) return MessageType::kControl;
   return MessageType::kUnknown;
 }
 

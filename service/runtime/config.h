@@ -99,6 +99,9 @@ struct ServiceConfig {
   std::string output_channel = "COOPDYN_OUTPUT";
   std::string stats_channel = "COOPDYN_STATS";
   std::string control_channel = "COOPDYN_CONTROL";  // control_t in (reset, pause, resume, clear fault)
+  // Authenticated inputs (io/auth.h): the shared key's file; "" = off. With a key, commands, states
+  // and controls must carry a good HMAC and a utime above the last accepted one on their channel.
+  std::string auth_key_file;
   ServiceMode mode = ServiceMode::kSimulate;
   Trigger trigger = Trigger::kTick;  // estimate mode: compute at each tick or on arrival of a state
   Integrator integrator = Integrator::kRk4;

@@ -196,6 +196,12 @@ const std::vector<ConfigField> kFields = {
     {"channels", "output", K::kText, "a string", 1, kMaxChannelChars, "", {}, false, COOPDYN_MEMBER(S::output_channel, s), check_channel, "", "`output_t` out, every tick"},
     {"channels", "stats", K::kText, "a string", 1, kMaxChannelChars, "", {}, false, COOPDYN_MEMBER(S::stats_channel, s), check_channel, "", "`loop_stats_t` out, every `stats_period_s`"},
     {"channels", "control", K::kText, "a string", 1, kMaxChannelChars, "", {}, false, COOPDYN_MEMBER(S::control_channel, s), check_channel, "", "`control_t` in: reset, pause, resume, clear a fault"},
+    // check_url_in: "" (off) or 1..hi characters
+    {"auth", "key_file", K::kText, "a string (path)", 1, 4096, "a file of 64 hex digits, mode 0600 or stricter", {}, false,
+     COOPDYN_MEMBER(S::auth_key_file, s), check_url_in, " (off)",
+     "authenticated inputs: commands, states and controls must carry an HMAC-SHA256 under this key (docs/guide/"
+     "service.md \"Authenticated inputs\"); unsigned, bad-MAC and replayed ones are rejected and counted. The daemon refuses to start "
+     "if the file is missing, not a key, or readable or writable by group or others"},
     {"", "mode", K::kChoice, "a string", kNone, kNone, "", {kModeWords, kModeWords + 2}, true,
      COOPDYN_CHOICE(ServiceMode, mode, kModeWords, ServiceMode::kSimulate, ServiceMode::kEstimate), nullptr, "",
      "integrate under the latest command, or evaluate the latest measured state (`--mode` overrides)"},

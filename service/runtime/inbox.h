@@ -15,14 +15,23 @@
 // the receive thread only reads that decision: every lower seq let through corresponds to an
 // expiry the loop counted (before, each thread judged the watchdog by its own clock reading, and a
 // restart arriving between the watchdog and the next tick was accepted with no expiry counted).
+//
+// Authentication (require_auth(), io/auth.h): before decoding, the raw bytes' MAC is verified
+// (Reject::kUnauthenticated, kBadMac), then the replay rule: an input whose utime is not strictly
+// above the last accepted authenticated input's on this channel is Reject::kReplayed. A replay
+// older than max_input_age is also refused by the staleness rule, so the window of utimes a
+// recording could be replayed in is closed on both sides; the rule assumes one sender per channel
+// (as the sequence rule does), whose utimes increase.
 #pragma once
 
 #include <time.h>
 
 #include <atomic>
 #include <cstdint>
+#include <limits>
 
 #include "service/dynamics/system.h"
+#include "service/io/auth.h"
 #include "service/io/codec.h"
 #include "service/io/messages.h"
 #include "service/runtime/triple_buffer.h"
@@ -59,7 +68,8 @@ class Inbox {
   Offer offer(const void* data, int len, long long recv_ns, io::Reject* why = nullptr) {
     counters_.received.fetch_add(1, std::memory_order_relaxed);
     Slot& s = buffer_.write_slot();
-    io::Reject r = decoder_.decode(data, len, s);
+    io::Reject r = authenticate(data, len);
+    if (r == io::Reject::kNone) r = decoder_.decode(data, len, s);
     if (r == io::Reject::kNone && max_age_us_ > 0) {
       if (s.utime <= 0) {
         r = io::Reject::kStale;  // never stamped (0, -1): checked first, so the difference cannot overflow
@@ -83,6 +93,7 @@ class Inbox {
       const uint64_t gap = static_cast<uint64_t>(s.seq) - static_cast<uint64_t>(last_seq_) - 1;
       if (gap > 0) counters_.missed.fetch_add(static_cast<int64_t>(gap < (1ULL << 40) ? gap : (1ULL << 40)), std::memory_order_relaxed);
     }
+    if (verifier_) last_auth_utime_ = s.utime;
     s.recv_ns = recv_ns;
     s.id = ++last_id_;
     have_last_ = true;
@@ -101,13 +112,25 @@ class Inbox {
   const InputCounters& counters() const { return counters_; }
   // Tests: replace the wall clock that utime is checked against.
   void set_wall_clock(int64_t (*now_us)()) { wall_us_ = now_us; }
+  // Inputs must be signed (io/auth.h); v outlives the inbox. Before the receive thread starts.
+  void require_auth(const io::Verifier* v) { verifier_ = v; }
 
  private:
+  // the MAC and the replay rule (authentication on), before anything is decoded
+  io::Reject authenticate(const void* data, int len) const {
+    if (!verifier_) return io::Reject::kNone;
+    const io::Reject r = verifier_->check(data, len);
+    if (r != io::Reject::kNone) return r;
+    return io::raw_utime(data, len) <= last_auth_utime_ ? io::Reject::kReplayed : io::Reject::kNone;
+  }
+
   Decoder decoder_;
   TripleBuffer<Slot> buffer_;
   long long max_age_us_;
   int64_t (*wall_us_)() = &realtime_us;
+  const io::Verifier* verifier_ = nullptr;
   // receive thread only
+  int64_t last_auth_utime_ = std::numeric_limits<int64_t>::min();  // utime of the last accepted input (authentication on)
   bool have_last_ = false;
   int64_t last_seq_ = 0;
   int64_t last_id_ = 0;

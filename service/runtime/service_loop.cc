@@ -71,6 +71,16 @@ ServiceLoop::ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& b
   zero_ = Eigen::VectorXd::Zero(m.nv());
   if (cfg.safe_torque == SafeTorque::kHold) hold_ = std::make_unique<HoldWorkspace>(sys, default_actuated(sys));
   last_input_ = cfg.mode == ServiceMode::kSimulate ? io::Input::kNoCommand : io::Input::kNoState;
+  if (!cfg.auth_key_file.empty()) require_auth(io::read_key_file(cfg.auth_key_file));
+}
+
+void ServiceLoop::require_auth(const io::AuthKey& key) {
+  cmd_auth_ = std::make_unique<io::Verifier>(key, cfg_.command_channel, io::MessageType::kTorqueCommand);
+  state_auth_ = std::make_unique<io::Verifier>(key, cfg_.state_channel, io::MessageType::kMeasuredState);
+  control_auth_ = std::make_unique<io::Verifier>(key, cfg_.control_channel, io::MessageType::kControl);
+  commands_.require_auth(cmd_auth_.get());
+  states_.require_auth(state_auth_.get());
+  controls_.require_auth(control_auth_.get());
 }
 
 const InputCounters& ServiceLoop::input_counters() const {

@@ -50,7 +50,8 @@ namespace coopdyn::runtime {
 
 class ServiceLoop {
  public:
-  // Sizes every buffer. sys, cfg and bus must outlive the loop.
+  // Sizes every buffer. sys, cfg and bus must outlive the loop. With cfg.auth_key_file, reads the key
+  // (io::KeyError naming the file when it cannot be used) and requires signed inputs.
   ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& bus);
   ServiceLoop(const ServiceLoop&) = delete;
   ServiceLoop& operator=(const ServiceLoop&) = delete;
@@ -126,6 +127,7 @@ class ServiceLoop {
   void publish_stats();
   void fill_counters(io::StatsFrame& s) const;
   void run_on_arrival(const std::atomic<bool>& stop, long long max_ticks);
+  void require_auth(const io::AuthKey& key);  // every inbox verifies its channel's MAC
   void warm_up();  // spin_us: one evaluation of the held state before the deadline (caches, TLB)
 
   const System& sys_;
@@ -135,6 +137,7 @@ class ServiceLoop {
   const double dt_;
   const int64_t stats_every_;
 
+  std::unique_ptr<io::Verifier> cmd_auth_, state_auth_, control_auth_;  // authentication on only
   CommandInbox commands_;
   StateInbox states_;
   ControlInbox controls_;

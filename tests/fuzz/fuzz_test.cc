@@ -50,6 +50,7 @@
 #endif
 
 #include "service/dynamics/constrained_dynamics.h"
+#include "service/io/auth.h"
 #include "service/io/codec.h"
 #include "service/io/lcm_wire.h"
 #include "service/runtime/config.h"
@@ -273,7 +274,7 @@ struct Layout {
 };
 // torque_command_t: hash, utime, seq, num_names, names[], num_torques, tau[];
 // measured_state_t: hash, utime, seq, (num names, names[], num, values[]) for q then v, tau[num_v],
-// then num_wrenches, wrench_names[], wrench[][6].
+// then num_wrenches, wrench_names[], wrench[][6]; both end with mac_len, mac[] (auth.h).
 Layout layout_of(const std::string& s, bool state) {
   Layout L;
   size_t p = 24;
@@ -304,6 +305,8 @@ Layout layout_of(const std::string& s, bool state) {
     block(1, false);  // torques: num_names, names[], num_torques, tau[]
     block(1, true);   // lock targets: num_targets, target_names[], target[]
   }
+  L.i32.push_back(p);  // mac_len, then the MAC's bytes
+  p += 4 + static_cast<size_t>(std::max(0, be32(s, p)));
   if (p != s.size()) throw std::logic_error("layout_of: the seed's fields end at byte " + std::to_string(p) +
                                             " of " + std::to_string(s.size()));
   return L;
@@ -495,8 +498,12 @@ std::vector<BinarySeed> binary_seeds(const std::string& kind) {
   return out;
 }
 
+// The key of the signed seeds (<scene>.signed.bin), and the channels they are signed for.
+io::AuthKey fuzz_key() { return io::parse_key("a0a1a2a3a4a5a6a7a8a9aaabacadaeafb0b1b2b3b4b5b6b7b8b9babbbcbdbebf", "fuzz key"); }
+const char* const kFuzzChannel[] = {"COOPDYN_COMMAND", "COOPDYN_STATE"};
+
 // The binary corpus, regenerated from the shipped scenes (torques within the limits, 0 on
-// unactuated DOFs; states at the initial state).
+// unactuated DOFs; states at the initial state), unsigned and signed with fuzz_key().
 int write_corpus(const std::string& dir) {
   for (const char* sub : {"/command", "/state"}) {
     const std::string d = dir + sub;
@@ -528,6 +535,13 @@ int write_corpus(const std::string& dir) {
     }
     const int64_t t = 1718000000000000LL;
     save(dir + "/command/" + name + ".ordered.bin", io::encode_torque_command(t, 1, {}, tau));
+    std::vector<uint8_t> signed_cmd = io::encode_torque_command(t, 4, {}, tau), signed_state =
+        io::encode_measured_state(t, 4, {}, std::vector<double>(sys.q0.data(), sys.q0.data() + sys.q0.size()), {},
+                                  std::vector<double>(sys.v0.data(), sys.v0.data() + nv), tau);
+    io::sign(signed_cmd, kFuzzChannel[0], fuzz_key(), io::MessageType::kTorqueCommand);
+    io::sign(signed_state, kFuzzChannel[1], fuzz_key(), io::MessageType::kMeasuredState);
+    save(dir + "/command/" + name + ".signed.bin", signed_cmd);
+    save(dir + "/state/" + name + ".signed.bin", signed_state);
     if (!names.empty()) save(dir + "/command/" + name + ".named.bin", io::encode_torque_command(t, 2, names, named));
     const std::vector<double> q(sys.q0.data(), sys.q0.data() + sys.q0.size()), v(sys.v0.data(), sys.v0.data() + nv);
     save(dir + "/state/" + name + ".ordered.bin", io::encode_measured_state(t, 1, {}, q, {}, v, tau));
@@ -746,6 +760,9 @@ void fuzz_decoder(const char* target, const std::string& kind, bool state, long 
     rigs.push_back(std::move(r));
   }
   std::vector<long> by_reason(io::kRejectKinds, 0);
+  // every input also goes through the MAC check (authentication on): only a signed seed's exact
+  // bytes may verify, anything else is a forgery the check let through
+  const io::Verifier verifier(fuzz_key(), kFuzzChannel[state ? 1 : 0], state ? io::MessageType::kMeasuredState : io::MessageType::kTorqueCommand);
   run_target(target, iters, [&](long i) -> std::string {
     std::mt19937_64 rng = rng_for(target, i);
     const size_t k = static_cast<size_t>(i) % seeds.size();
@@ -761,6 +778,9 @@ void fuzz_decoder(const char* target, const std::string& kind, bool state, long 
     }
     const int ri = static_cast<int>(rj);
     if (ri < 0 || ri >= io::kRejectKinds) return "reject code out of range";
+    if (verifier.check(g_input.data(), static_cast<int>(g_input.size())) == io::Reject::kNone &&
+        std::find(all.begin(), all.end(), g_input) == all.end())
+      return "a mutated message passed the MAC check";
     ++by_reason[ri];
     if (rj == io::Reject::kNone) {
       std::string why;

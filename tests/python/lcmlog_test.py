@@ -121,6 +121,19 @@ class LcmLog(unittest.TestCase):
                 n += 1
         self.assertEqual(n, 3)
 
+    def test_inputs_recorded_before_the_mac_still_decode(self):
+        # the committed golden log's command (pre-MAC fingerprint) and one re-encoded without mac_len
+        path = os.path.join(os.environ["COOPDYN_SOURCE_DIR"], "tests", "golden", "two_puma_load.lcmlog")
+        cmds = [lcmlog.decode(e.data) for e in lcmlog.read(path, "COOPDYN_COMMAND")]
+        self.assertEqual(len(cmds), 5)
+        self.assertTrue(all(isinstance(c, coopdyn.torque_command_t) and c.mac_len == 0 for c in cmds))
+        self.assertEqual([c.seq for c in cmds], sorted(c.seq for c in cmds))
+        m = coopdyn.control_t()
+        m.utime, m.seq, m.action, m.nq, m.q, m.nv, m.v = 7, 8, coopdyn.control_t.ACTION_PAUSE, 0, [], 0, []
+        old = bytes.fromhex("489f6be38cd3846e") + m.encode()[8:-4]
+        back = lcmlog.decode(old)
+        self.assertEqual((back.utime, back.seq, back.action, back.mac_len), (7, 8, coopdyn.control_t.ACTION_PAUSE, 0))
+
     def test_write_read_identity(self):
         log, _ = self.logs["four_wheel_car"]
         copy = os.path.join(self.tmp.name, "copy.lcmlog")

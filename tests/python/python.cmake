@@ -25,3 +25,8 @@ add_test(NAME python.live_client_udpm COMMAND ${COOPDYN_PYTHON3} -B ${CMAKE_CURR
                                               --udpm-stand-in)
 set_tests_properties(python.live_client_udpm PROPERTIES ENVIRONMENT "${py_env};COOPDYND=$<TARGET_FILE:coopdynd>"
                      LABELS "python;daemon" TIMEOUT 60)
+# authentication on: the example signs with --key-file (applied) and without it is refused (stand-in udpm)
+add_test(NAME python.live_client_udpm_auth COMMAND ${COOPDYN_PYTHON3} -B ${CMAKE_CURRENT_LIST_DIR}/live_client_test.py
+                                                   --udpm-stand-in --auth)
+set_tests_properties(python.live_client_udpm_auth PROPERTIES ENVIRONMENT "${py_env};COOPDYND=$<TARGET_FILE:coopdynd>"
+                     LABELS "python;daemon" TIMEOUT 60)

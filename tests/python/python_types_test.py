@@ -191,7 +191,8 @@ class PythonTypes(unittest.TestCase):
                 setattr(m, k, self.rng.randrange(0, 2 ** 50))
         m.period_us = 1000.0
         keys = ["malformed", "wrong_count", "unknown_name", "duplicate_name", "nonfinite", "over_tau_limit",
-                "stale_utime", "future_utime", "unactuated", "incomplete", "not_locked", "over_target_limit"]
+                "stale_utime", "future_utime", "unactuated", "incomplete", "not_locked", "over_target_limit",
+                "unauthenticated", "bad_mac", "replayed"]
         m.num_reject_reasons, m.reject_reasons = len(keys), keys
         m.rejected_by_reason = [self.rng.randrange(0, 1000) for _ in keys]
         (d,) = self.decode(m)

@@ -72,9 +72,10 @@ TEST(VehicleCommand, TargetsAreValidatedLikeTorques) {
   EXPECT_STREQ(io::reject_key(io::Reject::kOverTargetLimit), "over_target_limit");
   // hostile framing: targets counted past the end, or more of them than any scene has
   auto b = io::encode_torque_command(1, 1, {}, std::vector<double>(static_cast<size_t>(sys.model.nv()), 0.0), {"fl_steer"}, {0.1});
-  std::vector<uint8_t> cut(b.begin(), b.end() - 4);
+  std::vector<uint8_t> cut(b.begin(), b.end() - 8);  // the mac_len field and half the target gone
   EXPECT_EQ(dec.decode(cut.data(), static_cast<int>(cut.size()), slot), io::Reject::kDecode);
-  const size_t at = b.size() - 8 - (4 + 9) - 4;  // num_targets: before one name ("fl_steer\0") and one double
+  // num_targets: before one name ("fl_steer\0"), one double and mac_len (0, no MAC)
+  const size_t at = b.size() - 4 - 8 - (4 + 9) - 4;
   ASSERT_EQ(b[at + 3], 1);
   b[at + 1] = 0x10;  // 1048577 targets
   EXPECT_EQ(dec.decode(b.data(), static_cast<int>(b.size()), slot), io::Reject::kDecode);

@@ -10,11 +10,21 @@ with no command: by default the holding torque) on the DOFs that carry one, adds
 while printing, once a second, the outputs' input (command or not), the applied torque of the first
 named joint and the end-effector wrenches. At the end it checks that the daemon applied the commands.
 
+With --key-file (the daemon's auth.key_file: 64 hex digits, mode 0600) each command is signed as
+the daemon checks it (docs/guide/service.md "Authenticated inputs"): encoded with mac_len 0, those 4 bytes dropped, an
+HMAC-SHA256 under the key of the channel name, a NUL and the remaining bytes, then mac_len 32 and
+the MAC appended. Standard library only (hmac, hashlib).
+
 Needs the `lcm` Python module, which Debian 12 does not package: `pip install lcm` (PyPI wheels of
 LCM's own bindings) in a virtual environment, or LCM built from source with Python. Without it this
 exits with status 77 (what ctest reads as "skipped").
 """
 import argparse
+import hashlib
+import hmac
+import os
+import stat
+import struct
 import sys
 import time
 
@@ -33,6 +43,42 @@ except ImportError:
              "tree, or PREFIX/lib/python3.X/site-packages after cmake --install (README: Python)")
 
 DEFAULT_URL = "udpm://239.255.76.67:7667?ttl=0"  # coopdynd's default (config/coopdynd.yaml)
+MAC_BYTES = 32  # HMAC-SHA256
+
+
+def read_key_file(path):
+    """The 32-byte key of a key file, checked as coopdynd checks it; exits with the reason otherwise."""
+    try:
+        st = os.stat(path)
+        with open(path, "rb") as f:
+            text = f.read(80)
+    except OSError as e:
+        sys.exit("live_client.py: --key-file %s: cannot read the key file: %s" % (path, e.strerror))
+    if not stat.S_ISREG(st.st_mode):
+        sys.exit("live_client.py: --key-file %s: the key file is not a regular file" % path)
+    if st.st_mode & 0o077:
+        sys.exit("live_client.py: --key-file %s: the key file is readable or writable by group or others (mode %04o); "
+                 "chmod 600 %s" % (path, stat.S_IMODE(st.st_mode), path))
+    if text.endswith(b"\n"):
+        text = text[:-1]
+    if text.endswith(b"\r"):
+        text = text[:-1]
+    try:
+        if len(text) != 2 * MAC_BYTES:
+            raise ValueError
+        return bytes.fromhex(text.decode("ascii"))
+    except ValueError:
+        sys.exit("live_client.py: --key-file %s: not a key: expected 64 hex digits (32 bytes) and at most a newline"
+                 % path)
+
+
+def sign(data, channel, key):
+    """An encoded message with mac_len 0 (its last 4 bytes), signed for channel: mac_len 32 and the MAC."""
+    if data[-4:] != b"\0\0\0\0":
+        raise ValueError("sign: the message does not end with mac_len 0")
+    body = data[:-4]
+    mac = hmac.new(key, channel.encode() + b"\0" + body, hashlib.sha256).digest()
+    return body + struct.pack(">i", MAC_BYTES) + mac
 
 
 def main():
@@ -46,7 +92,9 @@ def main():
     p.add_argument("--duration", type=float, default=2.0, help="seconds to run (default: %(default)s)")
     p.add_argument("--wait", type=float, default=2.0, help="seconds to wait for the daemon's first output "
                                                             "(default: %(default)s)")
+    p.add_argument("--key-file", help="sign the commands with the daemon's auth key (auth.key_file)")
     a = p.parse_args()
+    key = read_key_file(a.key_file) if a.key_file else None
 
     lc = lcm.LCM(a.lcm_url)
     latest = []
@@ -87,7 +135,10 @@ def main():
             c.utime, c.seq = int(now * 1e6), seq
             c.num_names, c.names = len(names), names
             c.num_torques, c.tau = len(names), [tau[n] for n in names]
-            lc.publish(a.command_channel, c.encode())
+            c.num_targets, c.target_names, c.target = 0, [], []
+            c.mac_len, c.mac = 0, b""
+            data = c.encode()
+            lc.publish(a.command_channel, sign(data, a.command_channel, key) if key else data)
             sent += 1
             next_send += 1.0 / a.rate
         del latest[:]
