@@ -110,18 +110,22 @@ TEST(LoopNoAllocation, TickWithWrenchSigma) {
     cfg.mode = mode;
     FakeBus bus;
     runtime::ServiceLoop loop(sys, cfg, bus);
-    const auto st = io::encode_measured_state(runtime::realtime_us(), 1, {}, stdvec(sys.q0), {}, stdvec(sys.v0),
-                                              std::vector<double>(static_cast<size_t>(sys.model.nv()), 0.0));
-    if (mode == runtime::ServiceMode::kEstimate) loop.states().offer(st.data(), static_cast<int>(st.size()), 0);
     long allocations = 0;
     const long long ms = 1000000;
     for (int k = 0; k < 1000; ++k) {
+      if (mode == runtime::ServiceMode::kEstimate && k % 5 == 0) {  // fresh states (outside the count)
+        const auto st = io::encode_measured_state(runtime::realtime_us(), k, {}, stdvec(sys.q0), {}, stdvec(sys.v0),
+                                                  std::vector<double>(static_cast<size_t>(sys.model.nv()), 0.1));
+        loop.states().offer(st.data(), static_cast<int>(st.size()), k * ms);
+      }
       AllocationCounter c;
       loop.tick(k * ms);
       allocations += c.count();
     }
     EXPECT_EQ(allocations, 0);
     const io::DecodedOutput o = bus.last_output();
+    SCOPED_TRACE(mode == runtime::ServiceMode::kSimulate ? "simulate" : "estimate");
+    EXPECT_EQ(o.status, 0) << o.reason;
     EXPECT_EQ(o.sigma_source, 1);
     ASSERT_EQ(o.wrench_sigma.size(), sys.wrenches.outputs.size());
     Workspace ws(sys);

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <future>
 #include <mutex>
 
@@ -115,10 +116,9 @@ TEST(WrenchSigmaOutputs, StepCsvColumnsNextToEachWrenchRoundTrip) {
   EXPECT_EQ(cols.units[static_cast<size_t>(fz + 6)], "N");
   EXPECT_FALSE(cli::step_schema(Evaluated("").sys, "sim").sigma);
 
-  char path[] = "/tmp/coopdyn_sigma_csv_XXXXXX";
-  const int fd = mkstemp(path);
-  ASSERT_GE(fd, 0);
-  std::FILE* f = fdopen(fd, "w");
+  const std::string path = daemon_test::tmp_path("sigma.csv");
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  ASSERT_NE(f, nullptr);
   cli::write_step_csv_header(f, s, cols);
   cli::StepRow row;
   row.q = cli::csv_numbers(e.sys.q0);
@@ -134,7 +134,7 @@ TEST(WrenchSigmaOutputs, StepCsvColumnsNextToEachWrenchRoundTrip) {
   line.write(f);
   std::fclose(f);
   const CsvText t = read_csv_text(path);
-  std::remove(path);
+  std::remove(path.c_str());
   ASSERT_EQ(t.head, cols.names);
   ASSERT_EQ(t.rows.size(), 1u);
   ASSERT_EQ(t.rows[0].size(), cols.names.size());
@@ -156,13 +156,13 @@ TEST(WrenchSigmaOutputs, EvalJsonHasSigmaPerWrench) {
   const std::string text = replace_once(without_reactions(scene_text("two_puma_load")), "file: ../robots/puma560.yaml",
                                         "file: " + std::string(COOPDYN_SOURCE_DIR) + "/config/robots/puma560.yaml") +
                            "\nreactions: all\n" + kNoise;
-  char path[] = "/tmp/coopdyn_sigma_scene_XXXXXX";
-  const int fd = mkstemp(path);
-  ASSERT_GE(fd, 0);
-  ASSERT_EQ(write(fd, text.data(), text.size()), static_cast<ssize_t>(text.size()));
-  close(fd);
+  const std::string path = daemon_test::tmp_path("sigma_scene.yaml");
+  {
+    std::ofstream out(path);
+    out << text;
+  }
   const Result r = run_command({COOPDYN_PATH, "eval", "--scene", path}, "eval_sigma");
-  std::remove(path);
+  std::remove(path.c_str());
   ASSERT_EQ(r.rc, 0) << r.err;
   // each wrench's "sigma": [...] in output order
   size_t pos = 0;
