@@ -1,6 +1,6 @@
 // The uncertainty of every reported wrench (wrench_outputs.h) from declared joint-torque noise
-// (System::tau_noise, scene key `noise`). Call after evaluate() and compute_wrenches() on the same
-// workspace.
+// (System::tau_noise, scene key `noise`). Call after evaluate() on the same workspace (it reads the
+// evaluation's factors; the solves use the workspace's scratch, not its results).
 //
 // At a fixed state (q, v) every reported wrench is affine in the torques: w_k = W_k tau + c_k (the
 // factorization of M and of Q does not depend on tau, nor does the rank decision or the redundancy
@@ -54,7 +54,7 @@ struct WrenchSigmaData {
   std::vector<Transform> X_WF;                           // per output: its report frame
 };
 
-// Fills sd.sigma and sd.C for the evaluation in ws (after compute_wrenches(sys, ws, wd)).
+// Fills sd.sigma and sd.C for the evaluation in ws.
 // Nothing to do (valid = false, sigma zero) when nothing is declared or the evaluation failed.
 void compute_wrench_sigma(const System& sys, Workspace& ws, WrenchSigmaData& sd);
 
