@@ -226,11 +226,11 @@ bool decode_stats(const void* data, int len, StatsFrame* s) {
 }
 
 MessageType identify(const void* data, int len) {
+  if (hash_of(data, len) == coopdyn::output_v2_t::getHash()) return MessageType::kOutput;  // a log of version 2
   const int64_t h = hash_of(data, len);
   if (h == coopdyn::torque_command_t::getHash()) return MessageType::kTorqueCommand;
   if (h == coopdyn::measured_state_t::getHash()) return MessageType::kMeasuredState;
-  if (h == coopdyn::output_t::getHash() || h == coopdyn::output_v2_t::getHash() || h == coopdyn::output_v1_t::getHash())
-    return MessageType::kOutput;
+  if (h == coopdyn::output_t::getHash() || h == coopdyn::output_v1_t::getHash()) return MessageType::kOutput;
   if (h == coopdyn::loop_stats_t::getHash()) return MessageType::kLoopStats;
   if (h == coopdyn::control_t::getHash()) return MessageType::kControl;
   return MessageType::kUnknown;
