@@ -8,6 +8,7 @@
 #include "service/algorithms/kinematics.h"
 #include "service/dynamics/contacts.h"
 #include "service/dynamics/free_directions.h"
+#include "service/dynamics/wrench_sigma.h"
 #include "service/dynamics/wrenches.h"
 
 namespace coopdyn::cli {
@@ -93,7 +94,10 @@ void write_frame_pose(std::FILE* f, const System& sys, const Workspace& ws, int 
 }
 
 // every reported wrench: what it is, where, its value, which axes it carries or constrains
-void write_wrenches(std::FILE* f, const System& sys, const Workspace& ws, const WrenchData& wd) {
+// with declared noise (sd.valid) each wrench's sigma: standard deviations [moment; force] in its
+// frame (wrench_sigma.h); without, no "sigma" key
+void write_wrenches(std::FILE* f, const System& sys, const Workspace& ws, const WrenchData& wd,
+                    const WrenchSigmaData& sd) {
   std::fprintf(f, ",\n  \"wrenches\": [");
   for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k) {
     const WrenchOutput& o = sys.wrenches.outputs[k];
@@ -110,6 +114,10 @@ void write_wrenches(std::FILE* f, const System& sys, const Workspace& ws, const 
     axes(f, o.constrained);
     std::fprintf(f, ", \"indeterminate\": ");
     axes(f, wd.indeterminate[k]);
+    if (sd.valid) {
+      std::fprintf(f, ", \"sigma\": ");
+      list(f, sd.sigma[k].data(), 6);
+    }
     std::fprintf(f, "}");
   }
   std::fprintf(f, "\n  ]");
@@ -187,12 +195,14 @@ void write_diagnostics(std::FILE* f, const Diagnostics& d) {
 }
 }  // namespace
 
-void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const Eigen::VectorXd& q,
+void write_eval_json(std::FILE* f, const System& sys, Workspace& ws, const Eigen::VectorXd& q,
                      const Eigen::VectorXd& v, const Eigen::VectorXd& tau) {
   WrenchData wd(sys);
   compute_wrenches(sys, ws, wd);
+  WrenchSigmaData sd(sys);
+  compute_wrench_sigma(sys, ws, sd);
   write_state(f, sys, ws, q, v, tau);
-  write_wrenches(f, sys, ws, wd);
+  write_wrenches(f, sys, ws, wd, sd);
   write_free_directions(f, sys, wd);
   write_contacts(f, sys, ws);
   write_stresses(f, sys, ws);

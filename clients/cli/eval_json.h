@@ -11,8 +11,9 @@
 
 namespace coopdyn::cli {
 
-// Writes the evaluation at (q, v, tau) as the JSON object documented in README.md.
-void write_eval_json(std::FILE* f, const System& sys, const Workspace& ws, const Eigen::VectorXd& q,
+// Writes the evaluation at (q, v, tau) as the JSON object documented in README.md. ws is the
+// evaluation's (non-const: the wrenches' sigma solves through its factors, wrench_sigma.h).
+void write_eval_json(std::FILE* f, const System& sys, Workspace& ws, const Eigen::VectorXd& q,
                      const Eigen::VectorXd& v, const Eigen::VectorXd& tau);
 
 // One warning line on f per rolling contact the evaluation in ws finds sliding or lifting off

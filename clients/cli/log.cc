@@ -42,6 +42,7 @@ struct Channel {
   int64_t first_us = 0, last_us = 0;
   std::vector<std::string> q_names, v_names, wrench_names, stress_names, contact_names;  // output_t: the first's
   int action_col = -1;  // control_t: the action's column, written as a word
+  bool sigma = false;   // output_t: the wrenches' sigma columns (the scene declares noise)
 };
 
 const char* kPlotScript =
@@ -165,8 +166,9 @@ void step_row_of_output(const io::DecodedOutput& o, StepRow* r) {
   r->residual = o.residual;
 }
 
-void write_output_row(CsvLine& l, StepRow& r, const io::DecodedOutput& o, double log_time, std::FILE* f) {
+void write_output_row(CsvLine& l, StepRow& r, const io::DecodedOutput& o, double log_time, bool sigma, std::FILE* f) {
   step_row_of_output(o, &r);
+  r.wrench_sigma = sigma ? csv_wrenches(o.wrench_sigma) : CsvNumbers{};
   write_step_cells(l, r);
   write_log_cells(l, o, log_time);
   l.end();
@@ -305,6 +307,9 @@ bool start_output_csv(Conversion& cv, Channel& c, const std::string& channel) {
                               o.wrench_by, o.stress_names, o.contact_names, cv.sys, &s, &err))
     return cv.fail(cv.in + ": channel " + channel + ": " + err);
   if (s.scene.empty()) s.scene = "(not in the log; --scene names it)";
+  // sigma columns: the scene's noise (--scene), else the first output's
+  if (!cv.sys) s.sigma = o.sigma_source != 0;
+  c.sigma = s.sigma;
   if (!open_csv(cv, c, channel)) return false;
   CsvColumns cols = shared_step_columns(s);
   add_log_columns(s, &cols);
@@ -328,7 +333,7 @@ bool convert_output(Conversion& cv, Channel& c, const LogMessage& ev, double log
     ++c.bad;  // a different scene mid-log: its rows do not fit these columns
     return true;
   }
-  write_output_row(*cv.line, cv.step, o, log_time, c.f);
+  write_output_row(*cv.line, cv.step, o, log_time, c.sigma, c.f);
   return true;
 }
 

@@ -25,6 +25,7 @@
 #include "service/dynamics/contacts.h"
 #include "service/dynamics/holding_torque.h"
 #include "service/dynamics/integrators.h"
+#include "service/dynamics/wrench_sigma.h"
 #include "service/dynamics/wrenches.h"
 #include "service/scene/scene.h"
 
@@ -51,6 +52,7 @@ struct SimRun {
         last_state(cts.spec.size(), ContactState::kOk),
         st(sys),
         wd(sys),
+        sigma(sys),
         q(sys.q0),
         v(sys.v0),
         tau(sys.model.nv()),
@@ -64,6 +66,7 @@ struct SimRun {
   std::vector<ContactState> last_state;
   Stepper st;
   WrenchData wd;
+  WrenchSigmaData sigma;  // with declared noise (the scene's `noise`), each wrench's sigma
   Eigen::VectorXd q, v, tau, target, q_prev, v_prev;
   Eigen::VectorXd tau_hold = Eigen::VectorXd::Zero(tau.size());
   bool hold_said = false;  // --hold: what the holding torques cannot do, said once
@@ -101,6 +104,7 @@ void say_contact_changes(const System& sys, double t, SimRun& r) {
 void write_sim_row(const System& sys, double t, const Diagnostics& d, SimRun& r, std::FILE* out) {
   const Workspace& ws = r.st.ws;
   compute_wrenches(sys, ws, r.wd);
+  if (r.sigma.declared) compute_wrench_sigma(sys, r.st.ws, r.sigma);
   StepRow& row = r.row;
   row.t = t;
   row.q = csv_numbers(r.q_prev);
@@ -108,6 +112,7 @@ void write_sim_row(const System& sys, double t, const Diagnostics& d, SimRun& r,
   row.tau = csv_numbers(r.tau);
   row.vdot = csv_numbers(ws.vdot);
   row.wrenches = csv_wrenches(r.wd.W);
+  if (r.sigma.declared) row.wrench_sigma = csv_wrenches(r.sigma.sigma);
   row.stress = csv_numbers(ws.stress);
   row.friction_needed = r.cts.friction_needed.data();
   row.utilisation = r.cts.utilisation.data();

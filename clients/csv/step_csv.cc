@@ -2,6 +2,8 @@
 
 #include <sstream>
 
+#include "service/dynamics/wrench_sigma.h"
+
 namespace coopdyn::cli {
 
 std::vector<std::string> split_csv_line(const std::string& s) {
@@ -66,6 +68,7 @@ StepSchema step_schema(const System& sys, const std::string& source) {
     }
   }
   for (const WrenchOutput& o : sys.wrenches.outputs) s.wrenches.push_back({o.name, wrench_kind_name(o.kind), o.frame, o.by});
+  s.sigma = wrench_sigma_supported(sys);
   for (int k = 0; k < num_stresses(sys); ++k) {  // the pseudo-joints', then the joint couplings'
     s.stress_names.push_back(stress_name(sys, k));
     s.stress_units.push_back(stress_unit(sys, k));
@@ -140,8 +143,11 @@ CsvColumns shared_step_columns(const StepSchema& s) {
   for (size_t i = 0; i < s.v_names.size(); ++i) c.add("v:" + s.v_names[i], s.v_units[i]);
   for (size_t i = 0; i < s.v_names.size(); ++i) c.add("tau:" + s.v_names[i], s.tau_units[i]);
   for (size_t i = 0; i < s.v_names.size(); ++i) c.add("vdot:" + s.v_names[i], s.vdot_units[i]);
-  for (const auto& w : s.wrenches)
+  for (const auto& w : s.wrenches) {
     for (int k = 0; k < 6; ++k) c.add(w.name + "." + comp[k], k < 3 ? "N*m" : "N");
+    if (s.sigma)
+      for (int k = 0; k < 6; ++k) c.add(w.name + ".sigma_" + comp[k], k < 3 ? "N*m" : "N");
+  }
   for (size_t i = 0; i < s.stress_names.size(); ++i) c.add("stress:" + s.stress_names[i], s.stress_units[i]);
   for (const auto& n : s.contact_names) {
     c.add(n + ".friction_needed", "1");
@@ -169,8 +175,14 @@ void write_step_csv_header(std::FILE* f, const StepSchema& s, const CsvColumns& 
 void write_step_cells(CsvLine& l, const StepRow& r) {
   l.clear();
   l.num(r.t);
-  for (const CsvNumbers* x : {&r.q, &r.v, &r.tau, &r.vdot, &r.wrenches, &r.stress})
+  for (const CsvNumbers* x : {&r.q, &r.v, &r.tau, &r.vdot})
     for (size_t k = 0; k < x->size; ++k) l.sep(), l.num(x->data[k]);
+  for (size_t w = 0; w < r.wrenches.size; w += 6) {
+    for (size_t k = w; k < w + 6; ++k) l.sep(), l.num(r.wrenches.data[k]);
+    if (r.wrench_sigma.size == r.wrenches.size)
+      for (size_t k = w; k < w + 6; ++k) l.sep(), l.num(r.wrench_sigma.data[k]);
+  }
+  for (size_t k = 0; k < r.stress.size; ++k) l.sep(), l.num(r.stress.data[k]);
   for (size_t k = 0; k < r.contact_state.size(); ++k) {
     l.sep(), l.num(r.friction_needed[k]);
     l.sep(), l.num(r.utilisation[k]);

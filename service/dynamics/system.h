@@ -63,6 +63,9 @@ struct System {
   Eigen::VectorXd tau_limit;  // (nv) |tau| allowed per DOF (commands above are rejected); inf = none,
                               // 0 = unactuated (load platform, floating root, pseudo-joint unless declared)
   WrenchSet wrenches;         // what is reported as wrenches (wrench_outputs.h); compiled
+  Eigen::VectorXd tau_noise;  // (nv) standard deviation of each DOF's torque noise, N m or N (scene key
+                              // `noise`; 0 = none, on every DOF when the scene declares none):
+                              // propagated into each wrench's sigma (wrench_sigma.h)
   // The arms' base links in the mobile-platform form whose joint 1 has no armature: the base link
   // carries a nominal inertia (no mass) only so that M stays regular for joint 1, which moves
   // nothing else; the weld of spec `spec` holds it, so that inertia does no work and the results do

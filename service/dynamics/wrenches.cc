@@ -200,12 +200,8 @@ Transform wrench_frame_pose(const System& sys, const Data& data, int k) {
   return report_frame(sys.model, data, sys.constraints, sys.wrenches.outputs[k]);
 }
 
-namespace {
-
-// The force of pass spec s for multipliers lambda on the body of its frame A (rolling: the wheel),
-// world coordinates at data.p_ref, into F[6]; the spec's frame from the evaluation (cd.X_RS). In
-// scalars (see reaction_in_frame).
-inline void spec_force(const ConstraintSet& cs, const ConstraintData& cd, const double* lambda, int s, double* F) {
+// In scalars (see reaction_in_frame).
+void spec_force(const ConstraintSet& cs, const ConstraintData& cd, const double* lambda, int s, double* F) {
   // the spec's wrench [moment; force] in its own frame (tip_wrench's layout)
   double w[6] = {0, 0, 0, 0, 0, 0};
   const int r0 = cs.row_offset[s];
@@ -221,6 +217,8 @@ inline void spec_force(const ConstraintSet& cs, const ConstraintData& cd, const 
   F[2] = R(2, 0) * w[0] + R(2, 1) * w[1] + R(2, 2) * w[2] + (p[0] * f1 - p[1] * f0);
   F[3] = f0, F[4] = f1, F[5] = f2;
 }
+
+namespace {
 
 // The constraint forces of multipliers lambda on the bodies of the reaction pass (world coordinates
 // at data.p_ref) into f_ext. Only the bodies the pass specs push on are ever written (zeroed first

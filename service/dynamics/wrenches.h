@@ -62,4 +62,10 @@ void compute_wrenches(const System& sys, const Workspace& ws, WrenchData& wd);
 // in), after forward_kinematics: a tip's constraint frame, a link's frame, a wheel-centre frame.
 Transform wrench_frame_pose(const System& sys, const Data& data, int k);
 
+// The force of constraint spec s for multipliers lambda on the body of its frame A (rolling: the
+// wheel), world coordinates at data.p_ref, into F[6]; the spec's frame from the evaluation (cd.X_RS).
+// Linear in lambda (the rolling-resistance moment included): also the change of that force along a
+// change of lambda.
+void spec_force(const ConstraintSet& cs, const ConstraintData& cd, const double* lambda, int s, double* F);
+
 }  // namespace coopdyn

@@ -479,6 +479,23 @@ coopdyn::wrench_t zero_wrench() {
 }
 }  // namespace
 
+namespace {
+// each wrench's sigma (SIGMA_TAU) when computed, else zeros (SIGMA_NONE); false on a non-finite value
+bool put_sigma(const WrenchSigmaData* sd, coopdyn::output_t& o) {
+  const bool on = sd && sd->valid;
+  if (on) o.sigma_source = coopdyn::output_t::SIGMA_TAU;  // (an if, not ?:, which would odr-use the constants)
+  else o.sigma_source = coopdyn::output_t::SIGMA_NONE;
+  bool ok = true;
+  for (size_t t = 0; t < o.wrench_sigma.size(); ++t)
+    for (int k = 0; k < 6; ++k) {
+      const double x = on ? sd->sigma[t][k] : 0.0;
+      o.wrench_sigma[t].*kWrenchComponent[k] = x;
+      ok = ok && std::isfinite(x);
+    }
+  return ok;
+}
+}  // namespace
+
 struct OutputEncoder::Impl {
   const System& sys;
   coopdyn::output_t msg;
@@ -501,6 +518,8 @@ struct OutputEncoder::Impl {
     msg.indeterminate_mask.assign(outs.size(), 0);
     msg.wrench_measured.assign(outs.size(), 0);
     msg.wrench_residual.assign(outs.size(), zero_wrench());
+    msg.sigma_source = coopdyn::output_t::SIGMA_NONE;
+    msg.wrench_sigma.assign(outs.size(), zero_wrench());
     // free directions: sized for the most there can be (every row), sent as the first num_free
     const int rows = s.constraints.rows;
     msg.free_class.assign(static_cast<size_t>(rows), 0);
@@ -540,6 +559,8 @@ struct OutputEncoder::Impl {
     for (auto& w : msg.wrench) w = zero_wrench();
     std::fill(msg.indeterminate_mask.begin(), msg.indeterminate_mask.end(), 0);
     for (auto& w : msg.wrench_residual) w = zero_wrench();
+    msg.sigma_source = coopdyn::output_t::SIGMA_NONE;
+    for (auto& w : msg.wrench_sigma) w = zero_wrench();
     std::fill(msg.stress.begin(), msg.stress.end(), 0.0);
     std::fill(msg.vdot.begin(), msg.vdot.end(), 0.0);
     std::fill(msg.contact_normal.begin(), msg.contact_normal.end(), 0.0);
@@ -629,7 +650,9 @@ int OutputEncoder::encode(const OutputFrame& f, uint8_t* buf, int cap, bool* san
       }
       o.num_free = wd.num_free;
       for (int d = 0; d < wd.num_free; ++d) o.free_class[static_cast<size_t>(d)] = static_cast<int8_t>(wd.free_class[static_cast<size_t>(d)]);
+      ok = put_sigma(f.sigma, o) && ok;
     } else {
+      put_sigma(nullptr, o);
       for (auto& w : o.wrench) w = zero_wrench();
       std::fill(o.indeterminate_mask.begin(), o.indeterminate_mask.end(), 0);
       o.num_free = 0;

@@ -18,6 +18,7 @@
 #include "service/dynamics/constrained_dynamics.h"
 #include "service/dynamics/state_fit.h"
 #include "service/dynamics/system.h"
+#include "service/dynamics/wrench_sigma.h"
 #include "service/dynamics/wrenches.h"
 #include "service/io/messages.h"
 
@@ -82,6 +83,7 @@ struct OutputFrame {
   const Eigen::VectorXd* tau = nullptr;  // (nv) applied torque
   const Workspace* ws = nullptr;         // evaluation (vdot, lambda, stress, diag) when valid
   const WrenchData* wrenches = nullptr;  // compute_wrenches() of that evaluation when valid
+  const WrenchSigmaData* sigma = nullptr;  // compute_wrench_sigma() of it (declared noise) when valid
 };
 
 class OutputEncoder {

@@ -8,6 +8,7 @@
 #include "coopdyn/measured_state_t.hpp"
 #include "coopdyn/output_t.hpp"
 #include "coopdyn/output_v1_t.hpp"
+#include "coopdyn/output_v2_t.hpp"
 #include "coopdyn/torque_command_t.hpp"
 #include "service/io/codec.h"
 
@@ -135,9 +136,25 @@ std::vector<uint8_t> encode_control(int64_t utime, int64_t seq, ControlAction ac
 }
 
 namespace {
-// output_t and output_v1_t have the same fields but for the wrench rows' type
+// each wrench's sigma: output_t's (version 3); none in the layouts before it
+template <class M>
+void fill_sigma(const M& m, DecodedOutput* out) {
+  out->sigma_source = 0;
+  out->wrench_sigma.assign(m.wrench.size(), {});
+}
+template <>
+void fill_sigma(const coopdyn::output_t& m, DecodedOutput* out) {
+  out->sigma_source = m.sigma_source;
+  out->wrench_sigma.assign(m.wrench.size(), {});
+  for (size_t t = 0; t < m.wrench_sigma.size() && t < m.wrench.size(); ++t)
+    for (int k = 0; k < 6; ++k) out->wrench_sigma[t][k] = component(m.wrench_sigma[t], k);
+}
+
+// output_t, output_v2_t and output_v1_t have the same fields but for the wrench rows' type and
+// the sigma of version 3
 template <class M>
 void fill_decoded(const M& m, DecodedOutput* out) {
+  fill_sigma(m, out);
   out->utime = m.utime;
   out->tick = m.tick;
   out->sim_time = m.sim_time;
@@ -205,6 +222,12 @@ bool decode_output(const void* data, int len, DecodedOutput* out) {
     fill_decoded(v1, out);
     return true;
   }
+  if (hash_of(data, len) == coopdyn::output_v2_t::getHash()) {
+    coopdyn::output_v2_t v2;
+    if (!decode_msg(data, len, &v2)) return false;
+    fill_decoded(v2, out);
+    return true;
+  }
   coopdyn::output_t m;
   if (!decode_msg(data, len, &m)) return false;
   fill_decoded(m, out);
@@ -234,6 +257,7 @@ bool decode_stats(const void* data, int len, StatsFrame* s) {
 }
 
 MessageType identify(const void* data, int len) {
+  if (hash_of(data, len) == coopdyn::output_v2_t::getHash()) return MessageType::kOutput;  // a log of version 2
   const int64_t h = hash_of(data, len);
   const uint64_t u = static_cast<uint64_t>(h);
   if (h == coopdyn::torque_command_t::getHash() || u == kPreMacCommandHash) return MessageType::kTorqueCommand;

@@ -132,6 +132,8 @@ struct DecodedOutput {
   std::vector<int> constrained_mask, indeterminate_mask;
   std::vector<int> wrench_measured;                  // 1: a sensor reading came with the state
   std::vector<std::array<double, 6>> wrench_residual;  // measured - estimated
+  int sigma_source = 0;                                // output_t SIGMA_*: 0 none (and logs before version 3)
+  std::vector<std::array<double, 6>> wrench_sigma;     // standard deviation of each component (zeros: none)
   std::vector<int> free_class;                                      // per free direction: FreeClass
   std::vector<std::vector<std::array<double, 6>>> free_direction;   // [direction][wrench]: change per unit
   int contact_status = 0;                      // worst ContactState (output_t CONTACT_*)

@@ -53,6 +53,7 @@ ServiceLoop::ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& b
       q_est_(sys.q0),
       v_est_(sys.v0),
       wrenches_(sys),
+      sigma_(sys),
       q_(sys.q0),
       v_(sys.v0),
       tau_(Eigen::VectorXd::Zero(sys.model.nv())),
@@ -363,6 +364,10 @@ void ServiceLoop::put_evaluation(io::OutputFrame& f, Workspace& ws, const Diagno
   if (!ok) return;
   compute_wrenches(sys_, ws, wrenches_);
   f.wrenches = &wrenches_;
+  if (sigma_.declared) {
+    compute_wrench_sigma(sys_, ws, sigma_);
+    f.sigma = &sigma_;
+  }
 }
 
 void ServiceLoop::publish_output(io::OutputFrame& f) {

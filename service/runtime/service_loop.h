@@ -149,6 +149,7 @@ class ServiceLoop {
   Closure closure_;                  // simulate: drift of the step's start state
   bool closure_open_ = false;        // estimate: the last state was above closure_tolerance
   WrenchData wrenches_;              // the published wrenches of the evaluation (either mode)
+  WrenchSigmaData sigma_;            // their sigma from the scene's declared noise (wrench_sigma.h)
   Eigen::VectorXd q_, v_, tau_;      // (nq), (nv), (nv): simulated state, applied torque
   Eigen::VectorXd q_prev_, v_prev_;  // state at the start of the last step (what is published)
   std::vector<unsigned char> actuated_;  // (nv) finite tau_limit and not a pseudo-joint

@@ -14,6 +14,7 @@
 #include "service/algorithms/kinematics.h"
 #include "service/algorithms/tree_cholesky.h"
 #include "service/scene/builder.h"
+#include "service/scene/scene_noise.h"
 #include "service/scene/scene_settings.h"
 #include "service/text/input_limits.h"
 
@@ -158,13 +159,15 @@ System compile_scene(Builder& B, YAML::Node root, const SceneOverrides& ov) {
   const Ctx& c = B.c;
   System& sys = B.sys;
   check_keys(c, root, {"name", "description", "source", "gravity", "formulation", "redundancy", "stabilization", "solver",
-                       "robots", "load", "arms", "bodies", "frames", "constraints", "ground", "reactions", "close_initial_state"},
+                       "robots", "load", "arms", "bodies", "frames", "constraints", "ground", "reactions", "close_initial_state",
+                       "noise"},
              "scene");
   read_settings(c, root, ov, sys);
   const std::map<std::string, Robot> robots = read_robots(c, root);
   for (const auto& [rn, rb] : robots) sys.warnings.insert(sys.warnings.end(), rb.warnings.begin(), rb.warnings.end());
   build_tree(B, root, robots);
   copy_initial_state(B, sys);
+  read_noise(c, root, sys);
   add_lock_constraints(B, sys);
   build_wrench_outputs(c, root, sys);
   Data data(sys.model);

@@ -52,7 +52,7 @@ class PythonTypes(unittest.TestCase):
 
     def test_package_needs_no_lcm_module(self):
         self.assertNotIn("lcm", sys.modules)
-        for t in (coopdyn.output_t, coopdyn.output_v1_t, coopdyn.wrench_t, coopdyn.torque_command_t,
+        for t in (coopdyn.output_t, coopdyn.output_v2_t, coopdyn.output_v1_t, coopdyn.wrench_t, coopdyn.torque_command_t,
                   coopdyn.measured_state_t, coopdyn.control_t, coopdyn.loop_stats_t):
             m = t()
             self.assertEqual(t.decode(m.encode()).encode(), m.encode(), t.__name__)
@@ -150,6 +150,8 @@ class PythonTypes(unittest.TestCase):
         m.wrench[2] = wrench(ODD[:6])
         m.constrained_mask, m.indeterminate_mask, m.wrench_measured = [63, 7, 56], [0, 1, 56], [1, 0, 0]
         m.wrench_residual = [wrench([r.gauss(0, 1) for _ in range(6)]) for _ in range(nw)]
+        m.sigma_source = coopdyn.output_t.SIGMA_TAU
+        m.wrench_sigma = [wrench([abs(r.gauss(0, 1)) for _ in range(6)]) for _ in range(nw)]
         m.num_free, m.free_class = 2, [coopdyn.output_t.FREE_FORCE, coopdyn.output_t.FREE_MIXED]
         m.free_direction = [[wrench([r.uniform(-1, 1) for _ in range(6)]) for _ in range(nw)] for _ in range(2)]
         m.contact_status, m.num_contacts = 1, 2
@@ -166,6 +168,20 @@ class PythonTypes(unittest.TestCase):
                                                       "num_contacts", "num_stresses", "nq", "nv"})
         for k in o:
             same(self, getattr(m, k), o[k], k)
+        # the same message without sigma (what the layouts before version 3 decode to)
+        nosig = coopdyn.output_t.decode(m.encode())
+        nosig.sigma_source, nosig.wrench_sigma = coopdyn.output_t.SIGMA_NONE, [wrench([0.0] * 6) for _ in range(nw)]
+        (d0,) = self.decode(nosig)
+        # in the layout logs had in version 2 (output_v2_t's fingerprint: no sigma)
+        v2 = coopdyn.output_v2_t()
+        for k in v2.__slots__:
+            setattr(v2, k, getattr(m, k))
+        v2.version = 2
+        self.assertNotEqual(v2.encode()[:8], m.encode()[:8])
+        (d2,) = self.decode(v2)
+        self.assertEqual(d2["reject"], "")
+        self.assertEqual(d2["message"], d0["message"])
+        self.assertIsInstance(lcmlog.decode(v2.encode()), coopdyn.output_v2_t)
         # the same message in the layout logs had before version 2 (output_v1_t's fingerprint, that of
         # the old output_t: wrenches as 6-arrays) decodes in C++ to the same values
         old = coopdyn.output_v1_t()
@@ -179,7 +195,7 @@ class PythonTypes(unittest.TestCase):
         self.assertNotEqual(old.encode()[:8], m.encode()[:8])
         (d1,) = self.decode(old)
         self.assertEqual(d1["reject"], "")
-        self.assertEqual(d1["message"], o)
+        self.assertEqual(d1["message"], d0["message"])
         self.assertIsInstance(lcmlog.decode(old.encode()), coopdyn.output_v1_t)
 
     def test_loop_stats(self):

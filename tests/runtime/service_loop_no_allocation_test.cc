@@ -99,6 +99,46 @@ TEST(LoopNoAllocation, TickOfEverySceneBothModes) {
   }
 }
 
+// A scene that declares torque noise: every tick also computes each wrench's sigma (wrench_sigma.h),
+// in both modes, without allocating; the published output_t carries it (SIGMA_TAU, equal to the
+// sigma of the same evaluation computed here).
+TEST(LoopNoAllocation, TickWithWrenchSigma) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  const System sys = load_scene_string(slurp(scene_path("two_puma_load")) + "\nnoise: {tau: 0.2}\n", scene_path("two_puma_load"));
+  for (auto mode : {runtime::ServiceMode::kSimulate, runtime::ServiceMode::kEstimate}) {
+    runtime::ServiceConfig cfg;
+    cfg.mode = mode;
+    FakeBus bus;
+    runtime::ServiceLoop loop(sys, cfg, bus);
+    long allocations = 0;
+    const long long ms = 1000000;
+    for (int k = 0; k < 1000; ++k) {
+      if (mode == runtime::ServiceMode::kEstimate && k % 5 == 0) {  // fresh states (outside the count)
+        const auto st = io::encode_measured_state(runtime::realtime_us(), k, {}, stdvec(sys.q0), {}, stdvec(sys.v0),
+                                                  std::vector<double>(static_cast<size_t>(sys.model.nv()), 0.1));
+        loop.states().offer(st.data(), static_cast<int>(st.size()), k * ms);
+      }
+      AllocationCounter c;
+      loop.tick(k * ms);
+      allocations += c.count();
+    }
+    EXPECT_EQ(allocations, 0);
+    const io::DecodedOutput o = bus.last_output();
+    SCOPED_TRACE(mode == runtime::ServiceMode::kSimulate ? "simulate" : "estimate");
+    EXPECT_EQ(o.status, 0) << o.reason;
+    EXPECT_EQ(o.sigma_source, 1);
+    ASSERT_EQ(o.wrench_sigma.size(), sys.wrenches.outputs.size());
+    Workspace ws(sys);
+    WrenchData wd(sys);
+    WrenchSigmaData sd(sys);
+    evaluate(sys, ws, vec(o.q), vec(o.v), vec(o.tau));
+    compute_wrenches(sys, ws, wd);
+    compute_wrench_sigma(sys, ws, sd);
+    for (size_t k = 0; k < o.wrench_sigma.size(); ++k)
+      for (int i = 0; i < 6; ++i) EXPECT_NEAR(o.wrench_sigma[k][i], sd.sigma[k][i], 1e-9 * (1.0 + sd.sigma[k][i]));
+  }
+}
+
 TEST(LoopNoAllocation, RunWithDeadlineSleeps) {
   if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
   const System sys = load_scene(scene_path("two_puma_load"));

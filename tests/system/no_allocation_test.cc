@@ -10,6 +10,7 @@
 #include "service/dynamics/integrators.h"
 #include "service/dynamics/contacts.h"
 #include "service/dynamics/holding_torque.h"
+#include "service/dynamics/wrench_sigma.h"
 #include "service/dynamics/wrenches.h"
 #include "tests/support/test_util.h"
 
@@ -187,6 +188,43 @@ TEST(NoAllocation, EvaluateStepAndHoldOfTheRealRobots) {
       EXPECT_EQ(c.count(), 0);
     }
     EXPECT_TRUE(q.allFinite());
+  }
+}
+
+TEST(NoAllocation, WrenchSigmaOfNoisyScenes) {
+  // each wrench's sigma from declared torque noise (wrench_sigma.h): closed chains on both fast
+  // paths (Cholesky, the block solve of 4 arms), the planar pair (rank path), the car with rolling
+  // resistance (the fixed point), every joint reaction
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  const std::string arms = std::string(COOPDYN_SOURCE_DIR) + "/bench/scenes/pumas_4.yaml";
+  struct Case {
+    std::string path, extra;
+    std::optional<Formulation> f;
+  };
+  for (const Case& c : {Case{scene_path("two_puma_load"), "", std::nullopt}, Case{scene_path("two_puma_load"), "", Formulation::kClassic},
+                        Case{scene_path("planar_arms_load"), "", std::nullopt}, Case{arms, "", std::nullopt},
+                        Case{scene_path("four_wheel_car"), "mu: 0.85, rolling_resistance: 0.02}", std::nullopt}}) {
+    SCOPED_TRACE(c.path);
+    SceneOverrides ov;
+    ov.formulation = c.f;
+    std::string text = without_reactions(slurp(c.path));
+    if (!c.extra.empty()) text = replace_once(text, "mu: 0.85}", c.extra);
+    const System sys = load_scene_string(text + "\nreactions: all\nnoise: {tau: 0.2}\n", c.path, ov);
+    Workspace ws(sys);
+    WrenchData wd(sys);
+    WrenchSigmaData sd(sys);
+    ASSERT_TRUE(sd.declared);
+    const Inputs in = inputs_at_rest_and_moving(sys, 8, 16);
+    {
+      AllocationCounter cnt;
+      for (int k = 0; k < 500; ++k) {
+        evaluate(sys, ws, in.q[k % 16], in.v[k % 16], in.tau[k % 16]);
+        compute_wrenches(sys, ws, wd);
+        compute_wrench_sigma(sys, ws, sd);
+      }
+      EXPECT_EQ(cnt.count(), 0);
+    }
+    EXPECT_TRUE(sd.valid);
   }
 }
 
