@@ -78,6 +78,30 @@ const char* stress_unit(const System& sys, int k) {
   return m.bodies[m.dof_body[stress_dof(sys, k)]].joint.type == JointType::kPrismatic ? "N" : "N*m";
 }
 
+namespace {
+// the joints' damping and friction per DOF, and the stiction solve's buffers
+void size_joint_losses(const System& sys, Workspace& ws) {
+  const int n = sys.model.nv();
+  ws.tau_loss.setZero(n);
+  ws.damping.setZero(n);
+  ws.friction.setZero(n);
+  for (const Body& b : sys.model.bodies)
+    for (int k = 0; k < b.joint.nv; ++k) {
+      const int d = b.joint.idx_v + k;
+      ws.damping[d] = b.joint.damping;
+      ws.friction[d] = b.joint.friction;
+      if (b.joint.damping > 0.0) ws.damped_dofs.push_back(d);
+      if (b.joint.friction > 0.0) ws.friction_dofs.push_back(d);
+    }
+  ws.rest_dofs.assign(ws.friction_dofs.size(), 0);
+  ws.lcp = FrictionLcp(static_cast<int>(ws.friction_dofs.size()));
+  if (!ws.friction_dofs.empty()) {
+    ws.tau_c_fr.setZero(n);
+    ws.vdot_fr.setZero(n);
+  }
+}
+}  // namespace
+
 Workspace::Workspace(const System& sys)
     : data(sys.model), cd(sys.model, sys.constraints), qs(sys.constraints.rows) {
   const int n = sys.model.nv(), m = sys.constraints.rows;
@@ -87,23 +111,7 @@ Workspace::Workspace(const System& sys)
   lambda.setZero(m);
   stress.setZero(num_stresses(sys));
   diag.rows = m;
-  tau_loss.setZero(n);
-  damping.setZero(n);
-  friction.setZero(n);
-  for (const Body& b : sys.model.bodies)
-    for (int k = 0; k < b.joint.nv; ++k) {
-      const int d = b.joint.idx_v + k;
-      damping[d] = b.joint.damping;
-      friction[d] = b.joint.friction;
-      if (b.joint.damping > 0.0) damped_dofs.push_back(d);
-      if (b.joint.friction > 0.0) friction_dofs.push_back(d);
-    }
-  rest_dofs.assign(friction_dofs.size(), 0);
-  lcp = FrictionLcp(static_cast<int>(friction_dofs.size()));
-  if (!friction_dofs.empty()) {
-    tau_c_fr.setZero(n);
-    vdot_fr.setZero(n);
-  }
+  size_joint_losses(sys, *this);
   Yt.setZero(n, m);
   const ConstraintSet& cs = sys.constraints;
   const int ns = static_cast<int>(cs.specs.size());
