@@ -78,6 +78,30 @@ const char* stress_unit(const System& sys, int k) {
   return m.bodies[m.dof_body[stress_dof(sys, k)]].joint.type == JointType::kPrismatic ? "N" : "N*m";
 }
 
+namespace {
+// the joints' damping and friction per DOF, and the stiction solve's buffers
+void size_joint_losses(const System& sys, Workspace& ws) {
+  const int n = sys.model.nv();
+  ws.tau_loss.setZero(n);
+  ws.damping.setZero(n);
+  ws.friction.setZero(n);
+  for (const Body& b : sys.model.bodies)
+    for (int k = 0; k < b.joint.nv; ++k) {
+      const int d = b.joint.idx_v + k;
+      ws.damping[d] = b.joint.damping;
+      ws.friction[d] = b.joint.friction;
+      if (b.joint.damping > 0.0) ws.damped_dofs.push_back(d);
+      if (b.joint.friction > 0.0) ws.friction_dofs.push_back(d);
+    }
+  ws.rest_dofs.assign(ws.friction_dofs.size(), 0);
+  ws.lcp = FrictionLcp(static_cast<int>(ws.friction_dofs.size()));
+  if (!ws.friction_dofs.empty()) {
+    ws.tau_c_fr.setZero(n);
+    ws.vdot_fr.setZero(n);
+  }
+}
+}  // namespace
+
 Workspace::Workspace(const System& sys)
     : data(sys.model), cd(sys.model, sys.constraints), qs(sys.constraints.rows) {
   const int n = sys.model.nv(), m = sys.constraints.rows;
@@ -87,6 +111,7 @@ Workspace::Workspace(const System& sys)
   lambda.setZero(m);
   stress.setZero(num_stresses(sys));
   diag.rows = m;
+  size_joint_losses(sys, *this);
   Yt.setZero(n, m);
   const ConstraintSet& cs = sys.constraints;
   const int ns = static_cast<int>(cs.specs.size());
@@ -544,6 +569,82 @@ void couple_stresses(const System& sys, Workspace& ws) {
   for (size_t k = 0; k < cs.size(); ++k) ws.stress[p + k] = ws.lambda[sys.constraints.row_offset[cs[k]]];
 }
 
+// The formulation's solve of vdot and lambda for ws.tau_c; `first` factors (every later call reuses
+// the factorization where the formulation keeps one). false: the pseudo-joint block is singular.
+bool solve_formulation(const System& sys, Workspace& ws, bool first) {
+  switch (sys.options.formulation) {
+    case Formulation::kMobilePlatform:
+    case Formulation::kClassic:
+      if (first) build_q(sys, ws, ws.cd.G, false);
+      schur_solve(sys, ws, first);
+      if (sys.constraints.rolling_resistance) rolling_resistance_solve(sys, ws);
+      lock_stresses(sys, ws);
+      break;
+    case Formulation::kPseudoJointSchur:
+      if (first) build_q(sys, ws, ws.cd.G, true);
+      if (!pseudo_schur(sys, ws)) return false;
+      break;
+    case Formulation::kSvdBaseline:
+      svd_baseline(sys, ws);
+      lock_stresses(sys, ws);
+      break;
+  }
+  return true;
+}
+
+// Joint losses known before the solve: damping -b v at every damped joint and -F sign(v) at every
+// friction joint that moves; the resting friction joints are listed for friction_at_rest.
+void apply_joint_losses(Workspace& ws, const Eigen::VectorXd& v) {
+  ws.tau_loss.setZero();
+  for (int d : ws.damped_dofs) ws.tau_loss[d] = -ws.damping[d] * v[d];
+  ws.rest_count = 0;
+  for (int d : ws.friction_dofs) {
+    if (std::abs(v[d]) > Workspace::kRestSpeed) ws.tau_loss[d] -= v[d] > 0 ? ws.friction[d] : -ws.friction[d];
+    else ws.rest_dofs[ws.rest_count++] = d;
+  }
+  ws.tau_c += ws.tau_loss;
+}
+
+// Stiction at the resting friction joints (friction_lcp.h), after a first solve without it: the
+// accelerations are affine in their friction forces, vdot = vdot_0 + A f, with A's columns the
+// change of the accelerations under a torque at each resting joint (one solve each, on the same
+// factorization; exact for an affine solve up to rounding, the torque scaled to the problem's).
+// Then the final solve with the friction found; a stuck joint's acceleration, zero to rounding
+// there, is set to exactly 0.
+bool friction_at_rest(const System& sys, Workspace& ws) {
+  const int k = ws.rest_count;
+  FrictionLcp& lcp = ws.lcp;
+  ws.tau_c_fr = ws.tau_c;
+  ws.vdot_fr = ws.vdot;
+  const double s = 1.0 + ws.tau_c.cwiseAbs().maxCoeff();
+  for (int j = 0; j < k; ++j) {
+    lcp.b[j] = ws.vdot_fr[ws.rest_dofs[j]];
+    lcp.bound[j] = ws.friction[ws.rest_dofs[j]];
+    ws.tau_c = ws.tau_c_fr;
+    ws.tau_c[ws.rest_dofs[j]] += s;
+    if (!solve_formulation(sys, ws, false)) return false;
+    for (int i = 0; i < k; ++i) lcp.A(i, j) = (ws.vdot[ws.rest_dofs[i]] - ws.vdot_fr[ws.rest_dofs[i]]) / s;
+  }
+  for (int i = 0; i < k; ++i)  // symmetric in exact arithmetic
+    for (int j = 0; j < i; ++j) lcp.A(i, j) = lcp.A(j, i) = 0.5 * (lcp.A(i, j) + lcp.A(j, i));
+  lcp.solve(k);
+  ws.tau_c = ws.tau_c_fr;
+  ws.friction_stuck = 0;
+  for (int j = 0; j < k; ++j) {
+    ws.tau_c[ws.rest_dofs[j]] += lcp.f[j];
+    ws.tau_loss[ws.rest_dofs[j]] += lcp.f[j];
+  }
+  if (!solve_formulation(sys, ws, false)) return false;
+  for (int j = 0; j < k; ++j)
+    if (lcp.state[j] == 0) {
+      ws.vdot[ws.rest_dofs[j]] = 0.0;
+      ++ws.friction_stuck;
+    }
+  ws.friction_indeterminate = lcp.indeterminate;
+  ws.friction_converged = lcp.converged;
+  return true;
+}
+
 }  // namespace
 
 const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
@@ -580,24 +681,13 @@ const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::Vecto
   }
   constraint_rows(model, ws.data, sys.constraints, q, v, ws.cd);
   ws.tau_c = tau - ws.data.h;
+  ws.friction_stuck = ws.friction_indeterminate = 0;
+  ws.friction_converged = true;
+  ws.rest_count = 0;
+  if (!ws.damped_dofs.empty() || !ws.friction_dofs.empty()) apply_joint_losses(ws, v);
 
-  switch (sys.options.formulation) {
-    case Formulation::kMobilePlatform:
-    case Formulation::kClassic:
-      build_q(sys, ws, ws.cd.G, false);
-      schur_solve(sys, ws, true);
-      if (sys.constraints.rolling_resistance) rolling_resistance_solve(sys, ws);
-      lock_stresses(sys, ws);
-      break;
-    case Formulation::kPseudoJointSchur:
-      build_q(sys, ws, ws.cd.G, true);
-      if (!pseudo_schur(sys, ws)) return fail(Reason::kPseudoBlockSingular);
-      break;
-    case Formulation::kSvdBaseline:
-      svd_baseline(sys, ws);
-      lock_stresses(sys, ws);
-      break;
-  }
+  if (!solve_formulation(sys, ws, true)) return fail(Reason::kPseudoBlockSingular);
+  if (ws.rest_count > 0 && !friction_at_rest(sys, ws)) return fail(Reason::kPseudoBlockSingular);
   couple_stresses(sys, ws);
 
   dg.indeterminate = m - dg.rank;

@@ -18,6 +18,7 @@
 #include <Eigen/Core>
 
 #include "service/constraints/constraints.h"
+#include "service/dynamics/friction_lcp.h"
 #include "service/dynamics/q_blocks.h"
 #include "service/dynamics/q_solve.h"
 #include "service/dynamics/system.h"
@@ -68,6 +69,23 @@ struct Workspace {
   Eigen::VectorXd stress;  // (num_stresses) generalized force locking each pseudo-joint, then each
                            // coupling's force on its mimicking joint (stress_names)
   Diagnostics diag;
+
+  // Joint losses (Joint::damping, Joint::friction): the generalized force each joint's damping and
+  // Coulomb friction exerted in the last evaluation, included in tau_c, vdot, lambda and every wrench
+  Eigen::VectorXd tau_loss;           // (nv) -damping v + friction force; 0 at joints without
+  std::vector<int> damped_dofs;       // DOFs with damping > 0
+  std::vector<int> friction_dofs;     // DOFs with friction > 0
+  Eigen::VectorXd damping, friction;  // (nv) per DOF (zero elsewhere)
+  // A friction joint is at rest when |v| <= kRestSpeed (rad/s or m/s): its friction is then solved
+  // as stiction (friction_lcp.h); faster, it slides with -friction sign(v).
+  static constexpr double kRestSpeed = 1e-9;
+  std::vector<int> rest_dofs;          // (<= friction_dofs) the resting friction DOFs of the last evaluation
+  int rest_count = 0;
+  FrictionLcp lcp;                     // their stiction problem (A, b: one column per resting DOF)
+  Eigen::VectorXd tau_c_fr, vdot_fr;   // (nv) tau_c without the resting friction, its accelerations
+  int friction_stuck = 0;              // resting friction joints held by stiction (vdot exactly 0)
+  int friction_indeterminate = 0;      // of those, forces the physics leaves free (set to zero)
+  bool friction_converged = true;      // the active set met Coulomb's conditions
 
   // Schur solve
   Eigen::MatrixXd Yt;  // (nv x rows) (G L^-1)^T

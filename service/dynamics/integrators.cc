@@ -171,6 +171,16 @@ const Diagnostics& step(const System& sys, Stepper& st, Integrator integ, double
       break;
     }
   }
+  // Coulomb friction: a friction joint whose velocity changed sign within the step (at its end, or
+  // at an RK4 stage, where the friction's sign flipped and its stage slope with it) stops, at rest
+  // at the step's end; the next evaluation's stiction solve decides whether it stays there
+  for (int d : st.ws.friction_dofs) {
+    const double v0 = st.v_start[d];
+    bool crossed = v0 * v[d] < 0.0;
+    if (integ == Integrator::kRk4)
+      for (int s = 1; s < 4; ++s) crossed = crossed || v0 * (v0 + (s == 3 ? 1.0 : 0.5) * dt * st.k_v[s - 1][d]) < 0.0;
+    if (crossed) v[d] = 0.0;
+  }
   if (sys.options.projection_iterations > 0 && sys.constraints.rows > 0) project_state(sys, st, q, v);
   // divergence detector: written as !(|v_i| <= bound) so that NaN trips it too
   int bad = -2;

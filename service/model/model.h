@@ -40,6 +40,10 @@ struct Joint {
   Vec3 axis2 = Vec3::UnitX();
   std::string name;
   double armature = 0.0;  // rotor inertia reflected at the joint (kg*m^2 or kg), added to M
+  // Joint losses (revolute and prismatic joints only; URDF <dynamics damping friction>):
+  double damping = 0.0;   // viscous: a generalized force -damping * v (N*m*s/rad or N*s/m)
+  double friction = 0.0;  // Coulomb bound (N*m or N): -friction * sign(v) while the joint moves; at
+                          // rest any force within the bound (stiction), solved exactly by evaluate()
   bool pseudo = false;  // a joint the real structure lacks; locked by computed torques (the paper's (22)-(26))
   int nq = 0, nv = 0;
   int axis_z = 0;  // revolute: +1 / -1 when axis is exactly +z / -z (the DH case: a cheaper kinematics step)

@@ -72,6 +72,8 @@ int add_chain(Builder& B, const ArmSpec& s, int parent, const std::string& by_ba
     j.axis = cj.axis;
     j.name = s.name + "." + cj.name;
     j.armature = cj.armature;
+    j.damping = cj.damping;
+    j.friction = cj.friction;
     Transform X_PJ = (i == 1 ? s.X_W_base : Transform()) * cj.X_origin;
     if (held) X_PJ = X_PJ * chain_motion(cj, s.q[i - 1]);
     parent = B.add(s.name + "." + cj.link_name, parent, X_PJ, j, cj.I, {s.q[i - 1]}, {s.v[i - 1]}, cj.tau_limit, s.node);
@@ -273,6 +275,8 @@ void hang_arm_from_load(Builder& B, const ArmSpec& s, int L, const std::string& 
     j.axis = -cj.axis;
     j.name = s.name + "." + cj.name;
     j.armature = cj.armature;
+    j.damping = cj.damping;
+    j.friction = cj.friction;
     Transform X_PJ = i == n ? Transform() : J[i].X_origin.inverse();
     if (held) X_PJ = X_PJ * chain_motion(cj, -s.q[i - 1]);
     // the arm's base is welded to the world, so its inertia does no work; a nominal rotational

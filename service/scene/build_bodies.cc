@@ -81,7 +81,7 @@ JointType read_joint_type(const Ctx& c, const YAML::Node& jn, const std::string&
 // A body's `joint` entry (given, not null): its type, axes, name, flags and initial q, v.
 void read_joint(const Ctx& c, const YAML::Node& jn, const std::string& name, Joint& j, std::vector<double>& jq,
                 std::vector<double>& jv) {
-  check_keys(c, jn, {"type", "axis", "axis2", "name", "pseudo", "q", "v", "armature", "tau_limit", "actuated", "target_limit"},
+  check_keys(c, jn, {"type", "axis", "axis2", "name", "pseudo", "q", "v", "armature", "damping", "friction", "tau_limit", "actuated", "target_limit"},
              "joint of '" + name + "'");
   j.type = read_joint_type(c, jn, name);
   if (jn["axis"]) j.axis = as_vec3(c, jn["axis"], "joint axis");
@@ -92,6 +92,11 @@ void read_joint(const Ctx& c, const YAML::Node& jn, const std::string& name, Joi
   if (!(j.armature >= 0)) fail(c, jn["armature"], "body '" + name + "': armature must be >= 0");
   if (j.pseudo && j.type != JointType::kRevolute && j.type != JointType::kPrismatic)
     fail(c, jn, "body '" + name + "': a pseudo-joint must be revolute or prismatic");
+  j.damping = get_joint_loss(c, jn, "damping", "body '" + name + "' joint");
+  j.friction = get_joint_loss(c, jn, "friction", "body '" + name + "' joint");
+  for (const char* key : {"damping", "friction"})
+    if (jn[key] && (j.pseudo || (j.type != JointType::kRevolute && j.type != JointType::kPrismatic)))
+      fail(c, jn[key], "body '" + name + "': " + key + " applies to a real revolute or prismatic joint");
   if (j.type == JointType::kFloating) {
     Eigen::VectorXd tmp(7);
     set_floating_q(tmp, 0, get_pose(c, jn["q"], "floating joint q"));

@@ -192,6 +192,8 @@ void add_robot_tree(Builder& B, const YAML::Node& b, const Robot& r, const std::
     j.axis = cj.axis;
     j.name = name + "." + cj.name;
     j.armature = cj.armature;
+    j.damping = cj.damping;
+    j.friction = cj.friction;
     Transform X_PJ = cj.X_origin;
     if (held) X_PJ = X_PJ * chain_motion(cj, s.q[k]);
     const std::string parent_body = name + "." + t.joints[k].parent_link;

@@ -26,6 +26,7 @@ struct ChainJoint {
   bool fixed = false;  // a fixed joint of the robot itself (URDF "fixed")
   Inertia I;           // link i, in link i's frame
   double armature = 0;
+  double damping = 0, friction = 0;  // joint losses (Joint::damping, Joint::friction)
   double tau_limit = std::numeric_limits<double>::infinity();
   double lower = -std::numeric_limits<double>::infinity();  // joint limits (URDF <limit lower upper>)
   double upper = std::numeric_limits<double>::infinity();

@@ -25,7 +25,7 @@ Robot parse_robot(const Ctx& c, const YAML::Node& n, const std::string& name) {
   for (size_t i = 0; i < links.size(); ++i) {
     const YAML::Node& l = links[i];
     const std::string w = "robot '" + name + "' link " + std::to_string(i + 1);
-    check_keys(c, l, {"type", "a", "d", "alpha", "offset", "theta", "mass", "com", "inertia", "armature", "tau_limit", "accept_inertia"}, w);
+    check_keys(c, l, {"type", "a", "d", "alpha", "offset", "theta", "mass", "com", "inertia", "armature", "damping", "friction", "tau_limit", "accept_inertia"}, w);
     const std::string type = get_string(c, l, "type", "revolute");
     if (type != "revolute" && type != "prismatic") fail(c, l["type"], w + ": type must be revolute or prismatic");
     const bool prismatic = type == "prismatic";
@@ -55,6 +55,8 @@ Robot parse_robot(const Ctx& c, const YAML::Node& n, const std::string& name) {
     j.I = get_inertia(c, l, w).transformed(K);
     j.armature = get_double(c, l, "armature", 0, w);
     if (!(j.armature >= 0)) fail(c, l["armature"], w + ": armature must be >= 0");
+    j.damping = get_joint_loss(c, l, "damping", w);
+    j.friction = get_joint_loss(c, l, "friction", w);
     j.tau_limit = get_double(c, l, "tau_limit", std::numeric_limits<double>::infinity(), w);
     if (!(j.tau_limit >= 0)) fail(c, l["tau_limit"], w + ": tau_limit must be >= 0 (N*m or N; absent = no limit)");
     r.joints.push_back(j);

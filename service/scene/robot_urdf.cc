@@ -182,6 +182,13 @@ ChainJoint urdf_chain_joint(const Ctx& c, const YAML::Node& where, const UrdfFil
   }
   size_t at = 0, end = 0;
   j.source = urdf_element(f, "joint", jt.name, &at, &end) ? urdf_at(f, at) : urdf_at(f);
+  if (jt.dynamics && !j.fixed) {  // <dynamics damping friction>: modelled (a fixed joint's do nothing)
+    for (const auto& [key, x] : {std::pair<const char*, double>{"damping", jt.dynamics->damping}, {"friction", jt.dynamics->friction}})
+      if (!(std::isfinite(x) && x >= 0))
+        fail(c, where, j.source + ": joint '" + jt.name + "': <dynamics " + key + "> must be a finite number >= 0");
+    j.damping = jt.dynamics->damping;
+    j.friction = jt.dynamics->friction;
+  }
   return j;
 }
 
@@ -265,11 +272,6 @@ Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path,
   std::set<std::string> on_chain = {base};
   for (const auto& jt : chain) on_chain.insert(jt->child_link_name);
   for (const auto& jt : chain) check_link_inertial(c, where, f, *jt, &r.warnings);
-  {
-    std::vector<const urdf::Joint*> js;
-    for (const auto& jt : chain) js.push_back(jt.get());
-    note_unmodelled_dynamics(f, js, &r.warnings);
-  }
   std::map<std::string, Inertia> side;
   if (keep_branches)
     side = keep_side_branches(c, where, f, on_chain, base, r);

@@ -72,6 +72,14 @@ double get_double(const Ctx& c, const YAML::Node& n, const char* key, double def
   return as_double(c, v, what + "." + key);
 }
 
+double get_joint_loss(const Ctx& c, const YAML::Node& n, const char* key, const std::string& what) {
+  const double x = get_double(c, n, key, 0.0, what);
+  if (!(std::isfinite(x) && x >= 0))
+    fail(c, n[key], what + ": " + key + " must be a finite number >= 0 (" +
+                        (std::string(key) == "damping" ? "N*m*s/rad or N*s/m" : "the Coulomb bound, N*m or N") + ")");
+  return x;
+}
+
 std::string get_string(const Ctx& c, const YAML::Node& n, const char* key, const std::string& def) {
   YAML::Node v = n[key];
   if (!v.IsDefined() || v.IsNull()) return def;

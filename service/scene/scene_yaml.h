@@ -30,6 +30,9 @@ void check_keys(const Ctx& c, const YAML::Node& n, std::initializer_list<const c
 YAML::Node require(const Ctx& c, const YAML::Node& n, const char* key, const std::string& what);
 double as_double(const Ctx& c, const YAML::Node& n, const std::string& what);  // finite; pi, -pi, pi/2, -pi/2
 double get_double(const Ctx& c, const YAML::Node& n, const char* key, double def, const std::string& what);
+// A joint's `damping` (N*m*s/rad or N*s/m) or `friction` (Coulomb bound, N*m or N): 0 when absent,
+// refused at its line unless a finite number >= 0.
+double get_joint_loss(const Ctx& c, const YAML::Node& n, const char* key, const std::string& what);
 std::string get_string(const Ctx& c, const YAML::Node& n, const char* key, const std::string& def);
 bool get_bool(const Ctx& c, const YAML::Node& n, const char* key, bool def);
 std::vector<double> as_list(const Ctx& c, const YAML::Node& n, int expect, const std::string& what);  // expect < 0: any length

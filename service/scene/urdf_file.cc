@@ -399,18 +399,4 @@ std::vector<UrdfMimic> read_mimics(const UrdfFile& f) {
   return out;
 }
 
-void note_unmodelled_dynamics(const UrdfFile& f, const std::vector<const urdf::Joint*>& joints,
-                              std::vector<std::string>* warnings) {
-  std::ostringstream os;
-  int n = 0;
-  for (const urdf::Joint* j : joints) {
-    if (!j->dynamics || (j->dynamics->damping == 0 && j->dynamics->friction == 0)) continue;
-    os << (n++ ? ", " : "") << j->name << " (damping " << j->dynamics->damping << ", friction " << j->dynamics->friction << ")";
-  }
-  if (n == 0) return;
-  warnings->push_back("URDF " + f.path + ": the <dynamics> of " + std::to_string(n) + " joint" + (n == 1 ? "" : "s") +
-                      " are not modelled (coopdyn has no joint damping or friction yet; the results are without them): " +
-                      os.str());
-}
-
 }  // namespace coopdyn::scene_detail

@@ -56,11 +56,6 @@ Inertia link_inertia(const Ctx& c, const YAML::Node& where, const urdf::Link& l)
 // a warning (into *warnings). Returns whether the link has an <inertial>.
 bool check_urdf_inertial(const Ctx& c, const YAML::Node& where, const UrdfFile& f, const std::string& link,
                          std::vector<std::string>* warnings);
-// Nothing the file gives is lost silently: the <dynamics> damping and friction of `joints` (coopdyn
-// models neither yet) said in one warning that lists each joint with its values; nothing when none
-// is nonzero.
-void note_unmodelled_dynamics(const UrdfFile& f, const std::vector<const urdf::Joint*>& joints,
-                              std::vector<std::string>* warnings);
 // Nothing the file gives is lost silently: the child link of `jt` checked (check_urdf_inertial), a
 // moving link without an <inertial> a warning (into *warnings).
 void check_link_inertial(const Ctx& c, const YAML::Node& where, const UrdfFile& f, const urdf::Joint& jt,

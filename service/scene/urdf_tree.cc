@@ -49,7 +49,6 @@ std::shared_ptr<const UrdfTree> read_urdf_tree(const Ctx& c, const YAML::Node& w
   }
   if (root->inertial) t->root_inertia = link_inertia(c, where, *root);
   std::vector<urdf::LinkConstSharedPtr> stack = {root};
-  std::vector<const urdf::Joint*> moving;  // in the tree's order, for the <dynamics> warning
   while (!stack.empty()) {
     const urdf::LinkConstSharedPtr l = stack.back();
     stack.pop_back();
@@ -59,7 +58,6 @@ std::shared_ptr<const UrdfTree> read_urdf_tree(const Ctx& c, const YAML::Node& w
       const urdf::Joint& jt = *l->parent_joint;
       check_link_inertial(c, where, f, jt, warnings);
       t->joints.push_back({urdf_chain_joint(c, where, f, jt, {}), jt.parent_link_name});
-      moving.push_back(&jt);
     }
     std::vector<urdf::LinkConstSharedPtr> kids(l->child_links.begin(), l->child_links.end());
     std::vector<size_t> at;
@@ -72,7 +70,6 @@ std::shared_ptr<const UrdfTree> read_urdf_tree(const Ctx& c, const YAML::Node& w
     std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return at[a] < at[b]; });
     for (auto it = order.rbegin(); it != order.rend(); ++it) stack.push_back(kids[*it]);  // the first child on top
   }
-  note_unmodelled_dynamics(f, moving, warnings);
   return t;
 }
 

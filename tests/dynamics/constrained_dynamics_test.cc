@@ -78,9 +78,10 @@ TEST(ConstrainedDynamics, Section9InvariantsOnEveryScene) {
       // constraint forces do no work on a consistent velocity
       const double power = ws.lambda.dot(ws.cd.G * e.v);
       EXPECT_LT(std::abs(power), 1e-9 * (1 + ws.lambda.norm() * e.v.norm()));
-      // equations of motion hold: M vdot + h = tau + G^T lambda (evaluate() leaves the dense M out)
+      // equations of motion hold: M vdot + h = tau + tau_loss + G^T lambda, tau_loss the joints'
+      // damping and friction (two_iiwa_load: its URDF's damping) (evaluate() leaves the dense M out)
       crba(sys.model, ws.data);
-      const Eigen::VectorXd r = ws.data.M * ws.vdot + ws.data.h - e.tau - ws.cd.G.transpose() * ws.lambda;
+      const Eigen::VectorXd r = ws.data.M * ws.vdot + ws.data.h - e.tau - ws.tau_loss - ws.cd.G.transpose() * ws.lambda;
       EXPECT_LT(r.cwiseAbs().maxCoeff(), 1e-9 * (1 + ws.data.h.cwiseAbs().maxCoeff() + e.tau.cwiseAbs().maxCoeff()));
       EXPECT_TRUE(ws.vdot.allFinite());
       EXPECT_TRUE(ws.lambda.allFinite());
@@ -99,7 +100,10 @@ TEST(ConstrainedDynamics, AgreesWithAPlainKktSolve) {
     ASSERT_NE(d.status, Status::kError);
     Eigen::VectorXd vdot, lambda;
     crba(sys.model, ws.data);
-    kkt_solve(ws.data.M, ws.cd.G, e.tau - ws.data.h, ws.cd.gamma, vdot, lambda);
+    Eigen::VectorXd loss = Eigen::VectorXd::Zero(sys.model.nv());  // the joints' damping -b v (no scene has friction)
+    for (const Body& b : sys.model.bodies)
+      for (int k = 0; k < b.joint.nv; ++k) loss[b.joint.idx_v + k] = -b.joint.damping * e.v[b.joint.idx_v + k];
+    kkt_solve(ws.data.M, ws.cd.G, e.tau - ws.data.h + loss, ws.cd.gamma, vdot, lambda);
     EXPECT_LT((vdot - ws.vdot).norm(), 1e-8 * (1 + vdot.norm()));
     if (d.indeterminate == 0) {
       EXPECT_LT((lambda - ws.lambda).norm(), 1e-7 * (1 + lambda.norm()));

@@ -55,6 +55,25 @@ std::string warnings_of(const System& s) {
   return w;
 }
 
+TEST(Urdf, JointDynamicsAreReadAndBadOnesRefusedAtTheirLine) {
+  // planar3r.urdf's joint j2 (line 20) with <dynamics>: its damping and friction on both arms
+  const std::string t = planar3r();
+  const std::string at = "<origin xyz=\"0.5 0 0\"/><axis xyz=\"0 0 1\"/>";
+  const System s = load_with_urdf(replace_once(t, at, at + "<dynamics damping=\"0.7\" friction=\"0.3\"/>"));
+  EXPECT_TRUE(s.warnings.empty()) << warnings_of(s);
+  for (const char* arm : {"arm1", "arm2"}) {
+    const Joint& j = s.model.bodies[s.model.joint_index(std::string(arm) + ".j2")].joint;
+    EXPECT_EQ(j.damping, 0.7);
+    EXPECT_EQ(j.friction, 0.3);
+    EXPECT_EQ(s.model.bodies[s.model.joint_index(std::string(arm) + ".j1")].joint.damping, 0.0);
+  }
+  for (const std::string bad : {"damping=\"-0.7\"", "friction=\"-1\""}) {
+    const std::string e = error_of(replace_once(t, at, at + "<dynamics " + bad + "/>"));
+    EXPECT_NE(e.find(".urdf:20"), std::string::npos) << e;
+    EXPECT_NE(e.find("must be a finite number >= 0"), std::string::npos) << e;
+  }
+}
+
 TEST(Urdf, TheShippedRobotLoadsWithoutWarnings) {
   const System s = load_with_urdf(planar3r());
   EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();  // its massless 'tool' hangs from a fixed flange
@@ -241,11 +260,8 @@ TEST(Urdf, XacroOutputWithXacroCallsInCommentsLoads) {
 TEST(Urdf, TheShippedIiwaSceneHoldsItsBoxWithinTheUrdfLimits) {
   // two_iiwa_load: KUKA iiwa 14 arms from Drake's published URDF (config/robots/iiwa14.urdf)
   const System sys = load("two_iiwa_load");
-  // the one warning: the URDF's joint damping (0.5 N*m*s/rad each) is not modelled, each joint named
-  ASSERT_EQ(sys.warnings.size(), 1u) << sys.warnings.back();
-  EXPECT_NE(sys.warnings[0].find("iiwa14.urdf: the <dynamics> of 7 joints are not modelled"), std::string::npos) << sys.warnings[0];
-  for (int k = 1; k <= 7; ++k)
-    EXPECT_NE(sys.warnings[0].find("iiwa_joint_" + std::to_string(k) + " (damping 0.5, friction 0)"), std::string::npos);
+  // no warning: the URDF's joint damping (0.5 N*m*s/rad each) is modelled (Friction.* checks it)
+  EXPECT_TRUE(sys.warnings.empty()) << sys.warnings.front();
   ASSERT_EQ(sys.model.nv(), 6 + 14);
   const double effort[7] = {320, 320, 176, 176, 110, 40, 40};  // the URDF's <limit effort>
   for (int a = 1; a <= 2; ++a)

@@ -21,9 +21,7 @@
 
 namespace coopdyn::testing {
 
-// A scene's warnings less the one that says a URDF's <dynamics> (joint damping and friction) is not
-// modelled: the shipped iiwa14.urdf's joints carry damping 0.5 (Urdf.TheShippedIiwaScene... checks
-// that warning itself).
+// A scene's warnings (the name kept from when a URDF's <dynamics> was reported unmodelled).
 inline std::vector<std::string> warnings_besides_dynamics(const System& sys) {
   std::vector<std::string> w;
   for (const std::string& x : sys.warnings)

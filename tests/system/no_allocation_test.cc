@@ -79,6 +79,40 @@ TEST(NoAllocation, EvaluateAndStepOfEveryScene) {
   }
 }
 
+// Joint friction and damping on every arm joint of the two-PUMA scene, every formulation: the
+// stiction solve at rest (half the states) and the sliding law in motion allocate nothing.
+TEST(NoAllocation, EvaluateAndStepWithJointFriction) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  for (auto f : {Formulation::kMobilePlatform, Formulation::kClassic, Formulation::kSvdBaseline}) {
+    SCOPED_TRACE(formulation_name(f));
+    System sys = load_with_reactions("two_puma_load", f);
+    for (Body& b : sys.model.bodies)
+      if (b.joint.nv == 1 && b.name.rfind("arm", 0) == 0) {
+        b.joint.friction = 2.0;
+        b.joint.damping = 0.5;
+      }
+    Stepper st(sys);
+    WrenchData wd(sys);
+    Inputs in = inputs_at_rest_and_moving(sys, 7, 16);
+    for (int k = 0; k < 16; k += 2) in.v[k].setZero();  // every joint at rest: the stiction solve
+    Eigen::VectorXd q = sys.q0, v = sys.v0;
+    const Eigen::VectorXd tau = Eigen::VectorXd::Constant(sys.model.nv(), 0.5);
+    int at_rest = 0;
+    {
+      AllocationCounter c;
+      for (int k = 0; k < 400; ++k) {
+        evaluate(sys, st.ws, in.q[k % 16], in.v[k % 16], in.tau[k % 16]);
+        compute_wrenches(sys, st.ws, wd);
+        at_rest += st.ws.rest_count;
+      }
+      for (int k = 0; k < 100; ++k) step(sys, st, Integrator::kRk4, 1e-3, tau, q, v);
+      EXPECT_EQ(c.count(), 0);
+    }
+    EXPECT_GT(at_rest, 0);  // the stiction solve ran
+    EXPECT_TRUE(q.allFinite());
+  }
+}
+
 // The per-arm block solve of Q (dynamics/q_blocks.h): the arms-scaling scenes, where it is the
 // default, and forced on the two-arm scenes, including planar_arms_load (classic), whose dependent
 // rows make it fall back to the dense Q and the rank-revealing solve at every state.

@@ -51,7 +51,9 @@ TEST(ViewBrowser, EveryShippedSceneLoads) {
   std::sort(scenes.begin(), scenes.end());
   ASSERT_GE(scenes.size(), 6u);
   for (const auto& s : scenes) {
-    ASSERT_EQ(sim(s, 0.5, 0.005, dir / (s + ".csv"), dir / "sim.err"), 0) << s << ": " << slurp(dir / "sim.err");
+    // 2.5 ms: at 5 ms, explicit RK4 on tiago_pro_box diverges (a clear status) under its URDF's
+    // joint damping (1 N*m*s/rad on light joints), which is modelled
+    ASSERT_EQ(sim(s, 0.5, 0.0025, dir / (s + ".csv"), dir / "sim.err"), 0) << s << ": " << slurp(dir / "sim.err");
     std::string err;
     ASSERT_EQ(view(scene_file(s), dir / (s + ".csv"), dir / (s + ".html"), dir / "e", &err), 0) << s << ": " << err;
   }
@@ -67,7 +69,7 @@ TEST(ViewBrowser, EveryShippedSceneLoads) {
     EXPECT_EQ(p.title.find("JSERROR"), std::string::npos) << s << ": " << p.title;
     EXPECT_TRUE(p.ready) << s;
     EXPECT_EQ(p.error, ">") << s << ": the page shows an error";  // <div id="error"></div>, empty
-    EXPECT_EQ(p.frame, 50) << s << ": " << p.probe;
+    EXPECT_EQ(p.frame, 100) << s << ": " << p.probe;  // t = 0.25 s at 2.5 ms
     EXPECT_DOUBLE_EQ(p.t, 0.25) << s;
     EXPECT_EQ(p.time_text, "t = 0.250 s") << s;
   }
