@@ -83,8 +83,9 @@ struct Workspace {
   std::vector<std::vector<std::pair<int, int>>> pair_ranges;  // index s * nspecs + t
   QSolver qs;                     // Q lambda = b: fast path, rank, indeterminate rows, rule
   // Q per group of specs coupled through the common (platform) DOFs only (q_blocks.h): used when
-  // the structure holds with at least kQBlocksMinGroups groups (mobile_platform and classic, no
-  // nominal bases), falling back to the dense Q and qs when Q is not safely positive definite.
+  // the structure holds with at least kQBlocksMinGroups groups (mobile_platform and classic; the
+  // nominal bases' condition from the reduced blocks), falling back to the dense Q and qs when Q,
+  // or Q without the nominal directions, is not safely positive definite.
   // use_q_blocks may be set to false (tests: the dense path on the same workspace).
   static constexpr int kQBlocksMinGroups = 3;
   QBlocks qb;
