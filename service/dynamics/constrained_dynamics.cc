@@ -127,7 +127,8 @@ Workspace::Workspace(const System& sys)
     if (cs.row_count[nb.spec] == 6) nominal_rows.emplace_back(sys.model.bodies[nb.body].joint.idx_v, cs.row_offset[nb.spec]);
   if (sys.options.formulation == Formulation::kMobilePlatform || sys.options.formulation == Formulation::kClassic) {
     qb.plan(sys, y_support, nominal_rows);
-    use_q_blocks = qb.usable && static_cast<int>(qb.groups.size()) >= kQBlocksMinGroups;
+    use_q_blocks = qb.usable && static_cast<int>(qb.groups.size()) >=
+                                    (qb.has_nominal ? kQBlocksMinGroupsNominal : kQBlocksMinGroups);
   }
   if (!nominal_rows.empty()) {
     Qn.setZero(m, m);

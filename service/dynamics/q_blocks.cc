@@ -111,7 +111,7 @@ namespace {
 bool factor_group(int r, QBlocks::GMat& A, const QBlocks::GBMat& B, QBlocks::GBMat& W, QBlocks::GVec& dinv, Mat6& P,
                   double& dmax, double& dmin) {
   // BP = B_g P (kept in W until W = L_g^-1 BP below); C = A_g + BP B_g^T into A's lower triangle
-  W.topRows(r).noalias() = B.topRows(r) * P;
+  for (int i = 0; i < r; ++i) W.row(i).noalias() = B.row(i) * P;  // 1 x 6 times 6 x 6: fixed-size products
   for (int j = 0; j < r; ++j)
     for (int i = j; i < r; ++i) A(i, j) += W.row(i).dot(B.row(j));
   // Cholesky of C in place (lower)
@@ -136,7 +136,7 @@ bool factor_group(int r, QBlocks::GMat& A, const QBlocks::GBMat& B, QBlocks::GBM
     for (int k = 0; k < i; ++k) W.row(i) -= A(i, k) * W.row(k);
     W.row(i) *= dinv[i];
   }
-  P.noalias() -= W.topRows(r).transpose() * W.topRows(r);
+  for (int i = 0; i < r; ++i) P.noalias() -= W.row(i).transpose() * W.row(i);
   return true;
 }
 

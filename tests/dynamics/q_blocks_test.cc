@@ -115,7 +115,7 @@ TEST(QBlocks, ArmsWithoutArmatureEqualDense) {
         EXPECT_EQ(static_cast<int>(ws.qb.groups.size()), n);
         for (const QBlocks::Group& g : ws.qb.groups) EXPECT_EQ(g.nominal.size(), puma ? 1u : 0u);
       }
-      EXPECT_EQ(ws.use_q_blocks, n >= Workspace::kQBlocksMinGroups);
+      EXPECT_EQ(ws.use_q_blocks, n >= (puma ? Workspace::kQBlocksMinGroupsNominal : Workspace::kQBlocksMinGroups));
       const Compared c = compare(sys, name, 6, puma ? 1e-11 : 1e-12);
       if (n >= 2) {
         EXPECT_EQ(c.block, c.evaluations) << "every state solved by blocks";
