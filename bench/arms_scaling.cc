@@ -7,7 +7,10 @@
 // states near the scene's initial one; the table gives the median over repetitions of the time per
 // call and the ratio to 2 arms on the same path.
 //
-//   build/bin/arms_scaling [REPETITIONS=21]
+// SCENES picks the scene family: pumas (pumas_N.yaml), pumas_no_armature (the same arms without joint
+// armature: nominal base links, System::nominal_bases) or iiwa (iiwa_N.yaml, KUKA iiwa 14 from its URDF).
+//
+//   build/bin/arms_scaling [REPETITIONS=21] [SCENES=pumas]
 #include <time.h>
 
 #include <algorithm>
@@ -47,12 +50,20 @@ double median(std::vector<double> x) {
 
 int main(int argc, char** argv) {
   const int reps = argc > 1 ? std::max(3, std::atoi(argv[1])) : 21;
+  const std::string family = argc > 2 ? argv[2] : "pumas";
+  std::string prefix = "pumas_", suffix;
+  if (family == "pumas_no_armature") suffix = "_no_armature";
+  else if (family == "iiwa") prefix = "iiwa_";
+  else if (family != "pumas") {
+    std::fprintf(stderr, "arms_scaling: SCENES is pumas, pumas_no_armature or iiwa, not '%s'\n", family.c_str());
+    return 2;
+  }
   const int arms[] = {1, 2, 3, 4, 6, 8};
   std::vector<Case> cases;
   for (int n : arms) {
     Case c;
     c.arms = n;
-    c.sys = load_scene(std::string(COOPDYN_SOURCE_DIR) + "/bench/scenes/pumas_" + std::to_string(n) + ".yaml");
+    c.sys = load_scene(std::string(COOPDYN_SOURCE_DIR) + "/bench/scenes/" + prefix + std::to_string(n) + suffix + ".yaml");
     std::mt19937 rng(5);
     std::uniform_real_distribution<double> U(-1.0, 1.0);
     const Model& m = c.sys.model;
@@ -106,7 +117,7 @@ int main(int argc, char** argv) {
     std::printf("| %d | %d x %d | %s | %.2f us | %.2f | %.2f us | %.2f | %.2f us | %.2f | %.2f |\n", c.arms, c.sys.constraints.rows,
                 c.sys.model.nv(), used_blocks[ci] ? "blocks" : "dense", e * 1e-3, e / e2, w * 1e-3, w / w2, d * 1e-3, d / d2, e / d);
   }
-  std::printf("\n%d repetitions; medians of the time per call.", reps);
+  std::printf("\n%s: %d repetitions; medians of the time per call.", family.c_str(), reps);
   if (!t[i2][2][0].empty())
     std::printf(" 2 arms with the blocks forced: evaluate %.2f us (%.2fx the dense path).", median(t[i2][2][0]) * 1e-3,
                 median(t[i2][2][0]) / d2);

@@ -16,7 +16,9 @@
 // joints about -z (the reversed DH joints) become JointModelRZ with the joint frame turned by pi
 // about x (the fastest joint Pinocchio has), the body frame mapped back for children and inertias.
 //
-//   pin_arms [REPETITIONS=21]   (COOPDYN_SOURCE_DIR: where bench/scenes is)
+//   pin_arms [REPETITIONS=21] [SUFFIX]   (COOPDYN_SOURCE_DIR: where bench/scenes is)
+// SUFFIX picks bench/scenes/pumas_N<SUFFIX>.yaml: none (with armature) or _no_armature (arms without
+// joint armature: coopdyn's nominal base links, Pinocchio's same inertias).
 #include <time.h>
 
 #include <algorithm>
@@ -242,6 +244,7 @@ Eigen::VectorXd permute(const Eigen::VectorXd& x, const std::vector<int>& to) {
 
 int main(int argc, char** argv) {
   const int reps = argc > 1 ? std::max(3, std::atoi(argv[1])) : 21;
+  const std::string suffix = argc > 2 ? argv[2] : "";
   const int arms[] = {1, 2, 3, 4, 6, 8};
   std::vector<Case> cases;
   std::printf("Pinocchio %s (header-only), Eigen %d.%d.%d, coopdyn from %s\n", PINOCCHIO_VERSION, EIGEN_WORLD_VERSION,
@@ -250,7 +253,7 @@ int main(int argc, char** argv) {
   std::printf("| arms | tree | states | tau | nv | rows | vdot: pinocchio cD vs coopdyn | pv vs coopdyn | lambda: cD vs coopdyn (sign) | pv vs coopdyn | ee wrench vs coopdyn's `armK.ee` |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (int n : arms) {
-    const std::string path = std::string(COOPDYN_SOURCE_DIR) + "/bench/scenes/pumas_" + std::to_string(n) + ".yaml";
+    const std::string path = std::string(COOPDYN_SOURCE_DIR) + "/bench/scenes/pumas_" + std::to_string(n) + suffix + ".yaml";
     Case c;
     c.arms = n;
     c.mp = new Twin(coopdyn::load_scene(path));

@@ -150,10 +150,10 @@ Workspace::Workspace(const System& sys)
   tmp_m2.setZero(m);
   for (const System::NominalBase& nb : sys.nominal_bases)  // joint 1 reversed: one DOF, a 6-row weld
     if (cs.row_count[nb.spec] == 6) nominal_rows.emplace_back(sys.model.bodies[nb.body].joint.idx_v, cs.row_offset[nb.spec]);
-  if ((sys.options.formulation == Formulation::kMobilePlatform || sys.options.formulation == Formulation::kClassic) &&
-      nominal_rows.empty()) {
-    qb.plan(sys, y_support);
-    use_q_blocks = qb.usable && static_cast<int>(qb.groups.size()) >= kQBlocksMinGroups;
+  if (sys.options.formulation == Formulation::kMobilePlatform || sys.options.formulation == Formulation::kClassic) {
+    qb.plan(sys, y_support, nominal_rows);
+    use_q_blocks = qb.usable && static_cast<int>(qb.groups.size()) >=
+                                    (qb.has_nominal ? kQBlocksMinGroupsNominal : kQBlocksMinGroups);
   }
   if (!nominal_rows.empty()) {
     Qn.setZero(m, m);
@@ -204,14 +204,52 @@ bool inputs_valid(const System& sys, const Eigen::VectorXd& q, const Eigen::Vect
          tau.allFinite();
 }
 
+// The fast-path condition of the symmetric k x k corner of a (column-major, leading dimension m):
+// the unpivoted Cholesky L, left-looking, read from the lower triangle and written transposed into
+// the strict upper one (L(i, j) at (j, i)); true with *condition = (largest / smallest diagonal)^2
+// when every pivot is positive and the ratio passes fast_tol, else false with the corner restored.
+bool unpivoted_condition(double* a, int m, int k, double fast_tol, double* condition) {
+  auto at = [&](int i, int j) -> double& { return a[static_cast<size_t>(j) * m + i]; };
+  double dmax = 0.0, dmin = HUGE_VAL;
+  bool ok = true;
+  for (int j = 0; j < k && ok; ++j) {
+    double d = at(j, j);
+    const double* lj = &at(0, j);  // L(j, p) = at(p, j), p < j
+    for (int p = 0; p < j; ++p) d -= lj[p] * lj[p];
+    if (!(d > 0.0)) {
+      ok = false;
+      break;
+    }
+    const double l = std::sqrt(d), inv = 1.0 / l;
+    dmax = std::max(dmax, l);
+    dmin = std::min(dmin, l);
+    for (int i = j + 1; i < k; ++i) {
+      const double* li = &at(0, i);
+      double sum = at(i, j);
+      for (int p = 0; p < j; ++p) sum -= li[p] * lj[p];
+      at(j, i) = sum * inv;
+    }
+  }
+  const double ratio = ok ? dmin * dmin / (dmax * dmax) : 0.0;
+  if (ok && ratio >= fast_tol) {
+    *condition = 1.0 / ratio;
+    return true;
+  }
+  for (int j = 0; j < k; ++j)
+    for (int i = j + 1; i < k; ++i) at(j, i) = at(i, j);
+  return false;
+}
+
 // The condition of Q with each nominal base-link direction eliminated (System::nominal_bases). In
 // the weld's six rows that direction is u = G's column of joint 1 (the base link's motion about
 // joint 1 in the weld frame, constant): a Householder reflection H (H u = |u| e_0, up to sign) of
 // those rows, Q <- H Q H, makes row r0 the only one carrying the nominal inertia's ~1/I eigenvalue,
 // and it is dropped. What remains is the Q of the rows that do no work on joint 1 (the five of a
 // revolute bearing at the base), whose dependence on the nominal inertia is O(I) (the base link's
-// inertia in the other DOFs' motion) instead of 1/I. Its condition is measured as QSolver's rank
-// path does, by the pivot ratio of a diagonally pivoted Cholesky stopped at rank_tol.
+// inertia in the other DOFs' motion) instead of 1/I. Its condition is measured as QSolver measures
+// Q's: the pivot ratio of the unpivoted Cholesky where it passes the fast-path test (the block
+// path's reduced factor, q_blocks.h, has the same pivots), else that of a diagonally pivoted
+// Cholesky stopped at rank_tol (the rank path's).
 double condition_without_nominal(const System& sys, Workspace& ws) {
   const int m = sys.constraints.rows;
   const Eigen::MatrixXd& G = ws.cd.G;
@@ -257,6 +295,8 @@ double condition_without_nominal(const System& sys, Workspace& ws) {
       if (ws.kept_rows[i]) dst[l++] = src[i];
     ++k;
   }
+  double fast = 0.0;
+  if (unpivoted_condition(a, m, k, sys.options.fast_tol, &fast)) return fast;
   // pivoted Cholesky of the corner, right-looking on the full symmetric trailing block
   auto at = [&](int i, int j) -> double& { return a[static_cast<size_t>(j) * m + i]; };
   double qmax = 0.0;
@@ -297,7 +337,7 @@ void solve_q(const System& sys, Workspace& ws, const Eigen::VectorXd& b, Eigen::
     ws.q_blocks_active = false;
     if (ws.use_q_blocks) {
       double condition = 1.0;
-      if (ws.qb.factor(sys.options, &condition)) {
+      if (ws.qb.factor(sys.options, ws.cd.G, &condition)) {
         ws.q_blocks_active = true;
         ws.qs.fast_path = true;  // what the wrenches read: every row determined
         ws.qs.rank = ws.qs.m;

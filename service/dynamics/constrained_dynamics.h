@@ -101,10 +101,13 @@ struct Workspace {
   std::vector<std::vector<std::pair<int, int>>> pair_ranges;  // index s * nspecs + t
   QSolver qs;                     // Q lambda = b: fast path, rank, indeterminate rows, rule
   // Q per group of specs coupled through the common (platform) DOFs only (q_blocks.h): used when
-  // the structure holds with at least kQBlocksMinGroups groups (mobile_platform and classic, no
-  // nominal bases), falling back to the dense Q and qs when Q is not safely positive definite.
+  // the structure holds with at least kQBlocksMinGroups groups (mobile_platform and classic; the
+  // nominal bases' condition from the reduced blocks), falling back to the dense Q and qs when Q,
+  // or Q without the nominal directions, is not safely positive definite.
   // use_q_blocks may be set to false (tests: the dense path on the same workspace).
-  static constexpr int kQBlocksMinGroups = 3;
+  // With nominal bases the blocks factor Q and the reduced Q (twice the work): measured slower than
+  // the dense path up to 4 arms (bench/README.md, "Arms on one load"), so used from 5 groups on.
+  static constexpr int kQBlocksMinGroups = 3, kQBlocksMinGroupsNominal = 5;
   QBlocks qb;
   bool use_q_blocks = false;
   bool q_blocks_active = false;  // the last factorization took the block path (ws.Q not formed)

@@ -17,12 +17,21 @@
 // forward; x_g = L_g^-T (y_g - W_g t), t += B_g^T x_g backward. Each group costs O(rows_g^3 +
 // rows_g^2 |C|) whatever the number of groups.
 //
+// Nominal base links (System::nominal_bases: joint 1 without armature): the condition diagnostic is
+// that of Q with each nominal direction eliminated (constrained_dynamics.cc,
+// condition_without_nominal): a Householder reflection H of the base weld's six rows, Q <- H Q H,
+// and one row dropped. The weld's rows lie in one group, so H Q H = blkdiag(H A_g H) + (H B)(H B)^T
+// keeps the structure: factor() also factors that reduced Q by the same block Cholesky (its pivots
+// are those of the dense unpivoted factor of the reduced Q) and reports its pivot ratio; where
+// that ratio fails the fast-path test, the caller takes the dense path.
+//
 // Where the structure does not hold (fewer than two groups, a group's rows not contiguous in the
 // spec order, more than 6 common DOFs or 12 rows in a group) plan() leaves it unusable; where Q is
 // not positive definite to the fast-path tolerance, factor() returns false and the caller takes the
 // dense path (the rank-revealing solve of q_solve.h). Sized once; allocation-free afterwards.
 #pragma once
 
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -43,6 +52,13 @@ struct QBlocks {
     GBMat B;   // (rows x 6) Y_g on the common DOFs (columns beyond |C| zero)
     GBMat W;   // (rows x 6) L_g^-1 B_g P_g
     GVec dinv; // (rows) 1 / diag(L_g)
+    // the nominal directions in this group: (velocity index of joint 1, first row of its weld in the group)
+    std::vector<std::pair<int, int>> nominal;
+    int red_rows = 0;      // rows of the reduced Q in this group (rows less the directions dropped)
+    GMat Ar;               // (red_rows x red_rows) the reduced A_g (H A_g H without the dropped rows); then its factor
+    GBMat Br, Wr;          // (red_rows x 6) H B_g without the dropped rows; L_g^-1 B_g P_g of the reduced factor
+    GVec dinvr;            // (red_rows) 1 / diag of the reduced factor
+    GVec keep;             // (rows) 1 for a row kept in the reduced Q, else 0
     // pairs of specs s <= t of the group with the ranges [first, first + second) of own DOFs both reach
     struct Pair {
       int s, t;
@@ -51,19 +67,24 @@ struct QBlocks {
     std::vector<Pair> pairs;
   };
 
-  // y_support: per spec, the DOFs its rows of Y reach (ascending).
-  void plan(const System& sys, const std::vector<std::vector<int>>& y_support);
+  // y_support: per spec, the DOFs its rows of Y reach (ascending). nominal_rows: (velocity index of
+  // joint 1, first row of the base weld) per nominal base link (System::nominal_bases).
+  void plan(const System& sys, const std::vector<std::vector<int>>& y_support,
+            const std::vector<std::pair<int, int>>& nominal_rows = {});
 
   // A_g and B_g from Yb (per spec, nv x 6 row-major: its rows of Y as columns, one DOF per row).
   template <class YBlock>
   void assemble(const System& sys, const std::vector<YBlock>& Yb);
   // The block Cholesky; false if a pivot is not positive or the smallest pivot is below fast_tol
   // times the largest (QSolver's fast-path test), else *condition = (largest / smallest diagonal)^2.
-  bool factor(const SolverOptions& opt, double* condition);
+  // With nominal directions (G: the constraint rows, for joint 1's column in the base weld), the
+  // same test on the reduced Q decides and *condition is the reduced Q's ratio.
+  bool factor(const SolverOptions& opt, const Eigen::MatrixXd& G, double* condition);
   // x = Q^-1 b (x may not alias b).
   void solve(const Eigen::VectorXd& b, Eigen::VectorXd& x);
 
   bool usable = false;
+  bool has_nominal = false;  // some group has a nominal direction
   std::vector<int> common;  // the DOFs every spec reaches, ascending
   std::vector<Group> groups;
   Mat6 P;

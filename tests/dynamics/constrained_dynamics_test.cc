@@ -528,7 +528,7 @@ TEST(ConstrainedDynamics, ConditionDoesNotDependOnTheNominalBaseInertia) {
     // ... Q's own condition does, by the factor of I_n ...
     EXPECT_GT(eig_condition(b.eig_condition_raw), 100 * eig_condition(a.eig_condition_raw));
     // ... the reported one does not: the same to O(I_n / the links' inertias) between 1e-3 and 1e-6
-    // (measured: PUMAs 32.66 / 32.71, planar arms, links of 0.0017-0.042 kg m^2 about their axes, 58.4 / 60.7; Q's own
+    // (measured: PUMAs 29.57 / 29.61 (fast path: the unpivoted pivot ratio), planar arms, links of 0.0017-0.042 kg m^2 about their axes, 58.4 / 60.7; Q's own
     // condition 3.2e4 / 3.2e7 and 4.6e3 / 4.6e6)
     std::printf("%s: reported condition %.6g (I_n = 1e-3), %.6g (1e-6), %.6g (1); Q's eigenvalue condition %.3g, %.3g, %.3g\n",
                 label.c_str(), a.d.condition, b.d.condition, c.d.condition, eig_condition(a.eig_condition_raw),

@@ -126,7 +126,10 @@ TEST(NoAllocation, BlockSolveOfQAndItsFallback) {
   const std::string arms = std::string(COOPDYN_SOURCE_DIR) + "/bench/scenes/pumas_";
   for (const Case& c : {Case{arms + "4.yaml", std::nullopt, true}, Case{arms + "8.yaml", std::nullopt, true},
                         Case{scene_path("two_puma_load"), Formulation::kClassic, true},
-                        Case{scene_path("planar_arms_load"), Formulation::kClassic, false}}) {
+                        Case{scene_path("planar_arms_load"), Formulation::kClassic, false},
+                        // nominal base links (joint 1 without armature): the reduced Q's factor too
+                        Case{arms + "8_no_armature.yaml", std::nullopt, true},
+                        Case{scene_path("planar_arms_load"), Formulation::kMobilePlatform, false}}) {
     SCOPED_TRACE(c.path);
     SceneOverrides ov;
     ov.formulation = c.f;
