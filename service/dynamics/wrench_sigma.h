@@ -18,7 +18,9 @@
 // the physics does not determine them, the rule is linear, and that is the value reported.
 //
 // Supported formulations: mobile_platform and classic (every shipped scene). pseudo_joint and svd,
-// a failed evaluation, or a scene without noise: valid = false and sigma zero. Allocation-free
+// a failed evaluation, a scene without noise, or an evaluation in which Coulomb friction holds a
+// joint by stiction (friction_stuck > 0: a torque change within the bound moves nothing, so the
+// spread is an interval, not yet reported): valid = false and sigma zero. Allocation-free
 // after construction; never throws.
 #pragma once
 
