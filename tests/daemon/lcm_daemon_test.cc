@@ -740,7 +740,10 @@ TEST_F(DaemonProcess, CommandLargerThanADatagramIsReassembledAndApplied) {
   // inputs on their own URL: the daemon's outputs (this scene's are over 200 kB, its names in them)
   // do not reach the receive process
   const std::string url_in = private_udpm_url(2, "239.255.76.98");
-  std::ofstream(cfg_path) << "rate_hz: 100\nlcm_url_in: \"" << url_in << "\"\nreceive:\n  max_message_bytes: 200000\n";
+  // each output is over 200 kB (UDP fragments a loaded reader may drop): 20 Hz, and the command
+  // held for 3 s (watchdog), so many outputs carry it and one reaching the sink is enough
+  std::ofstream(cfg_path) << "rate_hz: 20\nwatchdog_ms: 3000\nlcm_url_in: \"" << url_in
+                          << "\"\nreceive:\n  max_message_bytes: 200000\n";
   OutputSink sink;
   sink.attach(*bus_);
   bus_->start();
