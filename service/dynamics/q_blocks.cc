@@ -105,15 +105,29 @@ void QBlocks::plan(const System& sys, const std::vector<std::vector<int>>& y_sup
 
 namespace {
 
-// One group of the block Cholesky (q_blocks.h) on its first r rows: A's lower triangle <- L_g of
+// The group kernels below take the group's row count R at compile time where it is one of the
+// common sizes (a 6-row weld, 5 rows once a nominal direction is dropped), else Eigen::Dynamic: the
+// fixed sizes unroll the 6-wide products and the small Cholesky. A (R x R), B and W (R x 6) are
+// column-major with leading dimension R (the group's storage, sized to its rows).
+template <int R>
+using MatR = Eigen::Matrix<double, R, R, 0, R == Eigen::Dynamic ? QBlocks::kMaxGroupRows : R,
+                           R == Eigen::Dynamic ? QBlocks::kMaxGroupRows : R>;
+template <int R>
+using MatR6 = Eigen::Matrix<double, R, 6, 0, R == Eigen::Dynamic ? QBlocks::kMaxGroupRows : R, 6>;
+template <int R>
+using VecR = Eigen::Matrix<double, R, 1, 0, R == Eigen::Dynamic ? QBlocks::kMaxGroupRows : R, 1>;
+
+// One group of the block Cholesky (q_blocks.h) on r rows: A's lower triangle <- L_g of
 // A_g + B_g P B_g^T, W = L_g^-1 B_g P, P -= W^T W, dinv = 1 / diag(L_g); dmax, dmin the extreme
 // diagonals so far. False on a pivot that is not positive.
-bool factor_group(int r, QBlocks::GMat& A, const QBlocks::GBMat& B, QBlocks::GBMat& W, QBlocks::GVec& dinv, Mat6& P,
-                  double& dmax, double& dmin) {
-  // BP = B_g P (kept in W until W = L_g^-1 BP below); C = A_g + BP B_g^T into A's lower triangle
-  for (int i = 0; i < r; ++i) W.row(i).noalias() = B.row(i) * P;  // 1 x 6 times 6 x 6: fixed-size products
-  for (int j = 0; j < r; ++j)
-    for (int i = j; i < r; ++i) A(i, j) += W.row(i).dot(B.row(j));
+template <int R>
+bool factor_group(int r, double* a, const double* b, double* w, double* dinv, Mat6& P, double& dmax, double& dmin) {
+  Eigen::Map<MatR<R>> A(a, r, r);
+  Eigen::Map<const MatR6<R>> B(b, r, 6);
+  Eigen::Map<MatR6<R>> W(w, r, 6);
+  // BP = B_g P (kept in W until W = L_g^-1 BP below); C = A_g + BP B_g^T (both triangles; the lower read)
+  W.noalias() = B.lazyProduct(P);
+  A.noalias() += W.lazyProduct(B.transpose());
   // Cholesky of C in place (lower)
   for (int j = 0; j < r; ++j) {
     double d = A(j, j);
@@ -131,23 +145,24 @@ bool factor_group(int r, QBlocks::GMat& A, const QBlocks::GBMat& B, QBlocks::GBM
       A(i, j) = sum * inv;
     }
   }
-  // W = L_g^-1 BP (forward substitution, column by column of the 6)
+  // W = L_g^-1 BP (forward substitution, the 6 columns at once)
   for (int i = 0; i < r; ++i) {
     for (int k = 0; k < i; ++k) W.row(i) -= A(i, k) * W.row(k);
     W.row(i) *= dinv[i];
   }
-  for (int i = 0; i < r; ++i) P.noalias() -= W.row(i).transpose() * W.row(i);
+  P.noalias() -= W.transpose().lazyProduct(W);
   return true;
 }
 
 // The group's part of the reduced Q (q_blocks.h), as condition_without_nominal forms the dense one:
 // per nominal direction u = G's column of joint 1 in the weld's rows, either the one row u lies
 // along is dropped or H = I - w w^T (H u = -sign(u_0) |u| e_0) acts on the six rows, A <- H A H,
-// B <- H B, and the first is dropped; then the kept rows are compacted to the top.
+// B <- H B, and the first is dropped; the kept rows are then written to Ar and Br, sized to them.
+template <int R>
 void reduce_group(QBlocks::Group& g, const Eigen::MatrixXd& G) {
   const int r = g.rows;
-  g.Ar.topLeftCorner(r, r) = g.A.topLeftCorner(r, r);  // both triangles (assemble)
-  g.Br.topRows(r) = g.B.topRows(r);
+  MatR<R> A = Eigen::Map<const MatR<R>>(g.A.data(), r, r);  // both triangles (assemble)
+  MatR6<R> B = Eigen::Map<const MatR6<R>>(g.B.data(), r, 6);
   g.keep.setOnes(r);
   for (const auto& [dof, o] : g.nominal) {
     Vec6 w = G.block<6, 1>(g.row0 + o, dof);
@@ -163,30 +178,70 @@ void reduce_group(QBlocks::Group& g, const Eigen::MatrixXd& G) {
     w /= un;
     w[0] += w[0] >= 0 ? 1.0 : -1.0;
     w *= std::sqrt(2.0 / w.squaredNorm());
-    for (int j = 0; j < r; ++j) {  // A <- H A (rows o..o+5)
-      const double t = w.dot(g.Ar.block<6, 1>(o, j));
-      g.Ar.block<6, 1>(o, j) -= t * w;
-    }
-    for (int i = 0; i < r; ++i) {  // A <- A H (columns o..o+5)
-      const double t = g.Ar.block<1, 6>(i, o).dot(w.transpose());
-      g.Ar.block<1, 6>(i, o) -= t * w.transpose();
-    }
-    for (int c = 0; c < QBlocks::kMaxCommon; ++c) {  // B <- H B
-      const double t = w.dot(g.Br.block<6, 1>(o, c));
-      g.Br.block<6, 1>(o, c) -= t * w;
-    }
+    // A <- H A (rows o..o+5), then A <- A H (columns o..o+5), B <- H B
+    const Eigen::Matrix<double, 1, R, Eigen::RowMajor, 1, R == Eigen::Dynamic ? QBlocks::kMaxGroupRows : R> tr =
+        w.transpose().lazyProduct(A.template middleRows<6>(o));
+    A.template middleRows<6>(o) -= w.lazyProduct(tr);
+    const VecR<R> tc = A.template middleCols<6>(o).lazyProduct(w);
+    A.template middleCols<6>(o) -= tc.lazyProduct(w.transpose());
+    const Eigen::Matrix<double, 1, 6> tb = w.transpose().lazyProduct(B.template middleRows<6>(o));
+    B.template middleRows<6>(o) -= w.lazyProduct(tb);
     g.keep[o] = 0;
   }
   int k = 0;
-  for (int j = 0; j < r; ++j) {
-    if (g.keep[j] == 0.0) continue;
-    int l = 0;
-    for (int i = 0; i < r; ++i)
-      if (g.keep[i] != 0.0) g.Ar(l++, k) = g.Ar(i, j);
-    g.Br.row(k) = g.Br.row(j);
-    ++k;
-  }
+  for (int j = 0; j < r; ++j) k += g.keep[j] != 0.0 ? 1 : 0;
   g.red_rows = k;
+  g.Ar.resize(k, k);  // within the fixed maximum: no allocation
+  g.Br.resize(k, 6);
+  g.Wr.resize(k, 6);
+  g.dinvr.resize(k);
+  for (int j = 0, c = 0; j < r; ++j) {
+    if (g.keep[j] == 0.0) continue;
+    for (int i = 0, l = 0; i < r; ++i)
+      if (g.keep[i] != 0.0) g.Ar(l++, c) = A(i, j);
+    g.Br.row(c++) = B.row(j);
+  }
+}
+
+bool factor_any(int r, double* a, const double* b, double* w, double* dinv, Mat6& P, double& dmax, double& dmin) {
+  switch (r) {
+    case 6: return factor_group<6>(r, a, b, w, dinv, P, dmax, dmin);
+    case 5: return factor_group<5>(r, a, b, w, dinv, P, dmax, dmin);
+    case 3: return factor_group<3>(r, a, b, w, dinv, P, dmax, dmin);
+    default: return factor_group<Eigen::Dynamic>(r, a, b, w, dinv, P, dmax, dmin);
+  }
+}
+
+// y_g = L_g^-1 (b_g - B_g z) into y, then z += W_g^T y_g
+template <int R>
+void forward_group(const QBlocks::Group& g, const double* b, double* y, Vec6& z) {
+  const int r = g.rows;
+  Eigen::Map<const MatR<R>> L(g.A.data(), r, r);
+  Eigen::Map<const MatR6<R>> B(g.B.data(), r, 6), W(g.W.data(), r, 6);
+  Eigen::Map<VecR<R>> yv(y, r);
+  yv = Eigen::Map<const VecR<R>>(b, r) - B.lazyProduct(z);
+  for (int i = 0; i < r; ++i) {
+    double s = yv[i];
+    for (int k = 0; k < i; ++k) s -= L(i, k) * yv[k];
+    yv[i] = s * g.dinv[i];
+  }
+  z.noalias() += W.transpose().lazyProduct(yv);
+}
+
+// x_g = L_g^-T (x_g - W_g t), then t += B_g^T x_g
+template <int R>
+void backward_group(const QBlocks::Group& g, double* x, Vec6& t) {
+  const int r = g.rows;
+  Eigen::Map<const MatR<R>> L(g.A.data(), r, r);
+  Eigen::Map<const MatR6<R>> B(g.B.data(), r, 6), W(g.W.data(), r, 6);
+  Eigen::Map<VecR<R>> xv(x, r);
+  xv -= W.lazyProduct(t);
+  for (int i = r - 1; i >= 0; --i) {
+    double s = xv[i];
+    for (int k = i + 1; k < r; ++k) s -= L(k, i) * xv[k];
+    xv[i] = s * g.dinv[i];
+  }
+  t.noalias() += B.transpose().lazyProduct(xv);
 }
 
 }  // namespace
@@ -199,8 +254,9 @@ bool QBlocks::factor(const SolverOptions& opt, const Eigen::MatrixXd& G, double*
     P.setIdentity();
     double dmax = 0.0, dmin = HUGE_VAL;
     for (Group& g : groups) {
-      reduce_group(g, G);
-      if (!factor_group(g.red_rows, g.Ar, g.Br, g.Wr, g.dinvr, P, dmax, dmin)) return false;
+      if (g.rows == 6) reduce_group<6>(g, G);
+      else reduce_group<Eigen::Dynamic>(g, G);
+      if (!factor_any(g.red_rows, g.Ar.data(), g.Br.data(), g.Wr.data(), g.dinvr.data(), P, dmax, dmin)) return false;
     }
     ratio_red = dmin * dmin / (dmax * dmax);
     if (!(ratio_red >= opt.fast_tol)) return false;
@@ -208,7 +264,7 @@ bool QBlocks::factor(const SolverOptions& opt, const Eigen::MatrixXd& G, double*
   P.setIdentity();
   double dmax = 0.0, dmin = HUGE_VAL;
   for (Group& g : groups)
-    if (!factor_group(g.rows, g.A, g.B, g.W, g.dinv, P, dmax, dmin)) return false;
+    if (!factor_any(g.rows, g.A.data(), g.B.data(), g.W.data(), g.dinv.data(), P, dmax, dmin)) return false;
   const double ratio = dmin * dmin / (dmax * dmax);
   if (!(ratio >= opt.fast_tol)) return false;
   *condition = 1.0 / (has_nominal ? ratio_red : ratio);
@@ -218,28 +274,14 @@ bool QBlocks::factor(const SolverOptions& opt, const Eigen::MatrixXd& G, double*
 void QBlocks::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
   x.resize(b.size());  // no-op at the right size
   Vec6 z = Vec6::Zero();
-  for (Group& g : groups) {  // forward: y_g = L_g^-1 (b_g - B_g z), into x
-    const int r = g.rows;
-    double* y = x.data() + g.row0;
-    for (int i = 0; i < r; ++i) {
-      double s = b[g.row0 + i] - g.B.row(i).dot(z);
-      for (int k = 0; k < i; ++k) s -= g.A(i, k) * y[k];
-      y[i] = s * g.dinv[i];
-    }
-    for (int i = 0; i < r; ++i) z.noalias() += y[i] * g.W.row(i).transpose();
+  for (const Group& g : groups) {
+    if (g.rows == 6) forward_group<6>(g, b.data() + g.row0, x.data() + g.row0, z);
+    else forward_group<Eigen::Dynamic>(g, b.data() + g.row0, x.data() + g.row0, z);
   }
   Vec6 t = Vec6::Zero();
-  for (auto it = groups.rbegin(); it != groups.rend(); ++it) {  // backward: x_g = L_g^-T (y_g - W_g t)
-    Group& g = *it;
-    const int r = g.rows;
-    double* xg = x.data() + g.row0;
-    for (int i = 0; i < r; ++i) xg[i] -= g.W.row(i).dot(t);
-    for (int i = r - 1; i >= 0; --i) {
-      double s = xg[i];
-      for (int k = i + 1; k < r; ++k) s -= g.A(k, i) * xg[k];
-      xg[i] = s * g.dinv[i];
-    }
-    for (int i = 0; i < r; ++i) t.noalias() += xg[i] * g.B.row(i).transpose();
+  for (auto it = groups.rbegin(); it != groups.rend(); ++it) {
+    if (it->rows == 6) backward_group<6>(*it, x.data() + it->row0, t);
+    else backward_group<Eigen::Dynamic>(*it, x.data() + it->row0, t);
   }
 }
 
