@@ -57,4 +57,5 @@ nice -n 10 $CXX $FLAGS -DCOOPDYN_SOURCE_DIR="\"$HERE/coopdyn-src\"" \
   -Igen -Ipinocchio-src/include -Icoopdyn-src -I/usr/include/eigen3 \
   -c pin_arms.cc -o obj/pin_arms.o
 $CXX $FLAGS obj/*.o -o pin_arms $(pkg-config --libs urdfdom yaml-cpp) -lpthread
+PV=$(sed -n 's:.*<version>\(.*\)</version>.*:\1:p' pinocchio-src/package.xml)
 echo "built $HERE/pin_arms (Pinocchio $PV $(cat pinocchio-src/COMMIT), coopdyn $(cat coopdyn-src/COMMIT))"

@@ -105,9 +105,10 @@ struct Workspace {
   // nominal bases' condition from the reduced blocks), falling back to the dense Q and qs when Q,
   // or Q without the nominal directions, is not safely positive definite.
   // use_q_blocks may be set to false (tests: the dense path on the same workspace).
-  // With nominal bases the blocks factor Q and the reduced Q (twice the work): measured slower than
-  // the dense path up to 4 arms (bench/README.md, "Arms on one load"), so used from 5 groups on.
-  static constexpr int kQBlocksMinGroups = 3, kQBlocksMinGroupsNominal = 5;
+  // With nominal bases the blocks factor Q and the reduced Q (twice the work), still faster than
+  // the dense path (with its dense condition_without_nominal) from 3 arms on (bench/README.md,
+  // "Arms on one load").
+  static constexpr int kQBlocksMinGroups = 3, kQBlocksMinGroupsNominal = 3;
   QBlocks qb;
   bool use_q_blocks = false;
   bool q_blocks_active = false;  // the last factorization took the block path (ws.Q not formed)

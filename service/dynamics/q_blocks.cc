@@ -133,9 +133,9 @@ bool factor_group(int r, double* a, const double* b, double* w, double* dinv, Ma
     double d = A(j, j);
     for (int k = 0; k < j; ++k) d -= A(j, k) * A(j, k);
     if (!(d > 0.0)) return false;
-    const double ljj = std::sqrt(d);
+    const double rd = 1.0 / d, ljj = std::sqrt(d);  // side by side on the critical path (q_solve.cc)
     A(j, j) = ljj;
-    const double inv = 1.0 / ljj;
+    const double inv = ljj * rd;
     dinv[j] = inv;
     dmax = std::max(dmax, ljj);
     dmin = std::min(dmin, ljj);
