@@ -23,9 +23,9 @@
 // keeps a set of independent rows of G (the multipliers of the others are set to zero, which changes
 // no torque: their rows are combinations of the kept ones), then the constraint by its
 // Schur complement S = G_u^T (Gs Gs^T)^-1 G_u (nu x nu, Cholesky). This is the same torque as the
-// definition's two SVDs (tests: to 1e-10 on every shipped scene), exactly when the rank decisions
-// are clear: every kept pivot >= kKeep times the largest and the first dropped <= kDrop times it, S
-// positive definite with pivots >= kKeep times its largest. Otherwise (a near-singular grasp, an
+// definition's two SVDs (to rounding: at most 6e-10 relative in the tests, every shipped scene)
+// when the rank decisions are clear: every kept pivot >= kKeep times the largest and the first
+// dropped <= kDrop times it, S positive definite with pivots >= kKeep times its largest. Otherwise (a near-singular grasp, an
 // unactuated DOF the constraints do not reach, the residual not zero) it falls back to the
 // reference solve below: the SVD of G^T (its null space N) and the SVD of N^T S_a^T W (minimum-norm
 // least squares), rank tolerance 1e-10 relative.
