@@ -2,6 +2,7 @@
 // watchdog, integrator step or evaluation, output encoding, publish to a null bus) per scene and
 // mode, and the codec on its own (output encode, command decode + validation).
 // BM_TickFreshState: an estimate tick with a new measured state each time (trigger: arrival's case).
+// BM_TickRatio gives the hold tick / commanded tick and in place / warm ratios, each in one run.
 // BM_TickPaced takes the in-place cost apart: the same tick back to back or after sleeping to an
 // absolute 1 ms deadline (as the daemon does), publishing to a null bus or over udpm on loopback
 // to a subscriber in this process (as the daemon does to a controller or logger).
@@ -17,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "service/dynamics/holding_torque.h"
 #include "service/io/lcm_bus.h"
 
 #include "service/io/codec.h"
@@ -193,6 +195,78 @@ BENCHMARK(BM_TickPaced)
     ->UseManualTime()
     ->Iterations(3000)
     ->Unit(benchmark::kMicrosecond);
+
+// Ratios in one run, interleaved tick by tick so that both sides see the same machine. Scene:
+// two_puma_load or LOOP_BENCH_SCENE, simulate, null bus, manual time = the first side's.
+//   Arg 0, hold / commanded: a loop without commands (the safe torque `hold` every tick) next to
+//     one commanded with the holding torques of q0 (so both stay where they start), back to back.
+//   Arg 1, in place / warm: one commanded loop slept to an absolute 1 ms deadline, ticked once
+//     (in place: caches cold after the sleep) and at once again (warm).
+// Counters: p50 and p99 of each side (a_ first, b_ second) and a_p50 / b_p50.
+double pct(std::vector<double>& x, double p) {
+  if (x.empty()) return std::nan("");
+  std::sort(x.begin(), x.end());
+  return x[static_cast<size_t>(p * static_cast<double>(x.size() - 1))];
+}
+void BM_TickRatio(benchmark::State& st) {
+  const char* env = std::getenv("LOOP_BENCH_SCENE");
+  const std::string path = env && *env ? env : scene("two_puma_load");
+  System sys;
+  try {
+    sys = load_scene(path);
+  } catch (const std::exception& e) {
+    st.SkipWithError(e.what());
+    return;
+  }
+  const bool in_place = st.range(0) == 1;
+  runtime::ServiceConfig cfg;
+  cfg.mode = runtime::ServiceMode::kSimulate;
+  cfg.max_input_age_ms = 0;
+  NullBus bus_a, bus_b;
+  runtime::ServiceLoop a(sys, cfg, bus_a), b(sys, cfg, bus_b);
+  HoldWorkspace hw(sys, default_actuated(sys));
+  Eigen::VectorXd held(sys.model.nv());
+  holding_torque(sys, hw, sys.q0, sys.v0, held);
+  const std::vector<uint8_t> cmd = io::encode_torque_command(0, 1, {}, std::vector<double>(held.data(), held.data() + held.size()));
+  std::vector<double> ta, tb;
+  ta.reserve(1 << 16);
+  tb.reserve(1 << 16);
+  long long now = 0;
+  timespec deadline;
+  clock_gettime(CLOCK_MONOTONIC, &deadline);
+  auto timed = [](runtime::ServiceLoop& l, long long t) {
+    const long long t0 = io::monotonic_ns();
+    l.tick(t);
+    return static_cast<double>(io::monotonic_ns() - t0) * 1e-3;
+  };
+  for (auto _ : st) {
+    if (in_place) {
+      b.commands().offer(cmd.data(), static_cast<int>(cmd.size()), now);
+      deadline.tv_nsec += 1000000;
+      if (deadline.tv_nsec >= 1000000000) deadline.tv_nsec -= 1000000000, ++deadline.tv_sec;
+      clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &deadline, nullptr);
+      ta.push_back(timed(b, now));
+      now += 1000000;
+      b.commands().offer(cmd.data(), static_cast<int>(cmd.size()), now);
+      tb.push_back(timed(b, now));
+    } else {
+      b.commands().offer(cmd.data(), static_cast<int>(cmd.size()), now);
+      ta.push_back(timed(a, now));
+      tb.push_back(timed(b, now));
+    }
+    st.SetIterationTime(ta.back() * 1e-6);
+    now += 1000000;
+  }
+  const double pa = pct(ta, 0.5), pb = pct(tb, 0.5);
+  st.counters["a_p50_us"] = pa;
+  st.counters["a_p99_us"] = pct(ta, 0.99);
+  st.counters["b_p50_us"] = pb;
+  st.counters["b_p99_us"] = pct(tb, 0.99);
+  st.counters["a_over_b"] = pa / pb;
+  st.SetLabel(sys.name + (in_place ? ": a = in place (slept to 1 ms deadlines), b = warm (at once after)"
+                                   : ": a = hold (no command), b = commanded, back to back"));
+}
+BENCHMARK(BM_TickRatio)->Arg(0)->Arg(1)->UseManualTime()->Iterations(3000)->Unit(benchmark::kMicrosecond);
 
 void BM_EncodeOutput(benchmark::State& st) {
   const System sys = load_scene(scene("two_puma_load"));

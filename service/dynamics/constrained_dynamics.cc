@@ -198,12 +198,6 @@ Workspace::Workspace(const System& sys)
 
 namespace {
 
-bool inputs_valid(const System& sys, const Eigen::VectorXd& q, const Eigen::VectorXd& v, const Eigen::VectorXd& tau) {
-  const Model& model = sys.model;
-  return configuration_valid(model, q) && v.size() == model.nv() && tau.size() == model.nv() && v.allFinite() &&
-         tau.allFinite();
-}
-
 // The fast-path condition of the symmetric k x k corner of a (column-major, leading dimension m):
 // the unpivoted Cholesky L, left-looking, read from the lower triangle and written transposed into
 // the strict upper one (L(i, j) at (j, i)); true with *condition = (largest / smallest diagonal)^2
@@ -687,10 +681,17 @@ bool friction_at_rest(const System& sys, Workspace& ws) {
 
 }  // namespace
 
-const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
-                            const Eigen::VectorXd& tau) {
-  const Model& model = sys.model;
-  Diagnostics& dg = ws.diag;
+namespace {
+const Diagnostics& fail_evaluation(Workspace& ws, Reason r) {
+  ws.diag.status = Status::kError;
+  ws.diag.reason = r;
+  ws.vdot.setZero();
+  ws.lambda.setZero();
+  ws.stress.setZero();
+  return ws.diag;
+}
+
+void reset_diagnostics(const System& sys, Diagnostics& dg) {
   const int m = sys.constraints.rows;
   dg.rows = m;
   dg.rank = m;
@@ -701,33 +702,43 @@ const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::Vecto
   dg.reason = Reason::kNone;
   dg.bad_index = -1;
   dg.dropped = 0;
-  auto fail = [&](Reason r) -> const Diagnostics& {
-    dg.status = Status::kError;
-    dg.reason = r;
-    ws.vdot.setZero();
-    ws.lambda.setZero();
-    ws.stress.setZero();
-    return dg;
-  };
-  if (!inputs_valid(sys, q, v, tau)) return fail(Reason::kNonFiniteInput);
+}
+}  // namespace
 
+bool begin_evaluation(const System& sys, Workspace& ws, const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
+  const Model& model = sys.model;
+  Diagnostics& dg = ws.diag;
+  reset_diagnostics(sys, dg);
+  if (!configuration_valid(model, q) || v.size() != model.nv() || !v.allFinite()) {
+    fail_evaluation(ws, Reason::kNonFiniteInput);
+    return false;
+  }
   forward_kinematics(model, ws.data, q, v);
   rnea_bias(model, ws.data);
   crba_compact(model, ws.data);
   int bad = -1;
   if (!tree_cholesky_factor(model, ws.data, 1e-13, &bad)) {
     dg.bad_index = bad;
-    return fail(Reason::kMassMatrixSingular);
+    fail_evaluation(ws, Reason::kMassMatrixSingular);
+    return false;
   }
   constraint_rows(model, ws.data, sys.constraints, q, v, ws.cd);
+  return true;
+}
+
+const Diagnostics& finish_evaluation(const System& sys, Workspace& ws, const Eigen::VectorXd& v, const Eigen::VectorXd& tau) {
+  Diagnostics& dg = ws.diag;
+  const int m = sys.constraints.rows;
+  reset_diagnostics(sys, dg);
+  if (tau.size() != sys.model.nv() || !tau.allFinite()) return fail_evaluation(ws, Reason::kNonFiniteInput);
   ws.tau_c = tau - ws.data.h;
   ws.friction_stuck = ws.friction_indeterminate = 0;
   ws.friction_converged = true;
   ws.rest_count = 0;
   if (!ws.damped_dofs.empty() || !ws.friction_dofs.empty()) apply_joint_losses(ws, v);
 
-  if (!solve_formulation(sys, ws, true)) return fail(Reason::kPseudoBlockSingular);
-  if (ws.rest_count > 0 && !friction_at_rest(sys, ws)) return fail(Reason::kPseudoBlockSingular);
+  if (!solve_formulation(sys, ws, true)) return fail_evaluation(ws, Reason::kPseudoBlockSingular);
+  if (ws.rest_count > 0 && !friction_at_rest(sys, ws)) return fail_evaluation(ws, Reason::kPseudoBlockSingular);
   couple_stresses(sys, ws);
 
   dg.indeterminate = m - dg.rank;
@@ -746,7 +757,7 @@ const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::Vecto
     dg.residual = ws.tmp_m.cwiseAbs().maxCoeff();
   }
   if (!ws.vdot.allFinite() || !ws.lambda.allFinite() || !ws.stress.allFinite() || !std::isfinite(dg.residual))
-    return fail(Reason::kNonFiniteResult);
+    return fail_evaluation(ws, Reason::kNonFiniteResult);
   if (dg.indeterminate > 0) {
     dg.status = Status::kIndeterminate;
     dg.reason = Reason::kOverconstrained;
@@ -757,6 +768,16 @@ const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::Vecto
     dg.reason = Reason::kSvdDropped;
   }
   return dg;
+}
+
+const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
+                            const Eigen::VectorXd& tau) {
+  if (tau.size() != sys.model.nv() || !tau.allFinite()) {
+    reset_diagnostics(sys, ws.diag);
+    return fail_evaluation(ws, Reason::kNonFiniteInput);
+  }
+  if (!begin_evaluation(sys, ws, q, v)) return ws.diag;
+  return finish_evaluation(sys, ws, v, tau);
 }
 
 Vec6 tip_wrench(const System& sys, const Workspace& ws, int spec, unsigned* indeterminate) {

@@ -146,6 +146,14 @@ struct Workspace {
 const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
                             const Eigen::VectorXd& tau);
 
+// evaluate() in two halves, for a caller whose torque depends on the state's bias forces and
+// constraint rows (the safe torque `hold`, holding_torque.h): begin_evaluation() computes what does
+// not depend on tau (kinematics, h, M and its factor, G, gamma); false, with ws.diag the error, when
+// (q, v) is not valid or M is singular. Once it succeeded, finish_evaluation() completes the
+// evaluation for tau (any number of times): the result is bit for bit evaluate(sys, ws, q, v, tau).
+bool begin_evaluation(const System& sys, Workspace& ws, const Eigen::VectorXd& q, const Eigen::VectorXd& v);
+const Diagnostics& finish_evaluation(const System& sys, Workspace& ws, const Eigen::VectorXd& v, const Eigen::VectorXd& tau);
+
 // Wrench [moment; force] on the tip of weld spec s, in the tip frame; unconstrained axes are 0.
 // *indeterminate (optional) gets a 6-bit mask of components the physics leaves free.
 Vec6 tip_wrench(const System& sys, const Workspace& ws, int spec, unsigned* indeterminate = nullptr);

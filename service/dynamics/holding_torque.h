@@ -11,8 +11,24 @@
 // added beyond what balance needs. At rest (v = 0, gamma = 0) the system
 // then stays where it is; the residual |N^T (S_a^T tau_a - h)| says how well the actuators can
 // hold it (nonzero when they cannot balance some motion, e.g. a free platform nobody reaches).
-// Both solves are SVDs of fixed-size, preallocated matrices (rank tolerance 1e-10 relative); no
-// allocation after construction.
+//
+// Solve (no allocation after construction). The balance says tau = h + G^T mu for some mu, with
+// the unactuated rows zero: tau_a = h_a + G_a^T mu, h_u + G_u^T mu = 0. So tau_a is the point of
+// least weighted norm of an affine set parametrized by mu (m unknowns, not n), found from h and G
+// of the loop's own evaluation (begin_evaluation(): nothing is evaluated twice):
+//   min_mu |b + Gs^T mu|^2  subject to  G_u^T mu = -h_u,
+// Gs = G with each actuated column divided by its limit (the unactuated ones as they are, a term
+// that is zero on the constraint), b = h scaled alike. Gs Gs^T (rows x rows, summed per pair of
+// constraint specs over the DOFs both touch) is factored by a Cholesky with diagonal pivoting: it
+// keeps a set of independent rows of G (the multipliers of the others are set to zero, which changes
+// no torque: their rows are combinations of the kept ones), then the constraint by its
+// Schur complement S = G_u^T (Gs Gs^T)^-1 G_u (nu x nu, Cholesky). This is the same torque as the
+// definition's two SVDs (to rounding: at most 6e-10 relative in the tests, every shipped scene)
+// when the rank decisions are clear: every kept pivot >= kKeep times the largest and the first
+// dropped <= kDrop times it, S positive definite with pivots >= kKeep times its largest. Otherwise (a near-singular grasp, an
+// unactuated DOF the constraints do not reach, the residual not zero) it falls back to the
+// reference solve below: the SVD of G^T (its null space N) and the SVD of N^T S_a^T W (minimum-norm
+// least squares), rank tolerance 1e-10 relative.
 #pragma once
 
 #include <Eigen/SVD>
@@ -24,22 +40,48 @@ namespace coopdyn {
 
 struct HoldWorkspace {
   HoldWorkspace(const System& sys, const std::vector<unsigned char>& actuated);
-  Workspace ws;                    // h and G at (q, v)
-  std::vector<int> act;            // actuated velocity indices
+  Workspace ws;                    // h and G at (q, v) for holding_torque(sys, hw, q, v, tau)
+  std::vector<int> act, unact;     // actuated / unactuated velocity indices
+  // factorization path
+  static constexpr double kKeep = 1e-8, kDrop = 1e-12;
+  using Block = Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>;
+  Eigen::VectorXd scale;           // (nv) 1 / limit on an actuated DOF (1 without a limit), 1 elsewhere
+  std::vector<Block> Gb;           // per spec: (nv x 6) its rows of Gs as columns, one DOF per row
+  std::vector<std::vector<int>> common;  // per pair of specs s <= t (index s * nspecs + t): DOFs both touch
+  std::vector<int> row_spec;       // (rows) the spec of each row
+  Eigen::MatrixXd H;               // (rows x rows) Gs Gs^T, then its pivoted factor in place
+  std::vector<int> perm;           // (rows) pivot order: perm[0..rank) are the kept rows
+  Eigen::MatrixXd Z;               // (rows x nu) L^-1 G_u on the kept rows
+  Eigen::MatrixXd S;               // (nu x nu)
+  Eigen::VectorXd g, mu, nu_rhs, f;  // (rows), (rows), (nu), (nv)
+  bool factored = false;           // the last solve took the factorization path (else the SVDs)
+  // reference path (SVD)
   Eigen::JacobiSVD<Eigen::MatrixXd> svd_G, svd_A;
   Eigen::MatrixXd Gt, A;           // (nv x rows) G^T padded, (nv x na) V^T S_a^T with the range rows zeroed
   Eigen::VectorXd b, x;            // (nv), (na)
   Eigen::VectorXd w;               // (na) column weights: each joint's torque limit (1 without one)
-  double residual = 0;             // |N^T (S_a^T tau_a - h)| of the last solve (N*m or N)
+  double residual = 0;             // |N^T (S_a^T tau_a - h)| of the last solve (N*m or N); on the
+                                   // factorization path |h_u + G_u^T mu|, an upper bound of it
 };
 
 // Default actuation: every DOF but a floating joint's and a pseudo-joint's, and none with a zero
 // torque limit.
 std::vector<unsigned char> default_actuated(const System& sys);
 
-// Fills tau (nv) with the holding torques at (q, v); false (tau zero) if the state is not valid.
+// Fills tau (nv) with the holding torques from the bias forces and constraint rows of ws, an
+// evaluation at (q, v) (begin_evaluation() suffices: the torque is then passed to
+// finish_evaluation(), as the daemon's loop does). Factorization path, else the SVDs. False (tau
+// zero) if the result is not finite.
+bool holding_torque(const System& sys, HoldWorkspace& hw, const Workspace& ws, Eigen::VectorXd& tau);
+
+// The same at (q, v), evaluated in hw.ws; false (tau zero) if the state is not valid or its mass
+// matrix singular.
 bool holding_torque(const System& sys, HoldWorkspace& hw, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
                     Eigen::VectorXd& tau);
+
+// The reference solve (two SVDs) from ws: the definition above, the factorization path's fallback
+// and its test oracle. Allocation-free, ~10x slower.
+bool holding_torque_svd(const System& sys, HoldWorkspace& hw, const Workspace& ws, Eigen::VectorXd& tau);
 
 // The holding torques as coopdynd applies them: each actuated DOF's (hw.act) clamped to +-its torque
 // limit (sys.tau_limit), a joint that cannot hold its share then holds what it can. Returns how many

@@ -107,8 +107,15 @@ double project_state(const System& sys, Stepper& st, Eigen::VectorXd& q, Eigen::
 
 const Diagnostics& step(const System& sys, Stepper& st, Integrator integ, double dt, const Eigen::VectorXd& tau,
                         Eigen::VectorXd& q, Eigen::VectorXd& v) {
-  const Model& model = sys.model;
   const Diagnostics& d0 = evaluate(sys, st.ws, q, v, tau);
+  if (d0.status == Status::kError) return d0;
+  return step_evaluated(sys, st, integ, dt, tau, q, v);
+}
+
+const Diagnostics& step_evaluated(const System& sys, Stepper& st, Integrator integ, double dt, const Eigen::VectorXd& tau,
+                                  Eigen::VectorXd& q, Eigen::VectorXd& v) {
+  const Model& model = sys.model;
+  const Diagnostics& d0 = st.ws.diag;
   if (d0.status == Status::kError) return d0;
   st.q_start = q;
   st.v_start = v;

@@ -68,4 +68,10 @@ inline void set_lock_target(Stepper& st, int spec, double target) {
 const Diagnostics& step(const System& sys, Stepper& st, Integrator integ, double dt, const Eigen::VectorXd& tau,
                         Eigen::VectorXd& q, Eigen::VectorXd& v);
 
+// step() after its first evaluation: st.ws already holds the evaluation at (q, v, tau) (evaluate(),
+// or begin_evaluation() and finish_evaluation(), as the safe torque `hold` does to compute tau from
+// it). Bit for bit step(); an error status in st.ws.diag is returned as is, q and v unchanged.
+const Diagnostics& step_evaluated(const System& sys, Stepper& st, Integrator integ, double dt, const Eigen::VectorXd& tau,
+                                  Eigen::VectorXd& q, Eigen::VectorXd& v);
+
 }  // namespace coopdyn

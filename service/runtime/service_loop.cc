@@ -91,7 +91,14 @@ const InputCounters& ServiceLoop::input_counters() const {
 void ServiceLoop::safe_torque(const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
   tau_.setZero();
   if (cfg_.safe_torque == SafeTorque::kHold) {
-    holding_torque(sys_, *hold_, q, v, tau_);
+    // from the step's own first evaluation (h and G at (q, v)), which the step then finishes;
+    // latched in a fault, the stepper's workspace keeps the last good evaluation
+    if (faulted_.load(std::memory_order_relaxed)) {
+      holding_torque(sys_, *hold_, q, v, tau_);
+    } else {
+      start_begun_ = begin_evaluation(sys_, stepper_.ws, q, v);
+      if (start_begun_) holding_torque(sys_, *hold_, stepper_.ws, tau_);
+    }
     for (int i : hold_->act) tau_[i] -= cfg_.damping * v[i];
     clamp_to_torque_limits(sys_, *hold_, tau_);
     return;
@@ -255,19 +262,22 @@ void ServiceLoop::simulate(long long now, io::OutputFrame& f) {
 // The torque and lock targets of this step: the command's, or without a fresh one the safe torque
 // and the scene's lock targets.
 void ServiceLoop::apply_command(io::Input in, const io::CommandSlot& c) {
+  start_begun_ = false;
   if (in == io::Input::kCommand) {
     tau_ = c.tau;
     for (int k : locks_) set_lock_target(stepper_, k, c.lock_target[k]);
   } else {
-    safe_torque(q_, v_);
-    // no command, or it expired: every lock holds the scene's q again
+    // no command, or it expired: every lock holds the scene's q again (before the safe torque: the
+    // hold begins the step's evaluation, whose constraint errors read the targets)
     for (int k : locks_) set_lock_target(stepper_, k, sys_.constraints.specs[static_cast<size_t>(k)].q_target);
+    safe_torque(q_, v_);
   }
 }
 
 // paused: nothing is integrated; the outputs are the evaluation at the held state
 void ServiceLoop::evaluate_held(io::OutputFrame& f) {
-  const Diagnostics& d = evaluate(sys_, stepper_.ws, q_, v_, tau_);
+  const Diagnostics& d =
+      start_begun_ ? finish_evaluation(sys_, stepper_.ws, v_, tau_) : evaluate(sys_, stepper_.ws, q_, v_, tau_);
   f.q = &q_;
   f.v = &v_;
   put_evaluation(f, stepper_.ws, d, d.status != Status::kError);
@@ -282,7 +292,9 @@ void ServiceLoop::evaluate_held(io::OutputFrame& f) {
 void ServiceLoop::integrate(io::OutputFrame& f) {
   q_prev_ = q_;
   v_prev_ = v_;
-  const Diagnostics& d = step(sys_, stepper_, cfg_.integrator, dt_, tau_, q_, v_);
+  if (start_begun_) finish_evaluation(sys_, stepper_.ws, v_, tau_);
+  const Diagnostics& d = start_begun_ ? step_evaluated(sys_, stepper_, cfg_.integrator, dt_, tau_, q_, v_)
+                                      : step(sys_, stepper_, cfg_.integrator, dt_, tau_, q_, v_);
   const bool ok = d.status != Status::kError && q_.allFinite() && v_.allFinite();
   f.q = &q_prev_;
   f.v = &v_prev_;

@@ -155,6 +155,9 @@ class ServiceLoop {
   std::vector<unsigned char> actuated_;  // (nv) finite tau_limit and not a pseudo-joint
   std::vector<int> locks_;               // lock specs whose target a command may set (target_limit > 0)
   std::unique_ptr<HoldWorkspace> hold_;  // safe torque `hold` only
+  // the hold computed its torque from stepper_.ws's begin_evaluation() at (q_, v_) this tick: the
+  // step (or the paused evaluation) finishes that evaluation instead of starting another
+  bool start_begun_ = false;
   io::OutputEncoder out_enc_;
   io::StatsEncoder stats_enc_;
   std::vector<uint8_t> out_buf_, stats_buf_;

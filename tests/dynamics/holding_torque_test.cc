@@ -3,6 +3,12 @@
 
 #include <Eigen/QR>
 
+#include <algorithm>
+#include <cstdio>
+#include <random>
+#include <string>
+#include <vector>
+
 #include "service/dynamics/holding_torque.h"
 #include "service/dynamics/integrators.h"
 #include "service/dynamics/wrenches.h"
@@ -118,6 +124,123 @@ TEST(HoldingTorque, NothingToHoldOnAFreeRollingVehicle) {
   ASSERT_TRUE(holding_torque(sys, hw, sys.q0, sys.v0, tau));
   EXPECT_LT(tau.norm(), 1e-9);
   EXPECT_EQ(hw.act.size(), 2u) << "the two spin joints";
+}
+
+// Every scene in config/scenes (the shipped ones: arms, the real robots with their URDF trees,
+// the wheeled vehicles), and the real robots as the daemon loads them.
+std::vector<std::string> shipped_scenes() {
+  std::vector<std::string> v = all_scenes();
+  for (const std::string& w : wheel_scenes()) v.push_back(w);
+  v.push_back("pr2_box");
+  v.push_back("tiago_pro_box");
+  return v;
+}
+
+TEST(HoldingTorque, FactoredSolveIsTheSvdDefinitionOnEveryShippedScene) {
+  // the loop's solve (h and G of its own evaluation, a pivoted Cholesky of Gs Gs^T and the Schur
+  // complement of the unactuated rows) against the definition's two SVDs, at q0 and at random
+  // states with velocities the constraints allow; where the residual says the system can be held,
+  // the torques stop it: vdot = 0 at rest
+  std::mt19937 rng(7);
+  for (const std::string& name : shipped_scenes()) {
+    SCOPED_TRACE(name);
+    const System sys = load(name);
+    const int n = sys.model.nv();
+    const bool wheel = std::find(wheel_scenes().begin(), wheel_scenes().end(), name) != wheel_scenes().end();
+    HoldWorkspace hw(sys, default_actuated(sys));
+    Workspace ws(sys);
+    int factored = 0;
+    double worst = 0;
+    for (int k = 0; k < 6; ++k) {
+      Eigen::VectorXd q = sys.q0, v = Eigen::VectorXd::Zero(n);
+      if (k > 0) {
+        random_state(sys, rng, 0.05, q, v);
+        ASSERT_TRUE(begin_evaluation(sys, ws, q, Eigen::VectorXd::Zero(n)));
+        v = k % 2 ? Eigen::VectorXd(0.3 * project_velocity(ws.cd.G, v)) : Eigen::VectorXd::Zero(n);
+      }
+      ASSERT_TRUE(begin_evaluation(sys, ws, q, v));
+      Eigen::VectorXd tau(n), ref(n);
+      ASSERT_TRUE(holding_torque(sys, hw, ws, tau));
+      const bool fast = hw.factored;
+      const double res = hw.residual;
+      factored += fast;
+      ASSERT_TRUE(holding_torque_svd(sys, hw, ws, ref));
+      const double diff = (tau - ref).cwiseAbs().maxCoeff() / (1.0 + ref.cwiseAbs().maxCoeff());
+      worst = std::max(worst, diff);
+      // (the two solves round differently: 6e-10 relative at most over these states, the car's)
+      EXPECT_LT(diff, 1e-9) << "state " << k << (fast ? " (factored)" : " (fallback)");
+      EXPECT_NEAR(res, hw.residual, 1e-9 * (1.0 + ws.data.h.norm())) << "state " << k;
+      for (int i = 0; i < n; ++i)
+        if (std::find(hw.act.begin(), hw.act.end(), i) == hw.act.end()) EXPECT_EQ(tau[i], 0.0) << sys.model.v_names[i];
+      // (the test's own evaluation of the torques: the accelerations vanish at rest; not asked of
+      // the vehicles, whose compliant wheel rows and unactuated chassis are wheel_test.cc's)
+      if (!wheel && v.isZero() && hw.residual < 1e-9 * (1.0 + ws.data.h.norm())) {
+        Workspace we(sys);
+        ASSERT_NE(evaluate(sys, we, q, v, tau).status, Status::kError);
+        EXPECT_LT(we.vdot.cwiseAbs().maxCoeff(), 1e-8) << "state " << k << ": held, no acceleration";
+      }
+    }
+    std::printf("%-20s %d of 6 states factored, largest difference from the SVDs %.2e (relative)\n", name.c_str(),
+                factored, worst);
+    if (name == "two_puma_load" || name == "pr2_box" || name == "tiago_pro_box" || name == "two_iiwa_load")
+      EXPECT_EQ(factored, 6) << "the loop's cheap path covers the arms and the real robots";
+  }
+}
+
+TEST(HoldingTorque, FallsBackToTheSvdsWhereTheActuatorsCannotHold) {
+  // only three joints of one PUMA actuated: six motions to balance, three torques. The unactuated
+  // columns of G (15 of them, 12 rows) cannot all be balanced, S is singular and the SVDs decide:
+  // least squares, the residual says what is not held
+  const System sys = load("two_puma_load");
+  const int n = sys.model.nv();
+  std::vector<unsigned char> act(static_cast<size_t>(n), 0);
+  for (int i = 6; i < 9; ++i) act[static_cast<size_t>(i)] = 1;
+  HoldWorkspace hw(sys, act);
+  Eigen::VectorXd tau(n), ref(n);
+  ASSERT_TRUE(holding_torque(sys, hw, sys.q0, sys.v0, tau));
+  EXPECT_FALSE(hw.factored);
+  const double res = hw.residual;
+  EXPECT_GT(res, 1.0) << "N*m: not held";
+  ASSERT_TRUE(holding_torque_svd(sys, hw, hw.ws, ref));
+  EXPECT_EQ(tau, ref);
+  EXPECT_EQ(res, hw.residual);
+  // and with every joint actuated again, the factored path holds it
+  HoldWorkspace all(sys, default_actuated(sys));
+  ASSERT_TRUE(holding_torque(sys, all, sys.q0, sys.v0, tau));
+  EXPECT_TRUE(all.factored);
+  EXPECT_LT(all.residual, 1e-9);
+}
+
+TEST(HoldingTorque, EvaluationHalvesAndTheStepAfterThemAreEvaluateAndStepBitForBit) {
+  // the loop's hold tick: begin_evaluation, the torque from it, finish_evaluation, step_evaluated;
+  // a commanded tick: step(). Same numbers to the last bit (friction, wheels, locks included)
+  std::mt19937 rng(11);
+  for (const std::string& name : shipped_scenes()) {
+    SCOPED_TRACE(name);
+    const System sys = load(name);
+    const int n = sys.model.nv();
+    HoldWorkspace hw(sys, default_actuated(sys));
+    Stepper a(sys), b(sys);
+    Eigen::VectorXd q, v;
+    random_state(sys, rng, 0.02, q, v);
+    ASSERT_TRUE(begin_evaluation(sys, a.ws, q, Eigen::VectorXd::Zero(n)));
+    v = 0.1 * project_velocity(a.ws.cd.G, v);
+    Eigen::VectorXd qa = q, va = v, qb = q, vb = v, tau(n);
+    for (int k = 0; k < 3; ++k) {
+      ASSERT_TRUE(begin_evaluation(sys, a.ws, qa, va));
+      ASSERT_TRUE(holding_torque(sys, hw, a.ws, tau));
+      const Diagnostics& da = finish_evaluation(sys, a.ws, va, tau);
+      const Diagnostics& db = evaluate(sys, b.ws, qb, vb, tau);
+      EXPECT_EQ(da.status, db.status);
+      EXPECT_EQ(da.rank, db.rank);
+      EXPECT_EQ(a.ws.vdot, b.ws.vdot);
+      EXPECT_EQ(a.ws.lambda, b.ws.lambda);
+      step_evaluated(sys, a, Integrator::kRk4, 1e-3, tau, qa, va);
+      step(sys, b, Integrator::kRk4, 1e-3, tau, qb, vb);
+      EXPECT_EQ(qa, qb);
+      EXPECT_EQ(va, vb);
+    }
+  }
 }
 
 }  // namespace
