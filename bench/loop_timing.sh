@@ -5,6 +5,10 @@
 #   bench/loop_timing.sh [SECONDS=20] [BUILD_DIR=build] [SCENE=config/scenes/two_puma_load.yaml]
 #   NETNS=NAME bench/loop_timing.sh ...   # run the udpm parts inside `ip netns exec NAME` (a private
 #                                         # namespace with lo up and a multicast route on it)
+#   ROWS=arrival bench/loop_timing.sh ... # only the event-driven rows, next to cyclictest and the
+#                                         # fixed-rate estimate row
+#   BASELINE=DIR bench/loop_timing.sh ... # also the event-driven row of another build's coopdynd
+#                                         # (DIR/bin/coopdynd: before and after a change, in one run)
 #
 # Rows (each SECONDS long, at 1 kHz, over udpm on loopback, ttl=0):
 #   daemon rows: coopdynd on a private URL while `coopdyn send --measure-latency` publishes at
@@ -22,7 +26,8 @@
 # Daemon variants: "rt" = SCHED_FIFO 80 + mlockall (needs root; refusals are logged); "+ tricks" =
 #   rt + /dev/cpu_dma_latency held at 0 + the loop pinned to CPU 1 with the receive thread and
 #   process on the others + inputs on their own port (lcm_url_in: the receive process never sees
-#   the daemon's own outputs); "+ spin 50" = that + realtime.spin_us 50.
+#   the daemon's own outputs); "+ spin 50" = that + realtime.spin_us 50; "+ busy poll" = that +
+#   realtime.busy_poll (event-driven only: the loop polls for states, a whole CPU).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 DUR=${1:-20}
@@ -49,9 +54,9 @@ echo "== load before: $(cut -d' ' -f1-3 /proc/loadavg)"
 "$BUILD/bin/coopdyn" sim --scene "$SCENE" --duration 2 --dt 0.001 --out "$TMP/states.csv" 2>/dev/null
 joint=$("$BUILD/bin/coopdyn" eval --scene "$SCENE" | python3 -c 'import json,sys; print(json.load(sys.stdin)["coordinates"]["v"][-1])')
 
-# daemon ROW_NAME MODE EXTRA_YAML [trigger]
+# daemon ROW_NAME MODE EXTRA_YAML [trigger [BUILD_DIR of coopdynd]]
 daemon() {
-  local name=$1 mode=$2 extra=$3 trigger=${4:-tick} url_in=$URL
+  local name=$1 mode=$2 extra=$3 trigger=${4:-tick} url_in=$URL bin=${5:-$BUILD}/bin
   {
     echo "rate_hz: 1000"
     echo "mode: $mode"
@@ -59,7 +64,7 @@ daemon() {
     printf '%b\n' "$extra"
   } > "$TMP/cfg.yaml"
   grep -q "lcm_url_in" "$TMP/cfg.yaml" && url_in=$URL_IN
-  "${NS[@]}" "$BUILD/bin/coopdynd" --scene "$SCENE" --config "$TMP/cfg.yaml" --lcm-url "$URL" --duration "$DUR" \
+  "${NS[@]}" "$bin/coopdynd" --scene "$SCENE" --config "$TMP/cfg.yaml" --lcm-url "$URL" --duration "$DUR" \
     > "$TMP/d.out" 2> "$TMP/d.err" &
   local pid=$!
   sleep 1
@@ -114,14 +119,22 @@ PY
 RT="realtime: {sched_fifo: true, priority: 80, mlockall: true"
 TRICKS="$RT, cpu: 1, cpu_dma_latency_zero: true}\nlcm_url_in: \"$URL_IN\""
 : > "$TMP/rows"
-daemon "coopdynd simulate, SCHED_OTHER" simulate ""
+with() { printf '%s' "$TRICKS" | sed "s/cpu_dma_latency_zero: true}/cpu_dma_latency_zero: true, $1}/"; }
+if [ "${ROWS:-all}" != arrival ]; then
+  daemon "coopdynd simulate, SCHED_OTHER" simulate ""
+fi
 cyclic "cyclictest, SCHED_OTHER"
-daemon "coopdynd simulate, rt" simulate "$RT}"
+[ "${ROWS:-all}" != arrival ] && daemon "coopdynd simulate, rt" simulate "$RT}"
 cyclic "cyclictest, SCHED_FIFO 80 -m" -p 80 -m
-daemon "coopdynd simulate, rt + tricks" simulate "$TRICKS"
-daemon "coopdynd simulate, rt + tricks + spin 50" simulate "$(printf '%s' "$TRICKS" | sed 's/cpu_dma_latency_zero: true}/cpu_dma_latency_zero: true, spin_us: 50}/')"
+if [ "${ROWS:-all}" != arrival ]; then
+  daemon "coopdynd simulate, rt + tricks" simulate "$TRICKS"
+  daemon "coopdynd simulate, rt + tricks + spin 50" simulate "$(with "spin_us: 50")"
+fi
 daemon "coopdynd estimate at the tick, rt + tricks" estimate "$TRICKS" tick
+[ -n "${BASELINE:-}" ] && daemon "coopdynd estimate on arrival, rt + tricks, BASELINE build" estimate "$TRICKS" arrival \
+  "$(cd "$BASELINE" && pwd)"
 daemon "coopdynd estimate on arrival, rt + tricks" estimate "$TRICKS" arrival
+daemon "coopdynd estimate on arrival, rt + tricks + busy poll" estimate "$(with "busy_poll: true")" arrival
 
 LOOP_BENCH_SCENE=$(realpath "$SCENE") "${NS[@]}" taskset -c 1 "$BUILD/bin/loop_bench" --benchmark_filter='BM_TickPaced' \
   --benchmark_format=csv 2>/dev/null > "$TMP/warm.csv" || true
