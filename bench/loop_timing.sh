@@ -23,6 +23,8 @@
 #     warm caches, null bus, p50): the in-place compute p50 is given as a multiple of it.
 #   where the time goes: the same tick p50 / p99 slept to 1 ms deadlines (cold caches), then also
 #     publishing over udpm on loopback with no subscriber and with one (loop_bench BM_TickPaced).
+#   LCM round trip alone: build/bin/lcm_pingpong, two processes that only talk LCM (100 Hz,
+#     messages of output_t's size both ways): the transport's and the client library's share.
 # Daemon variants: "rt" = SCHED_FIFO 80 + mlockall (needs root; refusals are logged); "+ tricks" =
 #   rt + /dev/cpu_dma_latency held at 0 + the loop pinned to CPU 1 with the receive thread and
 #   process on the others + inputs on their own port (lcm_url_in: the receive process never sees
@@ -42,7 +44,7 @@ URL="udpm://239.255.76.67:$PORT?ttl=0"
 URL_IN="udpm://239.255.76.67:$((PORT + 1))?ttl=0"
 
 command -v cyclictest >/dev/null || { echo "cyclictest missing: apt-get install rt-tests" >&2; exit 1; }
-for b in coopdynd coopdyn loop_bench; do
+for b in coopdynd coopdyn loop_bench lcm_pingpong; do
   [ -x "$BUILD/bin/$b" ] || { echo "build first: cmake --build $BUILD (missing bin/$b)" >&2; exit 1; }
 done
 if ! "${NS[@]}" ip route show 224.0.0.0/4 2>/dev/null | grep -q .; then
@@ -138,6 +140,26 @@ daemon "coopdynd estimate on arrival, rt + tricks + busy poll" estimate "$(with 
 
 LOOP_BENCH_SCENE=$(realpath "$SCENE") "${NS[@]}" taskset -c 1 "$BUILD/bin/loop_bench" --benchmark_filter='BM_TickPaced' \
   --benchmark_format=csv 2>/dev/null > "$TMP/warm.csv" || true
+# the transport alone: two processes that only talk LCM, messages of output_t's size (lcm_pingpong.cc)
+BYTES=$(python3 - "$TMP/warm.csv" <<'PY' 2>/dev/null || echo 4096
+import csv, sys
+head = None
+for r in csv.reader(open(sys.argv[1])):
+    if r and r[0] == "name": head = r
+    elif head and r and r[0].startswith("BM_TickPaced/1/0/0") and "bytes/tick" in head and r[head.index("bytes/tick")]:
+        print(round(float(r[head.index("bytes/tick")]))); sys.exit()
+print(4096)
+PY
+)
+"${NS[@]}" "$BUILD/bin/lcm_pingpong" echo "$URL" "$DUR" & ECHO=$!
+sleep 0.5
+"${NS[@]}" "$BUILD/bin/lcm_pingpong" ping "$URL" "$BYTES" "$((100 * (DUR - 3)))" > "$TMP/pp.out" 2>&1 || true
+wait $ECHO || true
+python3 - "$TMP/pp.out" >> "$TMP/rows" <<'PY'
+import re, sys
+m = re.search(r"over (\d+) of \d+ messages of (\d+) bytes: min ([\d.]+) us, p50 ([\d.]+) us, p99 ([\d.]+) us", open(sys.argv[1]).read())
+if m: print(f"LCM round trip alone (lcm_pingpong), {m.group(2)} bytes each way|||||||||{m.group(3)}|{m.group(4)}|{m.group(5)}|{m.group(1)}")
+PY
 echo "== load after: $(cut -d' ' -f1-3 /proc/loadavg)"
 python3 - "$TMP/rows" "$TMP/warm.csv" "$(basename "$SCENE" .yaml)" <<'PY'
 import csv, sys
