@@ -11,7 +11,8 @@
 #                                         # (DIR/bin/coopdynd: before and after a change, in one run)
 #
 # Rows (each SECONDS long, at 1 kHz, over udpm on loopback, ttl=0):
-#   daemon rows: coopdynd on a private URL while `coopdyn send --measure-latency` publishes at
+#   daemon rows: coopdynd on a private URL (event-driven rows: heartbeats at 10 Hz, so that their
+#     lateness and compute are the states') while `coopdyn send --measure-latency` publishes at
 #     100 Hz (torque commands in simulate mode, the states of a short `coopdyn sim` in estimate
 #     mode) and times each one from its publish to the first output carrying its seq. The
 #     daemon's summary gives wake-up lateness (wake-up minus the deadline; in the event-driven
@@ -60,7 +61,9 @@ joint=$("$BUILD/bin/coopdyn" eval --scene "$SCENE" | python3 -c 'import json,sys
 daemon() {
   local name=$1 mode=$2 extra=$3 trigger=${4:-tick} url_in=$URL bin=${5:-$BUILD}/bin
   {
-    echo "rate_hz: 1000"
+    # on arrival the rate is only the heartbeat's without a fresh state: at 10 Hz the few heartbeats
+    # (before the first state, after the last) leave the lateness and compute columns to the states
+    if [ "$trigger" = arrival ]; then echo "rate_hz: 10"; else echo "rate_hz: 1000"; fi
     echo "mode: $mode"
     [ "$mode" = estimate ] && echo "trigger: $trigger"
     printf '%b\n' "$extra"
