@@ -3,3 +3,7 @@
 add_executable(loop_bench ${CMAKE_CURRENT_LIST_DIR}/loop_bench.cc)
 target_link_libraries(loop_bench PRIVATE coopdyn_runtime coopdyn_scene benchmark::benchmark)
 coopdyn_use_paths(loop_bench)
+
+# Two processes that only talk LCM: the transport's share of the event-driven latency (loop_timing.sh)
+add_executable(lcm_pingpong ${CMAKE_CURRENT_LIST_DIR}/lcm_pingpong.cc)
+target_link_libraries(lcm_pingpong PRIVATE coopdyn_io)

@@ -5,9 +5,14 @@
 #   bench/loop_timing.sh [SECONDS=20] [BUILD_DIR=build] [SCENE=config/scenes/two_puma_load.yaml]
 #   NETNS=NAME bench/loop_timing.sh ...   # run the udpm parts inside `ip netns exec NAME` (a private
 #                                         # namespace with lo up and a multicast route on it)
+#   ROWS=arrival bench/loop_timing.sh ... # only the event-driven rows, next to cyclictest and the
+#                                         # fixed-rate estimate row
+#   BASELINE=DIR bench/loop_timing.sh ... # also the event-driven row of another build's coopdynd
+#                                         # (DIR/bin/coopdynd: before and after a change, in one run)
 #
 # Rows (each SECONDS long, at 1 kHz, over udpm on loopback, ttl=0):
-#   daemon rows: coopdynd on a private URL while `coopdyn send --measure-latency` publishes at
+#   daemon rows: coopdynd on a private URL (event-driven rows: heartbeats at 10 Hz, so that their
+#     lateness and compute are the states') while `coopdyn send --measure-latency` publishes at
 #     100 Hz (torque commands in simulate mode, the states of a short `coopdyn sim` in estimate
 #     mode) and times each one from its publish to the first output carrying its seq. The
 #     daemon's summary gives wake-up lateness (wake-up minus the deadline; in the event-driven
@@ -19,10 +24,13 @@
 #     warm caches, null bus, p50): the in-place compute p50 is given as a multiple of it.
 #   where the time goes: the same tick p50 / p99 slept to 1 ms deadlines (cold caches), then also
 #     publishing over udpm on loopback with no subscriber and with one (loop_bench BM_TickPaced).
+#   LCM round trip alone: build/bin/lcm_pingpong, two processes that only talk LCM (100 Hz,
+#     messages of output_t's size both ways): the transport's and the client library's share.
 # Daemon variants: "rt" = SCHED_FIFO 80 + mlockall (needs root; refusals are logged); "+ tricks" =
 #   rt + /dev/cpu_dma_latency held at 0 + the loop pinned to CPU 1 with the receive thread and
 #   process on the others + inputs on their own port (lcm_url_in: the receive process never sees
-#   the daemon's own outputs); "+ spin 50" = that + realtime.spin_us 50.
+#   the daemon's own outputs); "+ spin 50" = that + realtime.spin_us 50; "+ busy poll" = that +
+#   realtime.busy_poll (event-driven only: the loop polls for states, a whole CPU).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 DUR=${1:-20}
@@ -37,7 +45,7 @@ URL="udpm://239.255.76.67:$PORT?ttl=0"
 URL_IN="udpm://239.255.76.67:$((PORT + 1))?ttl=0"
 
 command -v cyclictest >/dev/null || { echo "cyclictest missing: apt-get install rt-tests" >&2; exit 1; }
-for b in coopdynd coopdyn loop_bench; do
+for b in coopdynd coopdyn loop_bench lcm_pingpong; do
   [ -x "$BUILD/bin/$b" ] || { echo "build first: cmake --build $BUILD (missing bin/$b)" >&2; exit 1; }
 done
 if ! "${NS[@]}" ip route show 224.0.0.0/4 2>/dev/null | grep -q .; then
@@ -49,17 +57,19 @@ echo "== load before: $(cut -d' ' -f1-3 /proc/loadavg)"
 "$BUILD/bin/coopdyn" sim --scene "$SCENE" --duration 2 --dt 0.001 --out "$TMP/states.csv" 2>/dev/null
 joint=$("$BUILD/bin/coopdyn" eval --scene "$SCENE" | python3 -c 'import json,sys; print(json.load(sys.stdin)["coordinates"]["v"][-1])')
 
-# daemon ROW_NAME MODE EXTRA_YAML [trigger]
+# daemon ROW_NAME MODE EXTRA_YAML [trigger [BUILD_DIR of coopdynd]]
 daemon() {
-  local name=$1 mode=$2 extra=$3 trigger=${4:-tick} url_in=$URL
+  local name=$1 mode=$2 extra=$3 trigger=${4:-tick} url_in=$URL bin=${5:-$BUILD}/bin
   {
-    echo "rate_hz: 1000"
+    # on arrival the rate is only the heartbeat's without a fresh state: at 10 Hz the few heartbeats
+    # (before the first state, after the last) leave the lateness and compute columns to the states
+    if [ "$trigger" = arrival ]; then echo "rate_hz: 10"; else echo "rate_hz: 1000"; fi
     echo "mode: $mode"
     [ "$mode" = estimate ] && echo "trigger: $trigger"
     printf '%b\n' "$extra"
   } > "$TMP/cfg.yaml"
   grep -q "lcm_url_in" "$TMP/cfg.yaml" && url_in=$URL_IN
-  "${NS[@]}" "$BUILD/bin/coopdynd" --scene "$SCENE" --config "$TMP/cfg.yaml" --lcm-url "$URL" --duration "$DUR" \
+  "${NS[@]}" "$bin/coopdynd" --scene "$SCENE" --config "$TMP/cfg.yaml" --lcm-url "$URL" --duration "$DUR" \
     > "$TMP/d.out" 2> "$TMP/d.err" &
   local pid=$!
   sleep 1
@@ -114,17 +124,45 @@ PY
 RT="realtime: {sched_fifo: true, priority: 80, mlockall: true"
 TRICKS="$RT, cpu: 1, cpu_dma_latency_zero: true}\nlcm_url_in: \"$URL_IN\""
 : > "$TMP/rows"
-daemon "coopdynd simulate, SCHED_OTHER" simulate ""
+with() { printf '%s' "$TRICKS" | sed "s/cpu_dma_latency_zero: true}/cpu_dma_latency_zero: true, $1}/"; }
+if [ "${ROWS:-all}" != arrival ]; then
+  daemon "coopdynd simulate, SCHED_OTHER" simulate ""
+fi
 cyclic "cyclictest, SCHED_OTHER"
-daemon "coopdynd simulate, rt" simulate "$RT}"
+[ "${ROWS:-all}" != arrival ] && daemon "coopdynd simulate, rt" simulate "$RT}"
 cyclic "cyclictest, SCHED_FIFO 80 -m" -p 80 -m
-daemon "coopdynd simulate, rt + tricks" simulate "$TRICKS"
-daemon "coopdynd simulate, rt + tricks + spin 50" simulate "$(printf '%s' "$TRICKS" | sed 's/cpu_dma_latency_zero: true}/cpu_dma_latency_zero: true, spin_us: 50}/')"
+if [ "${ROWS:-all}" != arrival ]; then
+  daemon "coopdynd simulate, rt + tricks" simulate "$TRICKS"
+  daemon "coopdynd simulate, rt + tricks + spin 50" simulate "$(with "spin_us: 50")"
+fi
 daemon "coopdynd estimate at the tick, rt + tricks" estimate "$TRICKS" tick
+[ -n "${BASELINE:-}" ] && daemon "coopdynd estimate on arrival, rt + tricks, BASELINE build" estimate "$TRICKS" arrival \
+  "$(cd "$BASELINE" && pwd)"
 daemon "coopdynd estimate on arrival, rt + tricks" estimate "$TRICKS" arrival
+daemon "coopdynd estimate on arrival, rt + tricks + busy poll" estimate "$(with "busy_poll: true")" arrival
 
 LOOP_BENCH_SCENE=$(realpath "$SCENE") "${NS[@]}" taskset -c 1 "$BUILD/bin/loop_bench" --benchmark_filter='BM_TickPaced' \
   --benchmark_format=csv 2>/dev/null > "$TMP/warm.csv" || true
+# the transport alone: two processes that only talk LCM, messages of output_t's size (lcm_pingpong.cc)
+BYTES=$(python3 - "$TMP/warm.csv" <<'PY' 2>/dev/null || echo 4096
+import csv, sys
+head = None
+for r in csv.reader(open(sys.argv[1])):
+    if r and r[0] == "name": head = r
+    elif head and r and r[0].startswith("BM_TickPaced/1/0/0") and "bytes/tick" in head and r[head.index("bytes/tick")]:
+        print(round(float(r[head.index("bytes/tick")]))); sys.exit()
+print(4096)
+PY
+)
+"${NS[@]}" "$BUILD/bin/lcm_pingpong" echo "$URL" "$DUR" & ECHO=$!
+sleep 0.5
+"${NS[@]}" "$BUILD/bin/lcm_pingpong" ping "$URL" "$BYTES" "$((100 * (DUR - 3)))" > "$TMP/pp.out" 2>&1 || true
+wait $ECHO || true
+python3 - "$TMP/pp.out" >> "$TMP/rows" <<'PY'
+import re, sys
+m = re.search(r"over (\d+) of \d+ messages of (\d+) bytes: min ([\d.]+) us, p50 ([\d.]+) us, p99 ([\d.]+) us", open(sys.argv[1]).read())
+if m: print(f"LCM round trip alone (lcm_pingpong), {m.group(2)} bytes each way|||||||||{m.group(3)}|{m.group(4)}|{m.group(5)}|{m.group(1)}")
+PY
 echo "== load after: $(cut -d' ' -f1-3 /proc/loadavg)"
 python3 - "$TMP/rows" "$TMP/warm.csv" "$(basename "$SCENE" .yaml)" <<'PY'
 import csv, sys

@@ -261,6 +261,9 @@ void log_startup(const coopdyn::System& sys, const coopdyn::runtime::ServiceConf
   if (cfg.trigger == runtime::Trigger::kArrival)
     spdlog::info("event-driven: each measured state is evaluated on arrival; without a fresh state the error status "
                  "goes out at {} Hz", cfg.rate_hz);
+  if (cfg.realtime.busy_poll)
+    spdlog::info("busy poll: the loop polls for measured states and takes a whole CPU{}", cfg.realtime.cpu >= 0 ? ""
+                 : " (realtime.cpu not set: give it one of its own)");
   spdlog::info("mode {}, {} Hz ({} integrator), watchdog {} ms, max input age {}, safe torque {}, overrun policy {}",
                runtime::mode_name(cfg.mode), cfg.rate_hz, integrator_name(cfg.integrator), cfg.watchdog_ms,
                cfg.max_input_age_ms > 0 ? std::to_string(cfg.max_input_age_ms) + " ms by utime" : std::string("off"),

@@ -54,6 +54,11 @@ struct RealtimeOptions {
   // Hold /dev/cpu_dma_latency at 0 while running (the PM QoS request cyclictest makes: no deep
   // C-states, so no exit latency on wake-up; needs root; the whole machine draws more power).
   bool cpu_dma_latency_zero = false;
+  // Event-driven estimate mode (trigger: arrival) only: the loop thread never sleeps waiting for a
+  // state but polls for one, so no wake-up stands between a state's receipt and its computation.
+  // It takes a whole CPU at all times: give it one (cpu, ideally isolated from the scheduler with
+  // isolcpus), with sched_fifo. Off by default.
+  bool busy_poll = false;
 };
 
 // What each value may be: the range the code can represent and the daemon can use. load_config and
@@ -70,6 +75,7 @@ struct RealtimeOptions {
 //   realtime.cpu    -1 or [0, CPU_SETSIZE - 1 = 1023]: the bit must exist in a cpu_set_t
 //   realtime.spin_us  [0, 1000] us and below the period (1e6 / rate_hz us)
 //   trigger         tick, or arrival in estimate mode only
+//   realtime.busy_poll  with trigger arrival only
 //   closure_tolerance.*  (0, 1e6] in m, rad, m/s, rad/s
 //   receive.queue   [2, 4096] messages; receive.max_message_bytes [256, 4194304] bytes
 //   receive.socket_buffer_bytes  0 (the OS default) or [4096, 268435456] bytes (SO_RCVBUF takes an

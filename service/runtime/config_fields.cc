@@ -159,6 +159,11 @@ std::string check_spin(const ConfigField& f, const FieldValue& v, const ServiceC
   return "realtime.spin_us must be in [" + integer(f.lo) + ", " + integer(f.hi) + "] us and below the period (" +
          num(1e6 / c.rate_hz) + " us at rate_hz " + num(c.rate_hz) + "), got " + std::to_string(v.n);
 }
+std::string check_busy_poll(const ConfigField&, const FieldValue& v, const ServiceConfig& c) {
+  if (!v.b || (c.mode == ServiceMode::kEstimate && c.trigger == Trigger::kArrival)) return "";
+  return "realtime.busy_poll polls for measured states and applies to mode estimate with trigger arrival only (mode " +
+         std::string(mode_name(c.mode)) + ", trigger " + trigger_name(c.trigger) + "); the fixed-rate loop has spin_us";
+}
 
 constexpr double kNone = 0;
 
@@ -259,6 +264,10 @@ const std::vector<ConfigField> kFields = {
     {"realtime", "cpu_dma_latency_zero", K::kFlag, "true or false", kNone, kNone, "", {}, false,
      COOPDYN_MEMBER(R::cpu_dma_latency_zero, b), nullptr, "",
      "hold `/dev/cpu_dma_latency` at 0 while running (no deep idle states; root)"},
+    {"realtime", "busy_poll", K::kFlag, "true or false", kNone, kNone, "", {}, false,
+     COOPDYN_MEMBER(R::busy_poll, b), check_busy_poll, "",
+     "`trigger: arrival` only: the loop polls for measured states instead of sleeping (no wake-up between a "
+     "state's receipt and its computation); takes a whole CPU at all times: give it `cpu` (isolated) and `sched_fifo`"},
     {"", "log_level", K::kChoice, "a string", kNone, kNone, "", {"trace", "debug", "info", "warn", "error", "off"}, false,
      COOPDYN_MEMBER(S::log_level, s), nullptr, "", ""},
 };

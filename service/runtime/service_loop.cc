@@ -456,6 +456,34 @@ void ServiceLoop::warm_up() {
   }
 }
 
+namespace {
+inline void cpu_relax() {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_ia32_pause();
+#elif defined(__aarch64__)
+  asm volatile("yield");
+#endif
+}
+}  // namespace
+
+// run_on_arrival's wait: true as soon as the doorbell moved from `seen` (a state was handed over),
+// false at the absolute monotonic deadline or when stop is set (then *stopped). Sleeps on the
+// doorbell in slices of at most kStopSliceNs; with realtime.busy_poll it polls it instead.
+bool ServiceLoop::wait_for_arrival(uint32_t seen, long long deadline, const std::atomic<bool>& stop, bool* stopped) {
+  const bool poll = cfg_.realtime.busy_poll;
+  for (;;) {
+    if (bell_.value() != seen) return true;
+    const long long now = io::monotonic_ns();
+    if (now >= deadline) return false;
+    if (stop.load(std::memory_order_relaxed)) {
+      *stopped = true;
+      return false;
+    }
+    if (poll) cpu_relax();
+    else bell_.wait(seen, sleep_end_ns(now, deadline));
+  }
+}
+
 void ServiceLoop::run_on_arrival(const std::atomic<bool>& stop, long long max_ticks) {
   const long long stats_ns = period_ns_ * stats_every_;
   long long now = io::monotonic_ns();
@@ -468,20 +496,8 @@ void ServiceLoop::run_on_arrival(const std::atomic<bool>& stop, long long max_ti
     // heartbeat; and the stats
     const long long beat = fresh(now) ? states_.latest().recv_ns + watchdog_ns_ + 1 : next_beat;
     const long long deadline = next_stats < beat ? next_stats : beat;
-    bool rung = false, stopped = false;
-    for (;;) {
-      if (bell_.value() != seen) {
-        rung = true;
-        break;
-      }
-      now = io::monotonic_ns();
-      if (now >= deadline) break;
-      if (stop.load(std::memory_order_relaxed)) {
-        stopped = true;
-        break;
-      }
-      bell_.wait(seen, sleep_end_ns(now, deadline));
-    }
+    bool stopped = false;
+    const bool rung = wait_for_arrival(seen, deadline, stop, &stopped);
     if (stopped) break;
     seen = bell_.value();
     const long long wake = io::monotonic_ns();

@@ -358,6 +358,45 @@ TEST_F(DaemonProcess, UdpmEstimateOnArrivalOneOutputPerStateEqualOffline) {
   EXPECT_GE(expired, 5);  // waited for
 }
 
+// The same over udpm with realtime.busy_poll (the loop polls its doorbell instead of sleeping): each
+// state sent in lock-step gets exactly one output carrying its seq, equal to the offline
+// evaluation, and SIGTERM still stops the polling loop.
+TEST_F(DaemonProcess, UdpmEstimateOnArrivalBusyPollingOneOutputPerStateEqualOffline) {
+  const std::string cfg_path = tmp_path("busy_poll.yaml");
+  std::ofstream(cfg_path) << "rate_hz: 200\nmode: estimate\ntrigger: arrival\nrealtime: {busy_poll: true}\n";
+  OutputSink sink;
+  sink.attach(*bus_);
+  bus_->start();
+  auto d = start_daemon({"--config", cfg_path}, "busy_poll");
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  EXPECT_NE(slurp(d->err).find("busy poll: the loop polls for measured states"), std::string::npos) << slurp(d->err);
+  Eigen::VectorXd v = sys_.v0;
+  for (int i = 0; i < v.size(); ++i) v[i] = 0.05 * std::cos(i + 1.0);
+  v = closing_velocity(sys_, sys_.q0, v);
+  const Eigen::VectorXd tau = some_torque(sys_, 5);
+  for (int seq = 1; seq <= 20; ++seq) {
+    const Eigen::VectorXd vv = v * seq;
+    const auto b = io::encode_measured_state(io::wall_us(), seq, sys_.model.q_names, stdvec(sys_.q0), sys_.model.v_names,
+                                             stdvec(vv), stdvec(tau));
+    bus_->publish("COOPDYN_STATE", b.data(), static_cast<int>(b.size()));
+    ASSERT_TRUE(sink.wait_for([seq](const io::DecodedOutput& o) { return o.input_seq == seq; }, 5s)) << seq;
+  }
+  d->signal(SIGTERM);
+  EXPECT_EQ(d->wait(), 0) << slurp(d->err);
+  bus_->stop();
+  EXPECT_NE(slurp(d->out).find("states received 20, accepted 20, rejected 0, out-of-order 0"), std::string::npos)
+      << slurp(d->out);
+  std::map<long long, int> per_seq;
+  for (const auto& o : sink.snapshot()) {
+    if (o.input != static_cast<int>(io::Input::kState)) continue;
+    ++per_seq[o.input_seq];
+    for (int i = 0; i < v.size(); ++i) ASSERT_EQ(o.v[i], v[i] * o.input_seq);
+    expect_matches_offline(sys_, o);
+  }
+  for (int seq = 1; seq <= 20; ++seq) EXPECT_EQ(per_seq[seq], 1) << "outputs carrying seq " << seq;
+  std::remove(cfg_path.c_str());
+}
+
 // At the lowest rate (1 Hz) SIGTERM right after a tick, and --duration, end the daemon, saying how
 // and after how many ticks. That a stop is seen within one 10 ms slice, not at the next deadline, is
 // ServiceLoop.StopEndsRunWithinASliceAtTheLowestRate's (exactly, on the sleep plan); the times taken

@@ -80,16 +80,20 @@ TEST(DaemonConfig, EveryBadValueNamesFileLineAndReason) {
       {"realtime: {spin_us: 1000}\n", "t.yaml:1:21: realtime.spin_us must be in [0, 1000] us and below the period (1000 us"},
       {"rate_hz: 5000\nrealtime: {spin_us: 300}\n", "realtime.spin_us must be in [0, 1000] us and below the period (200 us"},
       {"realtime: {cpu_dma_latency_zero: 0.5}\n", "'cpu_dma_latency_zero' must be true or false"},
+      {"mode: estimate\nrealtime: {busy_poll: true}\n",
+       "t.yaml:2:23: realtime.busy_poll polls for measured states and applies to mode estimate with trigger arrival only "
+       "(mode estimate, trigger tick)"},
   };
   expect_refused(cases);
   EXPECT_THROW(load_config("/no/such/coopdynd.yaml"), ConfigError);
   const ServiceConfig c = load_config_string(
-      "mode: estimate\ntrigger: arrival\noverrun: {policy: skip}\nrealtime: {spin_us: 50, cpu_dma_latency_zero: true}\n",
+      "mode: estimate\ntrigger: arrival\noverrun: {policy: skip}\nrealtime: {spin_us: 50, cpu_dma_latency_zero: true, busy_poll: true}\n",
       "t.yaml");
   EXPECT_EQ(c.mode, ServiceMode::kEstimate);
   EXPECT_EQ(c.trigger, Trigger::kArrival);
   EXPECT_EQ(c.realtime.spin_us, 50);
   EXPECT_TRUE(c.realtime.cpu_dma_latency_zero);
+  EXPECT_TRUE(c.realtime.busy_poll);
   EXPECT_EQ(c.overrun, OverrunPolicy::kSkip);
 }
 

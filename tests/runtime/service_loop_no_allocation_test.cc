@@ -221,6 +221,57 @@ TEST(LoopNoAllocation, RunOnArrivalOfStates) {
   }
 }
 
+// The event-driven path polling its doorbell (realtime.busy_poll) instead of sleeping on it: no
+// allocation either; states rung in are computed (those that do not close give their error
+// output), the heartbeats go on while the state has expired, and run() returns on stop.
+TEST(LoopNoAllocation, RunOnArrivalBusyPolling) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  const System sys = load_scene(scene_path("two_puma_load"));
+  runtime::ServiceConfig cfg;
+  cfg.mode = runtime::ServiceMode::kEstimate;
+  cfg.trigger = runtime::Trigger::kArrival;
+  cfg.realtime.busy_poll = true;
+  cfg.stats_period_s = 0.05;
+  cfg.watchdog_ms = 20;
+  FakeBus bus;
+  runtime::ServiceLoop loop(sys, cfg, bus);
+  const Eigen::VectorXd tau = some_torque(sys, 1, 0.5);
+  Eigen::VectorXd q_far = sys.q0;
+  q_far[0] += 0.3;
+  std::atomic<bool> stop{false};
+  std::atomic<long> allocations{-1};
+  std::thread loop_thread([&] {
+    AllocationCounter c;
+    loop.run(stop);
+    allocations = c.count();
+  });
+  int sent = 0;
+  for (int k = 0; k < 300; ++k) {
+    if (k < 100 || k >= 200) {  // 100 states, 100 ms of silence (expiry, heartbeats), 100 states
+      const auto b = io::encode_measured_state(runtime::realtime_us(), k + 1, {}, stdvec(k % 5 == 4 ? q_far : sys.q0), {},
+                                               stdvec(sys.v0), stdvec(tau));
+      if (loop.states().offer(b.data(), static_cast<int>(b.size()), io::monotonic_ns()) == runtime::Offer::kAccepted) {
+        loop.doorbell().ring();
+        ++sent;
+      }
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(60));
+  stop = true;
+  loop_thread.join();
+  EXPECT_EQ(allocations.load(), 0);
+  EXPECT_EQ(sent, 200);
+  EXPECT_GE(loop.expirations(), 1);
+  EXPECT_GT(loop.closure_rejections(), 0);  // every fifth state does not close
+  EXPECT_GE(bus.count("COOPDYN_STATS"), 4);
+  EXPECT_GT(loop.ticks(), 100);  // at most one output per state, plus the heartbeats of the silence
+  EXPECT_EQ(bus.count("COOPDYN_OUTPUT"), loop.ticks());
+  runtime::Event e;
+  while (loop.events().pop(&e)) {
+  }
+}
+
 // The loop publishes from its own thread with lcm_publish over udpm: that path must not allocate
 // either (LCM 1.3: one sendmsg per datagram; larger messages are fragmented in place).
 TEST(LoopNoAllocation, UdpmPublishOfEncodedBytes) {
