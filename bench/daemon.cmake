@@ -3,3 +3,9 @@
 add_executable(loop_bench ${CMAKE_CURRENT_LIST_DIR}/loop_bench.cc)
 target_link_libraries(loop_bench PRIVATE coopdyn_runtime coopdyn_scene benchmark::benchmark)
 coopdyn_use_paths(loop_bench)
+
+# The MAC check of an authenticated input, per message of each input type (bench/README.md,
+# "Commands under a flood of junk")
+add_executable(auth_bench ${CMAKE_CURRENT_LIST_DIR}/auth_bench.cc)
+target_link_libraries(auth_bench PRIVATE coopdyn_io coopdyn_scene benchmark::benchmark)
+coopdyn_use_paths(auth_bench)
