@@ -255,7 +255,8 @@ std::unique_ptr<coopdyn::io::IsolatedReceiver> make_receiver(const coopdyn::runt
 }
 
 // The receive process's counters into the loop's statistics (any thread): restarts, drops, refusals
-// and, with authentication on, its rejections by reason (channel 0 the input, 1 the control channel)
+// and its rejections by reason (malformed; with authentication on also unauthenticated, bad MAC,
+// replayed), channel 0 the input, 1 the control channel
 void feed_receiver_counters(coopdyn::runtime::ServiceLoop& loop, const coopdyn::io::IsolatedReceiver& rx) {
   using namespace coopdyn;
   loop.set_receiver_counters(rx.restarts(), rx.dropped(), rx.filtered(), rx.malformed());
@@ -311,7 +312,7 @@ struct RejectionReport {
   std::atomic<long long> rejected_by[coopdyn::io::kRejectKinds] = {};
   std::atomic<long long> out_of_order{0};
   long long missed_logged = 0, filtered_logged = 0;
-  long long rx_rejected_logged[coopdyn::io::kRejectKinds] = {};  // by the receive process (authentication on)
+  long long rx_rejected_logged[coopdyn::io::kRejectKinds] = {};  // by the receive process, before its ring
   long long malformed_logged[coopdyn::io::wire::kWireStatuses] = {};
   std::chrono::steady_clock::time_point last_report = std::chrono::steady_clock::now() - std::chrono::seconds(2);
   void flush(bool force, const coopdyn::runtime::ServiceLoop& loop, const coopdyn::io::IsolatedReceiver& rx);

@@ -218,6 +218,7 @@ constexpr int kMaxAccept = kRxChannels;
 struct Accept {
   std::string channel;
   unsigned char hash[8];  // big-endian, as on the wire
+  MessageType type;       // the type of that hash
 };
 
 // The classic BPF program of the receive socket. For a UDP socket the filter sees the datagram from
@@ -281,18 +282,32 @@ struct ChildAuth {
   std::vector<int64_t> last_utime;
   ChildAuth(const AuthKey& key, const std::vector<Accept>& acc) {
     for (const Accept& a : acc) {
-      verifiers.emplace_back(key, a.channel, identify(a.hash, 8));
+      verifiers.emplace_back(key, a.channel, a.type);
       last_utime.push_back(std::numeric_limits<int64_t>::min());
     }
   }
-  // kNone: a signed message of channel k, newer than the last one that verified there
-  Reject check(int k, const uint8_t* data, int len) {
-    const Reject r = verifiers[static_cast<size_t>(k)].check(data, len);
+  // kNone: a signed message of channel k, newer than the last one that verified there. The MAC is
+  // computed last: a message without one, or whose utime is not above the last verified one's (which
+  // no MAC can make acceptable), costs no HMAC; such a message with a forged MAC counts as replayed.
+  Reject check(int k, MessageType t, const uint8_t* data, int len) {
+    Reject r = form(t, data, len);
     if (r != Reject::kNone) return r;
     const int64_t u = raw_utime(data, len);
     if (u <= last_utime[static_cast<size_t>(k)]) return Reject::kReplayed;
-    last_utime[static_cast<size_t>(k)] = u;
-    return Reject::kNone;
+    r = verifiers[static_cast<size_t>(k)].check(data, len);
+    if (r == Reject::kNone) last_utime[static_cast<size_t>(k)] = u;
+    return r;
+  }
+  // Verifier::check's reasons that need no HMAC: kDecode (no mac_len field where it must be, or bytes
+  // after the MAC), kUnauthenticated (mac_len 0), kBadMac (a MAC of another length); else kNone
+  static Reject form(MessageType t, const uint8_t* data, int len) {
+    const int at = mac_field_offset(t, data, len);
+    if (at < 0 || len - at < 4) return Reject::kDecode;
+    const int32_t mac_len = static_cast<int32_t>((uint32_t{data[at]} << 24) | (uint32_t{data[at + 1]} << 16) |
+                                                 (uint32_t{data[at + 2]} << 8) | uint32_t{data[at + 3]});
+    const int rest = len - at - 4;
+    if (mac_len == 0) return rest == 0 ? Reject::kUnauthenticated : Reject::kDecode;
+    return mac_len == kMacBytes && rest == kMacBytes ? Reject::kNone : Reject::kBadMac;
   }
 };
 
@@ -314,6 +329,7 @@ std::vector<Accept> accepted_from_args(int argc, char** argv) {
     x.channel = argv[a];
     const unsigned long long h = std::strtoull(argv[a + 1], nullptr, 16);
     for (int b = 0; b < 8; ++b) x.hash[b] = static_cast<unsigned char>(h >> (56 - 8 * b));
+    x.type = identify(x.hash, 8);
     acc.push_back(x);
   }
   return acc;
@@ -433,12 +449,15 @@ bool on_datagram(ChildRing& c, wire::Reassembler& reasm, const uint8_t* buf, siz
     c.hdr->filtered.fetch_add(1, std::memory_order_relaxed);
     return false;
   }
-  if (c.auth) {  // the MAC and the replay rule before the ring (authentication on)
-    const Reject r = c.auth->check(k, m.data, m.len);
-    if (r != Reject::kNone) {
-      c.hdr->rejected_by[k][static_cast<int>(r)].fetch_add(1, std::memory_order_relaxed);
-      return false;
-    }
+  // authentication on: the MAC and the replay rule before the ring; off: a message whose fields do not
+  // walk up to the MAC field is malformed (the decoders would refuse it: Reject::kDecode), refused
+  // here so that junk after a fingerprint never takes a ring slot
+  const Reject r = c.auth ? c.auth->check(k, (*c.acc)[static_cast<size_t>(k)].type, m.data, m.len)
+                          : mac_field_offset((*c.acc)[static_cast<size_t>(k)].type, m.data, m.len) < 0 ? Reject::kDecode
+                                                                                                       : Reject::kNone;
+  if (r != Reject::kNone) {
+    c.hdr->rejected_by[k][static_cast<int>(r)].fetch_add(1, std::memory_order_relaxed);
+    return false;
   }
   return push(c, m.data, m.len, t);
 }

@@ -35,6 +35,10 @@
 // fingerprint again (a fragment 0 before it takes a reassembly slot, complete messages, or a
 // filter that could not be attached) and counts what it refuses as `filtered`.
 //
+// A complete message whose fields do not walk up to the MAC field (codec.h, mac_field_offset: junk
+// after a type fingerprint) is rejected by the child as malformed (Reject::kDecode, counted in
+// rejected_by as below), with or without authentication: it never takes a ring slot.
+//
 // Authentication (set_auth_key, auth.h): the child verifies each complete message's MAC under the
 // key for its channel, then the replay rule (its utime above the last one that verified on that
 // channel), before the message takes a ring slot; what fails is counted by channel and reason
@@ -79,8 +83,9 @@ struct RxRingHeader {
   std::atomic<int64_t> filter;    // 1: socket filter attached; < 0: not (-1 no socket (not udpm), -2 refused)
   // datagrams the child refused as malformed LCM (lcm_wire.h), by reason (WireStatus)
   std::atomic<uint64_t> malformed_by[wire::kWireStatuses];
-  // authentication on: the key (written by the daemon before the child starts), and the messages the
-  // child rejected by channel (the order given) and reason (Reject)
+  // authentication on: the key (written by the daemon before the child starts); the messages the
+  // child rejected by channel (the order given) and reason (Reject: malformed, and with
+  // authentication unauthenticated, bad_mac, replayed)
   std::atomic<uint64_t> auth_on;
   unsigned char auth_key[kKeyBytes];
   std::atomic<uint64_t> rejected_by[kRxChannels][kRejectKinds];
@@ -121,7 +126,7 @@ class IsolatedReceiver {
   long long filtered() const;      // refused by the child (not a coopdyn message of its channel)
   long long malformed() const;     // datagrams refused by the child's wire parser (every reason)
   long long malformed(wire::WireStatus why) const;
-  // messages of channel k (the order given) the child rejected for reason why (authentication on)
+  // messages of channel k (the order given) the child rejected for reason why
   long long rejected(int channel, Reject why) const;
   long long socket_drops() const;  // dropped by the kernel at the receive socket (filter + overflow)
   long long socket_buffer() const; // SO_RCVBUF the kernel reports (0 until known)

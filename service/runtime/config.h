@@ -94,10 +94,10 @@ struct ServiceConfig {
   std::string lcm_url_in;
   int receive_queue = 64;             // messages the child can queue for the daemon (ring slots)
   int receive_max_bytes = 65536;      // largest input message accepted, bytes (larger: dropped, counted)
-  // SO_RCVBUF of the receive socket, bytes (4 MiB: about 13 ms of a one-thread flood on loopback, so
-  // that the receive process's scheduling gaps do not overflow it); 0: the URL's recv_buf_size, else
-  // the OS default
-  int receive_socket_buffer = 4194304;
+  // SO_RCVBUF of the receive socket, bytes (16 MiB: some 10,000 small datagrams, so that a flood
+  // does not overflow it while the receive process waits for a CPU on a loaded machine; 4 MiB did,
+  // bench/README.md); 0: the URL's recv_buf_size, else the OS default
+  int receive_socket_buffer = 16777216;
   std::string command_channel = "COOPDYN_COMMAND";
   std::string state_channel = "COOPDYN_STATE";
   std::string output_channel = "COOPDYN_OUTPUT";

@@ -187,7 +187,7 @@ const std::vector<ConfigField> kFields = {
      "process's 8 fragment reassembly slots"},
     {"receive", "socket_buffer_bytes", K::kCount, "a number (bytes)", kMinSocketBufferBytes, kMaxSocketBufferBytes,
      "0 or {lo}..{hi}", {}, false, COOPDYN_MEMBER(S::receive_socket_buffer, x),
-     check_socket_buffer, " (4 MiB; 0: the OS default, `net.core.rmem_default`)",
+     check_socket_buffer, " (16 MiB; 0: the OS default, `net.core.rmem_default`)",
      "`SO_RCVBUF` of the receive socket: room for a flood's bursts while the receive process waits for a CPU; the "
      "kernel caps it at `net.core.rmem_max` (212992 on Debian 12) unless the daemon has `CAP_NET_ADMIN` "
      "(`SO_RCVBUFFORCE`), and the log says what was granted"},

@@ -95,7 +95,7 @@ class ServiceLoop {
     inputs_dropped_.store(dropped, std::memory_order_relaxed);
     inputs_filtered_.store(filtered, std::memory_order_relaxed);
   }
-  // The receive process's own rejections (authentication on: io/rx_isolated.h), by reason (io::Reject):
+  // The receive process's own rejections before its ring (io/rx_isolated.h), by reason (io::Reject):
   // of the input channel (commands, or states) and of the control channel; any thread. Counted in
   // loop_stats_t with the inboxes' (received and rejected, by reason; controls_*).
   void set_receiver_rejections(const int64_t (&input_by_reason)[io::kRejectKinds],

@@ -201,7 +201,7 @@ void run_flood(Junk kind, FloodFigures* fig) {
   const std::vector<uint8_t> crafted = lc03(1, 100, 0xFFFFFF00u, 0, 2, "COOPDYN_COMMAND", 324);  // liblcm 1.3.1's crash
   std::thread junk([&] {
     std::mt19937 rng(11);
-    std::vector<uint8_t> b(600);
+    std::vector<uint8_t> b(600), fresh;
     const int64_t h = io::fingerprint(io::MessageType::kTorqueCommand);
     for (long i = 0; !stop_junk.load(std::memory_order_relaxed); ++i) {
       const std::vector<uint8_t>* whole = nullptr;
@@ -211,6 +211,12 @@ void run_flood(Junk kind, FloodFigures* fig) {
       if (kind == Junk::kFragments) {
         if (raw.send(crafted)) junk_sent.fetch_add(1, std::memory_order_relaxed);
         continue;
+      }
+      if (kind == Junk::kForged && i % 4 == 2) {  // forged: stamped now (+0.5 s), so the MAC must be computed
+        fresh = *whole;
+        const uint64_t u = static_cast<uint64_t>(io::wall_us() + 500000);
+        for (int k = 0; k < 8; ++k) fresh[8 + static_cast<size_t>(k)] = static_cast<uint8_t>(u >> (56 - 8 * k));
+        whole = &fresh;
       }
       int n = 0;
       if (whole) {
