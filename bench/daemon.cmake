@@ -7,3 +7,9 @@ coopdyn_use_paths(loop_bench)
 # Two processes that only talk LCM: the transport's share of the event-driven latency (loop_timing.sh)
 add_executable(lcm_pingpong ${CMAKE_CURRENT_LIST_DIR}/lcm_pingpong.cc)
 target_link_libraries(lcm_pingpong PRIVATE coopdyn_io)
+
+# The MAC check of an authenticated input, per message of each input type (bench/README.md,
+# "Commands under a flood of junk")
+add_executable(auth_bench ${CMAKE_CURRENT_LIST_DIR}/auth_bench.cc)
+target_link_libraries(auth_bench PRIVATE coopdyn_io coopdyn_scene benchmark::benchmark)
+coopdyn_use_paths(auth_bench)

@@ -93,6 +93,11 @@ _TYPES = None
 _PRE_MAC = {bytes.fromhex("b5f5b8e960348f9c"): "torque_command_t", bytes.fromhex("1a87938cb56bb24b"): "measured_state_t",
             bytes.fromhex("489f6be38cd3846e"): "control_t"}
 
+# loop_stats_t's fingerprints before int64 fields were appended, and the bytes of those fields: such a
+# message reads as the current one with them 0 (as service/io/convert.cc reads it)
+_STATS_BEFORE = {bytes.fromhex("7f11746fd02903b9"): 8 * 7,  # before inputs_malformed and controls_*
+                 bytes.fromhex("48bcc81f9a071c5a"): 8 * 6}  # before controls_received ... controls_replayed
+
 
 def decode(data):
     """The coopdyn message in data (by its fingerprint), decoded; None if it is another type."""
@@ -104,5 +109,9 @@ def decode(data):
         import coopdyn
         t = getattr(coopdyn, _PRE_MAC[head])
         return t.decode(t._get_packed_fingerprint() + bytes(data[8:]) + b"\0\0\0\0")
+    if head in _STATS_BEFORE:
+        import coopdyn
+        t = coopdyn.loop_stats_t
+        return t.decode(t._get_packed_fingerprint() + bytes(data[8:]) + bytes(_STATS_BEFORE[head]))
     t = _TYPES.get(head)
     return t.decode(data) if t else None

@@ -240,7 +240,7 @@ std::unique_ptr<coopdyn::io::IsolatedReceiver> make_receiver(const coopdyn::runt
   const ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
   if (n <= 0) throw std::runtime_error("cannot find its own executable (/proc/self/exe)");
   exe[n] = 0;
-  return std::make_unique<io::IsolatedReceiver>(
+  auto rx = std::make_unique<io::IsolatedReceiver>(
       exe, cfg.input_url(),
       std::vector<std::string>{cfg.mode == runtime::ServiceMode::kSimulate ? cfg.command_channel : cfg.state_channel,
                                cfg.control_channel},
@@ -248,6 +248,24 @@ std::unique_ptr<coopdyn::io::IsolatedReceiver> make_receiver(const coopdyn::runt
                                                                                         : io::MessageType::kMeasuredState),
                            io::fingerprint(io::MessageType::kControl)},
       cfg.receive_queue, cfg.receive_max_bytes, cfg.receive_socket_buffer);
+  // authentication on: the receive process verifies MACs before its ring (a flood of forged inputs
+  // cannot fill it); the inboxes verify again
+  if (!cfg.auth_key_file.empty()) rx->set_auth_key(io::read_key_file(cfg.auth_key_file));
+  return rx;
+}
+
+// The receive process's counters into the loop's statistics (any thread): restarts, drops, refusals
+// and its rejections by reason (malformed; with authentication on also unauthenticated, bad MAC,
+// replayed), channel 0 the input, 1 the control channel
+void feed_receiver_counters(coopdyn::runtime::ServiceLoop& loop, const coopdyn::io::IsolatedReceiver& rx) {
+  using namespace coopdyn;
+  loop.set_receiver_counters(rx.restarts(), rx.dropped(), rx.filtered(), rx.malformed());
+  int64_t input[io::kRejectKinds], control[io::kRejectKinds];
+  for (int k = 0; k < io::kRejectKinds; ++k) {
+    input[k] = rx.rejected(0, static_cast<io::Reject>(k));
+    control[k] = rx.rejected(1, static_cast<io::Reject>(k));
+  }
+  loop.set_receiver_rejections(input, control);
 }
 
 void log_startup(const coopdyn::System& sys, const coopdyn::runtime::ServiceConfig& cfg, const std::string& scene_path) {
@@ -297,6 +315,7 @@ struct RejectionReport {
   std::atomic<long long> rejected_by[coopdyn::io::kRejectKinds] = {};
   std::atomic<long long> out_of_order{0};
   long long missed_logged = 0, filtered_logged = 0;
+  long long rx_rejected_logged[coopdyn::io::kRejectKinds] = {};  // by the receive process, before its ring
   long long malformed_logged[coopdyn::io::wire::kWireStatuses] = {};
   std::chrono::steady_clock::time_point last_report = std::chrono::steady_clock::now() - std::chrono::seconds(2);
   void flush(bool force, const coopdyn::runtime::ServiceLoop& loop, const coopdyn::io::IsolatedReceiver& rx);
@@ -308,8 +327,12 @@ void RejectionReport::flush(bool force, const coopdyn::runtime::ServiceLoop& loo
   const auto now = std::chrono::steady_clock::now();
   if (!force && now - last_report < std::chrono::seconds(1)) return;
   std::string what;
-  for (int r = 1; r < io::kRejectKinds; ++r)
-    if (const long long k = rejected_by[r].exchange(0)) what += (what.empty() ? "" : ", ") + std::to_string(k) + " " + io::reject_name(static_cast<io::Reject>(r));
+  for (int r = 1; r < io::kRejectKinds; ++r) {
+    const long long in_rx = rx.rejected(0, static_cast<io::Reject>(r)) + rx.rejected(1, static_cast<io::Reject>(r));
+    const long long k = rejected_by[r].exchange(0) + in_rx - rx_rejected_logged[r];
+    rx_rejected_logged[r] = in_rx;
+    if (k) what += (what.empty() ? "" : ", ") + std::to_string(k) + " " + io::reject_name(static_cast<io::Reject>(r));
+  }
   if (const long long k = out_of_order.exchange(0))
     what += (what.empty() ? "" : ", ") + std::to_string(k) + " out of order (seq not above the last accepted)";
   if (const long long m = loop.input_counters().missed.load(); m > missed_logged) {
@@ -351,7 +374,7 @@ void start_receiving(coopdyn::io::IsolatedReceiver& rx, coopdyn::runtime::Servic
         }
         if (r == runtime::Offer::kRejected) rejections.rejected_by[static_cast<int>(why) % io::kRejectKinds].fetch_add(1);
         if (r == runtime::Offer::kOutOfOrder) rejections.out_of_order.fetch_add(1);
-        loop.set_receiver_counters(rx.restarts(), rx.dropped(), rx.filtered(), rx.malformed());
+        feed_receiver_counters(loop, rx);
       },
       [&loop, &rx](int status, long long restarts) {
         loop.set_receiver_counters(restarts, rx.dropped(), rx.filtered(), rx.malformed());
@@ -379,7 +402,8 @@ void wait_for_receiver(const coopdyn::io::IsolatedReceiver& rx, const coopdyn::r
     const long long got = rx.socket_buffer();
     if (cfg.receive_socket_buffer > 0 && got < 2LL * cfg.receive_socket_buffer)
       spdlog::warn("receive socket buffer: asked for {} bytes, the kernel grants {} (SO_RCVBUF reports {}; "
-                   "net.core.rmem_max = {} caps it: raise it with sysctl -w net.core.rmem_max={})",
+                   "net.core.rmem_max = {} caps it: raise it with sysctl -w net.core.rmem_max={}); a flood's "
+                   "bursts may overflow it and valid inputs are lost with the junk (counted)",
                    cfg.receive_socket_buffer, got / 2, got, rmem_max, cfg.receive_socket_buffer);
     else if (cfg.receive_socket_buffer > 0)
       spdlog::info("receive socket buffer: {} bytes as configured (SO_RCVBUF reports {}: the kernel doubles a request "
@@ -426,13 +450,14 @@ std::chrono::steady_clock::time_point run(coopdyn::runtime::ServiceLoop& loop, c
     overruns.flush(false);
     rejections.flush(false, loop, rx);
     // the receive process's counters also move without a message reaching the daemon (refused datagrams)
-    loop.set_receiver_counters(rx.restarts(), rx.dropped(), rx.filtered(), rx.malformed());
+    feed_receiver_counters(loop, rx);
     if (duration >= 0 &&
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count() >= duration)
       g_stop.store(true);
   }
   loop_thread.join();
   rx.stop();
+  feed_receiver_counters(loop, rx);  // the summary line counts what the receive process did last
   rejections.flush(true, loop, rx);
   while (loop.events().pop(&e)) {
     log_event(sys, e);

@@ -46,9 +46,22 @@ bool decode_msg(const void* data, int len, M* m) {
     return false;
   }
 }
-// loop_stats_t's fingerprint before inputs_malformed was appended: such a message (a log recorded
-// then) is the current encoding without the last field, read with inputs_malformed 0
-constexpr uint64_t kStatsHashBeforeMalformed = 0x7f11746fd02903b9ULL;
+// loop_stats_t's fingerprints before fields were appended (stats_fields.def), and how many bytes of
+// int64 fields the current encoding has after such a message's last: a log recorded then reads as
+// the current message with those fields 0
+struct StatsBefore {
+  uint64_t hash;
+  int missing_bytes;
+};
+constexpr StatsBefore kStatsBefore[] = {
+    {0x7f11746fd02903b9ULL, 8 * 7},  // before inputs_malformed (and the controls_* fields)
+    {0x48bcc81f9a071c5aULL, 8 * 6},  // before controls_received ... controls_replayed
+};
+int stats_missing_bytes(uint64_t hash) {
+  for (const StatsBefore& b : kStatsBefore)
+    if (b.hash == hash) return b.missing_bytes;
+  return -1;
+}
 
 int64_t hash_of(const void* data, int len) {
   if (len < 8) return 0;
@@ -236,11 +249,11 @@ bool decode_output(const void* data, int len, DecodedOutput* out) {
 
 bool decode_stats(const void* data, int len, StatsFrame* s) {
   coopdyn::loop_stats_t o;
-  if (len >= 8 && static_cast<uint64_t>(hash_of(data, len)) == kStatsHashBeforeMalformed) {
+  if (const int missing = stats_missing_bytes(static_cast<uint64_t>(hash_of(data, len))); missing >= 0) {
     std::vector<uint8_t> now(static_cast<const uint8_t*>(data), static_cast<const uint8_t*>(data) + len);
     const uint64_t h = static_cast<uint64_t>(coopdyn::loop_stats_t::getHash());
     for (int i = 0; i < 8; ++i) now[static_cast<size_t>(i)] = static_cast<uint8_t>(h >> (56 - 8 * i));
-    now.insert(now.end(), 8, 0);
+    now.insert(now.end(), static_cast<size_t>(missing), 0);
     if (!decode_msg(now.data(), static_cast<int>(now.size()), &o)) return false;
   } else if (!decode_msg(data, len, &o)) {
     return false;
@@ -263,7 +276,7 @@ MessageType identify(const void* data, int len) {
   if (h == coopdyn::torque_command_t::getHash() || u == kPreMacCommandHash) return MessageType::kTorqueCommand;
   if (h == coopdyn::measured_state_t::getHash() || u == kPreMacStateHash) return MessageType::kMeasuredState;
   if (h == coopdyn::output_t::getHash() || h == coopdyn::output_v1_t::getHash()) return MessageType::kOutput;
-  if (h == coopdyn::loop_stats_t::getHash() || u == kStatsHashBeforeMalformed) return MessageType::kLoopStats;
+  if (h == coopdyn::loop_stats_t::getHash() || stats_missing_bytes(u) >= 0) return MessageType::kLoopStats;
   if (h == coopdyn::control_t::getHash() || u == kPreMacControlHash) return MessageType::kControl;
   return MessageType::kUnknown;
 }

@@ -109,6 +109,9 @@ struct StatsFrame {
   int64_t rejected_by_reason[kRejectKinds] = {};  // index: Reject (kNone stays 0)
   int64_t closure_rejected = 0;
   int64_t inputs_malformed = 0;  // datagrams refused by the receive process's wire parser
+  // control_t: received, accepted, rejected (every reason), and rejected as unauthenticated, bad MAC, replayed
+  int64_t controls_received = 0, controls_accepted = 0, controls_rejected = 0;
+  int64_t controls_unauthenticated = 0, controls_bad_mac = 0, controls_replayed = 0;
 };
 
 // A decoded output_t, for clients and tests (allocates; never used by the loop).

@@ -23,9 +23,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
+#include <memory>
 #include <stdexcept>
 #include <vector>
 
+#include "service/io/codec.h"
 #include "service/io/lcm_wire.h"
 
 extern char** environ;
@@ -77,6 +80,7 @@ IsolatedReceiver::IsolatedReceiver(std::string exe, std::string url, std::vector
 
 IsolatedReceiver::~IsolatedReceiver() {
   stop();
+  if (hdr_) sodium_memzero(hdr_->auth_key, sizeof hdr_->auth_key);
   if (hdr_) munmap(hdr_, shm_size_);
   if (shm_fd_ >= 0) close(shm_fd_);
   if (event_fd_ >= 0) close(event_fd_);
@@ -92,6 +96,14 @@ long long IsolatedReceiver::malformed() const {
 }
 long long IsolatedReceiver::malformed(wire::WireStatus why) const {
   return static_cast<long long>(hdr_->malformed_by[static_cast<int>(why)].load());
+}
+void IsolatedReceiver::set_auth_key(const AuthKey& key) {
+  std::memcpy(hdr_->auth_key, key.data(), kKeyBytes);
+  hdr_->auth_on.store(1);
+}
+long long IsolatedReceiver::rejected(int channel, Reject why) const {
+  if (channel < 0 || channel >= kRxChannels || static_cast<int>(why) < 0 || static_cast<int>(why) >= kRejectKinds) return 0;
+  return static_cast<long long>(hdr_->rejected_by[channel][static_cast<int>(why)].load(std::memory_order_relaxed));
 }
 long long IsolatedReceiver::filtered() const { return static_cast<long long>(hdr_->filtered.load()); }
 long long IsolatedReceiver::socket_drops() const { return static_cast<long long>(hdr_->socket_drops.load()); }
@@ -201,11 +213,12 @@ void IsolatedReceiver::run() {
 namespace {
 
 constexpr uint32_t kLc02 = 0x4c433032, kLc03 = 0x4c433033;  // LCM's short message and fragment magic
-constexpr int kMaxAccept = 8;
+constexpr int kMaxAccept = kRxChannels;
 
 struct Accept {
   std::string channel;
   unsigned char hash[8];  // big-endian, as on the wire
+  MessageType type;       // the type of that hash
 };
 
 // The classic BPF program of the receive socket. For a UDP socket the filter sees the datagram from
@@ -262,13 +275,50 @@ uint64_t kernel_drops(int fd) {
   return 0;
 }
 
-// What the receive process hands a message to: the ring and its doorbell, and the channels with
-// their type hashes it accepts.
+// Authentication on: each accepted channel's verifier (its type from the channel's fingerprint) and
+// the utime of the last message that verified on it (the replay rule, as the inboxes apply it).
+struct ChildAuth {
+  std::vector<Verifier> verifiers;
+  std::vector<int64_t> last_utime;
+  ChildAuth(const AuthKey& key, const std::vector<Accept>& acc) {
+    for (const Accept& a : acc) {
+      verifiers.emplace_back(key, a.channel, a.type);
+      last_utime.push_back(std::numeric_limits<int64_t>::min());
+    }
+  }
+  // kNone: a signed message of channel k, newer than the last one that verified there. The MAC is
+  // computed last: a message without one, or whose utime is not above the last verified one's (which
+  // no MAC can make acceptable), costs no HMAC; such a message with a forged MAC counts as replayed.
+  Reject check(int k, MessageType t, const uint8_t* data, int len) {
+    Reject r = form(t, data, len);
+    if (r != Reject::kNone) return r;
+    const int64_t u = raw_utime(data, len);
+    if (u <= last_utime[static_cast<size_t>(k)]) return Reject::kReplayed;
+    r = verifiers[static_cast<size_t>(k)].check(data, len);
+    if (r == Reject::kNone) last_utime[static_cast<size_t>(k)] = u;
+    return r;
+  }
+  // Verifier::check's reasons that need no HMAC: kDecode (no mac_len field where it must be, or bytes
+  // after the MAC), kUnauthenticated (mac_len 0), kBadMac (a MAC of another length); else kNone
+  static Reject form(MessageType t, const uint8_t* data, int len) {
+    const int at = mac_field_offset(t, data, len);
+    if (at < 0 || len - at < 4) return Reject::kDecode;
+    const int32_t mac_len = static_cast<int32_t>((uint32_t{data[at]} << 24) | (uint32_t{data[at + 1]} << 16) |
+                                                 (uint32_t{data[at + 2]} << 8) | uint32_t{data[at + 3]});
+    const int rest = len - at - 4;
+    if (mac_len == 0) return rest == 0 ? Reject::kUnauthenticated : Reject::kDecode;
+    return mac_len == kMacBytes && rest == kMacBytes ? Reject::kNone : Reject::kBadMac;
+  }
+};
+
+// What the receive process hands a message to: the ring and its doorbell, the channels with their
+// type hashes it accepts, and with authentication on their verifiers.
 struct ChildRing {
   RxRingHeader* hdr;
   unsigned char* base;
   int event_fd;
   const std::vector<Accept>* acc;
+  ChildAuth* auth;  // nullptr: authentication off
 };
 
 // CHANNEL HASH pairs of the command line (from argv[6] on)
@@ -279,6 +329,7 @@ std::vector<Accept> accepted_from_args(int argc, char** argv) {
     x.channel = argv[a];
     const unsigned long long h = std::strtoull(argv[a + 1], nullptr, 16);
     for (int b = 0; b < 8; ++b) x.hash[b] = static_cast<unsigned char>(h >> (56 - 8 * b));
+    x.type = identify(x.hash, 8);
     acc.push_back(x);
   }
   return acc;
@@ -313,6 +364,11 @@ int open_receive_socket(RxRingHeader* hdr, const wire::UdpmUrl& u, long rcvbuf, 
   if (rcvbuf > 0) {
     const int want = static_cast<int>(std::min<long>(rcvbuf, 1L << 30));
     setsockopt(sock, SOL_SOCKET, SO_RCVBUF, &want, sizeof want);
+    int got = 0;
+    socklen_t gl = sizeof got;
+    // capped at net.core.rmem_max: with CAP_NET_ADMIN the buffer asked for all the same
+    if (getsockopt(sock, SOL_SOCKET, SO_RCVBUF, &got, &gl) == 0 && got / 2 < want)
+      setsockopt(sock, SOL_SOCKET, SO_RCVBUFFORCE, &want, sizeof want);
   }
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
@@ -336,13 +392,15 @@ int open_receive_socket(RxRingHeader* hdr, const wire::UdpmUrl& u, long rcvbuf, 
 }
 
 // A coopdyn message of one of the accepted channels: the channel literally, then the payload's
-// first 8 bytes the type's fingerprint.
-bool accepted(const std::vector<Accept>& acc, const char* channel, int channel_len, const uint8_t* data, int len) {
-  for (const Accept& a : acc)
+// first 8 bytes the type's fingerprint. Returns the channel's index, -1 if none.
+int accepted(const std::vector<Accept>& acc, const char* channel, int channel_len, const uint8_t* data, int len) {
+  for (size_t k = 0; k < acc.size(); ++k) {
+    const Accept& a = acc[k];
     if (len >= 8 && std::memcmp(data, a.hash, 8) == 0 && a.channel.size() == static_cast<size_t>(channel_len) &&
         std::memcmp(a.channel.data(), channel, a.channel.size()) == 0)
-      return true;
-  return false;
+      return static_cast<int>(k);
+  }
+  return -1;
 }
 
 // A message into the next free slot with its receive time (the doorbell is rung per batch).
@@ -371,7 +429,7 @@ bool on_datagram(ChildRing& c, wire::Reassembler& reasm, const uint8_t* buf, siz
   wire::Datagram d;
   wire::WireStatus st = wire::parse_datagram(buf, len, &d);
   if (st == wire::WireStatus::kPending && d.fragment_no == 0 &&
-      !accepted(*c.acc, d.channel, d.channel_len, d.data, d.data_len)) {  // refused before it takes a slot
+      accepted(*c.acc, d.channel, d.channel_len, d.data, d.data_len) < 0) {  // refused before it takes a slot
     c.hdr->filtered.fetch_add(1, std::memory_order_relaxed);
     return false;
   }
@@ -386,8 +444,19 @@ bool on_datagram(ChildRing& c, wire::Reassembler& reasm, const uint8_t* buf, siz
   }
   if (st != wire::WireStatus::kComplete) return false;
   c.hdr->received.fetch_add(1, std::memory_order_relaxed);
-  if (!accepted(*c.acc, m.channel, m.channel_len, m.data, m.len)) {
+  const int k = accepted(*c.acc, m.channel, m.channel_len, m.data, m.len);
+  if (k < 0) {
     c.hdr->filtered.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  // authentication on: the MAC and the replay rule before the ring; off: a message whose fields do not
+  // walk up to the MAC field is malformed (the decoders would refuse it: Reject::kDecode), refused
+  // here so that junk after a fingerprint never takes a ring slot
+  const Reject r = c.auth ? c.auth->check(k, (*c.acc)[static_cast<size_t>(k)].type, m.data, m.len)
+                          : mac_field_offset((*c.acc)[static_cast<size_t>(k)].type, m.data, m.len) < 0 ? Reject::kDecode
+                                                                                                       : Reject::kNone;
+  if (r != Reject::kNone) {
+    c.hdr->rejected_by[k][static_cast<int>(r)].fetch_add(1, std::memory_order_relaxed);
     return false;
   }
   return push(c, m.data, m.len, t);
@@ -455,7 +524,15 @@ int rx_child_main(int argc, char** argv) {
   const std::vector<Accept> acc = accepted_from_args(argc, argv);
   RxRingHeader* hdr = map_ring(shm_fd);
   if (!hdr) return 3;
-  ChildRing ring{hdr, reinterpret_cast<unsigned char*>(hdr) + 64 * ((sizeof(RxRingHeader) + 63) / 64), event_fd, &acc};
+  std::unique_ptr<ChildAuth> auth;
+  if (hdr->auth_on.load() == 1) {
+    AuthKey key;
+    std::memcpy(key.data(), hdr->auth_key, kKeyBytes);
+    auth = std::make_unique<ChildAuth>(key, acc);
+    sodium_memzero(key.data(), key.size());
+  }
+  ChildRing ring{hdr, reinterpret_cast<unsigned char*>(hdr) + 64 * ((sizeof(RxRingHeader) + 63) / 64), event_fd, &acc,
+                 auth.get()};
   // udpm: our own socket; anything else (memq:// is in-process only) receives nothing here
   wire::UdpmUrl u;
   std::string why;

@@ -34,6 +34,20 @@
 // the socket's overflow drops (SO_MEMINFO, `socket_drops`). The child checks the channel and
 // fingerprint again (a fragment 0 before it takes a reassembly slot, complete messages, or a
 // filter that could not be attached) and counts what it refuses as `filtered`.
+//
+// A complete message whose fields do not walk up to the MAC field (codec.h, mac_field_offset: junk
+// after a type fingerprint) is rejected by the child as malformed (Reject::kDecode, counted in
+// rejected_by as below), with or without authentication: it never takes a ring slot.
+//
+// Authentication (set_auth_key, auth.h): the child verifies each complete message's MAC under the
+// key for its channel, then the replay rule (its utime above the last one that verified on that
+// channel), before the message takes a ring slot; what fails is counted by channel and reason
+// (rejected_by: malformed, unauthenticated, bad_mac, replayed) and never reaches the daemon, so a
+// flood of unsigned, forged or replayed inputs cannot fill the ring ahead of the signed ones. The
+// daemon verifies what arrives through the ring again (the inboxes, inbox.h). The key is handed over
+// in the shared header; the child then holds the key, which a compromise of the child would reveal
+// (its parser is bounded and fuzzed; the alternative, junk through the ring, lost a third of the
+// valid commands under a flood: docs/guide/service.md, threat model).
 #pragma once
 
 #include <sched.h>
@@ -46,9 +60,13 @@
 #include <thread>
 #include <vector>
 
+#include "service/io/auth.h"
 #include "service/io/lcm_wire.h"
+#include "service/io/messages.h"
 
 namespace coopdyn::io {
+
+constexpr int kRxChannels = 8;  // channels one receive process accepts at most
 
 // The shared ring: a header, then `slots` slots of (len, recv_ns, bytes[slot_bytes]).
 struct RxRingHeader {
@@ -65,6 +83,12 @@ struct RxRingHeader {
   std::atomic<int64_t> filter;    // 1: socket filter attached; < 0: not (-1 no socket (not udpm), -2 refused)
   // datagrams the child refused as malformed LCM (lcm_wire.h), by reason (WireStatus)
   std::atomic<uint64_t> malformed_by[wire::kWireStatuses];
+  // authentication on: the key (written by the daemon before the child starts); the messages the
+  // child rejected by channel (the order given) and reason (Reject: malformed, and with
+  // authentication unauthenticated, bad_mac, replayed)
+  std::atomic<uint64_t> auth_on;
+  unsigned char auth_key[kKeyBytes];
+  std::atomic<uint64_t> rejected_by[kRxChannels][kRejectKinds];
 };
 static_assert(std::atomic<uint64_t>::is_always_lock_free, "the ring's counters must be lock-free across processes");
 
@@ -89,6 +113,9 @@ class IsolatedReceiver {
   // Keeps the receive thread and the child off this CPU (the loop's realtime.cpu): call before
   // start(). Ignored when it would leave no CPU.
   void avoid_cpu(int cpu) { avoid_cpu_ = cpu; }
+  // Authentication on: the child verifies each message's MAC and the replay rule before the ring
+  // (above). Call before start().
+  void set_auth_key(const AuthKey& key);
   // Starts the child and the receive thread; handler runs on the receive thread.
   void start(Handler handler, RestartHandler on_restart);
   void stop();  // stops the thread, kills and reaps the child (also done by the destructor)
@@ -99,6 +126,8 @@ class IsolatedReceiver {
   long long filtered() const;      // refused by the child (not a coopdyn message of its channel)
   long long malformed() const;     // datagrams refused by the child's wire parser (every reason)
   long long malformed(wire::WireStatus why) const;
+  // messages of channel k (the order given) the child rejected for reason why
+  long long rejected(int channel, Reject why) const;
   long long socket_drops() const;  // dropped by the kernel at the receive socket (filter + overflow)
   long long socket_buffer() const; // SO_RCVBUF the kernel reports (0 until known)
   int filter_state() const;        // 1 attached, 0 not yet, -1 no receive socket found, -2 refused

@@ -79,7 +79,8 @@ struct RealtimeOptions {
 //   closure_tolerance.*  (0, 1e6] in m, rad, m/s, rad/s
 //   receive.queue   [2, 4096] messages; receive.max_message_bytes [256, 4194304] bytes
 //   receive.socket_buffer_bytes  0 (the OS default) or [4096, 268435456] bytes (SO_RCVBUF takes an
-//                   int; the kernel caps a request at net.core.rmem_max, and the daemon logs what it got)
+//                   int; the kernel caps a request at net.core.rmem_max unless the receive process may
+//                   use SO_RCVBUFFORCE (CAP_NET_ADMIN), and the daemon logs what it got)
 //   channel names   1..63 characters (LCM_MAX_CHANNEL_NAME_LENGTH); lcm_url 1..1024 characters
 inline constexpr double kMinRateHz = 1.0, kMaxRateHz = 20000.0;
 inline constexpr double kMinWatchdogMs = 1.0, kMaxWatchdogMs = 3600.0e3;
@@ -99,7 +100,10 @@ struct ServiceConfig {
   std::string lcm_url_in;
   int receive_queue = 64;             // messages the child can queue for the daemon (ring slots)
   int receive_max_bytes = 65536;      // largest input message accepted, bytes (larger: dropped, counted)
-  int receive_socket_buffer = 0;      // SO_RCVBUF of the receive socket, bytes; 0: the OS default
+  // SO_RCVBUF of the receive socket, bytes (16 MiB: some 10,000 small datagrams, so that a flood
+  // does not overflow it while the receive process waits for a CPU on a loaded machine; 4 MiB did,
+  // bench/README.md); 0: the URL's recv_buf_size, else the OS default
+  int receive_socket_buffer = 16777216;
   std::string command_channel = "COOPDYN_COMMAND";
   std::string state_channel = "COOPDYN_STATE";
   std::string output_channel = "COOPDYN_OUTPUT";

@@ -192,9 +192,10 @@ const std::vector<ConfigField> kFields = {
      "process's 8 fragment reassembly slots"},
     {"receive", "socket_buffer_bytes", K::kCount, "a number (bytes)", kMinSocketBufferBytes, kMaxSocketBufferBytes,
      "0 or {lo}..{hi}", {}, false, COOPDYN_MEMBER(S::receive_socket_buffer, x),
-     check_socket_buffer, " (the OS default, `net.core.rmem_default`)",
-     "`SO_RCVBUF` of the receive socket; the kernel caps it at `net.core.rmem_max` (212992 on Debian 12) and the log "
-     "says what was granted"},
+     check_socket_buffer, " (16 MiB; 0: the OS default, `net.core.rmem_default`)",
+     "`SO_RCVBUF` of the receive socket: room for a flood's bursts while the receive process waits for a CPU; the "
+     "kernel caps it at `net.core.rmem_max` (212992 on Debian 12) unless the daemon has `CAP_NET_ADMIN` "
+     "(`SO_RCVBUFFORCE`), and the log says what was granted"},
     {"channels", "command", K::kText, "a string", 1, kMaxChannelChars, "names {lo}..{hi} characters", {}, false,
      COOPDYN_MEMBER(S::command_channel, s), check_channel, "", "`torque_command_t` in (simulate)"},
     {"channels", "state", K::kText, "a string", 1, kMaxChannelChars, "", {}, false, COOPDYN_MEMBER(S::state_channel, s), check_channel, "", "`measured_state_t` in (estimate)"},

@@ -415,6 +415,26 @@ void ServiceLoop::fill_counters(io::StatsFrame& s) const {
   for (int k = 0; k < io::kRejectKinds; ++k) s.rejected_by_reason[k] = c.by_reason[k].load(std::memory_order_relaxed);
   s.closure_rejected = closure_rejected_.load(std::memory_order_relaxed);
   s.inputs_malformed = inputs_malformed_.load(std::memory_order_relaxed);
+  // controls; then what the receive process rejected before the ring, with the inboxes' own
+  const InputCounters& ctl = controls_.counters();
+  s.controls_received = ctl.received.load(std::memory_order_relaxed);
+  s.controls_accepted = ctl.accepted.load(std::memory_order_relaxed);
+  s.controls_rejected = ctl.rejected.load(std::memory_order_relaxed);
+  int64_t ctl_by[io::kRejectKinds];
+  for (int k = 0; k < io::kRejectKinds; ++k) ctl_by[k] = ctl.by_reason[k].load(std::memory_order_relaxed);
+  for (int k = 1; k < io::kRejectKinds; ++k) {
+    const int64_t in = rx_input_rejected_[k].load(std::memory_order_relaxed),
+                  cn = rx_control_rejected_[k].load(std::memory_order_relaxed);
+    s.received += in;
+    s.rejected += in;
+    s.rejected_by_reason[k] += in;
+    s.controls_received += cn;
+    s.controls_rejected += cn;
+    ctl_by[k] += cn;
+  }
+  s.controls_unauthenticated = ctl_by[static_cast<int>(io::Reject::kUnauthenticated)];
+  s.controls_bad_mac = ctl_by[static_cast<int>(io::Reject::kBadMac)];
+  s.controls_replayed = ctl_by[static_cast<int>(io::Reject::kReplayed)];
 }
 
 void ServiceLoop::publish_stats() {

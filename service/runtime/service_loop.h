@@ -97,6 +97,16 @@ class ServiceLoop {
     inputs_dropped_.store(dropped, std::memory_order_relaxed);
     inputs_filtered_.store(filtered, std::memory_order_relaxed);
   }
+  // The receive process's own rejections before its ring (io/rx_isolated.h), by reason (io::Reject):
+  // of the input channel (commands, or states) and of the control channel; any thread. Counted in
+  // loop_stats_t with the inboxes' (received and rejected, by reason; controls_*).
+  void set_receiver_rejections(const int64_t (&input_by_reason)[io::kRejectKinds],
+                               const int64_t (&control_by_reason)[io::kRejectKinds]) {
+    for (int k = 0; k < io::kRejectKinds; ++k) {
+      rx_input_rejected_[k].store(input_by_reason[k], std::memory_order_relaxed);
+      rx_control_rejected_[k].store(control_by_reason[k], std::memory_order_relaxed);
+    }
+  }
   EventRing<256>& events() { return events_; }
   // loop thread (or after run() returned)
   const Eigen::VectorXd& q() const { return q_; }
@@ -182,6 +192,7 @@ class ServiceLoop {
 
   std::atomic<int64_t> ticks_{0}, overruns_{0}, skipped_{0}, expired_{0}, numerical_errors_{0};
   std::atomic<int64_t> receiver_restarts_{0}, inputs_dropped_{0}, inputs_filtered_{0}, inputs_malformed_{0};
+  std::atomic<int64_t> rx_input_rejected_[io::kRejectKinds] = {}, rx_control_rejected_[io::kRejectKinds] = {};
   std::atomic<int64_t> closure_rejected_{0};  // estimate: measured states above closure_tolerance
   Histogram late_win_, comp_win_, late_all_, comp_all_;
   EventRing<256> events_;

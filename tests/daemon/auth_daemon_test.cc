@@ -215,7 +215,8 @@ TEST(AuthMac, OfferWithAuthAllocatesNothing) {
 }
 
 // memq://: the loop runs in this process with auth on; each kind of forgery is rejected with its
-// own reason, counted in loop_stats_t, and never applied; the signed commands are.
+// own reason, counted in loop_stats_t, and never applied; the signed commands are. Controls: an
+// unsigned, a replayed and a forged one rejected, counted in loop_stats_t's controls_* fields.
 TEST(AuthRoundTrip, MemqForgedUnsignedReplayedRejectedSignedApplied) {
   const System sys = load_scene(scene_path("two_puma_load"));
   runtime::ServiceConfig cfg;
@@ -261,9 +262,12 @@ TEST(AuthRoundTrip, MemqForgedUnsignedReplayedRejectedSignedApplied) {
   ASSERT_TRUE(sink.wait_output([](const io::DecodedOutput& o) { return o.control_seq == 100 && o.paused == 1; }, 5s));
   send(io::encode_control(io::wall_us(), 101, io::ControlAction::kResume), "COOPDYN_CONTROL");
   send(pause, "COOPDYN_CONTROL");  // replayed
+  auto forged_resume = io::encode_control(io::wall_us(), 102, io::ControlAction::kResume);
+  io::sign(forged_resume, "COOPDYN_CONTROL", wrong, io::MessageType::kControl);
+  send(forged_resume, "COOPDYN_CONTROL");
   io::StatsFrame s;
   const bool counted = sink.wait_stats(
-      [](const io::StatsFrame& x) { return x.received >= 7; }, 5s, &s);
+      [](const io::StatsFrame& x) { return x.received >= 7 && x.controls_received >= 4; }, 5s, &s);
   std::this_thread::sleep_for(50ms);
   stop = true;
   th.join();
@@ -281,6 +285,14 @@ TEST(AuthRoundTrip, MemqForgedUnsignedReplayedRejectedSignedApplied) {
   EXPECT_EQ(c.accepted.load(), 1);
   EXPECT_EQ(c.by_reason[static_cast<int>(io::Reject::kUnauthenticated)].load(), 1);
   EXPECT_EQ(c.by_reason[static_cast<int>(io::Reject::kReplayed)].load(), 1);
+  EXPECT_EQ(c.by_reason[static_cast<int>(io::Reject::kBadMac)].load(), 1);
+  // the controls' rejections in loop_stats_t, apart from the commands'
+  EXPECT_EQ(s.controls_received, 4);
+  EXPECT_EQ(s.controls_accepted, 1);
+  EXPECT_EQ(s.controls_rejected, 3);
+  EXPECT_EQ(s.controls_unauthenticated, 1);
+  EXPECT_EQ(s.controls_bad_mac, 1);
+  EXPECT_EQ(s.controls_replayed, 1);
   std::lock_guard<std::mutex> lk(sink.mu);
   EXPECT_EQ(sink.outs.back().paused, 1) << "the unsigned RESUME was applied";
 }
@@ -373,6 +385,13 @@ TEST(AuthDaemon, UdpmSignedClientsAppliedUnsignedRejected) {
   auto [rc_c2, out_c2] = control(true, "control_signed");
   EXPECT_EQ(rc_c2, 0) << out_c2;
   EXPECT_NE(out_c2.find("ok; the simulation is paused"), std::string::npos) << out_c2;
+  // the unsigned control, rejected by the receive process before its ring, is in loop_stats_t
+  io::StatsFrame st;
+  EXPECT_TRUE(sink.wait_stats(
+      [](const io::StatsFrame& x) { return x.controls_unauthenticated == 1 && x.controls_accepted == 1; }, 5s, &st))
+      << "the unsigned control is not counted in loop_stats_t";
+  EXPECT_EQ(st.controls_received, 2);
+  EXPECT_EQ(st.controls_rejected, 1);
   d.signal(SIGTERM);
   EXPECT_EQ(d.wait(), 0) << slurp(d.err);
   bus->stop();

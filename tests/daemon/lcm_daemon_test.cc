@@ -31,6 +31,7 @@
 #include "service/runtime/service_loop.h"
 #include "tests/support/child_process.h"
 #include "tests/support/daemon_test_util.h"
+#include "tests/support/raw_udp.h"
 
 extern char** environ;
 
@@ -633,48 +634,6 @@ void EstimateReplay::replay_and_compare(bool joints_only) {
   std::remove(sim_csv.c_str());
 }
 
-namespace {
-// Sends raw datagrams to the group and port of a udpm URL (ttl 0: this machine only).
-struct RawUdp {
-  int fd = -1;
-  sockaddr_in to{};
-  explicit RawUdp(const std::string& url) {  // udpm://GROUP:PORT?...
-    const auto colon = url.rfind(':'), q = url.find('?');
-    const int port = std::stoi(url.substr(colon + 1, q - colon - 1));
-    const std::string group = url.substr(7, colon - 7);
-    fd = socket(AF_INET, SOCK_DGRAM, 0);
-    unsigned char ttl = 0;
-    setsockopt(fd, IPPROTO_IP, IP_MULTICAST_TTL, &ttl, sizeof ttl);
-    to.sin_family = AF_INET;
-    to.sin_port = htons(static_cast<uint16_t>(port));
-    inet_pton(AF_INET, group.c_str(), &to.sin_addr);
-  }
-  ~RawUdp() { close(fd); }
-  void send(const std::vector<uint8_t>& b) { sendto(fd, b.data(), b.size(), 0, reinterpret_cast<sockaddr*>(&to), sizeof to); }
-};
-void put32(std::vector<uint8_t>& b, uint32_t x) {
-  for (int s = 24; s >= 0; s -= 8) b.push_back(static_cast<uint8_t>(x >> s));
-}
-void put16(std::vector<uint8_t>& b, uint16_t x) {
-  b.push_back(static_cast<uint8_t>(x >> 8));
-  b.push_back(static_cast<uint8_t>(x));
-}
-// An LCM fragment (LC03): magic, seqno, message size, fragment offset, fragment number, count; the
-// channel after fragment 0's header, then payload.
-std::vector<uint8_t> lc03(uint32_t seq, uint32_t size, uint32_t offset, uint16_t no, uint16_t count,
-                          const std::string& channel, size_t total) {
-  std::vector<uint8_t> b;
-  put32(b, 0x4c433033);
-  put32(b, seq);
-  put32(b, size);
-  put32(b, offset);
-  put16(b, no);
-  put16(b, count);
-  if (no == 0) b.insert(b.end(), channel.begin(), channel.end()), b.push_back(0);
-  while (b.size() < total) b.push_back(0xab);
-  return b;
-}
-}  // namespace
 
 // Hostile datagrams on the inputs (README "What the daemon guarantees"). liblcm 1.3.1 writes out of
 // bounds on a crafted LC03 fragment (offset 0xFFFFFF00) and dies; the daemon's receive process

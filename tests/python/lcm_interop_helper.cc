@@ -133,6 +133,13 @@ std::string stats_json(const io::StatsFrame& s) {
   j.add("inputs_dropped", num(s.inputs_dropped)).add("commands_missed", num(s.missed));
   j.add("inputs_filtered", num(s.inputs_filtered)).add("closure_rejected", num(s.closure_rejected));
   j.add("inputs_malformed", num(s.inputs_malformed));
+  for (const auto& [k, v] : {std::make_pair("controls_received", s.controls_received),
+                             std::make_pair("controls_accepted", s.controls_accepted),
+                             std::make_pair("controls_rejected", s.controls_rejected),
+                             std::make_pair("controls_unauthenticated", s.controls_unauthenticated),
+                             std::make_pair("controls_bad_mac", s.controls_bad_mac),
+                             std::make_pair("controls_replayed", s.controls_replayed)})
+    j.add(k, num(v));
   std::vector<std::string> keys;
   std::vector<long long> counts;
   for (int k = 1; k < io::kRejectKinds; ++k) {

@@ -1,0 +1,92 @@
+// loop_stats_t as logs recorded before its last fields were appended (service/io/convert.cc,
+// kStatsBefore): such a message reads as the current one with those fields 0; identify() knows it.
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <vector>
+
+#include "service/io/codec.h"
+
+using namespace coopdyn;
+
+namespace {
+
+io::StatsFrame some_stats() {
+  io::StatsFrame s;
+  s.utime = 1796331378501476;
+  s.tick = 50;
+  s.period_us = 1000;
+  s.received = 9;
+  s.accepted = 4;
+  s.rejected = 5;
+  s.rejected_by_reason[static_cast<int>(io::Reject::kBadMac)] = 3;
+  s.rejected_by_reason[static_cast<int>(io::Reject::kReplayed)] = 2;
+  s.inputs_malformed = 11;
+  s.controls_received = 6;
+  s.controls_accepted = 1;
+  s.controls_rejected = 5;
+  s.controls_unauthenticated = 2;
+  s.controls_bad_mac = 2;
+  s.controls_replayed = 1;
+  return s;
+}
+
+// the encoding of s with an older fingerprint, its last `dropped` bytes (appended int64 fields) cut
+std::vector<uint8_t> as_before(const io::StatsFrame& s, uint64_t hash, int dropped) {
+  io::StatsEncoder enc;
+  std::vector<uint8_t> b(static_cast<size_t>(enc.max_size()));
+  const int n = enc.encode(s, b.data(), static_cast<int>(b.size()));
+  EXPECT_GT(n, dropped);
+  b.resize(static_cast<size_t>(n - dropped));
+  for (int i = 0; i < 8; ++i) b[static_cast<size_t>(i)] = static_cast<uint8_t>(hash >> (56 - 8 * i));
+  return b;
+}
+
+}  // namespace
+
+TEST(StatsLog, CurrentEncodingRoundTripsTheControlCounts) {
+  const io::StatsFrame s = some_stats();
+  io::StatsEncoder enc;
+  std::vector<uint8_t> b(static_cast<size_t>(enc.max_size()));
+  const int n = enc.encode(s, b.data(), static_cast<int>(b.size()));
+  io::StatsFrame back;
+  ASSERT_TRUE(io::decode_stats(b.data(), n, &back));
+  EXPECT_EQ(back.controls_received, 6);
+  EXPECT_EQ(back.controls_accepted, 1);
+  EXPECT_EQ(back.controls_rejected, 5);
+  EXPECT_EQ(back.controls_unauthenticated, 2);
+  EXPECT_EQ(back.controls_bad_mac, 2);
+  EXPECT_EQ(back.controls_replayed, 1);
+  EXPECT_EQ(back.rejected_by_reason[static_cast<int>(io::Reject::kBadMac)], 3);
+}
+
+TEST(StatsLog, RecordedBeforeTheControlCountsReadsThemAsZero) {
+  const io::StatsFrame s = some_stats();
+  const auto b = as_before(s, 0x48bcc81f9a071c5aULL, 6 * 8);
+  EXPECT_EQ(io::identify(b.data(), static_cast<int>(b.size())), io::MessageType::kLoopStats);
+  io::StatsFrame back;
+  ASSERT_TRUE(io::decode_stats(b.data(), static_cast<int>(b.size()), &back));
+  EXPECT_EQ(back.tick, 50);
+  EXPECT_EQ(back.rejected, 5);
+  EXPECT_EQ(back.rejected_by_reason[static_cast<int>(io::Reject::kReplayed)], 2);
+  EXPECT_EQ(back.inputs_malformed, 11);
+  EXPECT_EQ(back.controls_received, 0);
+  EXPECT_EQ(back.controls_rejected, 0);
+  EXPECT_EQ(back.controls_bad_mac, 0);
+}
+
+TEST(StatsLog, RecordedBeforeInputsMalformedReadsItAndTheControlCountsAsZero) {
+  const io::StatsFrame s = some_stats();
+  const auto b = as_before(s, 0x7f11746fd02903b9ULL, 7 * 8);
+  EXPECT_EQ(io::identify(b.data(), static_cast<int>(b.size())), io::MessageType::kLoopStats);
+  io::StatsFrame back;
+  ASSERT_TRUE(io::decode_stats(b.data(), static_cast<int>(b.size()), &back));
+  EXPECT_EQ(back.accepted, 4);
+  EXPECT_EQ(back.inputs_malformed, 0);
+  EXPECT_EQ(back.controls_received, 0);
+  // the same bytes under the current fingerprint are too short: refused, not misread
+  auto cut = b;
+  const uint64_t h = static_cast<uint64_t>(io::fingerprint(io::MessageType::kLoopStats));
+  for (int i = 0; i < 8; ++i) cut[static_cast<size_t>(i)] = static_cast<uint8_t>(h >> (56 - 8 * i));
+  EXPECT_FALSE(io::decode_stats(cut.data(), static_cast<int>(cut.size()), &back));
+}
