@@ -1,10 +1,11 @@
-// Cost of each reported wrench's sigma from declared torque noise (service/dynamics/wrench_sigma.h)
-// next to the evaluation it comes from. Per scene (every joint reaction reported, `noise: {tau: 0.1}`
-// on every actuated joint), interleaved in one process (a shared machine's load drifts between
-// separate runs): per repetition a block of evaluate() calls, then compute_wrenches(), then
-// compute_wrench_sigma(), each block ~0.3 ms; printed per scene: the medians over REPS (default 31)
-// repetitions of each per-call time and of the ratio sigma / evaluate within one repetition.
-// Goal: the sigma of every reported wrench under 25 % of an evaluation.
+// Cost of each reported wrench's sigma (service/dynamics/wrench_sigma.h) next to the evaluation it
+// comes from. Per scene (every joint reaction reported, `noise: {tau: 0.1, q: 1e-4, v: 1e-3}` on
+// every actuated / measured joint), interleaved in one process (a shared machine's load drifts
+// between separate runs): per repetition a block of evaluate() calls, then compute_wrenches(), then
+// compute_wrench_sigma() with the torque noise (simulate mode), then with the torque, position and
+// velocity noise (estimate mode), each block ~0.3 ms; printed per scene: the medians over REPS
+// (default 31) repetitions of each per-call time and of the ratios sigma / evaluate within one
+// repetition. Goal: the sigma of every reported wrench under 25 % of an evaluation.
 //
 //   wrench_sigma_bench [REPS]
 #include <algorithm>
@@ -30,7 +31,7 @@ System load(const std::string& path) {
   std::string text = ss.str();
   const auto p = text.find("\nreactions:");
   if (p != std::string::npos) text.erase(p, text.find('\n', p + 1) - p);
-  return load_scene_string(text + "\nreactions: all\nnoise: {tau: 0.1}\n", path);
+  return load_scene_string(text + "\nreactions: all\nnoise: {tau: 0.1, q: 1e-4, v: 1e-3}\n", path);
 }
 
 double median(std::vector<double> x) {
@@ -53,8 +54,8 @@ int main(int argc, char** argv) {
   const std::vector<std::string> scenes = {dir + "/config/scenes/two_puma_load.yaml", dir + "/config/scenes/two_iiwa_load.yaml",
                                            dir + "/config/scenes/four_wheel_car.yaml", dir + "/bench/scenes/pumas_4.yaml",
                                            dir + "/bench/scenes/pumas_8.yaml"};
-  std::printf("%-22s %4s %4s %4s %8s %10s %10s %10s %8s\n", "scene", "nv", "rows", "out", "noisy", "eval_us", "wrench_us",
-              "sigma_us", "sigma/eval");
+  std::printf("%-22s %4s %4s %4s %5s %5s %8s %9s %8s %10s %8s %10s\n", "scene", "nv", "rows", "out", "tau", "q+v",
+              "eval_us", "wrench_us", "sigma_us", "sigma/eval", "est_us", "est/eval");
   for (const std::string& path : scenes) {
     const System sys = load(path);
     Workspace ws(sys);
@@ -64,16 +65,19 @@ int main(int argc, char** argv) {
     evaluate(sys, ws, sys.q0, sys.v0, tau);
     const double e0 = per_call_us(50, [&] { evaluate(sys, ws, sys.q0, sys.v0, tau); });
     const int n = std::max(5, static_cast<int>(300.0 / std::max(e0, 1e-3)));
-    std::vector<double> te, tw, ts, ratio;
+    std::vector<double> te, tw, ts, tq, ratio, ratio_q;
     for (int r = 0; r < reps; ++r) {
       te.push_back(per_call_us(n, [&] { evaluate(sys, ws, sys.q0, sys.v0, tau); }));
       tw.push_back(per_call_us(n, [&] { compute_wrenches(sys, ws, wd); }));
       ts.push_back(per_call_us(n, [&] { compute_wrench_sigma(sys, ws, sd); }));
+      tq.push_back(per_call_us(n, [&] { compute_wrench_sigma(sys, ws, sd, sys.q0, sys.v0, tau); }));
       ratio.push_back(ts.back() / te.back());
+      ratio_q.push_back(tq.back() / te.back());
     }
     const std::string name = path.substr(path.rfind('/') + 1);
-    std::printf("%-22s %4d %4d %4zu %8zu %10.2f %10.2f %10.2f %8.3f\n", name.c_str(), sys.model.nv(), sys.constraints.rows,
-                sys.wrenches.outputs.size(), sd.dofs.size(), median(te), median(tw), median(ts), median(ratio));
+    std::printf("%-22s %4d %4d %4zu %5zu %5zu %8.2f %9.2f %8.2f %10.3f %8.2f %10.3f\n", name.c_str(), sys.model.nv(),
+                sys.constraints.rows, sys.wrenches.outputs.size(), sd.dofs.size(), sd.q_dofs.size() + sd.v_dofs.size(), median(te),
+                median(tw), median(ts), median(ratio), median(tq), median(ratio_q));
   }
   return 0;
 }

@@ -3,7 +3,8 @@
 # STEPS.csv is a per-step CSV (docs/conventions.md): a `coopdyn sim --out` file or the output_t
 # channel of `coopdyn log`; STATS.csv the loop_stats_t channel of a log ('' or absent: none).
 # Writes OUTDIR/wrenches.png (the torques and inputs, then one panel per wrench component with its
-# unit, then the pseudo-joint stresses), OUTDIR/reactions.png (the joint reactions) and
+# unit and, where the CSV carries the wrench's sigma (NAME.sigma_mx, ...), a +-sigma band around it,
+# then the pseudo-joint stresses), OUTDIR/reactions.png (the joint reactions) and
 # OUTDIR/timing.png, all on the same time axis t (s).
 import csv
 import sys
@@ -79,6 +80,27 @@ def mark_inputs(ax, changes, t_end, label=False):
                         textcoords="offset points", va="top", ha="left", fontsize=8, color="0.2")
 
 
+BAND_COLOR, BAND_ALPHA = "tab:orange", 0.3
+
+
+def sigma_column(c):
+    """The column of component c's standard deviation (NAME.mx -> NAME.sigma_mx)."""
+    name, comp = c.rsplit(".", 1)
+    return f"{name}.sigma_{comp}"
+
+
+def sigma_band(ax, t, y, cols, c):
+    """Draws y +- sigma where the CSV carries component c's sigma (nonzero somewhere); True if drawn."""
+    sc = sigma_column(c)
+    if sc not in cols:
+        return False
+    s = numeric(cols[sc])
+    if not np.any(s > 0):
+        return False
+    ax.fill_between(t, y - s, y + s, color=BAND_COLOR, alpha=BAND_ALPHA, lw=0, zorder=1)
+    return True
+
+
 def wrench_figure(path, title, t, cols, units, wrenches, changes, torque_cols, stresses, xlim):
     comps = (("mx", "my", "mz"), ("fx", "fy", "fz"))
     rows = []  # (title, [column or None] x 3)
@@ -118,8 +140,10 @@ def wrench_figure(path, title, t, cols, units, wrenches, changes, torque_cols, s
             if ax0 is None:
                 ax0 = ax
             axes.append(ax)
-            ax.plot(t, numeric(cols[c]), lw=1.2)
-            ax.set_title(c.rsplit(".", 1)[1] + f" [{units.get(c, '')}]", fontsize=10)
+            y = numeric(cols[c])
+            ax.plot(t, y, lw=1.2)
+            band = sigma_band(ax, t, y, cols, c)
+            ax.set_title(c.rsplit(".", 1)[1] + f" [{units.get(c, '')}]" + (" (band: +-sigma)" if band else ""), fontsize=10)
             ax.ticklabel_format(axis="y", useOffset=False)
             mark_inputs(ax, changes, xlim[1])
             if k == 0:

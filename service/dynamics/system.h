@@ -66,6 +66,11 @@ struct System {
   Eigen::VectorXd tau_noise;  // (nv) standard deviation of each DOF's torque noise, N m or N (scene key
                               // `noise`; 0 = none, on every DOF when the scene declares none):
                               // propagated into each wrench's sigma (wrench_sigma.h)
+  // (nv) standard deviation of each measured joint's position (rad or m) and velocity (rad/s or m/s)
+  // noise (scene key `noise: {q: S, v: S}`; 0 = none): 1-DOF joints only, the joint's q index is
+  // model.bodies[dof_body[d]].joint.idx_q. Propagated in estimate mode by the linearization at the
+  // evaluated state (wrench_sigma.h)
+  Eigen::VectorXd q_noise, v_noise;
   // The arms' base links in the mobile-platform form whose joint 1 has no armature: the base link
   // carries a nominal inertia (no mass) only so that M stays regular for joint 1, which moves
   // nothing else; the weld of spec `spec` holds it, so that inertia does no work and the results do

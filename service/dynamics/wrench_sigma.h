@@ -1,21 +1,38 @@
-// The uncertainty of every reported wrench (wrench_outputs.h) from declared joint-torque noise
-// (System::tau_noise, scene key `noise`). Call after evaluate() on the same workspace (it reads the
-// evaluation's factors; the solves use the workspace's scratch, not its results).
+// The uncertainty of every reported wrench (wrench_outputs.h) from declared noise (scene key `noise`):
+// the joint torques (System::tau_noise) and, in estimate mode, the measured joint positions and
+// velocities (System::q_noise, v_noise). Call after evaluate() on the same workspace (it reads the
+// evaluation's factors; the solves use this data's scratch, not the workspace's results).
 //
-// At a fixed state (q, v) every reported wrench is affine in the torques: w_k = W_k tau + c_k (the
-// factorization of M and of Q does not depend on tau, nor does the rank decision or the redundancy
-// rule, which are linear in the right-hand side). With tau ~ N(tau, diag(S^2)) the covariance of
-// w_k is exactly W_k diag(S^2) W_k^T; it is computed through its square root
-//   C_k = W_k diag(S)          (6 x na, na = the DOFs with noise), sigma_k = the row norms of C_k
-// one column per noisy DOF j, from the evaluation's factors (constrained_dynamics.h):
-//   du = L^-T e_j S_j,  dlambda = Q^-1 (-Y du),  dvdot = L^-1 (du + Y^T dlambda)
-// then the tips' rows of dlambda and the joint reactions' change (joint_reactions.h, the part linear
-// in vdot, minus the subtree sum of the constraint-force change). With rolling resistance the
-// wheels' moments depend on lambda: the column is the same fixed point as the evaluation's.
+// Torque noise, exact. At a fixed state (q, v) every reported wrench is affine in the torques:
+// w_k = W_k tau + c_k (the factorization of M and of Q does not depend on tau, nor does the rank
+// decision or the redundancy rule, which are linear in the right-hand side). With
+// tau ~ N(tau, diag(S^2)) the covariance of w_k is exactly W_k diag(S^2) W_k^T; it is computed
+// through its square root C_k = W_k diag(S) (6 x na), sigma_k = the row norms of C_k.
+//
+// Measurement noise, linearized at the evaluated state. The evaluation solves
+//   E1 = tau + tau_loss(v) - M(q) vdot - h(q, v) + G(q)^T lambda = 0,   E2 = gamma(q, v) - G(q) vdot = 0
+// and reports w = g(q, v, vdot, lambda). A change dx of one measured coordinate moves the solution by
+//   M dvdot - G^T dlambda = dE1/dx dx,   G dvdot = dE2/dx dx
+// (the same solve as a torque change, with a right-hand side in both rows), and the wrench by
+// dg/dx dx (its own dependence at fixed vdot, lambda) plus the solve's part. dE/dx and dg/dx are
+// directional differences of the residual (kinematics, inverse dynamics, constraint rows and the
+// wrench pass, no factorization) with a forward step h = 1e-7 (rad, m, rad/s, m/s): the solve
+// itself is never repeated. The linearization error is second order in the noise (a wrench's
+// curvature in q times S_q^2); the truncation error of the step is O(h): against central
+// differences of whole evaluations the columns agree to 1e-4 (absolute, or relative above 1) on the
+// shipped scenes (tests/dynamics/wrench_sigma_test.cc). The measured
+// state is taken as evaluated: a load pose fitted from the joints (state_fit.h) is held, not
+// re-fitted. Joint friction is held at the evaluation's (set-valued at rest, its sign constant
+// while sliding); damping follows v.
+//
+// All columns (torque, then q, then v) are propagated together: one pass of each factor over a
+// block of right-hand sides, one block Q solve, one reaction pass over 6 x columns blocks.
 //
 // Indeterminate components (WrenchData::indeterminate, an over-constrained system) report the
 // spread of the value the scene's redundancy rule selects (minimum norm or compliance-weighted):
-// the physics does not determine them, the rule is linear, and that is the value reported.
+// the physics does not determine them, the rule is linear, and that is the value reported. The
+// rule's null space turns with q: an over-constrained evaluation has no position columns (source
+// without kQ).
 //
 // Supported formulations: mobile_platform and classic (every shipped scene). pseudo_joint and svd,
 // a failed evaluation, a scene without noise, or an evaluation in which Coulomb friction holds a
@@ -24,6 +41,7 @@
 // after construction; never throws.
 #pragma once
 
+#include <memory>
 #include <vector>
 
 #include <Eigen/Core>
@@ -33,31 +51,59 @@
 
 namespace coopdyn {
 
-// The scene declares torque noise on some DOF and its formulation propagates it (mobile_platform,
-// classic): the outputs carry sigma.
+// The scene declares noise (torque, or joint position or velocity) on some DOF and its formulation
+// propagates it (mobile_platform, classic): the outputs carry sigma.
 bool wrench_sigma_supported(const System& sys);
 
 struct WrenchSigmaData {
+  using RowMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  // what a sigma contains (bits, output_t SIGMA_*)
+  static constexpr int kTau = 1, kQ = 2, kV = 4;
+
   explicit WrenchSigmaData(const System& sys);
 
   bool declared = false;  // wrench_sigma_supported(sys)
   bool valid = false;     // the last compute_wrench_sigma() filled sigma
-  std::vector<int> dofs;  // (na) the velocity indices with noise > 0
+  int source = 0;         // kTau | kQ | kV: the noise the last sigma contains (0 when not valid)
+  std::vector<int> dofs;  // (na) the velocity indices with torque noise > 0
   Eigen::VectorXd S;      // (na) their standard deviations (N m or N)
+  std::vector<int> q_dofs, v_dofs;  // velocity indices of the joints with position / velocity noise
+  std::vector<int> q_index;         // (q_dofs) their q indices
+  Eigen::VectorXd Sq, Sv;           // their standard deviations (rad or m; rad/s or m/s)
+  int ncols = 0;                    // columns of C the last compute filled
   std::vector<Vec6> sigma;  // per output: standard deviation of each component [moment; force] in
                             // the output's report frame (N m, N)
-  // C(6 k + c, j): component c of output k per one standard deviation of DOF dofs[j]'s torque
-  // (the square root of the covariance: cov_k = C_k C_k^T)
-  Eigen::MatrixXd C;  // (6 outputs x na)
+  // C(6 k + c, j): component c of output k per one standard deviation of noise source j: the torque
+  // of dofs[j] (j < na), then the position of q_dofs (estimate mode), then the velocity of v_dofs
+  // (the square root of the covariance: cov_k = C_k C_k^T over the first ncols columns)
+  RowMat C;  // (6 outputs x (na + nq + nv))
+  RowMat Cd;  // (6 outputs x (nq + nv)) the wrenches' own change at fixed vdot, lambda (scratch)
 
-  // scratch
-  Eigen::VectorXd du, du0, dlam, dlam_prev, dvdot, rhs;  // (nv), (nv), (rows), (rows), (nv), (rows)
-  std::vector<Vec6> zero_f, a, acc, R, R0, dF;           // per body (dF: per pass spec)
-  std::vector<Transform> X_WF;                           // per output: its report frame
+  // scratch (columns: every noise source)
+  RowMat X, X0, Lam, Lam_prev, Rhs, Gm;  // (nv), (nv), (rows), (rows), (rows), (rows) x columns
+  RowMat A, Rb, Acc;                     // (6 bodies x columns): accelerations, reactions, subtree sums
+  RowMat dF;                             // (6 pass specs x columns)
+  Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::RowMajor> Tmp, Tmp2;  // (6 x columns)
+  std::vector<Mat6> I_lin, I_fix;        // per body: the reaction's inertia on its acceleration
+  std::vector<Mat6> T_spec;              // per spec: world force at p_ref per unit of each row
+  Eigen::VectorXd unit, col_b, col_x;    // (rows)
+  std::vector<Transform> X_WF;           // per output: its report frame
+
+  // measurement noise: the perturbed residuals (allocated when q or v noise is declared)
+  std::unique_ptr<Workspace> wp;
+  std::unique_ptr<WrenchData> wd0, wd1;
+  Eigen::VectorXd qp, vp, tau_id, r0_tau, r_tau;  // (nq), (nv), (nv), (nv), (nv)
+  Eigen::VectorXd r0_g, r_g;                       // (rows)
 };
 
-// Fills sd.sigma and sd.C for the evaluation in ws.
-// Nothing to do (valid = false, sigma zero) when nothing is declared or the evaluation failed.
+// Torque noise only (simulate mode: the state is exact). Fills sd.sigma and sd.C for the
+// evaluation in ws. Nothing to do (valid = false, sigma zero) when nothing is declared or the
+// evaluation failed.
 void compute_wrench_sigma(const System& sys, Workspace& ws, WrenchSigmaData& sd);
+
+// Estimate mode: torque noise and the measurement noise of (q, v) at the state the evaluation in ws
+// was made at (q, v, tau: its arguments).
+void compute_wrench_sigma(const System& sys, Workspace& ws, WrenchSigmaData& sd, const Eigen::VectorXd& q,
+                          const Eigen::VectorXd& v, const Eigen::VectorXd& tau);
 
 }  // namespace coopdyn

@@ -480,11 +480,13 @@ coopdyn::wrench_t zero_wrench() {
 }  // namespace
 
 namespace {
-// each wrench's sigma (SIGMA_TAU) when computed, else zeros (SIGMA_NONE); false on a non-finite value
+// each wrench's sigma (SIGMA_TAU | SIGMA_Q | SIGMA_V: the noise it contains) when computed, else
+// zeros (SIGMA_NONE); false on a non-finite value
 bool put_sigma(const WrenchSigmaData* sd, coopdyn::output_t& o) {
   const bool on = sd && sd->valid;
-  if (on) o.sigma_source = coopdyn::output_t::SIGMA_TAU;  // (an if, not ?:, which would odr-use the constants)
-  else o.sigma_source = coopdyn::output_t::SIGMA_NONE;
+  static_assert(WrenchSigmaData::kTau == coopdyn::output_t::SIGMA_TAU && WrenchSigmaData::kQ == coopdyn::output_t::SIGMA_Q &&
+                WrenchSigmaData::kV == coopdyn::output_t::SIGMA_V);
+  o.sigma_source = static_cast<int8_t>(on ? sd->source : 0);
   bool ok = true;
   for (size_t t = 0; t < o.wrench_sigma.size(); ++t)
     for (int k = 0; k < 6; ++k) {

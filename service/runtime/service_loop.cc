@@ -362,13 +362,14 @@ void ServiceLoop::evaluate_measured(const io::StateSlot& s, io::OutputFrame& f) 
   if (closure_open_) events_.push({EventCode::kClosureBack, s.seq, 0, 0});
   closure_open_ = false;
   const Diagnostics& d = evaluate(sys_, ws_, q_est_, v_est_, s.tau);
-  put_evaluation(f, ws_, d, d.status != Status::kError);
+  put_evaluation(f, ws_, d, d.status != Status::kError, &s);
   if (!f.valid) numerical_errors_.fetch_add(1, std::memory_order_relaxed);
 }
 
 // The frame's evaluation: its workspace, status and reason, and when it succeeded (ok) the
 // scene's wrenches of it.
-void ServiceLoop::put_evaluation(io::OutputFrame& f, Workspace& ws, const Diagnostics& d, bool ok) {
+void ServiceLoop::put_evaluation(io::OutputFrame& f, Workspace& ws, const Diagnostics& d, bool ok,
+                                 const io::StateSlot* estimated) {
   f.ws = &ws;
   f.valid = ok;
   f.status = static_cast<int8_t>(d.status);
@@ -377,7 +378,8 @@ void ServiceLoop::put_evaluation(io::OutputFrame& f, Workspace& ws, const Diagno
   compute_wrenches(sys_, ws, wrenches_);
   f.wrenches = &wrenches_;
   if (sigma_.declared) {
-    compute_wrench_sigma(sys_, ws, sigma_);
+    if (estimated) compute_wrench_sigma(sys_, ws, sigma_, q_est_, v_est_, estimated->tau);
+    else compute_wrench_sigma(sys_, ws, sigma_);
     f.sigma = &sigma_;
   }
 }

@@ -131,7 +131,9 @@ class ServiceLoop {
   void integrate(io::OutputFrame& f);
   void evaluate_held(io::OutputFrame& f);
   void evaluate_measured(const io::StateSlot& s, io::OutputFrame& f);
-  void put_evaluation(io::OutputFrame& f, Workspace& ws, const Diagnostics& d, bool ok);
+  // estimated: the evaluated measured state (its q and v noise enters sigma), nullptr when simulating
+  void put_evaluation(io::OutputFrame& f, Workspace& ws, const Diagnostics& d, bool ok,
+                      const io::StateSlot* estimated = nullptr);
   void publish_output(io::OutputFrame& f);
 
   void safe_torque(const Eigen::VectorXd& q, const Eigen::VectorXd& v);

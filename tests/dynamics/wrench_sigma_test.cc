@@ -268,8 +268,185 @@ TEST(WrenchSigma, SceneKeyNoise) {
   EXPECT_NE(err("{tau: 0.1, joints: {arm9.q1: 1}}").find("unknown joint 'arm9.q1'"), std::string::npos);
   EXPECT_NE(err("{tau: 0.1, joints: {arm9.q1: 1}}").find(at), std::string::npos);
   EXPECT_NE(err("{tau: 0.1, joints: {load.wx: 1}}").find("not actuated"), std::string::npos) << err("{tau: 0.1, joints: {load.wx: 1}}");
-  EXPECT_NE(err("{tau: 0.1, q: 0.01}").find(at), std::string::npos) << err("{tau: 0.1, q: 0.01}");
+  EXPECT_NE(err("{tau: 0.1, qq: 0.01}").find(at), std::string::npos) << err("{tau: 0.1, qq: 0.01}");
+  EXPECT_NE(err("{q: -1e-3}").find(at), std::string::npos) << err("{q: -1e-3}");
+  EXPECT_NE(err("{v: .nan}").find(at), std::string::npos) << err("{v: .nan}");
+  EXPECT_NE(err("{joints: {load.wx: {v: 0.1}}}").find("not a measured 1-DOF joint"), std::string::npos)
+      << err("{joints: {load.wx: {v: 0.1}}}");
+  EXPECT_NE(err("{joints: {arm1.q1: {tau: 1, w: 2}}}").find(at), std::string::npos) << err("{joints: {arm1.q1: {tau: 1, w: 2}}}");
   EXPECT_NE(err("0.1").find("mapping"), std::string::npos);
+}
+
+// `noise: {q, v}`: every measured 1-DOF joint (not the load's floating joint, not a pseudo-joint)
+// gets them, a joint's own {tau, q, v} overrides them.
+TEST(WrenchSigma, SceneKeyStateNoise) {
+  const System sys = noisy("two_puma_load", "{q: 1e-4, v: 2e-3, joints: {arm2.q3: {q: 5e-4, tau: 0.3}, arm1.q1: {v: 0}}}");
+  for (int i = 0; i < sys.model.nv(); ++i) {
+    const std::string& nm = sys.model.v_names[i];
+    const bool meas = sys.model.bodies[sys.model.dof_body[i]].joint.type != JointType::kFloating;
+    EXPECT_EQ(sys.q_noise[i], nm == "arm2.q3" ? 5e-4 : meas ? 1e-4 : 0.0) << nm;
+    EXPECT_EQ(sys.v_noise[i], nm == "arm1.q1" ? 0.0 : meas ? 2e-3 : 0.0) << nm;
+    EXPECT_EQ(sys.tau_noise[i], nm == "arm2.q3" ? 0.3 : 0.0) << nm;
+  }
+  WrenchSigmaData sd(sys);
+  EXPECT_TRUE(sd.declared);
+  EXPECT_EQ(sd.dofs.size(), 1u);
+  EXPECT_EQ(sd.q_dofs.size(), 12u);
+  EXPECT_EQ(sd.v_dofs.size(), 11u);
+}
+
+// The measurement-noise columns against whole evaluations: column j / S_j is d w / d x_j at the
+// state, here by central differences of two full evaluate() + compute_wrenches() (step 1e-4: their
+// truncation error ~1e-8 relative, their round-off ~1e-12 |w| / 1e-4). The columns' own forward
+// step (1e-7) leaves O(1e-7 |d2w/dx2|): up to 8e-5 on the iiwa pair, hence the bound 1e-4.
+TEST(WrenchSigma, StateNoiseColumnsMatchWholeEvaluations) {
+  for (const Case& c : {Case{"two_puma_load", "{q: 1e-3, v: 1e-2}", std::nullopt, ""},
+                        Case{"two_iiwa_load", "{tau: 0.3, q: 1e-3, v: 1e-2}", std::nullopt, ""},  // URDF damping
+                        Case{"two_puma_load", "{q: 1e-3, v: 1e-2}", Formulation::kClassic, ""},
+                        Case{"planar_arms_load", "{q: 1e-3, v: 1e-2}", std::nullopt, ""},
+                        Case{"four_wheel_car", "{tau: 1, q: 1e-3, v: 1e-2}", std::nullopt, "ground: {rolling_resistance: 0.02}\n"}}) {
+    SCOPED_TRACE(c.scene + " " + c.noise + (c.f ? formulation_name(*c.f) : ""));
+    const System sys = load_case(c);
+    Workspace ws(sys);
+    WrenchData wp(sys), wm(sys);
+    WrenchSigmaData sd(sys);
+    Eigen::VectorXd q, v, tau;
+    some_state(sys, 7, q, v, tau);
+    ASSERT_NE(evaluate(sys, ws, q, v, tau).status, Status::kError);
+    compute_wrench_sigma(sys, ws, sd, q, v, tau);
+    ASSERT_TRUE(sd.valid);
+    // over-constrained (the planar pair, the car's four wheels): no position columns (the rule's
+    // null space turns with q)
+    const bool indet = ws.diag.indeterminate > 0;
+    EXPECT_EQ(indet, c.scene == "planar_arms_load" || c.scene == "four_wheel_car");
+    const int na = static_cast<int>(sd.dofs.size()), nq = indet ? 0 : static_cast<int>(sd.q_dofs.size());
+    EXPECT_EQ(sd.source, (na ? WrenchSigmaData::kTau : 0) | (indet ? 0 : WrenchSigmaData::kQ) | WrenchSigmaData::kV);
+    ASSERT_EQ(sd.ncols, na + nq + static_cast<int>(sd.v_dofs.size()));
+    double scale = 0.0;
+    for (int j = na; j < sd.ncols; ++j) {
+      const bool is_q = j < na + nq;
+      const int d = is_q ? sd.q_dofs[j - na] : sd.v_dofs[j - na - nq];
+      const double S = is_q ? sd.Sq[j - na] : sd.Sv[j - na - nq];
+      const double h = 1e-4;
+      Eigen::VectorXd qp = q, qm = q, vp = v, vm = v;
+      if (is_q) {
+        qp[sd.q_index[j - na]] += h;
+        qm[sd.q_index[j - na]] -= h;
+      } else {
+        vp[d] += h;
+        vm[d] -= h;
+      }
+      evaluate(sys, ws, qp, vp, tau);
+      compute_wrenches(sys, ws, wp);
+      evaluate(sys, ws, qm, vm, tau);
+      compute_wrenches(sys, ws, wm);
+      for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k)
+        for (int i = 0; i < 6; ++i) {
+          const double fd = (wp.W[k][i] - wm.W[k][i]) / (2 * h);
+          const double an = sd.C(static_cast<Eigen::Index>(6 * k + i), j) / S;
+          scale = std::max(scale, std::abs(an));
+          EXPECT_NEAR(an, fd, 1e-4 * std::max(1.0, std::abs(fd)))
+              << sys.wrenches.outputs[k].name << " component " << i << (is_q ? " q " : " v ") << sys.model.v_names[d];
+        }
+    }
+    EXPECT_GT(scale, 0.0);
+  }
+}
+
+// 300 evaluations at states drawn from the declared position and velocity noise (every measured
+// joint at once) against sigma. The noise is small (S_q = 1e-4 rad, S_v = 1e-3 rad/s), where the
+// wrenches are nearly linear: the linearization error, measured on every draw as
+// |w(x + dx) - w(x) - C z| (z the draw in standard deviations; second order, ~ S^2 |d2w/dx2|), is
+// bounded by 2e-2 of the largest sigma (7e-3 measured on the PUMA pair), which moves a variance by
+// a few percent at most: far inside the sampling error of the variance (chi-square, 5 standard
+// deviations: 0.41 relative), the bound asserted on the variance.
+TEST(WrenchSigma, MonteCarloReproducesStateNoiseSigma) {
+  for (const Case& c : {Case{"two_puma_load", "{q: 1e-4, v: 1e-3}", std::nullopt, ""},
+                        Case{"two_iiwa_load", "{tau: 0.2, q: 1e-4, v: 1e-3}", std::nullopt, ""}}) {
+    SCOPED_TRACE(c.scene);
+    const System sys = load_case(c);
+    Workspace ws(sys);
+    WrenchData wd(sys);
+    WrenchSigmaData sd(sys);
+    Eigen::VectorXd q, v, tau;
+    some_state(sys, 5, q, v, tau);
+    evaluate(sys, ws, q, v, tau);
+    compute_wrenches(sys, ws, wd);
+    compute_wrench_sigma(sys, ws, sd, q, v, tau);
+    ASSERT_TRUE(sd.valid);
+    const std::vector<Vec6> W0 = wd.W;
+    const size_t no = W0.size();
+    const int n = 300, na = static_cast<int>(sd.dofs.size()), nq = static_cast<int>(sd.q_dofs.size());
+    std::mt19937 rng(13);
+    std::normal_distribution<double> N01(0.0, 1.0);
+    Eigen::VectorXd sum = Eigen::VectorXd::Zero(6 * no), sum2 = sum, z(sd.ncols);
+    double lin_err = 0.0, smax = 0.0;
+    for (const Vec6& s : sd.sigma) smax = std::max(smax, s.maxCoeff());
+    for (int s = 0; s < n; ++s) {
+      for (int j = 0; j < sd.ncols; ++j) z[j] = N01(rng);
+      Eigen::VectorXd qs = q, vs = v, ts = tau;
+      for (int j = 0; j < na; ++j) ts[sd.dofs[j]] += sd.S[j] * z[j];
+      for (int j = 0; j < nq; ++j) qs[sd.q_index[j]] += sd.Sq[j] * z[na + j];
+      for (int j = 0; j < static_cast<int>(sd.v_dofs.size()); ++j) vs[sd.v_dofs[j]] += sd.Sv[j] * z[na + nq + j];
+      ASSERT_NE(evaluate(sys, ws, qs, vs, ts).status, Status::kError);
+      compute_wrenches(sys, ws, wd);
+      const Eigen::VectorXd lin = sd.C.leftCols(sd.ncols) * z;
+      for (size_t k = 0; k < no; ++k)
+        for (int i = 0; i < 6; ++i) {
+          const double x = wd.W[k][i] - W0[k][i];
+          lin_err = std::max(lin_err, std::abs(x - lin[6 * k + i]));
+          sum[6 * k + i] += x;
+          sum2[6 * k + i] += x * x;
+        }
+    }
+    EXPECT_LT(lin_err, 2e-2 * smax);  // the linearization error, stated above
+    const double tol = 5.0 * std::sqrt(2.0 / (n - 1));
+    int compared = 0;
+    for (size_t k = 0; k < no; ++k)
+      for (int i = 0; i < 6; ++i) {
+        const double mean = sum[6 * k + i] / n;
+        const double var = (sum2[6 * k + i] - n * mean * mean) / (n - 1);
+        const double sg = sd.sigma[k][i];
+        if (sg < 1e-6 * smax) continue;
+        ++compared;
+        EXPECT_NEAR(var / (sg * sg), 1.0, tol) << sys.wrenches.outputs[k].name << " component " << i;
+      }
+    EXPECT_GT(compared, 30);
+  }
+}
+
+// Simulate mode (the state is exact): the torque noise only, whatever q and v noise is declared;
+// a scene that declares only q and v noise then has no sigma.
+TEST(WrenchSigma, SimulateModeCarriesTorqueNoiseOnly) {
+  const System both = noisy("two_puma_load", "{tau: 0.2, q: 1e-3, v: 1e-2}");
+  const System tau_only = noisy("two_puma_load", "{tau: 0.2}");
+  const System state_only = noisy("two_puma_load", "{q: 1e-3}");
+  Workspace w1(both), w2(tau_only), w3(state_only);
+  WrenchSigmaData s1(both), s2(tau_only), s3(state_only);
+  Eigen::VectorXd q, v, tau;
+  some_state(both, 3, q, v, tau);
+  evaluate(both, w1, q, v, tau);
+  evaluate(tau_only, w2, q, v, tau);
+  evaluate(state_only, w3, q, v, tau);
+  compute_wrench_sigma(both, w1, s1);
+  compute_wrench_sigma(tau_only, w2, s2);
+  compute_wrench_sigma(state_only, w3, s3);
+  ASSERT_TRUE(s1.valid && s2.valid);
+  EXPECT_EQ(s1.source, WrenchSigmaData::kTau);
+  for (size_t k = 0; k < s1.sigma.size(); ++k) EXPECT_EQ(s1.sigma[k], s2.sigma[k]) << k;
+  EXPECT_TRUE(s3.declared);
+  EXPECT_FALSE(s3.valid);
+  EXPECT_EQ(s3.source, 0);
+  // estimate mode adds the measurement noise: every component's variance grows by its own share
+  compute_wrench_sigma(both, w1, s1, q, v, tau);
+  EXPECT_EQ(s1.source, WrenchSigmaData::kTau | WrenchSigmaData::kQ | WrenchSigmaData::kV);
+  int grew = 0;
+  for (size_t k = 0; k < s1.sigma.size(); ++k)
+    for (int i = 0; i < 6; ++i) {
+      EXPECT_GE(s1.sigma[k][i], s2.sigma[k][i] * (1 - 1e-12));
+      grew += s1.sigma[k][i] > s2.sigma[k][i] * (1 + 1e-6);
+    }
+  EXPECT_GT(grew, 30);
 }
 
 }  // namespace

@@ -30,3 +30,6 @@ add_test(NAME python.live_client_udpm_auth COMMAND ${COOPDYN_PYTHON3} -B ${CMAKE
                                                    --udpm-stand-in --auth)
 set_tests_properties(python.live_client_udpm_auth PROPERTIES ENVIRONMENT "${py_env};COOPDYND=$<TARGET_FILE:coopdynd>"
                      LABELS "python;daemon" TIMEOUT 60)
+# the plots' +-sigma bands (clients/cli/log_plot.py); skipped (exit 77) without matplotlib
+add_test(NAME clients.log_plot COMMAND ${COOPDYN_PYTHON3} -B ${PROJECT_SOURCE_DIR}/tests/clients/cli/log_plot_test.py -v)
+set_tests_properties(clients.log_plot PROPERTIES ENVIRONMENT "${py_env}" SKIP_RETURN_CODE 77 LABELS python TIMEOUT 120)

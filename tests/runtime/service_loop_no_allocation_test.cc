@@ -99,12 +99,14 @@ TEST(LoopNoAllocation, TickOfEverySceneBothModes) {
   }
 }
 
-// A scene that declares torque noise: every tick also computes each wrench's sigma (wrench_sigma.h),
-// in both modes, without allocating; the published output_t carries it (SIGMA_TAU, equal to the
-// sigma of the same evaluation computed here).
+// A scene that declares torque, position and velocity noise: every tick also computes each wrench's
+// sigma (wrench_sigma.h), in both modes, without allocating; the published output_t carries it
+// (simulate: SIGMA_TAU, estimate: SIGMA_TAU | SIGMA_Q | SIGMA_V), equal to the sigma of the same
+// evaluation computed here.
 TEST(LoopNoAllocation, TickWithWrenchSigma) {
   if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
-  const System sys = load_scene_string(slurp(scene_path("two_puma_load")) + "\nnoise: {tau: 0.2}\n", scene_path("two_puma_load"));
+  const System sys = load_scene_string(slurp(scene_path("two_puma_load")) + "\nnoise: {tau: 0.2, q: 1e-4, v: 1e-3}\n",
+                                       scene_path("two_puma_load"));
   for (auto mode : {runtime::ServiceMode::kSimulate, runtime::ServiceMode::kEstimate}) {
     runtime::ServiceConfig cfg;
     cfg.mode = mode;
@@ -126,14 +128,16 @@ TEST(LoopNoAllocation, TickWithWrenchSigma) {
     const io::DecodedOutput o = bus.last_output();
     SCOPED_TRACE(mode == runtime::ServiceMode::kSimulate ? "simulate" : "estimate");
     EXPECT_EQ(o.status, 0) << o.reason;
-    EXPECT_EQ(o.sigma_source, 1);
+    const bool est = mode == runtime::ServiceMode::kEstimate;
+    EXPECT_EQ(o.sigma_source, est ? 7 : 1);
     ASSERT_EQ(o.wrench_sigma.size(), sys.wrenches.outputs.size());
     Workspace ws(sys);
     WrenchData wd(sys);
     WrenchSigmaData sd(sys);
     evaluate(sys, ws, vec(o.q), vec(o.v), vec(o.tau));
     compute_wrenches(sys, ws, wd);
-    compute_wrench_sigma(sys, ws, sd);
+    if (est) compute_wrench_sigma(sys, ws, sd, vec(o.q), vec(o.v), vec(o.tau));
+    else compute_wrench_sigma(sys, ws, sd);
     for (size_t k = 0; k < o.wrench_sigma.size(); ++k)
       for (int i = 0; i < 6; ++i) EXPECT_NEAR(o.wrench_sigma[k][i], sd.sigma[k][i], 1e-9 * (1.0 + sd.sigma[k][i]));
   }

@@ -229,7 +229,7 @@ TEST(NoAllocation, EvaluateStepAndHoldOfTheRealRobots) {
 }
 
 TEST(NoAllocation, WrenchSigmaOfNoisyScenes) {
-  // each wrench's sigma from declared torque noise (wrench_sigma.h): closed chains on both fast
+  // each wrench's sigma from declared torque noise and from q and v noise (wrench_sigma.h): closed chains on both fast
   // paths (Cholesky, the block solve of 4 arms), the planar pair (rank path), the car with rolling
   // resistance (the fixed point), every joint reaction
   if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
@@ -246,7 +246,8 @@ TEST(NoAllocation, WrenchSigmaOfNoisyScenes) {
     ov.formulation = c.f;
     std::string text = without_reactions(slurp(c.path));
     if (!c.extra.empty()) text = replace_once(text, "mu: 0.85}", c.extra);
-    const System sys = load_scene_string(text + "\nreactions: all\nnoise: {tau: 0.2}\n", c.path, ov);
+    // torque noise, and the measured joints' position and velocity noise (estimate mode's columns)
+    const System sys = load_scene_string(text + "\nreactions: all\nnoise: {tau: 0.2, q: 1e-4, v: 1e-3}\n", c.path, ov);
     Workspace ws(sys);
     WrenchData wd(sys);
     WrenchSigmaData sd(sys);
@@ -258,10 +259,13 @@ TEST(NoAllocation, WrenchSigmaOfNoisyScenes) {
         evaluate(sys, ws, in.q[k % 16], in.v[k % 16], in.tau[k % 16]);
         compute_wrenches(sys, ws, wd);
         compute_wrench_sigma(sys, ws, sd);
+        compute_wrench_sigma(sys, ws, sd, in.q[k % 16], in.v[k % 16], in.tau[k % 16]);
       }
       EXPECT_EQ(cnt.count(), 0);
     }
     EXPECT_TRUE(sd.valid);
+    // (over-constrained evaluations have no position columns: wrench_sigma.h)
+    EXPECT_EQ(sd.source, WrenchSigmaData::kTau | WrenchSigmaData::kV | (ws.diag.indeterminate > 0 ? 0 : WrenchSigmaData::kQ));
   }
 }
 
