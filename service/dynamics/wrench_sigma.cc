@@ -130,9 +130,9 @@ void column_wrenches(const System& sys, const Workspace& ws, WrenchSigmaData& sd
 void compute_wrench_sigma(const System& sys, Workspace& ws, WrenchSigmaData& sd) {
   const WrenchSet& set = sys.wrenches;
   const size_t no = set.outputs.size();
-  // joints held by stiction absorb a torque change up to their bound: the response is not the
-  // one computed here (a bound, not a standard deviation); say absent rather than report it
-  sd.valid = sd.declared && ws.diag.status != Status::kError && ws.friction_stuck == 0;
+  // joints at rest: their friction is free within its bound (friction_bound.h reports that
+  // interval); the noise's spread is the response with it left free, the one computed here
+  sd.valid = sd.declared && ws.diag.status != Status::kError;
   if (!sd.valid) {
     if (sd.declared) {
       for (Vec6& s : sd.sigma) s.setZero();
