@@ -10,9 +10,11 @@ coopdyn_test(coopdynd_tests
     runtime/triple_buffer_test.cc
     runtime/histogram_test.cc
     runtime/service_loop_no_allocation_test.cc
+    runtime/estimate_friction_loop_test.cc
     runtime/config_test.cc
     runtime/vehicle_command_test.cc
     daemon/lcm_daemon_test.cc
+    daemon/estimate_friction_test.cc
     daemon/flood_daemon_test.cc
     daemon/netns_test.cc
     daemon/auth_daemon_test.cc

@@ -8,6 +8,7 @@
 #include "service/algorithms/kinematics.h"
 #include "service/dynamics/contacts.h"
 #include "service/dynamics/free_directions.h"
+#include "service/dynamics/friction_bound.h"
 #include "service/dynamics/wrench_sigma.h"
 #include "service/dynamics/wrenches.h"
 
@@ -95,9 +96,10 @@ void write_frame_pose(std::FILE* f, const System& sys, const Workspace& ws, int 
 
 // every reported wrench: what it is, where, its value, which axes it carries or constrains
 // with declared noise (sd.valid) each wrench's sigma: standard deviations [moment; force] in its
-// frame (wrench_sigma.h); without, no "sigma" key
+// frame (wrench_sigma.h); without, no "sigma" key. With Coulomb friction joints at rest, its
+// "bound": the largest departure [moment; force] their unknown friction allows (friction_bound.h)
 void write_wrenches(std::FILE* f, const System& sys, const Workspace& ws, const WrenchData& wd,
-                    const WrenchSigmaData& sd) {
+                    const WrenchSigmaData& sd, const FrictionBoundData& fb) {
   std::fprintf(f, ",\n  \"wrenches\": [");
   for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k) {
     const WrenchOutput& o = sys.wrenches.outputs[k];
@@ -117,6 +119,10 @@ void write_wrenches(std::FILE* f, const System& sys, const Workspace& ws, const 
     if (sd.valid) {
       std::fprintf(f, ", \"sigma\": ");
       list(f, sd.sigma[k].data(), 6);
+    }
+    if (fb.resting > 0) {
+      std::fprintf(f, ", \"bound\": ");
+      list(f, fb.bound[k].data(), 6);
     }
     std::fprintf(f, "}");
   }
@@ -201,8 +207,10 @@ void write_eval_json(std::FILE* f, const System& sys, Workspace& ws, const Eigen
   compute_wrenches(sys, ws, wd);
   WrenchSigmaData sd(sys);
   compute_wrench_sigma(sys, ws, sd);
+  FrictionBoundData fb(sys);
+  compute_friction_bound(sys, ws, fb);
   write_state(f, sys, ws, q, v, tau);
-  write_wrenches(f, sys, ws, wd, sd);
+  write_wrenches(f, sys, ws, wd, sd, fb);
   write_free_directions(f, sys, wd);
   write_contacts(f, sys, ws);
   write_stresses(f, sys, ws);

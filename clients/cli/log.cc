@@ -43,6 +43,7 @@ struct Channel {
   std::vector<std::string> q_names, v_names, wrench_names, stress_names, contact_names;  // output_t: the first's
   int action_col = -1;  // control_t: the action's column, written as a word
   bool sigma = false;   // output_t: the wrenches' sigma columns (the scene declares noise)
+  bool bound = false;   // output_t: their friction bound columns (an estimate, joint losses compensated)
 };
 
 const char* kPlotScript =
@@ -166,9 +167,11 @@ void step_row_of_output(const io::DecodedOutput& o, StepRow* r) {
   r->residual = o.residual;
 }
 
-void write_output_row(CsvLine& l, StepRow& r, const io::DecodedOutput& o, double log_time, bool sigma, std::FILE* f) {
+void write_output_row(CsvLine& l, StepRow& r, const io::DecodedOutput& o, double log_time, bool sigma, bool bound,
+                      std::FILE* f) {
   step_row_of_output(o, &r);
   r.wrench_sigma = sigma ? csv_wrenches(o.wrench_sigma) : CsvNumbers{};
+  r.wrench_bound = bound ? csv_wrenches(o.wrench_bound) : CsvNumbers{};
   write_step_cells(l, r);
   write_log_cells(l, o, log_time);
   l.end();
@@ -310,6 +313,9 @@ bool start_output_csv(Conversion& cv, Channel& c, const std::string& channel) {
   // sigma columns: the scene's noise (--scene), else the first output's
   if (!cv.sys) s.sigma = o.sigma_source != 0;
   c.sigma = s.sigma;
+  // friction bound columns: the first output is an estimate with the joint losses compensated
+  s.bound = o.mode == static_cast<int>(io::Mode::kEstimate) && o.joint_losses == static_cast<int>(io::JointLosses::kCompensated);
+  c.bound = s.bound;
   if (!open_csv(cv, c, channel)) return false;
   CsvColumns cols = shared_step_columns(s);
   add_log_columns(s, &cols);
@@ -333,7 +339,7 @@ bool convert_output(Conversion& cv, Channel& c, const LogMessage& ev, double log
     ++c.bad;  // a different scene mid-log: its rows do not fit these columns
     return true;
   }
-  write_output_row(*cv.line, cv.step, o, log_time, c.sigma, c.f);
+  write_output_row(*cv.line, cv.step, o, log_time, c.sigma, c.bound, c.f);
   return true;
 }
 

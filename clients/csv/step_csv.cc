@@ -147,6 +147,8 @@ CsvColumns shared_step_columns(const StepSchema& s) {
     for (int k = 0; k < 6; ++k) c.add(w.name + "." + comp[k], k < 3 ? "N*m" : "N");
     if (s.sigma)
       for (int k = 0; k < 6; ++k) c.add(w.name + ".sigma_" + comp[k], k < 3 ? "N*m" : "N");
+    if (s.bound)
+      for (int k = 0; k < 6; ++k) c.add(w.name + ".bound_" + comp[k], k < 3 ? "N*m" : "N");
   }
   for (size_t i = 0; i < s.stress_names.size(); ++i) c.add("stress:" + s.stress_names[i], s.stress_units[i]);
   for (const auto& n : s.contact_names) {
@@ -181,6 +183,8 @@ void write_step_cells(CsvLine& l, const StepRow& r) {
     for (size_t k = w; k < w + 6; ++k) l.sep(), l.num(r.wrenches.data[k]);
     if (r.wrench_sigma.size == r.wrenches.size)
       for (size_t k = w; k < w + 6; ++k) l.sep(), l.num(r.wrench_sigma.data[k]);
+    if (r.wrench_bound.size == r.wrenches.size)
+      for (size_t k = w; k < w + 6; ++k) l.sep(), l.num(r.wrench_bound.data[k]);
   }
   for (size_t k = 0; k < r.stress.size; ++k) l.sep(), l.num(r.stress.data[k]);
   for (size_t k = 0; k < r.contact_state.size(); ++k) {

@@ -6,7 +6,8 @@
 //   # units: s,rad,...                                               (one unit per column)
 //   t,q:NAME...,v:NAME...,tau:NAME...,vdot:NAME...,W.mx..W.fz...,stress:NAME...,
 //     C.friction_needed,C.utilisation,C.contact...,status,reason,rows,rank,indeterminate,condition,
-//     (with declared noise, W.sigma_mx..W.sigma_fz after each wrench's W.mx..W.fz: wrench_sigma.h)
+//     (with declared noise, W.sigma_mx..W.sigma_fz after each wrench's W.mx..W.fz: wrench_sigma.h;
+//     then, from an estimate with the joint losses compensated, W.bound_mx..W.bound_fz: friction_bound.h)
 //     residual, then the columns of one source only (sim: position_error; log: log_time, utime,
 //     tick, mode, input, ...)
 //
@@ -42,6 +43,8 @@ struct StepSchema {
   std::vector<std::string> stress_names, stress_units, contact_names;
   bool sigma = false;  // each wrench's six columns are followed by its standard deviations
                        // (NAME.sigma_mx .. NAME.sigma_fz, same units): the scene declares noise
+  bool bound = false;  // then by its friction bound (NAME.bound_mx .. NAME.bound_fz, same units): a
+                       // daemon's estimate with the joint losses compensated
 };
 
 // A scene's schema: units by joint type (revolute rad, prismatic m, floating m / 1 / rad/s / m/s).
@@ -144,6 +147,7 @@ struct StepRow {
   double t = 0;
   CsvNumbers q, v, tau, vdot, wrenches, stress;  // wrenches: mx my mz fx fy fz of each
   CsvNumbers wrench_sigma;  // (schema.sigma) the same layout: each wrench's standard deviations
+  CsvNumbers wrench_bound;  // (schema.bound) the same layout: each wrench's friction bound
   // per contact: friction needed, utilisation (contact_state.size() of each) and the state's word
   const double* friction_needed = nullptr;
   const double* utilisation = nullptr;

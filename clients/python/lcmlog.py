@@ -72,9 +72,10 @@ def write(f, events):
 def types():
     """{fingerprint bytes: class} of the coopdyn message types; output_v1_t is output_t as logs
     recorded before message version 2 carry it (wrenches as [mx my mz fx fy fz] lists), output_v2_t
-    as logs of version 2 carry it (no wrench_sigma)."""
+    as logs of version 2 carry it (no wrench_sigma), output_v3_t as logs of version 3 (no
+    wrench_bound)."""
     import coopdyn
-    return {t._get_packed_fingerprint(): t for t in (coopdyn.output_t, coopdyn.output_v2_t, coopdyn.output_v1_t,
+    return {t._get_packed_fingerprint(): t for t in (coopdyn.output_t, coopdyn.output_v3_t, coopdyn.output_v2_t, coopdyn.output_v1_t,
                                                      coopdyn.loop_stats_t,
                                                      coopdyn.torque_command_t, coopdyn.measured_state_t,
                                                      coopdyn.control_t)}

@@ -96,11 +96,22 @@ void size_joint_losses(const System& sys, Workspace& ws) {
   ws.rest_dofs.assign(ws.friction_dofs.size(), 0);
   ws.lcp = FrictionLcp(static_cast<int>(ws.friction_dofs.size()));
   if (!ws.friction_dofs.empty()) {
+    const int k = static_cast<int>(ws.friction_dofs.size());
     ws.tau_c_fr.setZero(n);
     ws.vdot_fr.setZero(n);
+    ws.lambda_fr.setZero(sys.constraints.rows);
+    ws.rest_dvdot.setZero(n, k);
+    ws.rest_dlambda.setZero(sys.constraints.rows, k);
   }
 }
 }  // namespace
+
+void Workspace::ignore_joint_losses() {
+  damped_dofs.clear();
+  friction_dofs.clear();
+  rest_count = 0;
+  tau_loss.setZero();
+}
 
 Workspace::Workspace(const System& sys)
     : data(sys.model), cd(sys.model, sys.constraints), qs(sys.constraints.rows) {
@@ -650,6 +661,7 @@ bool friction_at_rest(const System& sys, Workspace& ws) {
   FrictionLcp& lcp = ws.lcp;
   ws.tau_c_fr = ws.tau_c;
   ws.vdot_fr = ws.vdot;
+  ws.lambda_fr = ws.lambda;
   const double s = 1.0 + ws.tau_c.cwiseAbs().maxCoeff();
   for (int j = 0; j < k; ++j) {
     lcp.b[j] = ws.vdot_fr[ws.rest_dofs[j]];
@@ -657,7 +669,9 @@ bool friction_at_rest(const System& sys, Workspace& ws) {
     ws.tau_c = ws.tau_c_fr;
     ws.tau_c[ws.rest_dofs[j]] += s;
     if (!solve_formulation(sys, ws, false)) return false;
-    for (int i = 0; i < k; ++i) lcp.A(i, j) = (ws.vdot[ws.rest_dofs[i]] - ws.vdot_fr[ws.rest_dofs[i]]) / s;
+    ws.rest_dvdot.col(j) = (ws.vdot - ws.vdot_fr) / s;
+    ws.rest_dlambda.col(j) = (ws.lambda - ws.lambda_fr) / s;
+    for (int i = 0; i < k; ++i) lcp.A(i, j) = ws.rest_dvdot(ws.rest_dofs[i], j);
   }
   for (int i = 0; i < k; ++i)  // symmetric in exact arithmetic
     for (int j = 0; j < i; ++j) lcp.A(i, j) = lcp.A(j, i) = 0.5 * (lcp.A(i, j) + lcp.A(j, i));

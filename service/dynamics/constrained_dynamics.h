@@ -83,9 +83,19 @@ struct Workspace {
   int rest_count = 0;
   FrictionLcp lcp;                     // their stiction problem (A, b: one column per resting DOF)
   Eigen::VectorXd tau_c_fr, vdot_fr;   // (nv) tau_c without the resting friction, its accelerations
+  Eigen::VectorXd lambda_fr;           // (rows) the multipliers without the resting friction
+  // the response to a unit generalized force (1 N*m or 1 N) at each resting friction DOF, column j
+  // for rest_dofs[j] (the first rest_count columns; exact for the affine solve up to rounding):
+  // what friction_bound.h maps to every wrench's interval over the unknown friction at rest
+  Eigen::MatrixXd rest_dvdot;          // (nv x friction DOFs)
+  Eigen::MatrixXd rest_dlambda;        // (rows x friction DOFs)
   int friction_stuck = 0;              // resting friction joints held by stiction (vdot exactly 0)
   int friction_indeterminate = 0;      // of those, forces the physics leaves free (set to zero)
   bool friction_converged = true;      // the active set met Coulomb's conditions
+  // Takes the torques as reaching the links: the joints' damping and friction left out of every
+  // later evaluation (estimate mode without joint-loss compensation, `estimate.joint_losses`).
+  // Start-up only; allocation-free.
+  void ignore_joint_losses();
 
   // Schur solve
   Eigen::MatrixXd Yt;  // (nv x rows) (G L^-1)^T

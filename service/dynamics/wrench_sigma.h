@@ -34,10 +34,12 @@
 // rule's null space turns with q: an over-constrained evaluation has no position columns (source
 // without kQ).
 //
+// Coulomb friction at a joint at rest is free within its bound (stuck, it would absorb a torque
+// change): sigma is the spread with that friction left free, the same map as without it, and the
+// interval the friction itself may move each wrench over is the separate bound of friction_bound.h.
+//
 // Supported formulations: mobile_platform and classic (every shipped scene). pseudo_joint and svd,
-// a failed evaluation, a scene without noise, or an evaluation in which Coulomb friction holds a
-// joint by stiction (friction_stuck > 0: a torque change within the bound moves nothing, so the
-// spread is an interval, not yet reported): valid = false and sigma zero. Allocation-free
+// a failed evaluation, or a scene without noise: valid = false and sigma zero. Allocation-free
 // after construction; never throws.
 #pragma once
 

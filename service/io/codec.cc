@@ -27,6 +27,7 @@ namespace coopdyn::io {
   static_assert(static_cast<int>(ControlAction::e) == coopdyn::control_t::lcm, #lcm);
 #define COOPDYN_CONTROL_RESULT(e, code, key, name, lcm) \
   static_assert(static_cast<int>(ControlResult::e) == coopdyn::output_t::lcm, #lcm);
+#define COOPDYN_JOINT_LOSSES(e, code, key, lcm) static_assert(static_cast<int>(JointLosses::e) == coopdyn::output_t::lcm, #lcm);
 #include "service/io/codes.def"
 static_assert(static_cast<int>(Reason::kNone) == coopdyn::output_t::REASON_NONE, "core reasons");
 static_assert(static_cast<int>(Reason::kNonFiniteInput) == coopdyn::output_t::REASON_NONFINITE_INPUT, "core reasons");
@@ -113,6 +114,14 @@ const char* reason_key(int r) {
 const char* input_key(int i) {
   switch (i) {
 #define COOPDYN_INPUT(e, code, key, name, lcm) \
+  case code: return #key;
+#include "service/io/codes.def"
+  }
+  return "unknown";
+}
+const char* joint_losses_key(int j) {
+  switch (j) {
+#define COOPDYN_JOINT_LOSSES(e, code, key, lcm) \
   case code: return #key;
 #include "service/io/codes.def"
   }
@@ -496,6 +505,19 @@ bool put_sigma(const WrenchSigmaData* sd, coopdyn::output_t& o) {
     }
   return ok;
 }
+// each wrench's friction bound (estimate, joint losses compensated) when computed, else zeros;
+// false on a non-finite value
+bool put_bound(const FrictionBoundData* fb, coopdyn::output_t& o) {
+  o.friction_resting = static_cast<int16_t>(fb ? fb->resting : 0);
+  bool ok = true;
+  for (size_t t = 0; t < o.wrench_bound.size(); ++t)
+    for (int k = 0; k < 6; ++k) {
+      const double x = fb ? fb->bound[t][k] : 0.0;
+      o.wrench_bound[t].*kWrenchComponent[k] = x;
+      ok = ok && std::isfinite(x);
+    }
+  return ok;
+}
 }  // namespace
 
 struct OutputEncoder::Impl {
@@ -522,6 +544,7 @@ struct OutputEncoder::Impl {
     msg.wrench_residual.assign(outs.size(), zero_wrench());
     msg.sigma_source = coopdyn::output_t::SIGMA_NONE;
     msg.wrench_sigma.assign(outs.size(), zero_wrench());
+    msg.wrench_bound.assign(outs.size(), zero_wrench());
     // free directions: sized for the most there can be (every row), sent as the first num_free
     const int rows = s.constraints.rows;
     msg.free_class.assign(static_cast<size_t>(rows), 0);
@@ -563,6 +586,8 @@ struct OutputEncoder::Impl {
     for (auto& w : msg.wrench_residual) w = zero_wrench();
     msg.sigma_source = coopdyn::output_t::SIGMA_NONE;
     for (auto& w : msg.wrench_sigma) w = zero_wrench();
+    msg.friction_resting = 0;
+    for (auto& w : msg.wrench_bound) w = zero_wrench();
     std::fill(msg.stress.begin(), msg.stress.end(), 0.0);
     std::fill(msg.vdot.begin(), msg.vdot.end(), 0.0);
     std::fill(msg.contact_normal.begin(), msg.contact_normal.end(), 0.0);
@@ -596,6 +621,7 @@ int OutputEncoder::encode(const OutputFrame& f, uint8_t* buf, int cap, bool* san
   o.tick = f.tick;
   o.sim_time = f.sim_time;
   o.mode = static_cast<int8_t>(f.mode);
+  o.joint_losses = static_cast<int8_t>(f.joint_losses);
   o.status = f.status;
   o.reason = f.reason;
   o.input = static_cast<int8_t>(f.input);
@@ -653,8 +679,10 @@ int OutputEncoder::encode(const OutputFrame& f, uint8_t* buf, int cap, bool* san
       o.num_free = wd.num_free;
       for (int d = 0; d < wd.num_free; ++d) o.free_class[static_cast<size_t>(d)] = static_cast<int8_t>(wd.free_class[static_cast<size_t>(d)]);
       ok = put_sigma(f.sigma, o) && ok;
+      ok = put_bound(f.bound, o) && ok;
     } else {
       put_sigma(nullptr, o);
+      put_bound(nullptr, o);
       for (auto& w : o.wrench) w = zero_wrench();
       std::fill(o.indeterminate_mask.begin(), o.indeterminate_mask.end(), 0);
       o.num_free = 0;

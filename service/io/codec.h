@@ -18,6 +18,7 @@
 #include "service/dynamics/constrained_dynamics.h"
 #include "service/dynamics/state_fit.h"
 #include "service/dynamics/system.h"
+#include "service/dynamics/friction_bound.h"
 #include "service/dynamics/wrench_sigma.h"
 #include "service/dynamics/wrenches.h"
 #include "service/io/messages.h"
@@ -84,6 +85,8 @@ struct OutputFrame {
   const Workspace* ws = nullptr;         // evaluation (vdot, lambda, stress, diag) when valid
   const WrenchData* wrenches = nullptr;  // compute_wrenches() of that evaluation when valid
   const WrenchSigmaData* sigma = nullptr;  // compute_wrench_sigma() of it (declared noise) when valid
+  JointLosses joint_losses = JointLosses::kNone;  // estimate: how the joints' damping and friction were taken
+  const FrictionBoundData* bound = nullptr;  // estimate, compensated: compute_friction_bound() of it
 };
 
 class OutputEncoder {

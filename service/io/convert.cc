@@ -9,6 +9,7 @@
 #include "coopdyn/output_t.hpp"
 #include "coopdyn/output_v1_t.hpp"
 #include "coopdyn/output_v2_t.hpp"
+#include "coopdyn/output_v3_t.hpp"
 #include "coopdyn/torque_command_t.hpp"
 #include "service/io/codec.h"
 
@@ -155,19 +156,43 @@ void fill_sigma(const M& m, DecodedOutput* out) {
   out->sigma_source = 0;
   out->wrench_sigma.assign(m.wrench.size(), {});
 }
-template <>
-void fill_sigma(const coopdyn::output_t& m, DecodedOutput* out) {
+template <class M>
+void fill_sigma_v3(const M& m, DecodedOutput* out) {
   out->sigma_source = m.sigma_source;
   out->wrench_sigma.assign(m.wrench.size(), {});
   for (size_t t = 0; t < m.wrench_sigma.size() && t < m.wrench.size(); ++t)
     for (int k = 0; k < 6; ++k) out->wrench_sigma[t][k] = component(m.wrench_sigma[t], k);
 }
+template <>
+void fill_sigma(const coopdyn::output_v3_t& m, DecodedOutput* out) {
+  fill_sigma_v3(m, out);
+}
+template <>
+void fill_sigma(const coopdyn::output_t& m, DecodedOutput* out) {
+  fill_sigma_v3(m, out);
+}
+// the joint losses and each wrench's friction bound: output_t's (version 4); none before it
+template <class M>
+void fill_bound(const M& m, DecodedOutput* out) {
+  out->joint_losses = 0;
+  out->friction_resting = 0;
+  out->wrench_bound.assign(m.wrench.size(), {});
+}
+template <>
+void fill_bound(const coopdyn::output_t& m, DecodedOutput* out) {
+  out->joint_losses = m.joint_losses;
+  out->friction_resting = m.friction_resting;
+  out->wrench_bound.assign(m.wrench.size(), {});
+  for (size_t t = 0; t < m.wrench_bound.size() && t < m.wrench.size(); ++t)
+    for (int k = 0; k < 6; ++k) out->wrench_bound[t][k] = component(m.wrench_bound[t], k);
+}
 
-// output_t, output_v2_t and output_v1_t have the same fields but for the wrench rows' type and
-// the sigma of version 3
+// output_t and output_v1_t .. output_v3_t have the same fields but for the wrench rows' type, the
+// sigma of version 3 and the joint losses and friction bound of version 4
 template <class M>
 void fill_decoded(const M& m, DecodedOutput* out) {
   fill_sigma(m, out);
+  fill_bound(m, out);
   out->utime = m.utime;
   out->tick = m.tick;
   out->sim_time = m.sim_time;
@@ -241,6 +266,12 @@ bool decode_output(const void* data, int len, DecodedOutput* out) {
     fill_decoded(v2, out);
     return true;
   }
+  if (hash_of(data, len) == coopdyn::output_v3_t::getHash()) {
+    coopdyn::output_v3_t v3;
+    if (!decode_msg(data, len, &v3)) return false;
+    fill_decoded(v3, out);
+    return true;
+  }
   coopdyn::output_t m;
   if (!decode_msg(data, len, &m)) return false;
   fill_decoded(m, out);
@@ -271,6 +302,7 @@ bool decode_stats(const void* data, int len, StatsFrame* s) {
 
 MessageType identify(const void* data, int len) {
   if (hash_of(data, len) == coopdyn::output_v2_t::getHash()) return MessageType::kOutput;  // a log of version 2
+  if (hash_of(data, len) == coopdyn::output_v3_t::getHash()) return MessageType::kOutput;  // a log of version 3
   const int64_t h = hash_of(data, len);
   const uint64_t u = static_cast<uint64_t>(h);
   if (h == coopdyn::torque_command_t::getHash() || u == kPreMacCommandHash) return MessageType::kTorqueCommand;

@@ -85,6 +85,10 @@ enum class Input : int8_t {
 #include "service/io/codes.def"
 };
 const char* input_name(Input i);
+enum class JointLosses : int8_t {
+#define COOPDYN_JOINT_LOSSES(e, code, key, lcm) e = code,
+#include "service/io/codes.def"
+};
 #define COOPDYN_SERVICE_REASON(c, code, key, lcm) constexpr int16_t c = code;
 #include "service/io/codes.def"
 
@@ -92,6 +96,7 @@ const char* input_name(Input i);
 const char* reason_key(int reason);          // Reason or the service's 100+: "none", "diverged", "no_state", ...
 const char* input_key(int input);            // Input: "command", "no_command", "command_expired", ...
 const char* mode_key(int mode);              // "simulate", "estimate"
+const char* joint_losses_key(int j);         // JointLosses: "none", "compensated", "ignored"
 const char* control_action_key(int action);  // "none" (-1), "reset", "reset_to_state", "pause", ...
 const char* control_result_key(int result);  // "none", "ok", "rejected_state", "not_applicable"
 
@@ -137,6 +142,9 @@ struct DecodedOutput {
   std::vector<std::array<double, 6>> wrench_residual;  // measured - estimated
   int sigma_source = 0;                                // output_t SIGMA_*: 0 none (and logs before version 3)
   std::vector<std::array<double, 6>> wrench_sigma;     // standard deviation of each component (zeros: none)
+  int joint_losses = 0;                                // output_t JOINT_LOSSES_*: 0 none (and logs before version 4)
+  int friction_resting = 0;                            // estimate: friction joints at rest (their friction bounded)
+  std::vector<std::array<double, 6>> wrench_bound;     // estimate: largest departure over that friction (zeros: none)
   std::vector<int> free_class;                                      // per free direction: FreeClass
   std::vector<std::vector<std::array<double, 6>>> free_direction;   // [direction][wrench]: change per unit
   int contact_status = 0;                      // worst ContactState (output_t CONTACT_*)

@@ -128,6 +128,10 @@ struct ServiceConfig {
   // differentiated joint velocities give on a metre-size arm (1e-4 rad of encoder error is 0.1 mm
   // at 1 m); they flag a wrong joint, a wrong sign, a slipped grasp or a wrong robot file.
   double closure_tolerance[4] = {5e-3, 2e-2, 5e-2, 2e-1};
+  // Estimate mode: the joints' damping and Coulomb friction (the scene's) taken out of the measured
+  // torques from the measured velocity, at rest the friction's interval reported as each wrench's
+  // bound (friction_bound.h); false: the measured torques taken as reaching the links.
+  bool compensate_joint_losses = true;
   SafeTorque safe_torque = SafeTorque::kHold;
   double damping = 0.0;        // N*m*s/rad (or N*s/m) for kDamping
   OverrunPolicy overrun = OverrunPolicy::kCatchUp;

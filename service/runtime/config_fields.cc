@@ -235,6 +235,11 @@ const std::vector<ConfigField> kFields = {
      set_closure<2>, check_closure, "", "as above"},
     {"closure_tolerance", "angular_velocity_radps", K::kReal, "a number", 0, 1e6, "(0, 1e6]", {}, false,
      get_closure<3>, set_closure<3>, check_closure, "", "as above"},
+    {"estimate", "compensate_joint_losses", K::kFlag, "true or false", kNone, kNone, "", {}, false,
+     COOPDYN_MEMBER(S::compensate_joint_losses, b), nullptr, "",
+     "estimate: take the joints' damping (`-b v`) and Coulomb friction (`-F sign(v)`) out of the measured torques "
+     "from the measured velocity; a joint at rest has its friction solved as stiction and each wrench carries the "
+     "interval that friction's bound allows (`wrench_bound`); false: the torques are taken as reaching the links"},
     {"safe_torque", "policy", K::kChoice, "a string", kNone, kNone, "", {kSafeTorqueWords, kSafeTorqueWords + 3}, false,
      COOPDYN_CHOICE(SafeTorque, safe_torque, kSafeTorqueWords, SafeTorque::kHold, SafeTorque::kZero,
                     SafeTorque::kDamping),

@@ -54,6 +54,7 @@ ServiceLoop::ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& b
       v_est_(sys.v0),
       wrenches_(sys),
       sigma_(sys),
+      bound_(sys),
       q_(sys.q0),
       v_(sys.v0),
       tau_(Eigen::VectorXd::Zero(sys.model.nv())),
@@ -70,6 +71,9 @@ ServiceLoop::ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& b
     if (sys.constraints.specs[k].kind == ConstraintKind::kLock && sys.constraints.specs[k].target_limit > 0)
       locks_.push_back(static_cast<int>(k));
   zero_ = Eigen::VectorXd::Zero(m.nv());
+  if (!ws_.damped_dofs.empty() || !ws_.friction_dofs.empty())
+    joint_losses_ = cfg.compensate_joint_losses ? io::JointLosses::kCompensated : io::JointLosses::kIgnored;
+  if (!cfg.compensate_joint_losses) ws_.ignore_joint_losses();
   if (cfg.safe_torque == SafeTorque::kHold) hold_ = std::make_unique<HoldWorkspace>(sys, default_actuated(sys));
   last_input_ = cfg.mode == ServiceMode::kSimulate ? io::Input::kNoCommand : io::Input::kNoState;
   if (!cfg.auth_key_file.empty()) require_auth(io::read_key_file(cfg.auth_key_file));
@@ -316,6 +320,7 @@ void ServiceLoop::integrate(io::OutputFrame& f) {
 
 void ServiceLoop::estimate(long long now, io::OutputFrame& f) {
   f.mode = io::Mode::kEstimate;
+  f.joint_losses = joint_losses_;
   const io::Input in = watch_input(states_, have_state_, now, kStateWatch);
   const io::StateSlot& s = states_.latest();
   f.input = in;
@@ -364,6 +369,10 @@ void ServiceLoop::evaluate_measured(const io::StateSlot& s, io::OutputFrame& f) 
   const Diagnostics& d = evaluate(sys_, ws_, q_est_, v_est_, s.tau);
   put_evaluation(f, ws_, d, d.status != Status::kError, &s);
   if (!f.valid) numerical_errors_.fetch_add(1, std::memory_order_relaxed);
+  if (f.valid && joint_losses_ == io::JointLosses::kCompensated && bound_.possible) {
+    compute_friction_bound(sys_, ws_, bound_);
+    f.bound = &bound_;
+  }
 }
 
 // The frame's evaluation: its workspace, status and reason, and when it succeeded (ok) the

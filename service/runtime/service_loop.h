@@ -165,6 +165,8 @@ class ServiceLoop {
   bool closure_open_ = false;        // estimate: the last state was above closure_tolerance
   WrenchData wrenches_;              // the published wrenches of the evaluation (either mode)
   WrenchSigmaData sigma_;            // their sigma from the scene's declared noise (wrench_sigma.h)
+  FrictionBoundData bound_;          // estimate: their interval over the friction at rest (friction_bound.h)
+  io::JointLosses joint_losses_ = io::JointLosses::kNone;  // estimate: compensated, ignored or none declared
   Eigen::VectorXd q_, v_, tau_;      // (nq), (nv), (nv): simulated state, applied torque
   Eigen::VectorXd q_prev_, v_prev_;  // state at the start of the last step (what is published)
   std::vector<unsigned char> actuated_;  // (nv) finite tau_limit and not a pseudo-joint

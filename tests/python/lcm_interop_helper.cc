@@ -109,6 +109,8 @@ std::string output_json(const io::DecodedOutput& o) {
   j.add("indeterminate_mask", arr(o.indeterminate_mask, kNum)).add("wrench_measured", arr(o.wrench_measured, kNum));
   j.add("wrench_residual", arr(o.wrench_residual, kHex6)).add("free_class", arr(o.free_class, kNum));
   j.add("sigma_source", num(o.sigma_source)).add("wrench_sigma", arr(o.wrench_sigma, kHex6));
+  j.add("joint_losses", num(o.joint_losses)).add("friction_resting", num(o.friction_resting));
+  j.add("wrench_bound", arr(o.wrench_bound, kHex6));
   j.add("free_direction", arr(o.free_direction, [](const std::vector<std::array<double, 6>>& d) { return arr(d, kHex6); }));
   j.add("contact_status", num(o.contact_status)).add("contact_names", arr(o.contact_names, kStr));
   j.add("contact_normal", arr(o.contact_normal, kHex));

@@ -59,7 +59,7 @@ class LcmLog(unittest.TestCase):
                 msg = w["message"]
                 if w["type"] == "output_t":
                     self.assertIsInstance(m, coopdyn.output_t, where)
-                    self.assertEqual(len(msg), 50)  # every field the C++ side decodes (sigma: version 3)
+                    self.assertEqual(len(msg), 53)  # every field the C++ side decodes (sigma: version 3; bound: 4)
                     for k, v in msg.items():
                         same(self, getattr(m, k), v, "%s: %s" % (where, k))
                 elif w["type"] == "loop_stats_t":

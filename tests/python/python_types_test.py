@@ -52,7 +52,7 @@ class PythonTypes(unittest.TestCase):
 
     def test_package_needs_no_lcm_module(self):
         self.assertNotIn("lcm", sys.modules)
-        for t in (coopdyn.output_t, coopdyn.output_v2_t, coopdyn.output_v1_t, coopdyn.wrench_t, coopdyn.torque_command_t,
+        for t in (coopdyn.output_t, coopdyn.output_v3_t, coopdyn.output_v2_t, coopdyn.output_v1_t, coopdyn.wrench_t, coopdyn.torque_command_t,
                   coopdyn.measured_state_t, coopdyn.control_t, coopdyn.loop_stats_t):
             m = t()
             self.assertEqual(t.decode(m.encode()).encode(), m.encode(), t.__name__)
@@ -152,6 +152,8 @@ class PythonTypes(unittest.TestCase):
         m.wrench_residual = [wrench([r.gauss(0, 1) for _ in range(6)]) for _ in range(nw)]
         m.sigma_source = coopdyn.output_t.SIGMA_TAU
         m.wrench_sigma = [wrench([abs(r.gauss(0, 1)) for _ in range(6)]) for _ in range(nw)]
+        m.joint_losses, m.friction_resting = coopdyn.output_t.JOINT_LOSSES_COMPENSATED, 3
+        m.wrench_bound = [wrench([abs(r.gauss(0, 1)) for _ in range(6)]) for _ in range(nw)]
         m.num_free, m.free_class = 2, [coopdyn.output_t.FREE_FORCE, coopdyn.output_t.FREE_MIXED]
         m.free_direction = [[wrench([r.uniform(-1, 1) for _ in range(6)]) for _ in range(nw)] for _ in range(2)]
         m.contact_status, m.num_contacts = 1, 2
@@ -168,8 +170,22 @@ class PythonTypes(unittest.TestCase):
                                                       "num_contacts", "num_stresses", "nq", "nv"})
         for k in o:
             same(self, getattr(m, k), o[k], k)
-        # the same message without sigma (what the layouts before version 3 decode to)
-        nosig = coopdyn.output_t.decode(m.encode())
+        # the same message without the friction bound (what the layout of version 3 decodes to)
+        nobound = coopdyn.output_t.decode(m.encode())
+        nobound.joint_losses, nobound.friction_resting = coopdyn.output_t.JOINT_LOSSES_NONE, 0
+        nobound.wrench_bound = [wrench([0.0] * 6) for _ in range(nw)]
+        (db,) = self.decode(nobound)
+        v3 = coopdyn.output_v3_t()
+        for k in v3.__slots__:
+            setattr(v3, k, getattr(m, k))
+        v3.version = 3
+        self.assertNotEqual(v3.encode()[:8], m.encode()[:8])
+        (d3,) = self.decode(v3)
+        self.assertEqual(d3["reject"], "")
+        self.assertEqual(d3["message"], db["message"])
+        self.assertIsInstance(lcmlog.decode(v3.encode()), coopdyn.output_v3_t)
+        # ... and without sigma (what the layouts before version 3 decode to)
+        nosig = coopdyn.output_t.decode(nobound.encode())
         nosig.sigma_source, nosig.wrench_sigma = coopdyn.output_t.SIGMA_NONE, [wrench([0.0] * 6) for _ in range(nw)]
         (d0,) = self.decode(nosig)
         # in the layout logs had in version 2 (output_v2_t's fingerprint: no sigma)
