@@ -399,8 +399,7 @@ void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
   }
 }
 
-// valid: noise declared, an evaluation that succeeded and no joint held by stiction (a torque
-// change within the bound moves nothing there: a bound, not a standard deviation)
+// valid: noise declared and an evaluation that succeeded
 bool start(Workspace& ws, WrenchSigmaData& sd, int nc) {
   // joints at rest: their friction is free within its bound (friction_bound.h reports that
   // interval); the noise's spread is the response with it left free, the one computed here
