@@ -527,7 +527,9 @@ TEST_F(DaemonProcess, LcmLoggerRunConvertsToCsv) {
   // process is none, so the logger's one may be alone, and one message has no rate)
   for (const auto& [ch, r] : rows) {
     EXPECT_GE(r.n, 1) << ch;
-    if (ch != "LCM_SELF_TEST") EXPECT_TRUE(std::isfinite(r.rate) && r.rate > 0) << ch << "\n" << table;
+    if (ch != "LCM_SELF_TEST") {
+      EXPECT_TRUE(std::isfinite(r.rate) && r.rate > 0) << ch << "\n" << table;
+    }
   }
   // one CSV row per message, with the tip wrench columns
   std::ifstream csv(out_dir + "/COOPDYN_OUTPUT.csv");

@@ -171,7 +171,9 @@ TEST(HoldingTorque, FactoredSolveIsTheSvdDefinitionOnEveryShippedScene) {
       EXPECT_LT(diff, 1e-9) << "state " << k << (fast ? " (factored)" : " (fallback)");
       EXPECT_NEAR(res, hw.residual, 1e-9 * (1.0 + ws.data.h.norm())) << "state " << k;
       for (int i = 0; i < n; ++i)
-        if (std::find(hw.act.begin(), hw.act.end(), i) == hw.act.end()) EXPECT_EQ(tau[i], 0.0) << sys.model.v_names[i];
+        if (std::find(hw.act.begin(), hw.act.end(), i) == hw.act.end()) {
+          EXPECT_EQ(tau[i], 0.0) << sys.model.v_names[i];
+        }
       // (the test's own evaluation of the torques: the accelerations vanish at rest; not asked of
       // the vehicles, whose compliant wheel rows and unactuated chassis are wheel_test.cc's)
       if (!wheel && v.isZero() && hw.residual < 1e-9 * (1.0 + ws.data.h.norm())) {
@@ -182,8 +184,9 @@ TEST(HoldingTorque, FactoredSolveIsTheSvdDefinitionOnEveryShippedScene) {
     }
     std::printf("%-20s %d of 6 states factored, largest difference from the SVDs %.2e (relative)\n", name.c_str(),
                 factored, worst);
-    if (name == "two_puma_load" || name == "pr2_box" || name == "tiago_pro_box" || name == "two_iiwa_load")
+    if (name == "two_puma_load" || name == "pr2_box" || name == "tiago_pro_box" || name == "two_iiwa_load") {
       EXPECT_EQ(factored, 6) << "the loop's cheap path covers the arms and the real robots";
+    }
   }
 }
 
