@@ -49,11 +49,12 @@ void LcmBus::subscribe(const std::string& channel, Handler h) {
       handlers_.back().get());
 }
 
-void LcmBus::start() {
+void LcmBus::start(bool busy_poll) {
   if (thread_.joinable()) return;
   stop_ = false;
-  thread_ = std::thread([this] {
-    while (!stop_.load(std::memory_order_relaxed)) lcm_handle_timeout(lcm_, 50);
+  const int timeout_ms = busy_poll ? 0 : 50;
+  thread_ = std::thread([this, timeout_ms] {
+    while (!stop_.load(std::memory_order_relaxed)) lcm_handle_timeout(lcm_, timeout_ms);
   });
 }
 
