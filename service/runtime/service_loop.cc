@@ -536,7 +536,9 @@ void ServiceLoop::run_on_arrival(const std::atomic<bool>& stop, long long max_ti
     const long long wake = io::monotonic_ns();
     bool ticked = false, heartbeat = false;
     long long late = 0;
-    if (rung && source_) source_->drain();  // offered here, on the loop's thread
+    // offered here, on the loop's thread, at every wake-up: a state the source rang in while the loop
+    // was not waiting (a heartbeat's tick) is in the inbox before `seen` is taken as handled
+    if (source_) source_->drain();
     if (rung) {
       // one output per state taken: a ring whose state an earlier tick already took computes nothing
       if (states_.update()) {
