@@ -11,7 +11,8 @@
 // timeout); a complete message on an input channel whose payload starts with that channel's type
 // fingerprint goes as raw bytes into a shared-memory ring (single producer, single consumer, fixed
 // slots); it decodes nothing. The daemon's receive thread drains the ring and hands the bytes to
-// the decoders (bounds-checked, codec.h). A refused datagram is counted by its reason
+// the decoders (bounds-checked, codec.h); with drain_in_caller() the loop drains it itself, woken
+// by a futex word in the shared header (the event-driven hand-off, no receive thread in between). A refused datagram is counted by its reason
 // (malformed_by, `inputs_malformed` in loop_stats_t). The child stays as defence in depth: what
 // parses hostile bytes runs in a process that holds nothing but the ring.
 //
