@@ -1,11 +1,12 @@
 // The transport's share of coopdynd's event-driven latency: two processes that only talk LCM.
 //
-//   lcm_pingpong echo URL SECONDS        republish each PING at once as a PONG of the same size
-//   lcm_pingpong ping URL BYTES COUNT    COUNT PINGs of BYTES at 100 Hz (random phase), each timed
-//                                        from its publish to the receipt of its PONG
+//   lcm_pingpong echo URL SECONDS [--busy-poll]      republish each PING at once as a PONG of the same size
+//   lcm_pingpong ping URL BYTES COUNT [--busy-poll]  COUNT PINGs of BYTES at 100 Hz (random phase), each
+//                                                    timed from its publish to the receipt of its PONG
 //
 // Both ends publish with lcm_publish and receive through io::LcmBus (liblcm's receive thread, then
-// the handler thread), as `coopdyn send --measure-latency` does at its end. The round trip is two
+// the handler thread), as `coopdyn send --measure-latency` does at its end; with --busy-poll that
+// end's handler thread polls without sleeping (LcmBus::start(true), `coopdyn send --busy-poll`). The round trip is two
 // liblcm receipts with no computation: what remains of coopdynd's publish-to-wrenches latency when
 // its compute and handoff are taken out is one such receipt plus the receive process's own
 // (bench/loop_timing.sh prints it next to the daemon's rows).
@@ -28,16 +29,16 @@ using coopdyn::io::monotonic_ns;
 
 namespace {
 
-int echo(const std::string& url, double seconds) {
+int echo(const std::string& url, double seconds, bool busy_poll) {
   LcmBus bus(url);
   bus.subscribe("PINGPONG_PING", [&bus](const void* d, int n, long long) { bus.publish("PINGPONG_PONG", d, n); });
-  bus.start();
+  bus.start(busy_poll);
   std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
   bus.stop();
   return 0;
 }
 
-int ping(const std::string& url, int bytes, int count) {
+int ping(const std::string& url, int bytes, int count, bool busy_poll) {
   LcmBus bus(url);
   std::mutex mu;
   std::vector<double> rtt_us;
@@ -48,7 +49,7 @@ int ping(const std::string& url, int bytes, int count) {
     std::lock_guard<std::mutex> lk(mu);
     rtt_us.push_back(static_cast<double>(recv_ns - sent) * 1e-3);
   });
-  bus.start();
+  bus.start(busy_poll);
   std::vector<unsigned char> msg(static_cast<size_t>(std::max<int>(bytes, 8)), 0x5a);
   std::mt19937_64 rng(12345);
   std::uniform_int_distribution<long long> phase(0, 999999);
@@ -78,8 +79,10 @@ int ping(const std::string& url, int bytes, int count) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc == 4 && std::strcmp(argv[1], "echo") == 0) return echo(argv[2], std::atof(argv[3]));
-  if (argc == 5 && std::strcmp(argv[1], "ping") == 0) return ping(argv[2], std::atoi(argv[3]), std::atoi(argv[4]));
-  std::fprintf(stderr, "usage: lcm_pingpong echo URL SECONDS | lcm_pingpong ping URL BYTES COUNT\n");
+  const bool poll = argc > 1 && std::strcmp(argv[argc - 1], "--busy-poll") == 0;
+  const int n = poll ? argc - 1 : argc;
+  if (n == 4 && std::strcmp(argv[1], "echo") == 0) return echo(argv[2], std::atof(argv[3]), poll);
+  if (n == 5 && std::strcmp(argv[1], "ping") == 0) return ping(argv[2], std::atoi(argv[3]), std::atoi(argv[4]), poll);
+  std::fprintf(stderr, "usage: lcm_pingpong echo URL SECONDS [--busy-poll] | lcm_pingpong ping URL BYTES COUNT [--busy-poll]\n");
   return 2;
 }

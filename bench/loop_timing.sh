@@ -7,7 +7,7 @@
 #                                         # namespace with lo up and a multicast route on it)
 #   ROWS=arrival bench/loop_timing.sh ... # only the event-driven rows, next to cyclictest and the
 #                                         # fixed-rate estimate row
-#   BASELINE=DIR bench/loop_timing.sh ... # also the event-driven row of another build's coopdynd
+#   BASELINE=DIR bench/loop_timing.sh ... # also the event-driven rows of another build's coopdynd
 #                                         # (DIR/bin/coopdynd: before and after a change, in one run)
 #
 # Rows (each SECONDS long, at 1 kHz, over udpm on loopback, ttl=0):
@@ -30,7 +30,10 @@
 #   rt + /dev/cpu_dma_latency held at 0 + the loop pinned to CPU 1 with the receive thread and
 #   process on the others + inputs on their own port (lcm_url_in: the receive process never sees
 #   the daemon's own outputs); "+ spin 50" = that + realtime.spin_us 50; "+ busy poll" = that +
-#   realtime.busy_poll (event-driven only: the loop polls for states, a whole CPU).
+#   realtime.busy_poll (event-driven only: the loop polls for states, a whole CPU); "polling client"
+#   = `coopdyn send --busy-poll` (its read-back thread polls LCM without sleeping, as a real-time
+#   controller polls each cycle), next to the LCM round trip alone with both ends polling
+#   (lcm_pingpong --busy-poll).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 DUR=${1:-20}
@@ -57,9 +60,9 @@ echo "== load before: $(cut -d' ' -f1-3 /proc/loadavg)"
 "$BUILD/bin/coopdyn" sim --scene "$SCENE" --duration 2 --dt 0.001 --out "$TMP/states.csv" 2>/dev/null
 joint=$("$BUILD/bin/coopdyn" eval --scene "$SCENE" | python3 -c 'import json,sys; print(json.load(sys.stdin)["coordinates"]["v"][-1])')
 
-# daemon ROW_NAME MODE EXTRA_YAML [trigger [BUILD_DIR of coopdynd]]
+# daemon ROW_NAME MODE EXTRA_YAML [trigger [BUILD_DIR of coopdynd [flags of coopdyn send]]]
 daemon() {
-  local name=$1 mode=$2 extra=$3 trigger=${4:-tick} url_in=$URL bin=${5:-$BUILD}/bin
+  local name=$1 mode=$2 extra=$3 trigger=${4:-tick} url_in=$URL bin=${5:-$BUILD}/bin send_flags=${6:-}
   {
     # on arrival the rate is only the heartbeat's without a fresh state: at 10 Hz the few heartbeats
     # (before the first state, after the last) leave the lateness and compute columns to the states
@@ -75,10 +78,10 @@ daemon() {
   sleep 1
   if [ "$mode" = simulate ]; then
     "${NS[@]}" "$BUILD/bin/coopdyn" send --scene "$SCENE" --lcm-url "$url_in" --output-url "$URL" --rate 100 \
-      --duration "$((DUR - 3))" --torque "$joint:constant:0.1" --measure-latency > "$TMP/s.out" 2>&1 || true
+      --duration "$((DUR - 3))" --torque "$joint:constant:0.1" --measure-latency $send_flags > "$TMP/s.out" 2>&1 || true
   else
     "${NS[@]}" "$BUILD/bin/coopdyn" send --scene "$SCENE" --lcm-url "$url_in" --output-url "$URL" --rate 100 \
-      --duration "$((DUR - 3))" --states "$TMP/states.csv" --measure-latency > "$TMP/s.out" 2>&1 || true
+      --duration "$((DUR - 3))" --states "$TMP/states.csv" --measure-latency $send_flags > "$TMP/s.out" 2>&1 || true
   fi
   wait $pid
   grep -E "refused|not held" "$TMP/d.err" | sed 's/^/   /' >&2 || true
@@ -140,6 +143,12 @@ daemon "coopdynd estimate at the tick, rt + tricks" estimate "$TRICKS" tick
   "$(cd "$BASELINE" && pwd)"
 daemon "coopdynd estimate on arrival, rt + tricks" estimate "$TRICKS" arrival
 daemon "coopdynd estimate on arrival, rt + tricks + busy poll" estimate "$(with "busy_poll: true")" arrival
+if [ "${ROWS:-all}" = arrival ]; then
+  [ -n "${BASELINE:-}" ] && daemon "coopdynd estimate on arrival, rt + tricks + busy poll, polling client, BASELINE build" \
+    estimate "$(with "busy_poll: true")" arrival "$(cd "$BASELINE" && pwd)" --busy-poll
+  daemon "coopdynd estimate on arrival, rt + tricks + busy poll, polling client" estimate "$(with "busy_poll: true")" arrival \
+    "$BUILD" --busy-poll
+fi
 
 LOOP_BENCH_SCENE=$(realpath "$SCENE") "${NS[@]}" taskset -c 1 "$BUILD/bin/loop_bench" --benchmark_filter='BM_TickPaced' \
   --benchmark_format=csv 2>/dev/null > "$TMP/warm.csv" || true
@@ -154,15 +163,20 @@ for r in csv.reader(open(sys.argv[1])):
 print(4096)
 PY
 )
-"${NS[@]}" "$BUILD/bin/lcm_pingpong" echo "$URL" "$DUR" & ECHO=$!
-sleep 0.5
-"${NS[@]}" "$BUILD/bin/lcm_pingpong" ping "$URL" "$BYTES" "$((100 * (DUR - 3)))" > "$TMP/pp.out" 2>&1 || true
-wait $ECHO || true
-python3 - "$TMP/pp.out" >> "$TMP/rows" <<'PY'
+# pingpong ROW_SUFFIX [--busy-poll]: both ends sleeping, or both polling
+pingpong() {
+  "${NS[@]}" "$BUILD/bin/lcm_pingpong" echo "$URL" "$DUR" ${2:-} & local echo_pid=$!
+  sleep 0.5
+  "${NS[@]}" "$BUILD/bin/lcm_pingpong" ping "$URL" "$BYTES" "$((100 * (DUR - 3)))" ${2:-} > "$TMP/pp.out" 2>&1 || true
+  wait $echo_pid || true
+  python3 - "$TMP/pp.out" "$1" >> "$TMP/rows" <<'PY'
 import re, sys
 m = re.search(r"over (\d+) of \d+ messages of (\d+) bytes: min ([\d.]+) us, p50 ([\d.]+) us, p99 ([\d.]+) us", open(sys.argv[1]).read())
-if m: print(f"LCM round trip alone (lcm_pingpong), {m.group(2)} bytes each way|||||||||{m.group(3)}|{m.group(4)}|{m.group(5)}|{m.group(1)}")
+if m: print(f"LCM round trip alone (lcm_pingpong), {m.group(2)} bytes each way{sys.argv[2]}|||||||||{m.group(3)}|{m.group(4)}|{m.group(5)}|{m.group(1)}")
 PY
+}
+pingpong ""
+[ "${ROWS:-all}" = arrival ] && pingpong ", both ends polling" --busy-poll
 echo "== load after: $(cut -d' ' -f1-3 /proc/loadavg)"
 python3 - "$TMP/rows" "$TMP/warm.csv" "$(basename "$SCENE" .yaml)" <<'PY'
 import csv, sys

@@ -7,6 +7,7 @@ add_library(coopdyn_io
   ${CMAKE_CURRENT_LIST_DIR}/io/auth.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/codec.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/convert.cc
+  ${CMAKE_CURRENT_LIST_DIR}/io/direct_decoder.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/lcm_bus.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/lcm_wire.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/rx_isolated.cc

@@ -5,6 +5,7 @@
 coopdyn_test(coopdynd_tests
   FILES
     io/lcm_wire_test.cc
+    io/direct_decoder_test.cc
     io/convert_test.cc
     runtime/service_loop_test.cc
     runtime/triple_buffer_test.cc

@@ -58,6 +58,7 @@ struct SendArgs : SceneArgs, ProfileArgs {
   std::optional<std::string> output_url;
   std::string stats_channel = "COOPDYN_STATS";
   bool measure_latency = false, no_check = false, quiet = false;
+  bool busy_poll = false;  // the read-back thread polls LCM without sleeping
   std::optional<std::string> key_file;  // sign with the daemon's auth key
 };
 

@@ -403,6 +403,9 @@ void register_send(Cli& cli) {
         "LCM URL of the daemon's outputs and stats, when its inputs come on another (its lcm_url_in; default: --lcm-url)");
   value(c, "--stats-channel", a.stats_channel, "C", "the daemon's loop_stats_t channel (read back)", Default::kShown);
   flag(c, "--measure-latency", a.measure_latency, "report the time from each command's publish to the first output that used it");
+  flag(c, "--busy-poll", a.busy_poll,
+       "read the outputs back by polling LCM without sleeping (a whole CPU), as a real-time controller polls each "
+       "cycle: the latency without this client's own wake-up");
   flag(c, "--no-check", a.no_check, "do not read back what the daemon did");
   flag(c, "--quiet", a.quiet, "no summary line");
   value(c, "--key-file", a.key_file, "FILE", kKeyFileHelp);
@@ -434,7 +437,7 @@ int cmd_send(const SendArgs& a) {
   if (read_back) {
     rx_bus.subscribe(a.output_channel, [&rb](const void* d, int n, long long recv_ns) { rb.on_output(d, n, recv_ns); });
     rx_bus.subscribe(a.stats_channel, [&rb](const void* d, int n, long long) { rb.on_stats(d, n); });
-    rx_bus.start();
+    rx_bus.start(a.busy_poll);
   }
   std::signal(SIGINT, on_sigint);
   std::signal(SIGTERM, on_sigint);

@@ -6,7 +6,8 @@
 // Processes and threads: the loop (ServiceLoop::run, optionally SCHED_FIFO) publishes through LCM
 // and never receives; inputs arrive in a supervised child process (coopdynd --rx-child,
 // io/rx_isolated.h: its own UDP socket and LCM wire parser, no liblcm) that copies raw bytes into a shared ring, drained by the receive thread here
-// (-> decode -> triple buffer), which also restarts the child when it dies; spdlog's async logger
+// (-> decode -> triple buffer), which also restarts the child when it dies (trigger: arrival: the
+// loop drains the ring itself, woken by the child, and the receive thread only supervises); spdlog's async logger
 // thread; and this main
 // thread, which waits for SIGINT/SIGTERM (or --duration), drains the loop's event ring into the log
 // and prints the summary line at exit.
@@ -277,8 +278,8 @@ void log_startup(const coopdyn::System& sys, const coopdyn::runtime::ServiceConf
   spdlog::info("wrenches out: {} end-effector, {} base, {} tip, {} axle, {} joint reactions; {} pseudo-joint stresses",
                by_kind[0], by_kind[1], by_kind[2], by_kind[3], by_kind[4], sys.model.pseudo_dofs.size());
   if (cfg.trigger == runtime::Trigger::kArrival)
-    spdlog::info("event-driven: each measured state is evaluated on arrival; without a fresh state the error status "
-                 "goes out at {} Hz", cfg.rate_hz);
+    spdlog::info("event-driven: each measured state is evaluated on arrival, taken by the loop from the receive "
+                 "process's ring itself; without a fresh state the error status goes out at {} Hz", cfg.rate_hz);
   if (cfg.realtime.busy_poll)
     spdlog::info("busy poll: the loop polls for measured states and takes a whole CPU{}", cfg.realtime.cpu >= 0 ? ""
                  : " (realtime.cpu not set: give it one of its own)");
@@ -356,24 +357,46 @@ void RejectionReport::flush(bool force, const coopdyn::runtime::ServiceLoop& loo
   last_report = now;
   }
 
-// the receive thread: offers each input to the loop's inboxes, counts what is not applied; logs the
-// receive process's deaths
+// One input from the receive process's ring into the loop's inbox of its type; what is not applied is
+// counted for the log. Returns the offer's outcome. No allocation (the loop's thread runs it on arrival).
+coopdyn::runtime::Offer offer_input(coopdyn::runtime::ServiceLoop& loop, bool simulate, RejectionReport& rejections,
+                                    const void* d, int n, long long t) {
+  using namespace coopdyn;
+  io::Reject why = io::Reject::kNone;
+  runtime::Offer r;
+  if (io::identify(d, n) == io::MessageType::kControl) r = loop.controls().offer(d, n, t, &why);
+  else if (simulate) r = loop.commands().offer(d, n, t, &why);
+  else r = loop.states().offer(d, n, t, &why);
+  if (r == runtime::Offer::kRejected) rejections.rejected_by[static_cast<int>(why) % io::kRejectKinds].fetch_add(1);
+  if (r == runtime::Offer::kOutOfOrder) rejections.out_of_order.fetch_add(1);
+  return r;
+}
+
+// trigger: arrival: the loop drains the receive process's ring itself, woken by the bell the process
+// rings (io/rx_isolated.h drain_in_caller): no receive thread between a state's receipt and the loop
+struct RingArrivals : coopdyn::runtime::ArrivalSource {
+  coopdyn::io::IsolatedReceiver& rx;
+  coopdyn::runtime::ServiceLoop& loop;
+  RejectionReport& rejections;
+  RingArrivals(coopdyn::io::IsolatedReceiver& r, coopdyn::runtime::ServiceLoop& l, RejectionReport& j)
+      : rx(r), loop(l), rejections(j) {}
+  uint32_t bell() const override { return rx.bell(); }
+  void wait(uint32_t seen, long long deadline_ns) override { rx.wait_bell(seen, deadline_ns); }
+  void drain() override {
+    rx.drain([this](const void* d, int n, long long t) { offer_input(loop, false, rejections, d, n, t); });
+  }
+};
+
+// the receive thread: offers each input to the loop's inboxes, counts what is not applied (unless
+// the loop drains the ring itself: then it only supervises); logs the receive process's deaths
 void start_receiving(coopdyn::io::IsolatedReceiver& rx, coopdyn::runtime::ServiceLoop& loop,
                      const coopdyn::runtime::ServiceConfig& cfg, RejectionReport& rejections) {
   using namespace coopdyn;
   const bool simulate = cfg.mode == runtime::ServiceMode::kSimulate;
   rx.start(
       [simulate, &loop, &rx, &rejections](const void* d, int n, long long t) {  // they outlive the receiver
-        io::Reject why = io::Reject::kNone;
-        runtime::Offer r;
-        if (io::identify(d, n) == io::MessageType::kControl) r = loop.controls().offer(d, n, t, &why);
-        else if (simulate) r = loop.commands().offer(d, n, t, &why);
-        else {
-          r = loop.states().offer(d, n, t, &why);
-          if (r == runtime::Offer::kAccepted) loop.doorbell().ring();  // event-driven mode wakes on it
-        }
-        if (r == runtime::Offer::kRejected) rejections.rejected_by[static_cast<int>(why) % io::kRejectKinds].fetch_add(1);
-        if (r == runtime::Offer::kOutOfOrder) rejections.out_of_order.fetch_add(1);
+        const runtime::Offer r = offer_input(loop, simulate, rejections, d, n, t);
+        if (!simulate && r == runtime::Offer::kAccepted) loop.doorbell().ring();  // event-driven mode wakes on it
         feed_receiver_counters(loop, rx);
       },
       [&loop, &rx](int status, long long restarts) {
@@ -530,6 +553,11 @@ int main(int argc, char** argv) {
   install_signal_handlers();
   RejectionReport rejections;
   rx->avoid_cpu(cfg.realtime.cpu);  // the receive thread and process stay off the loop's CPU
+  RingArrivals arrivals(*rx, loop, rejections);
+  if (cfg.trigger == runtime::Trigger::kArrival && cfg.mode == runtime::ServiceMode::kEstimate) {
+    rx->drain_in_caller();
+    loop.take_arrivals_from(&arrivals);
+  }
   start_receiving(*rx, loop, cfg, rejections);
   wait_for_receiver(*rx, cfg);
 

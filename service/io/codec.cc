@@ -199,7 +199,7 @@ std::vector<std::string> wrench_names(const System& s) {
 // The inputs' layouts, walked with every count and length checked before the generated decoder
 // runs (it trusts them). Each walk stops at the mac_len field; walk_mac() then passes the MAC.
 namespace {
-constexpr int32_t kMaxMacBytes = 64;  // 32 for HMAC-SHA256 (auth.h); room for another algorithm
+using wire::kMaxMacBytes;
 
 // hash, utime, seq, num_names, names[], num_torques, tau[], num_targets, target_names[], target[]
 struct CommandCounts {

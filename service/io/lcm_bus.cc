@@ -1,6 +1,7 @@
 #include "service/io/lcm_bus.h"
 
 #include <lcm/lcm.h>
+#include <sched.h>
 #include <time.h>
 
 namespace coopdyn::io {
@@ -49,11 +50,15 @@ void LcmBus::subscribe(const std::string& channel, Handler h) {
       handlers_.back().get());
 }
 
-void LcmBus::start() {
+void LcmBus::start(bool busy_poll) {
   if (thread_.joinable()) return;
   stop_ = false;
-  thread_ = std::thread([this] {
-    while (!stop_.load(std::memory_order_relaxed)) lcm_handle_timeout(lcm_, 50);
+  thread_ = std::thread([this, busy_poll] {
+    while (!stop_.load(std::memory_order_relaxed)) {
+      // polling: nothing waiting returns at once; the CPU goes to any other runnable thread between
+      // two polls (liblcm's own read thread among them), never to the idle loop
+      if (lcm_handle_timeout(lcm_, busy_poll ? 0 : 50) <= 0 && busy_poll) sched_yield();
+    }
   });
 }
 

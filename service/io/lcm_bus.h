@@ -39,7 +39,11 @@ class LcmBus : public Bus {
 
   // Subscribe before start(); the handler runs on the receive thread. channel is a regex in LCM.
   void subscribe(const std::string& channel, Handler h);
-  void start();  // starts the receive thread
+  // Starts the receive thread. busy_poll: it never sleeps (lcm_handle_timeout with 0 in a loop, a
+  // whole CPU, yielding it to any other runnable thread between two polls), as a real-time
+  // controller that polls LCM each cycle: a message is handled as soon as liblcm's own udpm read
+  // thread has queued it, without the wake-up of this thread.
+  void start(bool busy_poll = false);
   void stop();   // joins it (also done by the destructor)
   lcm_t* raw() { return lcm_; }
 

@@ -3,6 +3,7 @@
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <linux/filter.h>
+#include <linux/futex.h>
 #include <linux/sock_diag.h>
 #include <netinet/in.h>
 #include <poll.h>
@@ -15,6 +16,7 @@
 #include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/syscall.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -167,30 +169,31 @@ void IsolatedReceiver::stop() {
   }
 }
 
+const unsigned char* IsolatedReceiver::slot(uint64_t i) const { return slot_at(base_, slot_bytes_, i, slots_); }
+
+void IsolatedReceiver::wait_bell(uint32_t seen, long long deadline_ns) {
+  // as runtime::Doorbell::wait, on the word shared with the child (no FUTEX_PRIVATE_FLAG)
+  hdr_->bell_waiting.store(1, std::memory_order_seq_cst);
+  if (hdr_->bell.load(std::memory_order_seq_cst) == seen) {
+    timespec ts;
+    ts.tv_sec = static_cast<time_t>(deadline_ns / 1000000000LL);
+    ts.tv_nsec = static_cast<long>(deadline_ns % 1000000000LL);
+    syscall(SYS_futex, reinterpret_cast<uint32_t*>(&hdr_->bell), FUTEX_WAIT_BITSET, seen, &ts, nullptr,
+            FUTEX_BITSET_MATCH_ANY);
+  }
+  hdr_->bell_waiting.store(0, std::memory_order_relaxed);
+}
+
 void IsolatedReceiver::run() {
   long long started = now_ns(), backoff_ns = 0, respawn_at = 0;
   pollfd pfd{event_fd_, POLLIN, 0};
+  const bool supervise_only = caller_drains();
   while (!stop_.load(std::memory_order_relaxed)) {
     poll(&pfd, 1, 20);
     uint64_t ev;
     while (read(event_fd_, &ev, sizeof ev) == sizeof ev) {
     }
-    // drain the ring: the child published slots [tail, head)
-    uint64_t tail = hdr_->tail.load(std::memory_order_relaxed);
-    const uint64_t head = hdr_->head.load(std::memory_order_acquire);
-    if (head < tail || head - tail > static_cast<uint64_t>(slots_)) {  // a child that wrote garbage: resync
-      tail = head;
-      hdr_->tail.store(tail, std::memory_order_release);
-    }
-    for (; tail < head; ++tail) {
-      unsigned char* s = slot_at(base_, slot_bytes_, tail, slots_);
-      uint32_t len;
-      int64_t recv_ns;
-      std::memcpy(&len, s, sizeof len);
-      std::memcpy(&recv_ns, s + sizeof len, sizeof recv_ns);
-      if (len <= static_cast<uint32_t>(slot_bytes_)) handler_(s + sizeof len + sizeof recv_ns, static_cast<int>(len), recv_ns);
-      hdr_->tail.store(tail + 1, std::memory_order_release);
-    }
+    if (!supervise_only) drain(handler_);  // the child published slots [tail, head)
     // supervision
     const pid_t p = pid_.load();
     if (p > 0) {
@@ -496,7 +499,11 @@ void serve(ChildRing& c, int sock, pid_t parent) {
         queued |= on_datagram(c, reasm, static_cast<const uint8_t*>(iov[k].iov_base), msgs[k].msg_len, from[k], t);
       else
         c.hdr->malformed_by[static_cast<int>(wire::WireStatus::kTooLarge)].fetch_add(1, std::memory_order_relaxed);
-    if (queued) {
+    if (queued && c.hdr->caller_drains.load(std::memory_order_relaxed)) {  // the daemon's loop waits on the bell
+      c.hdr->bell.fetch_add(1, std::memory_order_seq_cst);  // before the load of bell_waiting (wait_bell: the other way round)
+      if (c.hdr->bell_waiting.load(std::memory_order_seq_cst))
+        syscall(SYS_futex, reinterpret_cast<uint32_t*>(&c.hdr->bell), FUTEX_WAKE, 1, nullptr, nullptr, 0);
+    } else if (queued) {
       const uint64_t one = 1;
       (void)!write(c.event_fd, &one, sizeof one);
     }

@@ -11,7 +11,8 @@
 // timeout); a complete message on an input channel whose payload starts with that channel's type
 // fingerprint goes as raw bytes into a shared-memory ring (single producer, single consumer, fixed
 // slots); it decodes nothing. The daemon's receive thread drains the ring and hands the bytes to
-// the decoders (bounds-checked, codec.h). A refused datagram is counted by its reason
+// the decoders (bounds-checked, codec.h); with drain_in_caller() the loop drains it itself, woken
+// by a futex word in the shared header (the event-driven hand-off, no receive thread in between). A refused datagram is counted by its reason
 // (malformed_by, `inputs_malformed` in loop_stats_t). The child stays as defence in depth: what
 // parses hostile bytes runs in a process that holds nothing but the ring.
 //
@@ -55,6 +56,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <cstring>
 #include <functional>
 #include <string>
 #include <thread>
@@ -89,7 +91,14 @@ struct RxRingHeader {
   std::atomic<uint64_t> auth_on;
   unsigned char auth_key[kKeyBytes];
   std::atomic<uint64_t> rejected_by[kRxChannels][kRejectKinds];
+  // the loop drains the ring itself (IsolatedReceiver::drain_in_caller): set by the daemon before the
+  // child starts. Then the child rings `bell` (a futex word shared by the two processes) after each
+  // batch it queued, waking the waiter when `bell_waiting` says one sleeps, instead of the eventfd.
+  std::atomic<uint32_t> caller_drains;
+  std::atomic<uint32_t> bell;
+  std::atomic<uint32_t> bell_waiting;
 };
+static_assert(sizeof(std::atomic<uint32_t>) == sizeof(uint32_t), "the shared futex word is the counter itself");
 static_assert(std::atomic<uint64_t>::is_always_lock_free, "the ring's counters must be lock-free across processes");
 
 class IsolatedReceiver {
@@ -116,6 +125,19 @@ class IsolatedReceiver {
   // Authentication on: the child verifies each message's MAC and the replay rule before the ring
   // (above). Call before start().
   void set_auth_key(const AuthKey& key);
+  // The hand-off without the receive thread (trigger: arrival): the caller (the loop's thread) drains
+  // the ring itself with drain(), waking on the child's bell (wait_bell) or polling it; the receive
+  // thread only supervises the child (and never calls the handler given to start()). Before start().
+  void drain_in_caller() { hdr_->caller_drains.store(1); }
+  bool caller_drains() const { return hdr_->caller_drains.load(std::memory_order_relaxed) != 0; }
+  // The caller's side (one thread): the bell's count (it moves after every batch the child queued);
+  // a sleep until it is no longer `seen`, or the absolute CLOCK_MONOTONIC deadline (ns), or a signal;
+  // and the messages waiting in the ring handed to h in order (returns how many). No allocation, no
+  // lock: a futex on the shared word, atomics and memcpy.
+  uint32_t bell() const { return hdr_->bell.load(std::memory_order_acquire); }
+  void wait_bell(uint32_t seen, long long deadline_ns);
+  template <class H>
+  int drain(H&& h);
   // Starts the child and the receive thread; handler runs on the receive thread.
   void start(Handler handler, RestartHandler on_restart);
   void stop();  // stops the thread, kills and reaps the child (also done by the destructor)
@@ -138,6 +160,7 @@ class IsolatedReceiver {
  private:
   void spawn();
   void run();
+  const unsigned char* slot(uint64_t i) const;
   std::string exe_, url_;
   std::vector<std::string> channels_;
   std::vector<int64_t> fingerprints_;
@@ -155,6 +178,29 @@ class IsolatedReceiver {
   Handler handler_;
   RestartHandler on_restart_;
 };
+
+// The messages the child published, [tail, head), to h(bytes, len, recv_ns), the tail advanced past
+// each; a head that a child could not have written (garbage) resyncs the tail to it.
+template <class H>
+int IsolatedReceiver::drain(H&& h) {
+  uint64_t tail = hdr_->tail.load(std::memory_order_relaxed);
+  const uint64_t head = hdr_->head.load(std::memory_order_acquire);
+  if (head < tail || head - tail > static_cast<uint64_t>(slots_)) {
+    hdr_->tail.store(head, std::memory_order_release);
+    return 0;
+  }
+  int n = 0;
+  for (; tail < head; ++tail, ++n) {
+    const unsigned char* s = slot(tail);
+    uint32_t len;
+    int64_t recv_ns;
+    std::memcpy(&len, s, sizeof len);
+    std::memcpy(&recv_ns, s + sizeof len, sizeof recv_ns);
+    if (len <= static_cast<uint32_t>(slot_bytes_)) h(s + sizeof len + sizeof recv_ns, static_cast<int>(len), static_cast<long long>(recv_ns));
+    hdr_->tail.store(tail + 1, std::memory_order_release);
+  }
+  return n;
+}
 
 // The child's main (coopdynd --rx-child URL SHM_FD EVENT_FD RCVBUF CHANNEL HASH [CHANNEL HASH]...;
 // HASH in hex). Returns the exit status.

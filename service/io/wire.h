@@ -7,6 +7,8 @@
 namespace coopdyn::io::wire {
 
 constexpr int32_t kMaxCount = 1 << 16;  // no coopdyn array is anywhere near this long
+// An input's mac_len may be any length up to this: 32 for HMAC-SHA256 (auth.h); room for another algorithm
+constexpr int32_t kMaxMacBytes = 64;
 
 class Reader {
  public:

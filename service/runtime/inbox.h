@@ -33,6 +33,7 @@
 #include "service/dynamics/system.h"
 #include "service/io/auth.h"
 #include "service/io/codec.h"
+#include "service/io/direct_decoder.h"
 #include "service/io/messages.h"
 #include "service/runtime/triple_buffer.h"
 
@@ -140,7 +141,8 @@ class Inbox {
 };
 
 using CommandInbox = Inbox<io::CommandSlot, io::CommandDecoder>;
-using StateInbox = Inbox<io::StateSlot, io::StateDecoder>;
+// states: decoded without allocating (direct_decoder.h), so the loop's thread may take them itself
+using StateInbox = Inbox<io::StateSlot, io::DirectStateDecoder>;
 using ControlInbox = Inbox<io::ControlSlot, io::ControlDecoder>;
 
 }  // namespace coopdyn::runtime

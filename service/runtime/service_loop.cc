@@ -503,7 +503,7 @@ inline void cpu_relax() {
 bool ServiceLoop::wait_for_arrival(uint32_t seen, long long deadline, const std::atomic<bool>& stop, bool* stopped) {
   const bool poll = cfg_.realtime.busy_poll;
   for (;;) {
-    if (bell_.value() != seen) return true;
+    if (bell_value() != seen) return true;
     const long long now = io::monotonic_ns();
     if (now >= deadline) return false;
     if (stop.load(std::memory_order_relaxed)) {
@@ -511,6 +511,7 @@ bool ServiceLoop::wait_for_arrival(uint32_t seen, long long deadline, const std:
       return false;
     }
     if (poll) cpu_relax();
+    else if (source_) source_->wait(seen, sleep_end_ns(now, deadline));
     else bell_.wait(seen, sleep_end_ns(now, deadline));
   }
 }
@@ -519,7 +520,8 @@ void ServiceLoop::run_on_arrival(const std::atomic<bool>& stop, long long max_ti
   const long long stats_ns = period_ns_ * stats_every_;
   long long now = io::monotonic_ns();
   long long next_beat = now + period_ns_, next_stats = now + stats_ns;
-  uint32_t seen = bell_.value();
+  uint32_t seen = bell_value();
+  if (source_) source_->drain();  // what arrived before run()
   long long n = 0;
   auto fresh = [&](long long t) { return have_state_ && t - states_.latest().recv_ns <= watchdog_ns_; };
   while (!stop.load(std::memory_order_relaxed) && (max_ticks < 0 || n < max_ticks)) {
@@ -530,10 +532,13 @@ void ServiceLoop::run_on_arrival(const std::atomic<bool>& stop, long long max_ti
     bool stopped = false;
     const bool rung = wait_for_arrival(seen, deadline, stop, &stopped);
     if (stopped) break;
-    seen = bell_.value();
+    seen = bell_value();
     const long long wake = io::monotonic_ns();
     bool ticked = false, heartbeat = false;
     long long late = 0;
+    // offered here, on the loop's thread, at every wake-up: a state the source rang in while the loop
+    // was not waiting (a heartbeat's tick) is in the inbox before `seen` is taken as handled
+    if (source_) source_->drain();
     if (rung) {
       // one output per state taken: a ring whose state an earlier tick already took computes nothing
       if (states_.update()) {

@@ -20,7 +20,9 @@
 // result is discarded: it brings the working set back into the caches and TLB after the sleep) and
 // polls the clock to the deadline.
 // Event-driven estimate mode (config trigger: arrival): run() sleeps on a doorbell the receive
-// thread rings after each accepted measured state and calls tick() as soon as it wakes, one output
+// thread rings after each accepted measured state (or, given an ArrivalSource, on the source's bell,
+// draining the source into the inboxes itself when it moves: the daemon's receive process rings it,
+// and no receive thread stands between) and calls tick() as soon as it wakes, one output
 // per state taken; while no fresh state is held it ticks at rate_hz (the error status, as the
 // fixed-rate path), and loop_stats_t follows stats_period_s of wall time. Its lateness is the
 // handoff: the loop's wake-up minus the state's receive time in the receive process (both
@@ -42,6 +44,7 @@
 #include "service/dynamics/system.h"
 #include "service/io/bus.h"
 #include "service/io/codec.h"
+#include "service/runtime/arrival_source.h"
 #include "service/runtime/config.h"
 #include "service/runtime/doorbell.h"
 #include "service/runtime/event_ring.h"
@@ -64,6 +67,10 @@ class ServiceLoop {
   ControlInbox& controls() { return controls_; }  // control_t: reset, pause, resume, clear fault
   // Event-driven estimate mode: the receive thread rings it after each accepted measured state.
   Doorbell& doorbell() { return bell_; }
+  // Event-driven estimate mode without a receive thread: run() waits on (or polls) the source's bell
+  // instead of the doorbell, and drains the source itself when it moves (arrival_source.h). Before
+  // run(); the source outlives it.
+  void take_arrivals_from(ArrivalSource* source) { source_ = source; }
 
   // One period at monotonic time now_ns. Loop thread only.
   void tick(long long now_ns);
@@ -142,6 +149,7 @@ class ServiceLoop {
   void fill_counters(io::StatsFrame& s) const;
   void run_on_arrival(const std::atomic<bool>& stop, long long max_ticks);
   bool wait_for_arrival(uint32_t seen, long long deadline, const std::atomic<bool>& stop, bool* stopped);
+  uint32_t bell_value() const { return source_ ? source_->bell() : bell_.value(); }
   void require_auth(const io::AuthKey& key);  // every inbox verifies its channel's MAC
   void warm_up();  // spin_us: one evaluation of the held state before the deadline (caches, TLB)
 
@@ -201,6 +209,7 @@ class ServiceLoop {
   Histogram late_win_, comp_win_, late_all_, comp_all_;
   EventRing<256> events_;
   Doorbell bell_;
+  ArrivalSource* source_ = nullptr;  // trigger arrival: inputs drained by the loop itself (else the doorbell)
 };
 
 // The text of a kResetRejected event: why reset_to_state was refused, naming the constraint and its

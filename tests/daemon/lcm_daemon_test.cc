@@ -380,7 +380,11 @@ TEST_F(DaemonProcess, UdpmEstimateOnArrivalBusyPollingOneOutputPerStateEqualOffl
     const auto b = io::encode_measured_state(io::wall_us(), seq, sys_.model.q_names, stdvec(sys_.q0), sys_.model.v_names,
                                              stdvec(vv), stdvec(tau));
     bus_->publish("COOPDYN_STATE", b.data(), static_cast<int>(b.size()));
-    ASSERT_TRUE(sink.wait_for([seq](const io::DecodedOutput& o) { return o.input_seq == seq; }, 5s)) << seq;
+    if (!sink.wait_for([seq](const io::DecodedOutput& o) { return o.input_seq == seq; }, 5s)) {
+      d->signal(SIGTERM);
+      d->wait();
+      FAIL() << "no output for seq " << seq << "\n" << slurp(d->out) << slurp(d->err);
+    }
   }
   d->signal(SIGTERM);
   EXPECT_EQ(d->wait(), 0) << slurp(d->err);

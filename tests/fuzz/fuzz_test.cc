@@ -2,6 +2,8 @@
 //   - CommandDecoder / StateDecoder (service/io/codec.h) on mutated valid encodings: bit flips,
 //     truncations, inserted / deleted / duplicated bytes, count and string-length fields set to
 //     hostile values, doubles set to NaN / Inf / huge / just over the limit, splices of two seeds;
+//   - DirectStateDecoder (service/io/direct_decoder.h) on the same mutated states, against
+//     StateDecoder: the same reason for every input, the same slot for every one accepted;
 //   - load_scene_string on mutated shipped scenes (config/scenes/*.yaml) and the scene corpus;
 //   - load_config_string on mutated config/coopdynd.yaml and the config corpus;
 //   - the LCM wire parser and reassembler (service/io/lcm_wire.h) on mutated datagram sequences of
@@ -52,6 +54,7 @@
 #include "service/dynamics/constrained_dynamics.h"
 #include "service/io/auth.h"
 #include "service/io/codec.h"
+#include "service/io/direct_decoder.h"
 #include "service/io/lcm_wire.h"
 #include "service/runtime/config.h"
 #include "service/scene/scene.h"
@@ -547,6 +550,18 @@ int write_corpus(const std::string& dir) {
     save(dir + "/state/" + name + ".ordered.bin", io::encode_measured_state(t, 1, {}, q, {}, v, tau));
     save(dir + "/state/" + name + ".named.bin",
          io::encode_measured_state(t, 2, sys.model.q_names, q, sys.model.v_names, v, tau));
+    {  // named in reverse order, with every sensor's reading in reverse order (the lookups of names)
+      std::vector<std::string> rq(sys.model.q_names.rbegin(), sys.model.q_names.rend()),
+          rv(sys.model.v_names.rbegin(), sys.model.v_names.rend()), wn;
+      std::vector<std::array<double, 6>> w;
+      for (size_t k = sys.wrenches.outputs.size(); k-- > 0;) {
+        wn.push_back(sys.wrenches.outputs[k].name);
+        w.push_back({0.5 * static_cast<double>(k), -1.0, 2.0, -3.0, 4.0, -5.0});
+      }
+      save(dir + "/state/" + name + ".reversed.bin",
+           io::encode_measured_state(t, 5, rq, std::vector<double>(q.rbegin(), q.rend()), rv, std::vector<double>(v.rbegin(), v.rend()),
+                                     std::vector<double>(tau.rbegin(), tau.rend()), wn, w));
+    }
     // the arms' joints only (the load fitted) with a wrist sensor's reading, where the scene allows it
     const StateFitPlan plan = plan_state_fit(sys);
     if (plan.q_fittable && plan.v_fittable && !sys.wrenches.outputs.empty()) {
@@ -823,6 +838,66 @@ TEST(Fuzz, CommandDecoder) {
 
 TEST(Fuzz, StateDecoder) {
   fuzz_decoder<io::StateDecoder, io::StateSlot>("StateDecoder", "state", true, kDecoderIters);
+}
+
+// The allocation-free state decoder the loop's thread runs, differentially: every mutated state goes
+// through it and through the generated decoder (StateDecoder), which must agree.
+TEST(Fuzz, DirectStateDecoder) {
+  const std::vector<BinarySeed> seeds = binary_seeds("state");
+  ASSERT_GE(seeds.size(), 4u) << "corpus " << kCorpus << "/state (regenerate: coopdyn_fuzz_tests --write-corpus)";
+  std::map<std::string, System> systems;
+  for (const BinarySeed& s : seeds)
+    if (!systems.count(s.scene)) systems.emplace(s.scene, load_scene(kSrc + "/config/scenes/" + s.scene + ".yaml"));
+  struct Rig {
+    const System* sys;
+    std::unique_ptr<io::StateDecoder> generated;
+    std::unique_ptr<io::DirectStateDecoder> direct;
+    io::StateSlot a, b;
+  };
+  std::vector<Rig> rigs;
+  std::vector<Layout> layouts;
+  std::vector<std::string> all;
+  for (const BinarySeed& s : seeds) {
+    const System& sys = systems.at(s.scene);
+    Rig r{&sys, std::make_unique<io::StateDecoder>(sys), std::make_unique<io::DirectStateDecoder>(sys), {}, {}};
+    for (io::StateSlot* x : {&r.a, &r.b}) {
+      x->q = Eigen::VectorXd::Zero(sys.model.nq());
+      x->v = x->tau = Eigen::VectorXd::Zero(sys.model.nv());
+    }
+    const io::Reject rj = r.direct->decode(s.bytes.data(), static_cast<int>(s.bytes.size()), r.b);
+    ASSERT_EQ(rj, io::Reject::kNone) << "seed for " << s.scene << " rejected: " << io::reject_name(rj);
+    layouts.push_back(layout_of(s.bytes, true));
+    all.push_back(s.bytes);
+    rigs.push_back(std::move(r));
+  }
+  std::vector<long> by_reason(io::kRejectKinds, 0);
+  run_target("DirectStateDecoder", kDecoderIters, [&](long i) -> std::string {
+    std::mt19937_64 rng = rng_for("DirectStateDecoder", i);
+    const size_t k = static_cast<size_t>(i) % seeds.size();
+    g_input = mutate_bytes(all[k], all, &layouts[k], rng);
+    Rig& r = rigs[k];
+    const int n = static_cast<int>(g_input.size());
+    const io::Reject rg = r.generated->decode(g_input.data(), n, r.a);
+    const io::Reject rd = r.direct->decode(g_input.data(), n, r.b);
+    if (rg != rd) return std::string("the direct decoder answers ") + io::reject_name(rd) + ", the generated one " + io::reject_name(rg);
+    ++by_reason[static_cast<int>(rd)];
+    if (rd != io::Reject::kNone) return "";
+    if (r.a.q != r.b.q || r.a.v != r.b.v || r.a.tau != r.b.tau) return "the direct decoder decodes another state";
+    if (r.a.fit_q != r.b.fit_q || r.a.fit_v != r.b.fit_v || r.a.utime != r.b.utime || r.a.seq != r.b.seq)
+      return "the direct decoder decodes other flags, utime or seq";
+    if (r.a.has_wrench != r.b.has_wrench || r.a.n_wrenches != r.b.n_wrenches) return "the direct decoder finds other sensors";
+    for (size_t t = 0; t < r.a.has_wrench.size(); ++t)
+      if (r.a.has_wrench[t] && r.a.wrench[t] != r.b.wrench[t]) return "the direct decoder reads another sensor value";
+    return check_state(r.b);
+  });
+  std::printf("[fuzz] DirectStateDecoder outcomes:");
+  for (int k = 0; k < io::kRejectKinds; ++k)
+    if (by_reason[k]) std::printf(" %s %ld,", io::reject_name(static_cast<io::Reject>(k)), by_reason[k]);
+  std::printf("\n");
+  EXPECT_GT(by_reason[static_cast<int>(io::Reject::kNone)], 0);
+  EXPECT_GT(by_reason[static_cast<int>(io::Reject::kDecode)], 0);
+  EXPECT_GT(by_reason[static_cast<int>(io::Reject::kUnknownName)], 0);
+  EXPECT_GT(by_reason[static_cast<int>(io::Reject::kNonFinite)], 0);
 }
 
 TEST(Fuzz, SceneLoader) {

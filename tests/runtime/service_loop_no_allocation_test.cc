@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "service/io/lcm_bus.h"
+#include "service/io/rx_isolated.h"
 #include "service/runtime/service_loop.h"
 #include "tests/support/child_process.h"
 #include "tests/support/daemon_test_util.h"
@@ -240,6 +241,102 @@ TEST(LoopNoAllocation, RunOnArrivalOfStates) {
 TEST(LoopNoAllocation, RunOnArrivalBusyPolling) {
   if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
   run_on_arrival_without_allocation(true, 100, 100, 100);
+}
+
+namespace {
+// The daemon's hand-off on arrival (service/daemon/main.cc RingArrivals): the loop drains the receive
+// process's ring itself, woken by the bell the process rings.
+struct RingSource : runtime::ArrivalSource {
+  io::IsolatedReceiver& rx;
+  runtime::ServiceLoop& loop;
+  RingSource(io::IsolatedReceiver& r, runtime::ServiceLoop& l) : rx(r), loop(l) {}
+  uint32_t bell() const override { return rx.bell(); }
+  void wait(uint32_t seen, long long deadline_ns) override { rx.wait_bell(seen, deadline_ns); }
+  void drain() override {
+    rx.drain([this](const void* d, int n, long long t) {
+      if (io::identify(d, n) == io::MessageType::kControl) loop.controls().offer(d, n, t);
+      else loop.states().offer(d, n, t);
+    });
+  }
+};
+
+// States sent over udpm to a real receive process (coopdynd --rx-child) whose ring the loop drains
+// on its own thread, decoding each state there (the allocation-free decoder): full states,
+// joints-only states (names of other lengths), states with an unknown 300-byte name, controls,
+// under the counting heap on the loop's thread, sleeping on the bell or polling it.
+void run_on_arrival_from_the_ring_without_allocation(bool busy_poll) {
+  const System sys = load_scene(scene_path("two_puma_load"));
+  runtime::ServiceConfig cfg;
+  cfg.mode = runtime::ServiceMode::kEstimate;
+  cfg.trigger = runtime::Trigger::kArrival;
+  cfg.realtime.busy_poll = busy_poll;
+  cfg.stats_period_s = 0.05;
+  cfg.watchdog_ms = 20;
+  const std::string url = private_udpm_url(busy_poll ? 7 : 8);
+  std::unique_ptr<io::LcmBus> out = try_bus(url);
+  if (!out) GTEST_SKIP() << "LCM udpm unavailable (no multicast route?)";
+  FakeBus bus;
+  runtime::ServiceLoop loop(sys, cfg, bus);
+  io::IsolatedReceiver rx(COOPDYND_PATH, url, {cfg.state_channel, cfg.control_channel},
+                          {io::fingerprint(io::MessageType::kMeasuredState), io::fingerprint(io::MessageType::kControl)}, 64, 65536);
+  rx.drain_in_caller();
+  long handed_to_the_thread = 0;
+  rx.start([&](const void*, int, long long) { ++handed_to_the_thread; }, [](int, long long) {});
+  for (int i = 0; i < 400 && !rx.child_ready(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  ASSERT_TRUE(rx.child_ready());
+  RingSource source(rx, loop);
+  loop.take_arrivals_from(&source);
+  const StateFitPlan plan = plan_state_fit(sys);
+  std::vector<std::string> jq, jv, hostile = sys.model.q_names;
+  std::vector<double> qj, vj;
+  for (int i = 0; i < sys.model.nq(); ++i)
+    if (std::find(plan.fit_q.begin(), plan.fit_q.end(), i) == plan.fit_q.end()) jq.push_back(sys.model.q_names[i]), qj.push_back(sys.q0[i]);
+  for (int i = 0; i < sys.model.nv(); ++i)
+    if (std::find(plan.fit_v.begin(), plan.fit_v.end(), i) == plan.fit_v.end()) jv.push_back(sys.model.v_names[i]), vj.push_back(0.0);
+  hostile[0] = std::string(300, 'z');
+  std::atomic<bool> stop{false};
+  std::atomic<long> allocations{-1};
+  std::thread loop_thread([&] {
+    AllocationCounter c;
+    loop.run(stop);
+    allocations = c.count();
+  });
+  int valid = 0;
+  for (int k = 1; k <= 300; ++k) {
+    std::vector<uint8_t> b;
+    if (k % 4 == 1) b = io::encode_measured_state(runtime::realtime_us(), k, jq, qj, jv, vj, vj);
+    else if (k % 4 == 2) b = io::encode_measured_state(runtime::realtime_us(), k, hostile, stdvec(sys.q0), {}, stdvec(sys.v0), stdvec(sys.v0));
+    else if (k % 4 == 3) b = io::encode_control(runtime::realtime_us(), k, io::ControlAction::kClearFault);
+    else b = io::encode_measured_state(runtime::realtime_us(), k, {}, stdvec(sys.q0), {}, stdvec(sys.v0), stdvec(sys.v0));
+    valid += k % 4 == 1 || k % 4 == 0;
+    out->publish(k % 4 == 3 ? cfg.control_channel.c_str() : cfg.state_channel.c_str(), b.data(), static_cast<int>(b.size()));
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(60));
+  stop = true;
+  loop_thread.join();
+  rx.stop();
+  EXPECT_EQ(allocations.load(), 0);
+  EXPECT_EQ(handed_to_the_thread, 0);  // the receive thread only supervised
+  const runtime::InputCounters& c = loop.states().counters();
+  EXPECT_EQ(c.accepted.load(), valid) << "of " << c.received.load() << " received (udpm on loopback)";
+  EXPECT_EQ(c.by_reason[static_cast<int>(io::Reject::kUnknownName)].load(), 75);
+  EXPECT_EQ(loop.controls().counters().received.load(), 75);
+  EXPECT_EQ(bus.count("COOPDYN_OUTPUT"), loop.ticks());
+  runtime::Event e;
+  while (loop.events().pop(&e)) {
+  }
+}
+}  // namespace
+
+TEST(LoopNoAllocation, RunOnArrivalDrainingTheReceiveProcessRing) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  run_on_arrival_from_the_ring_without_allocation(false);
+}
+
+TEST(LoopNoAllocation, RunOnArrivalPollingTheReceiveProcessRing) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  run_on_arrival_from_the_ring_without_allocation(true);
 }
 
 // The loop publishes from its own thread with lcm_publish over udpm: that path must not allocate
