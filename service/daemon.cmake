@@ -11,6 +11,7 @@ add_library(coopdyn_io
   ${CMAKE_CURRENT_LIST_DIR}/io/lcm_bus.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/lcm_wire.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/rx_isolated.cc
+  ${CMAKE_CURRENT_LIST_DIR}/io/udpm_socket.cc
 )
 # libsodium: HMAC-SHA256 of authenticated inputs (io/auth.h), allocation-free; its header is in auth.h
 pkg_check_modules(SODIUM REQUIRED IMPORTED_TARGET GLOBAL libsodium)

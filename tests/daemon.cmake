@@ -6,6 +6,7 @@ coopdyn_test(coopdynd_tests
   FILES
     io/lcm_wire_test.cc
     io/direct_decoder_test.cc
+    io/lcm_bus_test.cc
     io/convert_test.cc
     runtime/service_loop_test.cc
     runtime/triple_buffer_test.cc

@@ -37,20 +37,26 @@ class LcmBus : public Bus {
 
   int publish(const char* channel, const void* data, int len) override;
 
-  // Subscribe before start(); the handler runs on the receive thread. channel is a regex in LCM.
+  // Subscribe before start(); the handler runs on the receive thread. channel is a regex in LCM's
+  // sense (the whole channel name must match).
   void subscribe(const std::string& channel, Handler h);
-  // Starts the receive thread. busy_poll: it never sleeps (lcm_handle_timeout with 0 in a loop, a
-  // whole CPU, yielding it to any other runnable thread between two polls), as a real-time
-  // controller that polls LCM each cycle: a message is handled as soon as liblcm's own udpm read
-  // thread has queued it, without the wake-up of this thread.
+  // Starts the receive thread. busy_poll: it never sleeps, a whole CPU (yielded to any other
+  // runnable thread between two polls), as a real-time controller that polls each cycle. On a
+  // udpm URL it then reads its own socket in the group (udpm_socket.h) and LCM's wire format
+  // (lcm_wire.h: LC02, LC03 reassembled), so that a message is handled as soon as the kernel has it,
+  // without the wake-up of liblcm's read thread; on other URLs it polls lcm_handle_timeout(0).
   void start(bool busy_poll = false);
   void stop();   // joins it (also done by the destructor)
   lcm_t* raw() { return lcm_; }
 
  private:
+  struct Subscription;
   static void on_message(const void* rbuf, const char* channel, void* user);
+  void poll_socket();  // the busy-poll reader on a udpm URL
+  std::string url_;
   lcm_t* lcm_ = nullptr;
-  std::vector<std::unique_ptr<Handler>> handlers_;
+  std::vector<std::unique_ptr<Subscription>> subs_;
+  int fd_ = -1;
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };

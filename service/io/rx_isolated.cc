@@ -1,4 +1,5 @@
 #include "service/io/rx_isolated.h"
+#include "service/io/udpm_socket.h"
 
 #include <arpa/inet.h>
 #include <fcntl.h>
@@ -350,48 +351,20 @@ RxRingHeader* map_ring(int shm_fd) {
   return hdr;
 }
 
-// The receive socket: UDP, bound to the URL's port with SO_REUSEADDR (as liblcm does, so
-// lcm-logger and other subscribers on this host receive too), in the URL's group only, with the kernel
-// filter attached before it is bound (no datagram is queued unfiltered) and the buffer size asked
-// for (rcvbuf, else the URL's recv_buf_size, else the OS default); what the filter and the buffer
-// came to goes to the header. -1 if the socket cannot be set up.
+// The receive socket (udpm_socket.h) with the kernel filter of the accepted channels attached
+// before it is bound and the buffer size asked for; what the filter and the buffer came to goes to
+// the header. -1 if the socket cannot be set up.
 int open_receive_socket(RxRingHeader* hdr, const wire::UdpmUrl& u, long rcvbuf, const std::vector<Accept>& acc) {
-  const int sock = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
-  if (sock < 0) return -1;
-  const int one = 1;
-  setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
   std::vector<sock_filter> prog = build_filter(acc);
   sock_fprog fp{static_cast<unsigned short>(prog.size()), prog.data()};
-  hdr->filter.store(setsockopt(sock, SOL_SOCKET, SO_ATTACH_FILTER, &fp, sizeof fp) == 0 ? 1 : -2);
-  if (rcvbuf <= 0) rcvbuf = u.recv_buf_size;
-  if (rcvbuf > 0) {
-    const int want = static_cast<int>(std::min<long>(rcvbuf, 1L << 30));
-    setsockopt(sock, SOL_SOCKET, SO_RCVBUF, &want, sizeof want);
-    int got = 0;
-    socklen_t gl = sizeof got;
-    // capped at net.core.rmem_max: with CAP_NET_ADMIN the buffer asked for all the same
-    if (getsockopt(sock, SOL_SOCKET, SO_RCVBUF, &got, &gl) == 0 && got / 2 < want)
-      setsockopt(sock, SOL_SOCKET, SO_RCVBUFFORCE, &want, sizeof want);
-  }
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_ANY);
-  addr.sin_port = htons(u.port);
-  ip_mreq mreq{};
-  inet_pton(AF_INET, u.group.c_str(), &mreq.imr_multiaddr);
-  mreq.imr_interface.s_addr = htonl(INADDR_ANY);
-  const int zero = 0;  // only the URL's group (Linux otherwise delivers every group joined on the host at this port)
-  setsockopt(sock, IPPROTO_IP, IP_MULTICAST_ALL, &zero, sizeof zero);
-  if (bind(sock, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0 ||
-      setsockopt(sock, IPPROTO_IP, IP_ADD_MEMBERSHIP, &mreq, sizeof mreq) != 0) {
-    std::fprintf(stderr, "coopdynd receive process: cannot join %s:%d: %s\n", u.group.c_str(), u.port, std::strerror(errno));
-    close(sock);
+  const UdpmSocket s = open_udpm_socket(u, rcvbuf, &fp);
+  hdr->filter.store(s.filter ? 1 : -2);
+  if (s.fd < 0) {
+    std::fprintf(stderr, "coopdynd receive process: %s\n", s.why.c_str());
     return -1;
   }
-  int got = 0;
-  socklen_t gl = sizeof got;
-  if (getsockopt(sock, SOL_SOCKET, SO_RCVBUF, &got, &gl) == 0) hdr->rcvbuf.store(got);
-  return sock;
+  hdr->rcvbuf.store(s.rcvbuf);
+  return s.fd;
 }
 
 // A coopdyn message of one of the accepted channels: the channel literally, then the payload's
