@@ -2,8 +2,9 @@
 // definition (wrench_sigma_reference.cc): on every shipped scene with every joint reaction reported
 // and noise declared on every joint (torque, position, velocity), in both modes and both
 // formulations, the square root C of each covariance, the sigmas and what they contain agree to
-// 1e-10 relative to the largest entry of each output's block (the two differ only in the order of
-// the floating-point operations).
+// 1e-10 relative to the largest entry of each output's block, or to 1e-13 of the largest entry of C
+// for a block that is zero but for round-off (a reaction nothing loads: 1e-23 against 2e-14 seen on
+// the TIAGo's base), the two differing only in the order of the floating-point operations.
 #include <gtest/gtest.h>
 
 #include <random>
@@ -24,10 +25,11 @@ void expect_same(const System& sys, const WrenchSigmaData& fast, const WrenchSig
   ASSERT_EQ(fast.valid, ref.valid);
   ASSERT_EQ(fast.source, ref.source);
   ASSERT_EQ(fast.ncols, ref.ncols);
+  const double all = ref.C.leftCols(ref.ncols).cwiseAbs().maxCoeff();
   for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k) {
     const auto Cr = ref.C.block(6 * static_cast<Eigen::Index>(k), 0, 6, ref.ncols);
     const auto Cf = fast.C.block(6 * static_cast<Eigen::Index>(k), 0, 6, fast.ncols);
-    const double scale = std::max(Cr.cwiseAbs().maxCoeff(), 1e-300);
+    const double scale = std::max(Cr.cwiseAbs().maxCoeff(), 1e-3 * all);
     EXPECT_LE((Cf - Cr).cwiseAbs().maxCoeff(), 1e-10 * scale) << sys.wrenches.outputs[k].name;
     EXPECT_LE((fast.sigma[k] - ref.sigma[k]).cwiseAbs().maxCoeff(), 1e-10 * scale) << sys.wrenches.outputs[k].name;
   }

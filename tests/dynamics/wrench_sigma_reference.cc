@@ -33,6 +33,8 @@ Mat6 inertia_matrix(const RigidInertia& I) {
   M.bottomRightCorner<3, 3>() = I.m * Mat3::Identity();
   return M;
 }
+// per body: the reaction's inertia on its acceleration, dense (the service now keeps RigidInertia)
+std::vector<Mat6> I_lin, I_fix;
 }  // namespace
 
 namespace {
@@ -191,10 +193,12 @@ void batch_setup(const System& sys, const Workspace& ws, WrenchSigmaData& sd) {
   const Data& data = ws.data;
   const ConstraintSet& cs = sys.constraints;
   const WrenchSet& set = sys.wrenches;
+  I_lin.assign(static_cast<size_t>(model.nbodies()), Mat6::Zero());
+  I_fix.assign(static_cast<size_t>(model.nbodies()), Mat6::Zero());
   for (int i : set.pass) {
-    if (data.has_inertia[i]) sd.I_lin[i] = inertia_matrix(data.I_W[i]);
+    if (data.has_inertia[i]) I_lin[i] = inertia_matrix(data.I_W[i]);
     if (model.bodies[i].joint.type == JointType::kFixed && model.bodies[i].parent >= 0)
-      sd.I_fix[i] = inertia_matrix(data.I_Bw[i].transformed(data.X_WB[i].R, data.X_WB[i].p - data.p_ref));
+      I_fix[i] = inertia_matrix(data.I_Bw[i].transformed(data.X_WB[i].R, data.X_WB[i].p - data.p_ref));
   }
   for (int s : set.pass_specs) {
     const int r0 = cs.row_offset[s];
@@ -227,10 +231,10 @@ void batch_reactions(const System& sys, const Workspace& ws, WrenchSigmaData& sd
   for (int i : pass) {
     const Body& b = model.bodies[i];
     auto N = blk(sd.Acc, i);
-    if (ws.data.has_inertia[i]) N.noalias() += sd.I_lin[i] * blk(sd.A, i);
+    if (ws.data.has_inertia[i]) N.noalias() += I_lin[i] * blk(sd.A, i);
     auto R = blk(sd.Rb, i);
     R = N;
-    if (b.joint.type == JointType::kFixed && b.parent >= 0) R.noalias() += sd.I_fix[i] * blk(sd.A, i);
+    if (b.joint.type == JointType::kFixed && b.parent >= 0) R.noalias() += I_fix[i] * blk(sd.A, i);
     if (b.parent >= 0) blk(sd.Acc, b.parent) += N;
   }
 }
