@@ -127,31 +127,37 @@ void rows_solve_L(const Model& model, const Data& data, RowMat& X, int nc) {
   }
 }
 
-// Lam = Q^-1 Rhs through the block factor (QBlocks::solve, every column at once)
+// Lam = Q^-1 Rhs through the block factor (QBlocks::solve, every column at once, as row operations)
 void blocks_solve_rows(QBlocks& qb, WrenchSigmaData& sd, int nc) {
-  auto Z = sd.Tmp.leftCols(nc);
-  auto T = sd.Tmp2.leftCols(nc);
-  Z.setZero();
+  double* z = sd.Tmp.data();  // (6 x nc) the common-DOF sums z, then t
+  const Eigen::Index lz = sd.Tmp.outerStride(), ll = sd.Lam.outerStride(), lr = sd.Rhs.outerStride();
+  double* lam = sd.Lam.data();
+  const double* rhs = sd.Rhs.data();
+  zero_rows(z, lz, nc);
   for (QBlocks::Group& g : qb.groups) {  // forward: y_g = L_g^-1 (b_g - B_g z)
     for (int i = 0; i < g.rows; ++i) {
-      auto y = sd.Lam.row(g.row0 + i).head(nc);
-      y = sd.Rhs.row(g.row0 + i).head(nc);
-      y.noalias() -= g.B.row(i) * Z;
-      for (int k = 0; k < i; ++k) y -= g.A(i, k) * sd.Lam.row(g.row0 + k).head(nc);
-      y *= g.dinv[i];
+      double* y = lam + (g.row0 + i) * ll;
+      const double* b = rhs + (g.row0 + i) * lr;
+      for (int c = 0; c < nc; ++c) y[c] = b[c];
+      for (int k = 0; k < QBlocks::kMaxCommon; ++k) axpy_row(y, z + k * lz, g.B(i, k), nc);
+      for (int k = 0; k < i; ++k) axpy_row(y, lam + (g.row0 + k) * ll, g.A(i, k), nc);
+      scale_row(y, g.dinv[i], nc);
     }
-    for (int i = 0; i < g.rows; ++i) Z.noalias() += g.W.row(i).transpose() * sd.Lam.row(g.row0 + i).head(nc);
+    for (int i = 0; i < g.rows; ++i)
+      for (int k = 0; k < QBlocks::kMaxCommon; ++k) axpy_row(z + k * lz, lam + (g.row0 + i) * ll, -g.W(i, k), nc);
   }
-  T.setZero();
+  zero_rows(z, lz, nc);
   for (auto it = qb.groups.rbegin(); it != qb.groups.rend(); ++it) {  // backward: x_g = L_g^-T (y_g - W_g t)
     QBlocks::Group& g = *it;
-    for (int i = 0; i < g.rows; ++i) sd.Lam.row(g.row0 + i).head(nc).noalias() -= g.W.row(i) * T;
+    for (int i = 0; i < g.rows; ++i)
+      for (int k = 0; k < QBlocks::kMaxCommon; ++k) axpy_row(lam + (g.row0 + i) * ll, z + k * lz, g.W(i, k), nc);
     for (int i = g.rows - 1; i >= 0; --i) {
-      auto x = sd.Lam.row(g.row0 + i).head(nc);
-      for (int k = i + 1; k < g.rows; ++k) x -= g.A(k, i) * sd.Lam.row(g.row0 + k).head(nc);
-      x *= g.dinv[i];
+      double* x = lam + (g.row0 + i) * ll;
+      for (int k = i + 1; k < g.rows; ++k) axpy_row(x, lam + (g.row0 + k) * ll, g.A(k, i), nc);
+      scale_row(x, g.dinv[i], nc);
     }
-    for (int i = 0; i < g.rows; ++i) T.noalias() += g.B.row(i).transpose() * sd.Lam.row(g.row0 + i).head(nc);
+    for (int i = 0; i < g.rows; ++i)
+      for (int k = 0; k < QBlocks::kMaxCommon; ++k) axpy_row(z + k * lz, lam + (g.row0 + i) * ll, -g.B(i, k), nc);
   }
 }
 
