@@ -1,13 +1,14 @@
 // Cost of each reported wrench's sigma (service/dynamics/wrench_sigma.h) next to the evaluation it
-// comes from. Per scene (every joint reaction reported, `noise: {tau: 0.1, q: 1e-4, v: 1e-3}` on
-// every actuated / measured joint), interleaved in one process (a shared machine's load drifts
+// comes from. Per scene (the shipped scenes whose formulation propagates noise, then 1, 2, 4 and 8
+// PUMAs holding a load: bench/scenes/pumas_N.yaml; every joint reaction reported,
+// `noise: {tau: 0.1, q: 1e-4, v: 1e-3}` on every actuated / measured joint), interleaved in one process (a shared machine's load drifts
 // between separate runs): per repetition a block of evaluate() calls, then compute_wrenches(), then
 // compute_wrench_sigma() with the torque noise (simulate mode), then with the torque, position and
 // velocity noise (estimate mode), each block ~0.3 ms; printed per scene: the medians over REPS
 // (default 31) repetitions of each per-call time and of the ratios sigma / evaluate within one
 // repetition. Goal: the sigma of every reported wrench under 25 % of an evaluation.
 //
-//   wrench_sigma_bench [REPS]
+//   wrench_sigma_bench [REPS] [SCENE]   (SCENE: only the scenes whose file name contains it)
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -50,17 +51,22 @@ double per_call_us(int n, F&& f) {
 
 int main(int argc, char** argv) {
   const int reps = argc > 1 ? std::atoi(argv[1]) : 31;
+  const std::string only = argc > 2 ? argv[2] : "";
   const std::string dir = std::string(COOPDYN_SOURCE_DIR);
-  const std::vector<std::string> scenes = {dir + "/config/scenes/two_puma_load.yaml", dir + "/config/scenes/two_iiwa_load.yaml",
-                                           dir + "/config/scenes/four_wheel_car.yaml", dir + "/bench/scenes/pumas_4.yaml",
-                                           dir + "/bench/scenes/pumas_8.yaml"};
+  std::vector<std::string> scenes;
+  for (const char* n : {"four_bar", "four_wheel_car", "planar_arms_load", "pr2_box", "tiago_pro_box", "trike", "two_5dof_arms_load",
+                        "two_iiwa_load", "two_puma_load", "two_wheel_vehicle", "unicycle"})
+    scenes.push_back(dir + "/config/scenes/" + n + ".yaml");
+  for (const char* n : {"pumas_1", "pumas_2", "pumas_4", "pumas_8"}) scenes.push_back(dir + "/bench/scenes/" + n + ".yaml");
   std::printf("%-22s %4s %4s %4s %5s %5s %8s %9s %8s %10s %8s %10s\n", "scene", "nv", "rows", "out", "tau", "q+v",
               "eval_us", "wrench_us", "sigma_us", "sigma/eval", "est_us", "est/eval");
   for (const std::string& path : scenes) {
+    if (path.substr(path.rfind('/') + 1).find(only) == std::string::npos) continue;
     const System sys = load(path);
     Workspace ws(sys);
     WrenchData wd(sys);
     WrenchSigmaData sd(sys);
+    if (!wrench_sigma_supported(sys)) continue;  // a formulation that does not propagate noise
     const Eigen::VectorXd tau = Eigen::VectorXd::Constant(sys.model.nv(), 0.1);
     evaluate(sys, ws, sys.q0, sys.v0, tau);
     const double e0 = per_call_us(50, [&] { evaluate(sys, ws, sys.q0, sys.v0, tau); });

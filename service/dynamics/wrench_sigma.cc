@@ -13,23 +13,6 @@ using RowMat = WrenchSigmaData::RowMat;
 
 bool positive(const Eigen::VectorXd& x) { return x.size() > 0 && x.maxCoeff() > 0.0; }
 
-Mat3 skew(const Vec3& h) {
-  Mat3 S;
-  S << 0, -h[2], h[1], h[2], 0, -h[0], -h[1], h[0], 0;
-  return S;
-}
-
-// [n; f] = I [w; v] for a rigid inertia (m, h, Io) about the reference point: n = Io w + h x v,
-// f = m v - h x w
-Mat6 inertia_matrix(const RigidInertia& I) {
-  Mat6 M;
-  const Mat3 H = skew(I.h);
-  M.topLeftCorner<3, 3>() = I.Io;
-  M.topRightCorner<3, 3>() = H;
-  M.bottomLeftCorner<3, 3>() = -H;
-  M.bottomRightCorner<3, 3>() = I.m * Mat3::Identity();
-  return M;
-}
 }  // namespace
 
 bool wrench_sigma_supported(const System& sys) {
@@ -74,8 +57,8 @@ WrenchSigmaData::WrenchSigmaData(const System& sys) {
   dF.setZero(6 * static_cast<Eigen::Index>(sys.wrenches.pass_specs.size()), nc);
   Tmp.setZero(6, nc);
   Tmp2.setZero(6, nc);
-  I_lin.assign(nb, Mat6::Zero());
-  I_fix.assign(nb, Mat6::Zero());
+  I_lin.assign(nb, RigidInertia());
+  I_fix.assign(nb, RigidInertia());
   T_spec.assign(sys.constraints.specs.size(), Mat6::Zero());
   unit.setZero(m);
   col_b.setZero(m);
@@ -100,6 +83,15 @@ namespace {
 // row a -= f * row b over nc entries (row-major rows: contiguous, vectorized)
 inline void axpy_row(double* __restrict a, const double* __restrict b, double f, int nc) {
   for (int c = 0; c < nc; ++c) a[c] -= f * b[c];
+}
+// the first nc entries of 6 rows of stride ld
+inline void copy_rows(const double* __restrict from, double* __restrict to, Eigen::Index ld, int nc) {
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < nc; ++c) to[r * ld + c] = from[r * ld + c];
+}
+inline void zero_rows(double* a, Eigen::Index ld, int nc) {
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < nc; ++c) a[r * ld + c] = 0.0;
 }
 inline void scale_row(double* a, double f, int nc) {
   for (int c = 0; c < nc; ++c) a[c] *= f;
@@ -135,31 +127,37 @@ void rows_solve_L(const Model& model, const Data& data, RowMat& X, int nc) {
   }
 }
 
-// Lam = Q^-1 Rhs through the block factor (QBlocks::solve, every column at once)
+// Lam = Q^-1 Rhs through the block factor (QBlocks::solve, every column at once, as row operations)
 void blocks_solve_rows(QBlocks& qb, WrenchSigmaData& sd, int nc) {
-  auto Z = sd.Tmp.leftCols(nc);
-  auto T = sd.Tmp2.leftCols(nc);
-  Z.setZero();
+  double* z = sd.Tmp.data();  // (6 x nc) the common-DOF sums z, then t
+  const Eigen::Index lz = sd.Tmp.outerStride(), ll = sd.Lam.outerStride(), lr = sd.Rhs.outerStride();
+  double* lam = sd.Lam.data();
+  const double* rhs = sd.Rhs.data();
+  zero_rows(z, lz, nc);
   for (QBlocks::Group& g : qb.groups) {  // forward: y_g = L_g^-1 (b_g - B_g z)
     for (int i = 0; i < g.rows; ++i) {
-      auto y = sd.Lam.row(g.row0 + i).head(nc);
-      y = sd.Rhs.row(g.row0 + i).head(nc);
-      y.noalias() -= g.B.row(i) * Z;
-      for (int k = 0; k < i; ++k) y -= g.A(i, k) * sd.Lam.row(g.row0 + k).head(nc);
-      y *= g.dinv[i];
+      double* y = lam + (g.row0 + i) * ll;
+      const double* b = rhs + (g.row0 + i) * lr;
+      for (int c = 0; c < nc; ++c) y[c] = b[c];
+      for (int k = 0; k < QBlocks::kMaxCommon; ++k) axpy_row(y, z + k * lz, g.B(i, k), nc);
+      for (int k = 0; k < i; ++k) axpy_row(y, lam + (g.row0 + k) * ll, g.A(i, k), nc);
+      scale_row(y, g.dinv[i], nc);
     }
-    for (int i = 0; i < g.rows; ++i) Z.noalias() += g.W.row(i).transpose() * sd.Lam.row(g.row0 + i).head(nc);
+    for (int i = 0; i < g.rows; ++i)
+      for (int k = 0; k < QBlocks::kMaxCommon; ++k) axpy_row(z + k * lz, lam + (g.row0 + i) * ll, -g.W(i, k), nc);
   }
-  T.setZero();
+  zero_rows(z, lz, nc);
   for (auto it = qb.groups.rbegin(); it != qb.groups.rend(); ++it) {  // backward: x_g = L_g^-T (y_g - W_g t)
     QBlocks::Group& g = *it;
-    for (int i = 0; i < g.rows; ++i) sd.Lam.row(g.row0 + i).head(nc).noalias() -= g.W.row(i) * T;
+    for (int i = 0; i < g.rows; ++i)
+      for (int k = 0; k < QBlocks::kMaxCommon; ++k) axpy_row(lam + (g.row0 + i) * ll, z + k * lz, g.W(i, k), nc);
     for (int i = g.rows - 1; i >= 0; --i) {
-      auto x = sd.Lam.row(g.row0 + i).head(nc);
-      for (int k = i + 1; k < g.rows; ++k) x -= g.A(k, i) * sd.Lam.row(g.row0 + k).head(nc);
-      x *= g.dinv[i];
+      double* x = lam + (g.row0 + i) * ll;
+      for (int k = i + 1; k < g.rows; ++k) axpy_row(x, lam + (g.row0 + k) * ll, g.A(k, i), nc);
+      scale_row(x, g.dinv[i], nc);
     }
-    for (int i = 0; i < g.rows; ++i) T.noalias() += g.B.row(i).transpose() * sd.Lam.row(g.row0 + i).head(nc);
+    for (int i = 0; i < g.rows; ++i)
+      for (int k = 0; k < QBlocks::kMaxCommon; ++k) axpy_row(z + k * lz, lam + (g.row0 + i) * ll, -g.B(i, k), nc);
   }
 }
 
@@ -252,9 +250,9 @@ void batch_setup(const System& sys, const Workspace& ws, WrenchSigmaData& sd) {
   const ConstraintSet& cs = sys.constraints;
   const WrenchSet& set = sys.wrenches;
   for (int i : set.pass) {
-    if (data.has_inertia[i]) sd.I_lin[i] = inertia_matrix(data.I_W[i]);
+    if (data.has_inertia[i]) sd.I_lin[i] = data.I_W[i];
     if (model.bodies[i].joint.type == JointType::kFixed && model.bodies[i].parent >= 0)
-      sd.I_fix[i] = inertia_matrix(data.I_Bw[i].transformed(data.X_WB[i].R, data.X_WB[i].p - data.p_ref));
+      sd.I_fix[i] = data.I_Bw[i].transformed(data.X_WB[i].R, data.X_WB[i].p - data.p_ref);
   }
   for (int s : set.pass_specs) {
     const int r0 = cs.row_offset[s];
@@ -268,30 +266,85 @@ void batch_setup(const System& sys, const Workspace& ws, WrenchSigmaData& sd) {
     if (set.outputs[k].spec < 0) sd.X_WF[k] = wrench_frame_pose(sys, data, static_cast<int>(k));
 }
 
+// Row r, columns 0:nc, of a row-major matrix: contiguous, so that the sums of rows below vectorize.
+template <class Mat>
+inline auto row(Mat& M, Eigen::Index r, int nc) {
+  return M.row(r).head(nc);
+}
+
+// N (+)= I A for a rigid inertia on 6 rows of nc columns (row r of A at a + r la, of N at
+// n + r ln): n = Io w + h x v, f = m v - h x w (the 6 x 6 inertia matrix without its zeros and
+// repeats: 24 multiply-adds a column instead of 36). ivdep here and in to_frame: the rows never
+// overlap, and without it GCC leaves these loops scalar (a quarter slower at 48 columns).
+template <bool kAdd>
+void inertia_times(const RigidInertia& I, const double* __restrict a, Eigen::Index la, double* __restrict n,
+                   Eigen::Index ln, int nc) {
+  const double m = I.m, hx = I.h.x(), hy = I.h.y(), hz = I.h.z();
+  const double j00 = I.Io(0, 0), j01 = I.Io(0, 1), j02 = I.Io(0, 2), j10 = I.Io(1, 0), j11 = I.Io(1, 1), j12 = I.Io(1, 2),
+               j20 = I.Io(2, 0), j21 = I.Io(2, 1), j22 = I.Io(2, 2);
+#pragma GCC ivdep
+  for (int c = 0; c < nc; ++c) {
+    const double wx = a[c], wy = a[la + c], wz = a[2 * la + c], vx = a[3 * la + c], vy = a[4 * la + c], vz = a[5 * la + c];
+    const double x0 = j00 * wx + j01 * wy + j02 * wz + hy * vz - hz * vy;
+    const double x1 = j10 * wx + j11 * wy + j12 * wz + hz * vx - hx * vz;
+    const double x2 = j20 * wx + j21 * wy + j22 * wz + hx * vy - hy * vx;
+    const double x3 = m * vx - (hy * wz - hz * wy), x4 = m * vy - (hz * wx - hx * wz), x5 = m * vz - (hx * wy - hy * wx);
+    if constexpr (kAdd) {
+      n[c] += x0, n[ln + c] += x1, n[2 * ln + c] += x2, n[3 * ln + c] += x3, n[4 * ln + c] += x4, n[5 * ln + c] += x5;
+    } else {
+      n[c] = x0, n[ln + c] = x1, n[2 * ln + c] = x2, n[3 * ln + c] = x3, n[4 * ln + c] = x4, n[5 * ln + c] = x5;
+    }
+  }
+}
+
+// C = [Rt (n - p x f); Rt f] for D = [n; f] on 6 rows of nc columns (row r of D at d + r ld, of C
+// at o + r lo)
+void to_frame(const Mat3& Rt, const Vec3& p, const double* __restrict d, Eigen::Index ld, double* __restrict o,
+              Eigen::Index lo, int nc) {
+  const double px = p.x(), py = p.y(), pz = p.z();
+  const double r00 = Rt(0, 0), r01 = Rt(0, 1), r02 = Rt(0, 2), r10 = Rt(1, 0), r11 = Rt(1, 1), r12 = Rt(1, 2), r20 = Rt(2, 0),
+               r21 = Rt(2, 1), r22 = Rt(2, 2);
+#pragma GCC ivdep
+  for (int j = 0; j < nc; ++j) {
+    const double f0 = d[3 * ld + j], f1 = d[4 * ld + j], f2 = d[5 * ld + j];
+    const double n0 = d[j] - (py * f2 - pz * f1), n1 = d[ld + j] - (pz * f0 - px * f2), n2 = d[2 * ld + j] - (px * f1 - py * f0);
+    o[j] = r00 * n0 + r01 * n1 + r02 * n2;
+    o[lo + j] = r10 * n0 + r11 * n1 + r12 * n2;
+    o[2 * lo + j] = r20 * n0 + r21 * n1 + r22 * n2;
+    o[3 * lo + j] = r00 * f0 + r01 * f1 + r02 * f2;
+    o[4 * lo + j] = r10 * f0 + r11 * f1 + r12 * f2;
+    o[5 * lo + j] = r20 * f0 + r21 * f1 + r22 * f2;
+  }
+}
+
 // Rb: the joint reactions' change (world, at p_ref) for the accelerations' change X, without the
 // constraint forces (added per output): joint_reactions' vdot-linear part on 6 x nc blocks
 void batch_reactions(const System& sys, const Workspace& ws, WrenchSigmaData& sd, int nc) {
   const Model& model = sys.model;
   const std::vector<int>& pass = sys.wrenches.pass;
   const int last = pass.front();
-  auto blk = [nc](RowMat& M, int i) { return M.block(6 * i, 0, 6, nc); };
+  const Eigen::Index la = sd.A.outerStride();  // A, Acc, Rb: the same shape
   for (int i = 0; i <= last; ++i) {
     const Body& b = model.bodies[i];
-    auto Ai = blk(sd.A, i);
-    if (b.parent >= 0) Ai = blk(sd.A, b.parent);
-    else Ai.setZero();
-    for (int k = 0; k < b.joint.nv; ++k)
-      Ai.noalias() += ws.data.S_W.col(b.joint.idx_v + k) * sd.X.row(b.joint.idx_v + k).head(nc);
-    blk(sd.Acc, i).setZero();
+    double* a = sd.A.data() + 6 * i * la;
+    if (b.parent >= 0) copy_rows(sd.A.data() + 6 * b.parent * la, a, la, nc);
+    else zero_rows(a, la, nc);
+    for (int c = 0; c < 6; ++c)
+      for (int k = 0; k < b.joint.nv; ++k) {
+        const int d = b.joint.idx_v + k;
+        axpy_row(a + c * la, sd.X.data() + d * sd.X.outerStride(), -ws.data.S_W(c, d), nc);
+      }
+    zero_rows(sd.Acc.data() + 6 * i * la, la, nc);
   }
   for (int i : pass) {
     const Body& b = model.bodies[i];
-    auto N = blk(sd.Acc, i);
-    if (ws.data.has_inertia[i]) N.noalias() += sd.I_lin[i] * blk(sd.A, i);
-    auto R = blk(sd.Rb, i);
-    R = N;
-    if (b.joint.type == JointType::kFixed && b.parent >= 0) R.noalias() += sd.I_fix[i] * blk(sd.A, i);
-    if (b.parent >= 0) blk(sd.Acc, b.parent) += N;
+    double* acc = sd.Acc.data() + 6 * i * la;
+    if (ws.data.has_inertia[i]) inertia_times<true>(sd.I_lin[i], sd.A.data() + 6 * i * la, la, acc, la, nc);
+    copy_rows(acc, sd.Rb.data() + 6 * i * la, la, nc);
+    if (b.joint.type == JointType::kFixed && b.parent >= 0)
+      inertia_times<true>(sd.I_fix[i], sd.A.data() + 6 * i * la, la, sd.Rb.data() + 6 * i * la, la, nc);
+    if (b.parent >= 0)
+      for (int c = 0; c < 6; ++c) axpy_row(sd.Acc.data() + (6 * b.parent + c) * la, acc + c * la, -1.0, nc);
   }
 }
 
@@ -300,34 +353,36 @@ void batch_reactions(const System& sys, const Workspace& ws, WrenchSigmaData& sd
 void batch_outputs(const System& sys, const Workspace& ws, WrenchSigmaData& sd, int nc) {
   const ConstraintSet& cs = sys.constraints;
   const WrenchSet& set = sys.wrenches;
-  for (size_t t = 0; t < set.pass_specs.size(); ++t) {
-    const int s = set.pass_specs[t];
-    sd.dF.block(6 * static_cast<Eigen::Index>(t), 0, 6, nc).noalias() =
-        sd.T_spec[static_cast<size_t>(s)].leftCols(cs.row_count[s]) * sd.Lam.block(cs.row_offset[s], 0, cs.row_count[s], nc);
+  for (size_t t = 0; t < set.pass_specs.size(); ++t) {  // dF = T_spec Lam, row by row
+    const int s = set.pass_specs[t], r0 = cs.row_offset[s];
+    const Mat6& T = sd.T_spec[static_cast<size_t>(s)];
+    for (int c = 0; c < 6; ++c) {
+      auto f = row(sd.dF, 6 * static_cast<Eigen::Index>(t) + c, nc);
+      f = T(c, 0) * row(sd.Lam, r0, nc);
+      for (int r = 1; r < cs.row_count[s]; ++r) f += T(c, r) * row(sd.Lam, r0 + r, nc);
+    }
   }
   for (size_t k = 0; k < set.outputs.size(); ++k) {
     const WrenchOutput& o = set.outputs[k];
-    auto Ck = sd.C.block(6 * static_cast<Eigen::Index>(k), 0, 6, nc);
+    const Eigen::Index c0 = 6 * static_cast<Eigen::Index>(k);
     if (o.spec >= 0) {
-      Ck.setZero();
+      sd.C.block(c0, 0, 6, nc).setZero();
       const int r0 = cs.row_offset[o.spec];
-      for (int r = 0; r < cs.row_count[o.spec]; ++r) Ck.row(cs.row_axis[o.spec][r]) = sd.Lam.row(r0 + r).head(nc);
-      if (cs.specs[static_cast<size_t>(o.spec)].kind == ConstraintKind::kRolling)
-        Ck.row(1) = ws.cd.rr_arm[static_cast<size_t>(o.spec)] * Ck.row(5);  // set_rolling_resistance_moment
+      for (int r = 0; r < cs.row_count[o.spec]; ++r) row(sd.C, c0 + cs.row_axis[o.spec][r], nc) = row(sd.Lam, r0 + r, nc);
+      if (cs.specs[static_cast<size_t>(o.spec)].kind == ConstraintKind::kRolling)  // set_rolling_resistance_moment
+        row(sd.C, c0 + 1, nc) = ws.cd.rr_arm[static_cast<size_t>(o.spec)] * row(sd.C, c0 + 5, nc);
       continue;
     }
-    auto dR = sd.Tmp.leftCols(nc);
-    dR = sd.Rb.block(6 * o.body, 0, 6, nc);
-    for (int t = set.out_spec_begin[k]; t < set.out_spec_begin[k + 1]; ++t)
-      dR += static_cast<double>(set.out_spec[t].second) * sd.dF.block(6 * set.out_spec[t].first, 0, 6, nc);
+    for (int c = 0; c < 6; ++c) {
+      auto d = row(sd.Tmp, c, nc);
+      d = row(sd.Rb, 6 * o.body + c, nc);
+      for (int t = set.out_spec_begin[k]; t < set.out_spec_begin[k + 1]; ++t)
+        d += static_cast<double>(set.out_spec[t].second) * row(sd.dF, 6 * set.out_spec[t].first + c, nc);
+    }
     // world coordinates at p_ref -> the report frame at its origin: [R^T (n - p x f); R^T f]
     const Transform& X = sd.X_WF[k];
-    const Mat3 Rt = (o.reversed ? -1.0 : 1.0) * X.R.transpose();
-    Mat6 T = Mat6::Zero();
-    T.topLeftCorner<3, 3>() = Rt;
-    T.topRightCorner<3, 3>() = -Rt * skew(X.p - ws.data.p_ref);
-    T.bottomRightCorner<3, 3>() = Rt;
-    Ck.noalias() = T * dR;
+    to_frame((o.reversed ? -1.0 : 1.0) * X.R.transpose(), X.p - ws.data.p_ref, sd.Tmp.data(), sd.Tmp.outerStride(), &sd.C(c0, 0),
+             sd.C.outerStride(), nc);
   }
 }
 

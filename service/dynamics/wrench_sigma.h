@@ -86,7 +86,7 @@ struct WrenchSigmaData {
   RowMat A, Rb, Acc;                     // (6 bodies x columns): accelerations, reactions, subtree sums
   RowMat dF;                             // (6 pass specs x columns)
   Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::RowMajor> Tmp, Tmp2;  // (6 x columns)
-  std::vector<Mat6> I_lin, I_fix;        // per body: the reaction's inertia on its acceleration
+  std::vector<RigidInertia> I_lin, I_fix;  // per body: the reaction's inertia on its acceleration
   std::vector<Mat6> T_spec;              // per spec: world force at p_ref per unit of each row
   Eigen::VectorXd unit, col_b, col_x;    // (rows)
   std::vector<Transform> X_WF;           // per output: its report frame

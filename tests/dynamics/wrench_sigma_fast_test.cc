@@ -1,0 +1,75 @@
+// The fast path of each wrench's sigma (service/dynamics/wrench_sigma.cc) against its previous
+// definition (wrench_sigma_reference.cc): on every shipped scene with every joint reaction reported
+// and noise declared on every joint (torque, position, velocity), in both modes and both
+// formulations, the square root C of each covariance, the sigmas and what they contain agree to
+// 1e-10 relative to the largest entry of each output's block, or to 1e-13 of the largest entry of C
+// for a block that is zero but for round-off (a reaction nothing loads: 1e-23 against 2e-14 seen on
+// the TIAGo's base), the two differing only in the order of the floating-point operations.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "service/dynamics/wrench_sigma.h"
+#include "tests/dynamics/wrench_sigma_reference.h"
+#include "tests/support/test_util.h"
+
+namespace coopdyn::testing {
+namespace {
+
+const char* const kScenes[] = {"four_bar",   "four_wheel_car", "planar_arms_load", "pr2_box",           "tiago_pro_box",
+                               "trike",      "two_5dof_arms_load", "two_iiwa_load", "two_puma_load", "two_wheel_vehicle",
+                               "unicycle"};
+
+// every output's block of C and its sigmas against the reference's
+void expect_same(const System& sys, const WrenchSigmaData& fast, const WrenchSigmaData& ref) {
+  ASSERT_EQ(fast.valid, ref.valid);
+  ASSERT_EQ(fast.source, ref.source);
+  ASSERT_EQ(fast.ncols, ref.ncols);
+  const double all = ref.C.leftCols(ref.ncols).cwiseAbs().maxCoeff();
+  for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k) {
+    const auto Cr = ref.C.block(6 * static_cast<Eigen::Index>(k), 0, 6, ref.ncols);
+    const auto Cf = fast.C.block(6 * static_cast<Eigen::Index>(k), 0, 6, fast.ncols);
+    const double scale = std::max(Cr.cwiseAbs().maxCoeff(), 1e-3 * all);
+    EXPECT_LE((Cf - Cr).cwiseAbs().maxCoeff(), 1e-10 * scale) << sys.wrenches.outputs[k].name;
+    EXPECT_LE((fast.sigma[k] - ref.sigma[k]).cwiseAbs().maxCoeff(), 1e-10 * scale) << sys.wrenches.outputs[k].name;
+  }
+}
+
+TEST(WrenchSigmaFast, EqualsThePreviousDefinitionOnEveryShippedScene) {
+  int compared = 0;
+  for (const char* name : kScenes) {
+    for (const bool classic : {false, true}) {  // the scene's own formulation; classic where it applies
+      SCOPED_TRACE(std::string(name) + (classic ? " classic" : ""));
+      SceneOverrides ov;
+      if (classic) ov.formulation = Formulation::kClassic;
+      const std::string text = without_reactions(scene_text(name)) + "\nreactions: all\nnoise: {tau: 0.2, q: 1e-3, v: 1e-2}\n";
+      if (classic && text.find("\nload:") == std::string::npos) continue;
+      const System sys = load_scene_string(text, scene_path(name), ov);
+      if (!wrench_sigma_supported(sys)) continue;
+      Workspace ws(sys);
+      WrenchSigmaData fast(sys), ref(sys);
+      std::mt19937 rng(3);
+      std::uniform_real_distribution<double> U(-1.0, 1.0);
+      Eigen::VectorXd v = sys.v0, tau = Eigen::VectorXd::Zero(sys.model.nv());
+      for (int i = 0; i < sys.model.nv(); ++i) {
+        v[i] += 0.3 * U(rng);
+        tau[i] = 2.0 * U(rng);
+      }
+      if (evaluate(sys, ws, sys.q0, v, tau).status == Status::kError) continue;
+      compute_wrench_sigma(sys, ws, fast);  // simulate mode: torque noise
+      reference::compute_wrench_sigma(sys, ws, ref);
+      ASSERT_TRUE(fast.valid);
+      expect_same(sys, fast, ref);
+      compute_wrench_sigma(sys, ws, fast, sys.q0, v, tau);  // estimate mode: torque, position, velocity
+      reference::compute_wrench_sigma(sys, ws, ref, sys.q0, v, tau);
+      ASSERT_TRUE(fast.valid);
+      EXPECT_TRUE(fast.source & WrenchSigmaData::kV);
+      expect_same(sys, fast, ref);
+      ++compared;
+    }
+  }
+  EXPECT_GE(compared, 12);  // how many pairs (scene, formulation) propagate noise
+}
+
+}  // namespace
+}  // namespace coopdyn::testing
