@@ -6,7 +6,8 @@
 //
 // Both ends publish with lcm_publish and receive through io::LcmBus (liblcm's receive thread, then
 // the handler thread), as `coopdyn send --measure-latency` does at its end; with --busy-poll that
-// end's handler thread polls without sleeping (LcmBus::start(true), `coopdyn send --busy-poll`). The round trip is two
+// end's thread polls the group's socket itself without sleeping (LcmBus::start(true), `coopdyn send
+// --busy-poll`: no liblcm read thread). The round trip is two
 // liblcm receipts with no computation: what remains of coopdynd's publish-to-wrenches latency when
 // its compute and handoff are taken out is one such receipt plus the receive process's own
 // (bench/loop_timing.sh prints it next to the daemon's rows).
