@@ -20,11 +20,14 @@
 #include <string>
 #include <vector>
 
+#include "bench/bench_util.h"
 #include "service/dynamics/constrained_dynamics.h"
 #include "service/dynamics/wrenches.h"
 #include "service/scene/scene.h"
 
 using namespace coopdyn;
+
+using coopdyn::bench::median;
 
 namespace {
 
@@ -40,11 +43,6 @@ struct Case {
   std::vector<Eigen::VectorXd> q, v;
   Eigen::VectorXd tau;
 };
-
-double median(std::vector<double> x) {
-  std::sort(x.begin(), x.end());
-  return x[x.size() / 2];
-}
 
 }  // namespace
 

@@ -19,25 +19,17 @@
 
 #include <Eigen/QR>
 
+#include "bench/bench_util.h"
 #include "service/algorithms/kinematics.h"
 #include "service/dynamics/friction_bound.h"
 #include "service/scene/scene.h"
 
 using namespace coopdyn;
 
+using coopdyn::bench::median;
+using coopdyn::bench::per_call_us;
+
 namespace {
-
-double median(std::vector<double> x) {
-  std::sort(x.begin(), x.end());
-  return x[x.size() / 2];
-}
-
-template <class F>
-double per_call_us(int n, F&& f) {
-  const auto t0 = std::chrono::steady_clock::now();
-  for (int i = 0; i < n; ++i) f();
-  return std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count() / n;
-}
 
 // a velocity closing the constraints at q0 with every arm joint moving but joint 2 of each arm
 Eigen::VectorXd moving(const System& sys) {

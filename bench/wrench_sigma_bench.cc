@@ -18,10 +18,14 @@
 #include <string>
 #include <vector>
 
+#include "bench/bench_util.h"
 #include "service/dynamics/wrench_sigma.h"
 #include "service/scene/scene.h"
 
 using namespace coopdyn;
+
+using coopdyn::bench::median;
+using coopdyn::bench::per_call_us;
 
 namespace {
 
@@ -33,18 +37,6 @@ System load(const std::string& path) {
   const auto p = text.find("\nreactions:");
   if (p != std::string::npos) text.erase(p, text.find('\n', p + 1) - p);
   return load_scene_string(text + "\nreactions: all\nnoise: {tau: 0.1, q: 1e-4, v: 1e-3}\n", path);
-}
-
-double median(std::vector<double> x) {
-  std::sort(x.begin(), x.end());
-  return x[x.size() / 2];
-}
-
-template <class F>
-double per_call_us(int n, F&& f) {
-  const auto t0 = std::chrono::steady_clock::now();
-  for (int i = 0; i < n; ++i) f();
-  return std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count() / n;
 }
 
 }  // namespace

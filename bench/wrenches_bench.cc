@@ -23,10 +23,14 @@
 #include <string>
 #include <vector>
 
+#include "bench/bench_util.h"
 #include "service/dynamics/wrenches.h"
 #include "service/scene/scene.h"
 
 using namespace coopdyn;
+
+using coopdyn::bench::median;
+using coopdyn::bench::per_call_us;
 
 namespace {
 
@@ -100,20 +104,6 @@ struct RatioCase {
       : name(n), sys_def(std::move(d)), sys_all(std::move(a)), ws_def(sys_def), ws_all(sys_all), wd_def(sys_def),
         wd_all(sys_all), tau(Eigen::VectorXd::Constant(sys_all.model.nv(), 0.1)) {}
 };
-
-template <class F>
-double per_call_us(int n, F&& f) {
-  const auto t0 = std::chrono::steady_clock::now();
-  for (int k = 0; k < n; ++k) f();
-  const auto t1 = std::chrono::steady_clock::now();
-  return std::chrono::duration<double, std::micro>(t1 - t0).count() / n;
-}
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 int run_ratio(int reps) {
   std::vector<RatioCase*> cases;
