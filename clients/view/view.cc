@@ -227,6 +227,21 @@ ViewFrames view_frames_of(const System& sys, std::vector<ViewSample>& rows, int 
   return vf;
 }
 
+namespace {
+// the columns NAME.<tag>mx .. NAME.<tag>fz of every drawn wrench (need: a column's index, or throws)
+template <class Need>
+std::vector<std::array<int, 6>> wrench_columns(const System& sys, const ViewFrames& geo, const char* tag, const Need& need) {
+  static const char* comp[6] = {"mx", "my", "mz", "fx", "fy", "fz"};
+  std::vector<std::array<int, 6>> cols;
+  for (int k : geo.wrenches) {
+    std::array<int, 6> c{};
+    for (int j = 0; j < 6; ++j) c[j] = need(sys.wrenches.outputs[k].name + "." + tag + comp[j]);
+    cols.push_back(c);
+  }
+  return cols;
+}
+}  // namespace
+
 ViewFrames read_view_frames(const System& sys, const std::string& path, int max_frames) {
   const Model& m = sys.model;
   std::ifstream in(path);
@@ -253,27 +268,14 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
       throw std::runtime_error(path + ":" + std::to_string(hdr.line_no) + ": column '" + h + "' is not a coordinate of scene '" + sys.name +
                                "': the CSV was written for another scene");
   const ViewFrames geo = view_geometry(sys);
-  static const char* comp[6] = {"mx", "my", "mz", "fx", "fy", "fz"};
-  std::vector<std::array<int, 6>> c_w;
-  for (int k : geo.wrenches) {
-    std::array<int, 6> c{};
-    for (int j = 0; j < 6; ++j) c[j] = need(sys.wrenches.outputs[k].name + "." + comp[j]);
-    c_w.push_back(c);
-  }
-
+  const std::vector<std::array<int, 6>> c_w = wrench_columns(sys, geo, "", need);
   // each wrench's sigma and friction bound, when the CSV has them (clients/csv/step_csv.h): all of
   // them or none
-  auto optional6 = [&](const char* tag) {
-    std::vector<std::array<int, 6>> c;
-    if (geo.wrenches.empty() || !col.count(sys.wrenches.outputs[geo.wrenches[0]].name + "." + tag + comp[0])) return c;
-    for (int k : geo.wrenches) {
-      std::array<int, 6> a{};
-      for (int j = 0; j < 6; ++j) a[j] = need(sys.wrenches.outputs[k].name + "." + tag + comp[j]);
-      c.push_back(a);
-    }
-    return c;
+  auto has = [&](const char* tag) {
+    return !geo.wrenches.empty() && col.count(sys.wrenches.outputs[geo.wrenches[0]].name + "." + tag + "mx") > 0;
   };
-  const std::vector<std::array<int, 6>> c_sigma = optional6("sigma_"), c_bound = optional6("bound_");
+  const std::vector<std::array<int, 6>> c_sigma = has("sigma_") ? wrench_columns(sys, geo, "sigma_", need) : std::vector<std::array<int, 6>>{};
+  const std::vector<std::array<int, 6>> c_bound = has("bound_") ? wrench_columns(sys, geo, "bound_", need) : std::vector<std::array<int, 6>>{};
 
   // the contact report of each wheel (clients/cli/sim.cc writes it for every rolling contact)
   std::vector<std::array<int, 3>> c_c;
