@@ -135,6 +135,9 @@ void ViewFrames::clear_frames() {
   seg_ends.clear();
   wrench_W.clear();
   wrench_F.clear();
+  wrench_sigma.clear();
+  wrench_bound.clear();
+  wrench_R.clear();
   contact_p.clear();
   contact_u.clear();
   contact_state.clear();
@@ -151,7 +154,9 @@ void add_view_frame(const System& sys, Data& data, ViewSample& row, ViewFrames* 
   forward_kinematics(m, data, row.q, v0);
   vf->t.push_back(row.t);
   vf->status.push_back(row.status);
-  std::vector<double> sp, se, ww;
+  std::vector<double> sp, se, ww, wr;
+  const size_t nw = vf->wrenches.size();
+  const bool has_sigma = row.sigma.size() == nw && nw > 0, has_bound = row.bound.size() == nw && nw > 0;
   for (const auto& s : vf->shapes) {
     const Transform X = data.X_WB[s.body] * s.X_BS;
     const Eigen::Quaterniond qq(X.R);
@@ -167,6 +172,10 @@ void add_view_frame(const System& sys, Data& data, ViewSample& row, ViewFrames* 
     const Transform X = wrench_frame_pose(sys, data, vf->wrenches[j]);
     const Vec3 f = X.R * row.w[j].tail<3>(), mo = X.R * row.w[j].head<3>();
     ww.insert(ww.end(), {X.p.x(), X.p.y(), X.p.z(), f.x(), f.y(), f.z(), mo.x(), mo.y(), mo.z()});
+    if (has_sigma || has_bound) {
+      const Eigen::Quaterniond qr(X.R);
+      wr.insert(wr.end(), {qr.x(), qr.y(), qr.z(), qr.w()});
+    }
   }
   std::vector<double> pp;
   for (const auto& p : vf->pseudos) {
@@ -181,6 +190,14 @@ void add_view_frame(const System& sys, Data& data, ViewSample& row, ViewFrames* 
   }
   const bool contacts_known = row.contact_u.size() == 2 * vf->contacts.size() && row.contact_state.size() == vf->contacts.size();
   vf->wrench_F.push_back(std::move(wf));
+  std::vector<double> wsg, wbd;
+  if (has_sigma)
+    for (const Vec6& x : row.sigma) wsg.insert(wsg.end(), x.data(), x.data() + 6);
+  if (has_bound)
+    for (const Vec6& x : row.bound) wbd.insert(wbd.end(), x.data(), x.data() + 6);
+  vf->wrench_sigma.push_back(std::move(wsg));
+  vf->wrench_bound.push_back(std::move(wbd));
+  vf->wrench_R.push_back(std::move(wr));
   vf->contact_p.push_back(std::move(cp));
   vf->contact_u.push_back(contacts_known ? row.contact_u : std::vector<double>{});
   vf->contact_state.push_back(contacts_known ? row.contact_state : std::vector<int>{});
@@ -210,6 +227,21 @@ ViewFrames view_frames_of(const System& sys, std::vector<ViewSample>& rows, int 
   return vf;
 }
 
+namespace {
+// the columns NAME.<tag>mx .. NAME.<tag>fz of every drawn wrench (need: a column's index, or throws)
+template <class Need>
+std::vector<std::array<int, 6>> wrench_columns(const System& sys, const ViewFrames& geo, const char* tag, const Need& need) {
+  static const char* comp[6] = {"mx", "my", "mz", "fx", "fy", "fz"};
+  std::vector<std::array<int, 6>> cols;
+  for (int k : geo.wrenches) {
+    std::array<int, 6> c{};
+    for (int j = 0; j < 6; ++j) c[j] = need(sys.wrenches.outputs[k].name + "." + tag + comp[j]);
+    cols.push_back(c);
+  }
+  return cols;
+}
+}  // namespace
+
 ViewFrames read_view_frames(const System& sys, const std::string& path, int max_frames) {
   const Model& m = sys.model;
   std::ifstream in(path);
@@ -236,13 +268,14 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
       throw std::runtime_error(path + ":" + std::to_string(hdr.line_no) + ": column '" + h + "' is not a coordinate of scene '" + sys.name +
                                "': the CSV was written for another scene");
   const ViewFrames geo = view_geometry(sys);
-  static const char* comp[6] = {"mx", "my", "mz", "fx", "fy", "fz"};
-  std::vector<std::array<int, 6>> c_w;
-  for (int k : geo.wrenches) {
-    std::array<int, 6> c{};
-    for (int j = 0; j < 6; ++j) c[j] = need(sys.wrenches.outputs[k].name + "." + comp[j]);
-    c_w.push_back(c);
-  }
+  const std::vector<std::array<int, 6>> c_w = wrench_columns(sys, geo, "", need);
+  // each wrench's sigma and friction bound, when the CSV has them (clients/csv/step_csv.h): all of
+  // them or none
+  auto has = [&](const char* tag) {
+    return !geo.wrenches.empty() && col.count(sys.wrenches.outputs[geo.wrenches[0]].name + "." + tag + "mx") > 0;
+  };
+  const std::vector<std::array<int, 6>> c_sigma = has("sigma_") ? wrench_columns(sys, geo, "sigma_", need) : std::vector<std::array<int, 6>>{};
+  const std::vector<std::array<int, 6>> c_bound = has("bound_") ? wrench_columns(sys, geo, "bound_", need) : std::vector<std::array<int, 6>>{};
 
   // the contact report of each wheel (clients/cli/sim.cc writes it for every rolling contact)
   std::vector<std::array<int, 3>> c_c;
@@ -276,11 +309,16 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
       throw std::runtime_error(where + ": unknown status '" + r.status + "'");
     r.q.resize(m.nq());
     for (int i = 0; i < m.nq(); ++i) r.q[i] = num(c_q[i]);
-    for (const auto& c : c_w) {
-      Vec6 w;
-      for (int j = 0; j < 6; ++j) w[j] = num(c[j]);
-      r.w.push_back(w);
-    }
+    auto wrenches6 = [&](const std::vector<std::array<int, 6>>& cols, std::vector<Vec6>* out) {
+      for (const auto& c : cols) {
+        Vec6 w;
+        for (int j = 0; j < 6; ++j) w[j] = num(c[j]);
+        out->push_back(w);
+      }
+    };
+    wrenches6(c_w, &r.w);
+    wrenches6(c_sigma, &r.sigma);
+    wrenches6(c_bound, &r.bound);
     for (const auto& c : c_c) {
       r.contact_u.push_back(num(c[0]));
       r.contact_u.push_back(num(c[1]));
@@ -377,6 +415,12 @@ std::string view_frame_json(const ViewFrames& vf, size_t i) {
   d += ",\"free\":" + json_string(vf.free[i]);
   d += ",\"wf\":";
   jexact(d, vf.wrench_F[i]);
+  d += ",\"ws\":";
+  jexact(d, vf.wrench_sigma[i]);
+  d += ",\"wb\":";
+  jexact(d, vf.wrench_bound[i]);
+  d += ",\"wr\":";
+  jvec(d, vf.wrench_R[i].data(), vf.wrench_R[i].size(), "%.9g");
   d += ",\"cp\":";
   jvec(d, vf.contact_p[i].data(), vf.contact_p[i].size());
   d += ",\"cu\":";
@@ -621,6 +665,9 @@ void append_frames_json(std::string& d, const ViewFrames& vf) {
   per_frame("],\"indet\":[", [&](size_t i) { jints(d, vf.indet[i]); });
   per_frame("],\"free\":[", [&](size_t i) { d += json_string(vf.free[i]); });
   per_frame("],\"wrench_F\":[", [&](size_t i) { jexact(d, vf.wrench_F[i]); });
+  per_frame("],\"wrench_sigma\":[", [&](size_t i) { jexact(d, vf.wrench_sigma[i]); });
+  per_frame("],\"wrench_bound\":[", [&](size_t i) { jexact(d, vf.wrench_bound[i]); });
+  per_frame("],\"wrench_R\":[", [&](size_t i) { jvec(d, vf.wrench_R[i].data(), vf.wrench_R[i].size(), "%.9g"); });
   per_frame("],\"contact_p\":[", [&](size_t i) { jvec(d, vf.contact_p[i].data(), vf.contact_p[i].size()); });
   per_frame("],\"contact_u\":[", [&](size_t i) { jexact(d, vf.contact_u[i]); });
   per_frame("],\"contact_state\":[", [&](size_t i) { jints(d, vf.contact_state[i]); });

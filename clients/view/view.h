@@ -67,6 +67,14 @@ struct ViewFrames {
                                                 // empty: not in the source
   std::vector<std::vector<double>> pseudo_p;    // 3 per pseudo-joint: its place (world)
   std::vector<std::vector<double>> stress;      // 1 per pseudo-joint, N*m or N; empty: not in the source
+  std::vector<std::vector<double>> wrench_sigma;  // 6 per drawn wrench: the standard deviation of each
+                                                 // component of wrench_F (same frame and units); empty:
+                                                 // not in the source (no declared noise)
+  std::vector<std::vector<double>> wrench_bound;  // 6 per drawn wrench: the friction bound of each
+                                                 // component (output_t wrench_bound); empty: none
+  std::vector<std::vector<double>> wrench_R;     // 4 per drawn wrench: its report frame's orientation in
+                                                 // the world (quaternion x y z w), the axes of sigma and
+                                                 // bound; empty when the frame has neither
   std::vector<std::vector<int>> indet;          // 1 per drawn wrench: bit k, component k of [m; f] is
                                                 // not determined by the physics; empty: not in the source
   std::vector<std::string> free;                // the free directions by class ("2 wheel_normal"); "" none
@@ -85,6 +93,8 @@ struct ViewSample {
   std::vector<double> contact_u;  // per contact (ViewFrames::contacts): utilisation, friction needed;
                                   // empty: unknown
   std::vector<int> contact_state;  // per contact, ContactState; empty: unknown
+  std::vector<Vec6> sigma;  // per drawn wrench: standard deviation of each component of w; empty: none
+  std::vector<Vec6> bound;  // per drawn wrench: its friction bound (joints at rest); empty: none
 };
 
 // The shapes, links and drawn wrenches of the scene, no frames yet.

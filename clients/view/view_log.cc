@@ -60,6 +60,15 @@ bool sample_of_output(const System& sys, const ViewFrames& geo, const io::Decode
     r->w.push_back(Eigen::Map<const Vec6>(o.wrench[static_cast<size_t>(k)].data()));
     r->indet.push_back(o.indeterminate_mask[static_cast<size_t>(k)] & 0x3f);
   }
+  // each wrench's sigma (declared noise) and friction bound (joints at rest), when the message has them
+  r->sigma.clear();
+  r->bound.clear();
+  const bool sigma_on = o.sigma_source != 0 && o.wrench_sigma.size() == outs.size();
+  const bool bound_on = o.friction_resting > 0 && o.wrench_bound.size() == outs.size();
+  for (int k : geo.wrenches) {
+    if (sigma_on) r->sigma.push_back(Eigen::Map<const Vec6>(o.wrench_sigma[static_cast<size_t>(k)].data()));
+    if (bound_on) r->bound.push_back(Eigen::Map<const Vec6>(o.wrench_bound[static_cast<size_t>(k)].data()));
+  }
   r->stress.clear();
   for (const auto& p : geo.pseudos) {
     const auto it = std::find(o.stress_names.begin(), o.stress_names.end(), p.name);

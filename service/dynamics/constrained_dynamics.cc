@@ -93,6 +93,7 @@ void size_joint_losses(const System& sys, Workspace& ws) {
       if (b.joint.damping > 0.0) ws.damped_dofs.push_back(d);
       if (b.joint.friction > 0.0) ws.friction_dofs.push_back(d);
     }
+  ws.rest_speed = sys.rest_speed;
   ws.rest_dofs.assign(ws.friction_dofs.size(), 0);
   ws.lcp = FrictionLcp(static_cast<int>(ws.friction_dofs.size()));
   if (!ws.friction_dofs.empty()) {
@@ -644,7 +645,7 @@ void apply_joint_losses(Workspace& ws, const Eigen::VectorXd& v) {
   for (int d : ws.damped_dofs) ws.tau_loss[d] = -ws.damping[d] * v[d];
   ws.rest_count = 0;
   for (int d : ws.friction_dofs) {
-    if (std::abs(v[d]) > Workspace::kRestSpeed) ws.tau_loss[d] -= v[d] > 0 ? ws.friction[d] : -ws.friction[d];
+    if (std::abs(v[d]) > ws.rest_speed) ws.tau_loss[d] -= v[d] > 0 ? ws.friction[d] : -ws.friction[d];
     else ws.rest_dofs[ws.rest_count++] = d;
   }
   ws.tau_c += ws.tau_loss;

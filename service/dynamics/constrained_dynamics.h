@@ -76,9 +76,11 @@ struct Workspace {
   std::vector<int> damped_dofs;       // DOFs with damping > 0
   std::vector<int> friction_dofs;     // DOFs with friction > 0
   Eigen::VectorXd damping, friction;  // (nv) per DOF (zero elsewhere)
-  // A friction joint is at rest when |v| <= kRestSpeed (rad/s or m/s): its friction is then solved
-  // as stiction (friction_lcp.h); faster, it slides with -friction sign(v).
-  static constexpr double kRestSpeed = 1e-9;
+  // A friction joint is at rest when |v| <= rest_speed (rad/s or m/s; System::rest_speed, scene key
+  // `friction: {rest_speed}`, default kRestSpeed): its friction is then solved as stiction
+  // (friction_lcp.h); faster, it slides with -friction sign(v).
+  static constexpr double kRestSpeed = System::kDefaultRestSpeed;
+  double rest_speed = kRestSpeed;
   std::vector<int> rest_dofs;          // (<= friction_dofs) the resting friction DOFs of the last evaluation
   int rest_count = 0;
   FrictionLcp lcp;                     // their stiction problem (A, b: one column per resting DOF)

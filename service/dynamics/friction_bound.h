@@ -1,7 +1,7 @@
 // The interval every reported wrench may take while the Coulomb friction of the joints at rest is
 // unknown: the friction bound of an estimate from measured joint torques (estimate mode, `eval`).
 //
-// A friction joint that moves (|v| > Workspace::kRestSpeed) has its friction known from the
+// A friction joint that moves (|v| > Workspace::rest_speed) has its friction known from the
 // measured velocity, -F sign(v), and its damping -b v: evaluate() applies both (the estimate is
 // compensated). At rest its friction f_j is anywhere in [-F_j, F_j] as far as a measurement can
 // tell (stuck: whatever holds it; about to move: the bound). The estimate reports the value the

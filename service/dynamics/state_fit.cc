@@ -179,6 +179,15 @@ double error_norm2(const StateFitPlan& plan, const ConstraintData& cd) {
 }
 }  // namespace
 
+void fit_position_step(const System& sys, const StateFitPlan& plan, StateFitWorkspace& ws, const Eigen::VectorXd& q,
+                       const Eigen::VectorXd& v, Eigen::VectorXd* dx) {
+  forward_kinematics(sys.model, ws.data, q, v);
+  constraint_rows(sys.model, ws.data, sys.constraints, q, v, ws.cd);
+  holonomic_system(plan, ws);
+  least_squares(ws, ws.n_hol);
+  *dx = -ws.x;
+}
+
 const Closure& fit_state(const System& sys, const StateFitPlan& plan, StateFitWorkspace& ws, bool fit_q, bool fit_v,
                          Eigen::VectorXd& q, Eigen::VectorXd& v) {
   const Model& m = sys.model;

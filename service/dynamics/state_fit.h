@@ -98,6 +98,13 @@ struct StateFitWorkspace {
 const Closure& fit_state(const System& sys, const StateFitPlan& plan, StateFitWorkspace& ws, bool fit_q, bool fit_v,
                          Eigen::VectorXd& q, Eigen::VectorXd& v);
 
+// One Gauss-Newton step of the position fit at q as it is (no stopping test, no step halving):
+// *dx (n_fit, the fitted floating DOFs' tangent step, in plan.fit_v's order) = -(G_u^T G_u)^+ G_u^T e.
+// Its change between two measurements is the fit's first-order response to the measured joints
+// (state_fit_sigma.h). Allocation-free; q is not changed.
+void fit_position_step(const System& sys, const StateFitPlan& plan, StateFitWorkspace& ws, const Eigen::VectorXd& q,
+                       const Eigen::VectorXd& v, Eigen::VectorXd* dx);
+
 // The closure residual of cd (constraint_rows at the state), rows classified by plan.
 void closure_residual(const ConstraintSet& set, const StateFitPlan& plan, const ConstraintData& cd, Closure* out);
 

@@ -71,6 +71,11 @@ struct System {
   // model.bodies[dof_body[d]].joint.idx_q. Propagated in estimate mode by the linearization at the
   // evaluated state (wrench_sigma.h)
   Eigen::VectorXd q_noise, v_noise;
+  // A friction joint is at rest when |v| <= rest_speed (rad/s or m/s): its friction is then solved as
+  // stiction (friction_lcp.h); faster, it slides with -friction sign(v). Scene key
+  // `friction: {rest_speed: S}`, default kDefaultRestSpeed.
+  static constexpr double kDefaultRestSpeed = 1e-9;
+  double rest_speed = kDefaultRestSpeed;
   // The arms' base links in the mobile-platform form whose joint 1 has no armature: the base link
   // carries a nominal inertia (no mass) only so that M stays regular for joint 1, which moves
   // nothing else; the weld of spec `spec` holds it, so that inertia does no work and the results do

@@ -441,15 +441,19 @@ void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
   for (int a = 0; a < nq; ++a) {
     const int iq = sd.q_index[static_cast<size_t>(a)];
     sd.qp[iq] = q[iq] + h;
+    if (sd.refit) sd.refit->refit(sd.qp, sd.vp, true);
     residual(sys, ws, sd, v, tau, sd.r_tau, sd.r_g, *sd.wd1);
-    sd.qp[iq] = q[iq];
+    sd.qp = q;
+    sd.vp = v;
     column(a, sd.Sq[a] / h);
   }
   for (int a = 0; a < static_cast<int>(sd.v_dofs.size()); ++a) {
     const int d = sd.v_dofs[static_cast<size_t>(a)];
     sd.vp[d] = v[d] + h;
+    if (sd.refit) sd.refit->refit(sd.qp, sd.vp, false);
     residual(sys, ws, sd, v, tau, sd.r_tau, sd.r_g, *sd.wd1);
-    sd.vp[d] = v[d];
+    sd.qp = q;
+    sd.vp = v;
     column(nq + a, sd.Sv[a] / h);
   }
 }

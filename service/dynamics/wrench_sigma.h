@@ -20,9 +20,9 @@
 // itself is never repeated. The linearization error is second order in the noise (a wrench's
 // curvature in q times S_q^2); the truncation error of the step is O(h): against central
 // differences of whole evaluations the columns agree to 1e-4 (absolute, or relative above 1) on the
-// shipped scenes (tests/dynamics/wrench_sigma_test.cc). The measured
-// state is taken as evaluated: a load pose fitted from the joints (state_fit.h) is held, not
-// re-fitted. Joint friction is held at the evaluation's (set-valued at rest, its sign constant
+// shipped scenes (tests/dynamics/wrench_sigma_test.cc). A load pose and twist fitted from the
+// joints (state_fit.h) are held unless WrenchSigmaData::refit is set (state_fit_sigma.h): then each
+// column refits them at the perturbed measurement, as the estimator does. Joint friction is held at the evaluation's (set-valued at rest, its sign constant
 // while sliding); damping follows v.
 //
 // All columns (torque, then q, then v) are propagated together: one pass of each factor over a
@@ -52,6 +52,15 @@
 #include "service/dynamics/wrenches.h"
 
 namespace coopdyn {
+
+// Estimate mode: the coordinates of a measured state that were fitted from the others (state_fit.h),
+// set again from a perturbed measurement (state_fit_sigma.h).
+struct StateRefit {
+  virtual ~StateRefit() = default;
+  // (q, v): the evaluated state with one measured coordinate moved (a position when q_moved, else a
+  // velocity); sets the fitted ones from it
+  virtual void refit(Eigen::VectorXd& q, Eigen::VectorXd& v, bool q_moved) = 0;
+};
 
 // The scene declares noise (torque, or joint position or velocity) on some DOF and its formulation
 // propagates it (mobile_platform, classic): the outputs carry sigma.
@@ -96,6 +105,7 @@ struct WrenchSigmaData {
   std::unique_ptr<WrenchData> wd0, wd1;
   Eigen::VectorXd qp, vp, tau_id, r0_tau, r_tau;  // (nq), (nv), (nv), (nv), (nv)
   Eigen::VectorXd r0_g, r_g;                       // (rows)
+  StateRefit* refit = nullptr;  // estimate mode: refits the fitted coordinates per column (not owned)
 };
 
 // Torque noise only (simulate mode: the state is exact). Fills sd.sigma and sd.C for the

@@ -54,6 +54,7 @@ ServiceLoop::ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& b
       v_est_(sys.v0),
       wrenches_(sys),
       sigma_(sys),
+      refit_(sys, fit_plan_),
       bound_(sys),
       q_(sys.q0),
       v_(sys.v0),
@@ -387,8 +388,16 @@ void ServiceLoop::put_evaluation(io::OutputFrame& f, Workspace& ws, const Diagno
   compute_wrenches(sys_, ws, wrenches_);
   f.wrenches = &wrenches_;
   if (sigma_.declared) {
-    if (estimated) compute_wrench_sigma(sys_, ws, sigma_, q_est_, v_est_, estimated->tau);
-    else compute_wrench_sigma(sys_, ws, sigma_);
+    if (estimated) {
+      sigma_.refit = nullptr;
+      if (!sigma_.q_dofs.empty() || !sigma_.v_dofs.empty()) {  // measurement noise moves the fitted load
+        refit_.set(q_est_, estimated->fit_q, estimated->fit_v);   // what fit_state() filled in
+        if (refit_.active()) sigma_.refit = &refit_;
+      }
+      compute_wrench_sigma(sys_, ws, sigma_, q_est_, v_est_, estimated->tau);
+    } else {
+      compute_wrench_sigma(sys_, ws, sigma_);
+    }
     f.sigma = &sigma_;
   }
 }

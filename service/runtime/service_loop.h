@@ -41,6 +41,7 @@
 #include "service/dynamics/holding_torque.h"
 #include "service/dynamics/integrators.h"
 #include "service/dynamics/state_fit.h"
+#include "service/dynamics/state_fit_sigma.h"
 #include "service/dynamics/system.h"
 #include "service/io/bus.h"
 #include "service/io/codec.h"
@@ -173,6 +174,7 @@ class ServiceLoop {
   bool closure_open_ = false;        // estimate: the last state was above closure_tolerance
   WrenchData wrenches_;              // the published wrenches of the evaluation (either mode)
   WrenchSigmaData sigma_;            // their sigma from the scene's declared noise (wrench_sigma.h)
+  FitRefit refit_;                   // estimate: q and v noise moves the fitted load too (state_fit_sigma.h)
   FrictionBoundData bound_;          // estimate: their interval over the friction at rest (friction_bound.h)
   io::JointLosses joint_losses_ = io::JointLosses::kNone;  // estimate: compensated, ignored or none declared
   Eigen::VectorXd q_, v_, tau_;      // (nq), (nv), (nv): simulated state, applied torque

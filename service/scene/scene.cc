@@ -160,7 +160,7 @@ System compile_scene(Builder& B, YAML::Node root, const SceneOverrides& ov) {
   System& sys = B.sys;
   check_keys(c, root, {"name", "description", "source", "gravity", "formulation", "redundancy", "stabilization", "solver",
                        "robots", "load", "arms", "bodies", "frames", "constraints", "ground", "reactions", "close_initial_state",
-                       "noise"},
+                       "noise", "friction"},
              "scene");
   read_settings(c, root, ov, sys);
   const std::map<std::string, Robot> robots = read_robots(c, root);
@@ -168,6 +168,7 @@ System compile_scene(Builder& B, YAML::Node root, const SceneOverrides& ov) {
   build_tree(B, root, robots);
   copy_initial_state(B, sys);
   read_noise(c, root, sys);
+  read_friction_settings(c, root, sys);
   add_lock_constraints(B, sys);
   build_wrench_outputs(c, root, sys);
   Data data(sys.model);

@@ -82,4 +82,18 @@ void read_noise(const Ctx& c, const YAML::Node& root, System& sys) {
   }
 }
 
+void read_friction_settings(const Ctx& c, const YAML::Node& root, System& sys) {
+  sys.rest_speed = System::kDefaultRestSpeed;
+  const YAML::Node fr = root["friction"];
+  if (!fr) return;
+  if (!fr.IsMap()) fail(c, fr, "'friction' must be a mapping, e.g. {rest_speed: 1e-6}");
+  check_keys(c, fr, {"rest_speed"}, "friction");
+  const YAML::Node rs = fr["rest_speed"];
+  if (!rs) return;
+  if (!rs.IsScalar()) fail(c, rs, "friction.rest_speed must be a number (rad/s or m/s)");
+  const double s = as_double(c, rs, "friction.rest_speed");
+  if (!(s >= 0.0) || !std::isfinite(s)) fail(c, rs, "friction.rest_speed must be a finite speed >= 0 (rad/s or m/s)");
+  sys.rest_speed = s;
+}
+
 }  // namespace coopdyn::scene_detail

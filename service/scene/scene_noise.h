@@ -13,4 +13,9 @@ namespace coopdyn::scene_detail {
 // Absent: tau_noise is all zero (no sigma is computed).
 void read_noise(const Ctx& c, const YAML::Node& root, System& sys);
 
+// `friction: {rest_speed: S}`: the speed (rad/s or m/s) at or below which a Coulomb friction joint is
+// at rest (System::rest_speed; absent: System::kDefaultRestSpeed). Refused at its line: a negative or
+// non-finite value, another key, not a mapping.
+void read_friction_settings(const Ctx& c, const YAML::Node& root, System& sys);
+
 }  // namespace coopdyn::scene_detail

@@ -8,6 +8,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
+#include "service/dynamics/state_fit_sigma.h"
+
 #include <unistd.h>
 
 #include <atomic>
@@ -142,6 +146,68 @@ TEST(LoopNoAllocation, TickWithWrenchSigma) {
     for (size_t k = 0; k < o.wrench_sigma.size(); ++k)
       for (int i = 0; i < 6; ++i) EXPECT_NEAR(o.wrench_sigma[k][i], sd.sigma[k][i], 1e-9 * (1.0 + sd.sigma[k][i]));
   }
+}
+
+// Estimate mode with states that omit the load's pose and twist (fitted from the joints): the sigma
+// of position and velocity noise refits them per column (state_fit_sigma.h), without allocating;
+// the published sigma is the one computed here with the same refit.
+TEST(LoopNoAllocation, TickWithWrenchSigmaThroughTheFit) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  const System sys = load_scene_string(slurp(scene_path("two_puma_load")) + "\nnoise: {tau: 0.2, q: 1e-4, v: 1e-3}\n",
+                                       scene_path("two_puma_load"));
+  const StateFitPlan plan = plan_state_fit(sys);
+  ASSERT_TRUE(plan.q_fittable && plan.v_fittable);
+  std::vector<std::string> qn, vn;
+  std::vector<double> qm, vm;
+  for (int i = 0; i < sys.model.nq(); ++i)
+    if (std::find(plan.fit_q.begin(), plan.fit_q.end(), i) == plan.fit_q.end()) {
+      qn.push_back(sys.model.q_names[static_cast<size_t>(i)]);
+      qm.push_back(sys.q0[i]);
+    }
+  for (int i = 0; i < sys.model.nv(); ++i)
+    if (std::find(plan.fit_v.begin(), plan.fit_v.end(), i) == plan.fit_v.end()) {
+      vn.push_back(sys.model.v_names[static_cast<size_t>(i)]);
+      vm.push_back(sys.v0[i]);
+    }
+  runtime::ServiceConfig cfg;
+  cfg.mode = runtime::ServiceMode::kEstimate;
+  FakeBus bus;
+  runtime::ServiceLoop loop(sys, cfg, bus);
+  long allocations = 0;
+  const long long ms = 1000000;
+  for (int k = 0; k < 500; ++k) {
+    if (k % 5 == 0) {  // fresh states (outside the count)
+      const auto st = io::encode_measured_state(runtime::realtime_us(), k, qn, qm, vn, vm,
+                                                std::vector<double>(static_cast<size_t>(sys.model.nv()), 0.1));
+      loop.states().offer(st.data(), static_cast<int>(st.size()), k * ms);
+    }
+    AllocationCounter c;
+    loop.tick(k * ms);
+    allocations += c.count();
+  }
+  EXPECT_EQ(allocations, 0);
+  const io::DecodedOutput o = bus.last_output();
+  EXPECT_EQ(o.status, 0) << o.reason;
+  EXPECT_EQ(o.state_fitted, 3);
+  EXPECT_EQ(o.sigma_source, 7);
+  Workspace ws(sys);
+  WrenchData wd(sys);
+  WrenchSigmaData sd(sys), held(sys);
+  FitRefit refit(sys, plan);
+  refit.set(vec(o.q), true, true);
+  sd.refit = &refit;
+  evaluate(sys, ws, vec(o.q), vec(o.v), vec(o.tau));
+  compute_wrenches(sys, ws, wd);
+  compute_wrench_sigma(sys, ws, sd, vec(o.q), vec(o.v), vec(o.tau));
+  compute_wrench_sigma(sys, ws, held, vec(o.q), vec(o.v), vec(o.tau));
+  double differs = 0.0;
+  ASSERT_EQ(o.wrench_sigma.size(), sys.wrenches.outputs.size());
+  for (size_t k = 0; k < o.wrench_sigma.size(); ++k)
+    for (int i = 0; i < 6; ++i) {
+      EXPECT_NEAR(o.wrench_sigma[k][i], sd.sigma[k][i], 1e-9 * (1.0 + sd.sigma[k][i]));
+      differs = std::max(differs, std::abs(held.sigma[k][i] - sd.sigma[k][i]));
+    }
+  EXPECT_GT(differs, 1e-6) << "the refit changes nothing: is the fit in the columns?";
 }
 
 TEST(LoopNoAllocation, RunWithDeadlineSleeps) {
