@@ -143,12 +143,10 @@ daemon "coopdynd estimate at the tick, rt + tricks" estimate "$TRICKS" tick
   "$(cd "$BASELINE" && pwd)"
 daemon "coopdynd estimate on arrival, rt + tricks" estimate "$TRICKS" arrival
 daemon "coopdynd estimate on arrival, rt + tricks + busy poll" estimate "$(with "busy_poll: true")" arrival
-if [ "${ROWS:-all}" = arrival ]; then
-  [ -n "${BASELINE:-}" ] && daemon "coopdynd estimate on arrival, rt + tricks + busy poll, polling client, BASELINE build" \
-    estimate "$(with "busy_poll: true")" arrival "$(cd "$BASELINE" && pwd)" --busy-poll
-  daemon "coopdynd estimate on arrival, rt + tricks + busy poll, polling client" estimate "$(with "busy_poll: true")" arrival \
-    "$BUILD" --busy-poll
-fi
+[ -n "${BASELINE:-}" ] && daemon "coopdynd estimate on arrival, rt + tricks + busy poll, polling client, BASELINE build" \
+  estimate "$(with "busy_poll: true")" arrival "$(cd "$BASELINE" && pwd)" --busy-poll
+daemon "coopdynd estimate on arrival, rt + tricks + busy poll, polling client" estimate "$(with "busy_poll: true")" arrival \
+  "$BUILD" --busy-poll
 
 LOOP_BENCH_SCENE=$(realpath "$SCENE") "${NS[@]}" taskset -c 1 "$BUILD/bin/loop_bench" --benchmark_filter='BM_TickPaced' \
   --benchmark_format=csv 2>/dev/null > "$TMP/warm.csv" || true
@@ -176,7 +174,7 @@ if m: print(f"LCM round trip alone (lcm_pingpong), {m.group(2)} bytes each way{s
 PY
 }
 pingpong ""
-[ "${ROWS:-all}" = arrival ] && pingpong ", both ends polling" --busy-poll
+pingpong ", both ends polling" --busy-poll
 echo "== load after: $(cut -d' ' -f1-3 /proc/loadavg)"
 python3 - "$TMP/rows" "$TMP/warm.csv" "$(basename "$SCENE" .yaml)" <<'PY'
 import csv, sys
