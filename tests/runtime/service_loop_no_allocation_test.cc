@@ -104,6 +104,28 @@ TEST(LoopNoAllocation, TickOfEverySceneBothModes) {
   }
 }
 
+namespace {
+
+// Ticks at 1 ms, a fresh state offered before every fifth (encode(k): its bytes, encoded outside the
+// count; none when empty); the allocations the ticks made.
+template <class Encode>
+long tick_allocations(runtime::ServiceLoop& loop, int ticks, Encode&& encode) {
+  long allocations = 0;
+  const long long ms = 1000000;
+  for (int k = 0; k < ticks; ++k) {
+    if (k % 5 == 0) {
+      const std::vector<uint8_t> st = encode(k);
+      if (!st.empty()) loop.states().offer(st.data(), static_cast<int>(st.size()), k * ms);
+    }
+    AllocationCounter c;
+    loop.tick(k * ms);
+    allocations += c.count();
+  }
+  return allocations;
+}
+
+}  // namespace
+
 // A scene that declares torque, position and velocity noise: every tick also computes each wrench's
 // sigma (wrench_sigma.h), in both modes, without allocating; the published output_t carries it
 // (simulate: SIGMA_TAU, estimate: SIGMA_TAU | SIGMA_Q | SIGMA_V), equal to the sigma of the same
@@ -117,19 +139,12 @@ TEST(LoopNoAllocation, TickWithWrenchSigma) {
     cfg.mode = mode;
     FakeBus bus;
     runtime::ServiceLoop loop(sys, cfg, bus);
-    long allocations = 0;
-    const long long ms = 1000000;
-    for (int k = 0; k < 1000; ++k) {
-      if (mode == runtime::ServiceMode::kEstimate && k % 5 == 0) {  // fresh states (outside the count)
-        const auto st = io::encode_measured_state(runtime::realtime_us(), k, {}, stdvec(sys.q0), {}, stdvec(sys.v0),
-                                                  std::vector<double>(static_cast<size_t>(sys.model.nv()), 0.1));
-        loop.states().offer(st.data(), static_cast<int>(st.size()), k * ms);
-      }
-      AllocationCounter c;
-      loop.tick(k * ms);
-      allocations += c.count();
-    }
-    EXPECT_EQ(allocations, 0);
+    EXPECT_EQ(tick_allocations(loop, 1000, [&](int k) {
+                if (mode != runtime::ServiceMode::kEstimate) return std::vector<uint8_t>();
+                return io::encode_measured_state(runtime::realtime_us(), k, {}, stdvec(sys.q0), {}, stdvec(sys.v0),
+                                                 std::vector<double>(static_cast<size_t>(sys.model.nv()), 0.1));
+              }),
+              0);
     const io::DecodedOutput o = bus.last_output();
     SCOPED_TRACE(mode == runtime::ServiceMode::kSimulate ? "simulate" : "estimate");
     EXPECT_EQ(o.status, 0) << o.reason;
@@ -173,19 +188,11 @@ TEST(LoopNoAllocation, TickWithWrenchSigmaThroughTheFit) {
   cfg.mode = runtime::ServiceMode::kEstimate;
   FakeBus bus;
   runtime::ServiceLoop loop(sys, cfg, bus);
-  long allocations = 0;
-  const long long ms = 1000000;
-  for (int k = 0; k < 500; ++k) {
-    if (k % 5 == 0) {  // fresh states (outside the count)
-      const auto st = io::encode_measured_state(runtime::realtime_us(), k, qn, qm, vn, vm,
-                                                std::vector<double>(static_cast<size_t>(sys.model.nv()), 0.1));
-      loop.states().offer(st.data(), static_cast<int>(st.size()), k * ms);
-    }
-    AllocationCounter c;
-    loop.tick(k * ms);
-    allocations += c.count();
-  }
-  EXPECT_EQ(allocations, 0);
+  EXPECT_EQ(tick_allocations(loop, 500, [&](int k) {
+              return io::encode_measured_state(runtime::realtime_us(), k, qn, qm, vn, vm,
+                                               std::vector<double>(static_cast<size_t>(sys.model.nv()), 0.1));
+            }),
+            0);
   const io::DecodedOutput o = bus.last_output();
   EXPECT_EQ(o.status, 0) << o.reason;
   EXPECT_EQ(o.state_fitted, 3);
