@@ -4,7 +4,8 @@
 // `noise: {tau: 0.1, q: 1e-4, v: 1e-3}` on every actuated / measured joint), interleaved in one process (a shared machine's load drifts
 // between separate runs): per repetition a block of evaluate() calls, then compute_wrenches(), then
 // compute_wrench_sigma() with the torque noise (simulate mode), then with the torque, position and
-// velocity noise (estimate mode), each block ~0.3 ms; printed per scene: the medians over REPS
+// velocity noise (estimate mode), then the same with the load's pose and twist refitted per column
+// (state_fit_sigma.h: estimate mode when a state omits them; scenes with a load), each block ~0.3 ms; printed per scene: the medians over REPS
 // (default 31) repetitions of each per-call time and of the ratios sigma / evaluate within one
 // repetition. Goal: the sigma of every reported wrench under 25 % of an evaluation.
 //
@@ -14,11 +15,13 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "bench/bench_util.h"
+#include "service/dynamics/state_fit_sigma.h"
 #include "service/dynamics/wrench_sigma.h"
 #include "service/scene/scene.h"
 
@@ -50,8 +53,8 @@ int main(int argc, char** argv) {
                         "two_iiwa_load", "two_puma_load", "two_wheel_vehicle", "unicycle"})
     scenes.push_back(dir + "/config/scenes/" + n + ".yaml");
   for (const char* n : {"pumas_1", "pumas_2", "pumas_4", "pumas_8"}) scenes.push_back(dir + "/bench/scenes/" + n + ".yaml");
-  std::printf("%-22s %4s %4s %4s %5s %5s %8s %9s %8s %10s %8s %10s\n", "scene", "nv", "rows", "out", "tau", "q+v",
-              "eval_us", "wrench_us", "sigma_us", "sigma/eval", "est_us", "est/eval");
+  std::printf("%-22s %4s %4s %4s %5s %5s %8s %9s %8s %10s %8s %10s %8s %10s\n", "scene", "nv", "rows", "out", "tau", "q+v",
+              "eval_us", "wrench_us", "sigma_us", "sigma/eval", "est_us", "est/eval", "fit_us", "fit/eval");
   for (const std::string& path : scenes) {
     if (path.substr(path.rfind('/') + 1).find(only) == std::string::npos) continue;
     const System sys = load(path);
@@ -60,10 +63,18 @@ int main(int argc, char** argv) {
     WrenchSigmaData sd(sys);
     if (!wrench_sigma_supported(sys)) continue;  // a formulation that does not propagate noise
     const Eigen::VectorXd tau = Eigen::VectorXd::Constant(sys.model.nv(), 0.1);
+    const StateFitPlan plan = plan_state_fit(sys);
+    std::optional<FitRefit> refit;
+    WrenchSigmaData sf(sys);
+    if (plan.q_fittable && plan.v_fittable && !plan.fit_q.empty()) {
+      refit.emplace(sys, plan);
+      refit->set(sys.q0, true, true);
+      sf.refit = &*refit;
+    }
     evaluate(sys, ws, sys.q0, sys.v0, tau);
     const double e0 = per_call_us(50, [&] { evaluate(sys, ws, sys.q0, sys.v0, tau); });
     const int n = std::max(5, static_cast<int>(300.0 / std::max(e0, 1e-3)));
-    std::vector<double> te, tw, ts, tq, ratio, ratio_q;
+    std::vector<double> te, tw, ts, tq, tf, ratio, ratio_q, ratio_f;
     for (int r = 0; r < reps; ++r) {
       te.push_back(per_call_us(n, [&] { evaluate(sys, ws, sys.q0, sys.v0, tau); }));
       tw.push_back(per_call_us(n, [&] { compute_wrenches(sys, ws, wd); }));
@@ -71,11 +82,16 @@ int main(int argc, char** argv) {
       tq.push_back(per_call_us(n, [&] { compute_wrench_sigma(sys, ws, sd, sys.q0, sys.v0, tau); }));
       ratio.push_back(ts.back() / te.back());
       ratio_q.push_back(tq.back() / te.back());
+      if (!refit) continue;
+      tf.push_back(per_call_us(n, [&] { compute_wrench_sigma(sys, ws, sf, sys.q0, sys.v0, tau); }));
+      ratio_f.push_back(tf.back() / te.back());
     }
     const std::string name = path.substr(path.rfind('/') + 1);
-    std::printf("%-22s %4d %4d %4zu %5zu %5zu %8.2f %9.2f %8.2f %10.3f %8.2f %10.3f\n", name.c_str(), sys.model.nv(),
+    std::printf("%-22s %4d %4d %4zu %5zu %5zu %8.2f %9.2f %8.2f %10.3f %8.2f %10.3f", name.c_str(), sys.model.nv(),
                 sys.constraints.rows, sys.wrenches.outputs.size(), sd.dofs.size(), sd.q_dofs.size() + sd.v_dofs.size(), median(te),
                 median(tw), median(ts), median(ratio), median(tq), median(ratio_q));
+    if (refit) std::printf(" %8.2f %10.3f\n", median(tf), median(ratio_f));
+    else std::printf(" %8s %10s\n", "-", "-");
   }
   return 0;
 }
