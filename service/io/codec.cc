@@ -197,7 +197,8 @@ std::vector<std::string> wrench_names(const System& s) {
 
 // ---------------------------------------------------------------------------------------------
 // The inputs' layouts, walked with every count and length checked before the generated decoder
-// runs (it trusts them). Each walk stops at the mac_len field; walk_mac() then passes the MAC.
+// runs (it trusts them). Each walk stops at the mac_len field; walk_mac() then passes the MAC (the
+// state's: walk_state_layout below, which the allocation-free decoder shares).
 namespace {
 using wire::kMaxMacBytes;
 
@@ -209,16 +210,6 @@ bool walk_command(wire::Reader& r, CommandCounts* c) {
   return r.hash(coopdyn::torque_command_t::getHash()) && r.skip(16) && r.count(&c->names) && r.strings(c->names) &&
          r.count(&c->torques) && r.skip(8LL * c->torques) && r.count(&c->targets) && r.strings(c->targets) &&
          r.skip(8LL * c->targets);
-}
-// hash, utime, seq, num_q_names, q_names[], num_q, q[], num_v_names, v_names[], num_v, v[], tau[],
-// num_wrenches, wrench_names[], wrench[][6]
-struct StateCounts {
-  int32_t q_names = 0, q = 0, v_names = 0, v = 0, wrenches = 0;
-};
-bool walk_state(wire::Reader& r, StateCounts* c) {
-  return r.hash(coopdyn::measured_state_t::getHash()) && r.skip(16) && r.count(&c->q_names) && r.strings(c->q_names) &&
-         r.count(&c->q) && r.skip(8LL * c->q) && r.count(&c->v_names) && r.strings(c->v_names) && r.count(&c->v) &&
-         r.skip(16LL * c->v) && r.count(&c->wrenches) && r.strings(c->wrenches) && r.skip(48LL * c->wrenches);
 }
 // hash, utime, seq, action (1 byte), nq, q[], nv, v[]
 struct ControlCounts {
@@ -236,6 +227,28 @@ bool walk_mac(wire::Reader& r) {
 }
 }  // namespace
 
+bool walk_state_layout(const void* data, int len, StateLayout* s) {
+  wire::Reader r(data, len);
+  if (!r.hash(coopdyn::measured_state_t::getHash()) || !r.i64(&s->utime) || !r.i64(&s->seq)) return false;
+  if (!r.count(&s->q_names)) return false;
+  s->q_names_at = r.pos();
+  if (!r.strings(s->q_names) || !r.count(&s->q)) return false;
+  s->q_at = r.pos();
+  if (!r.skip(8LL * s->q) || !r.count(&s->v_names)) return false;
+  s->v_names_at = r.pos();
+  if (!r.strings(s->v_names) || !r.count(&s->v)) return false;
+  s->v_at = r.pos();
+  if (!r.skip(8LL * s->v)) return false;
+  s->tau_at = r.pos();
+  if (!r.skip(8LL * s->v) || !r.count(&s->wrenches)) return false;
+  s->wrench_names_at = r.pos();
+  if (!r.strings(s->wrenches)) return false;
+  s->wrench_at = r.pos();
+  if (!r.skip(48LL * s->wrenches)) return false;
+  s->mac_at = r.pos();
+  return r.count(&s->mac) && s->mac <= kMaxMacBytes && r.skip(s->mac);
+}
+
 int mac_field_offset(MessageType t, const void* data, int len) {
   wire::Reader r(data, len);
   bool ok = false;
@@ -243,8 +256,8 @@ int mac_field_offset(MessageType t, const void* data, int len) {
     CommandCounts c;
     ok = walk_command(r, &c);
   } else if (t == MessageType::kMeasuredState) {
-    StateCounts c;
-    ok = walk_state(r, &c);
+    StateLayout s;
+    return walk_state_layout(data, len, &s) ? s.mac_at : -1;
   } else if (t == MessageType::kControl) {
     ControlCounts c;
     ok = walk_control(r, &c);
@@ -378,12 +391,10 @@ const StateFitPlan& StateDecoder::plan() const { return impl_->plan; }
 Reject StateDecoder::decode(const void* data, int len, StateSlot& out) {
   Impl& m = *impl_;
   const int nq = m.sys.model.nq(), nv = m.sys.model.nv();
-  wire::Reader r(data, len);
-  StateCounts c;
-  if (!walk_state(r, &c) || !walk_mac(r)) return Reject::kDecode;
-  const int32_t nqn = c.q_names, nqq = c.q, nvn = c.v_names, nvv = c.v, nw = c.wrenches;
   const int n_out = static_cast<int>(m.sys.wrenches.outputs.size());
-  if (nqn > 4 * nq + 16 || nqq > 4 * nq + 16 || nvn > 4 * nv + 16 || nvv > 4 * nv + 16 || nw > n_out) return Reject::kCount;
+  StateLayout c;
+  if (!walk_state_layout(data, len, &c)) return Reject::kDecode;
+  if (state_counts_exceed(c, nq, nv, n_out)) return Reject::kCount;
   try {
     if (m.msg.decode(data, 0, len) < 0) return Reject::kDecode;
   } catch (...) {

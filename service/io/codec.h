@@ -144,6 +144,25 @@ const char* type_name(MessageType t);
 // starts, found by walking its fields with every count and length checked; -1 if the bytes are not
 // such a message up to there. No allocation.
 int mac_field_offset(MessageType t, const void* data, int len);  // "coopdyn.output_t", ...
+
+// Where each field of an encoded measured_state_t starts (byte offsets into it) and its counts:
+// hash, utime, seq, num_q_names, q_names[], num_q, q[], num_v_names, v_names[], num_v, v[], tau[],
+// num_wrenches, wrench_names[], wrench[][6], mac_len, mac[].
+struct StateLayout {
+  int64_t utime = 0, seq = 0;
+  int32_t q_names = 0, q = 0, v_names = 0, v = 0, wrenches = 0, mac = 0;
+  int q_names_at = 0, q_at = 0, v_names_at = 0, v_at = 0, tau_at = 0, wrench_names_at = 0, wrench_at = 0, mac_at = 0;
+};
+// Walks the whole message, every count and string length checked against the bytes left and the
+// MAC's length against kMaxMacBytes; false if the bytes are not a measured_state_t. No allocation.
+// Both state decoders (StateDecoder, direct_decoder.h) start with it.
+bool walk_state_layout(const void* data, int len, StateLayout* s);
+// Counts that no state of a system with these sizes needs (n_out: its wrench outputs): the
+// decoders refuse them as Reject::kCount before reading further.
+inline bool state_counts_exceed(const StateLayout& s, int nq, int nv, int n_out) {
+  return s.q_names > 4 * nq + 16 || s.q > 4 * nq + 16 || s.v_names > 4 * nv + 16 || s.v > 4 * nv + 16 ||
+         s.wrenches > n_out;
+}
 // One CSV line per message: *header describes this message's columns (it depends on the scene's
 // names), *row its values, neither with a trailing newline. False if it does not decode, and for
 // kOutput: outputs are written in the per-step CSV schema (clients/csv/step_csv.h) from decode_output.

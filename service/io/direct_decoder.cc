@@ -35,37 +35,6 @@ double be_double(const uint8_t* b) {  // LCM's double: the IEEE 754 bits, big-en
   return d;
 }
 
-// Where each field of a measured_state_t starts, and its counts: hash, utime, seq, num_q_names,
-// q_names[], num_q, q[], num_v_names, v_names[], num_v, v[], tau[], num_wrenches, wrench_names[],
-// wrench[][6], mac_len, mac[]
-struct StateLayout {
-  int64_t utime = 0, seq = 0;
-  int32_t q_names = 0, q = 0, v_names = 0, v = 0, wrenches = 0, mac = 0;
-  int q_names_at = 0, q_at = 0, v_names_at = 0, v_at = 0, tau_at = 0, wrench_names_at = 0, wrench_at = 0;
-};
-
-// Walks the whole message, every count and string length checked against the bytes left (wire.h);
-// false if the bytes are not a measured_state_t (the generated decoder's walk in codec.cc checks the
-// same, then the MAC field).
-bool walk(wire::Reader& r, int64_t hash, StateLayout* s) {
-  if (!r.hash(hash) || !r.i64(&s->utime) || !r.i64(&s->seq)) return false;
-  if (!r.count(&s->q_names)) return false;
-  s->q_names_at = r.pos();
-  if (!r.strings(s->q_names) || !r.count(&s->q)) return false;
-  s->q_at = r.pos();
-  if (!r.skip(8LL * s->q) || !r.count(&s->v_names)) return false;
-  s->v_names_at = r.pos();
-  if (!r.strings(s->v_names) || !r.count(&s->v)) return false;
-  s->v_at = r.pos();
-  if (!r.skip(8LL * s->v)) return false;
-  s->tau_at = r.pos();
-  if (!r.skip(8LL * s->v) || !r.count(&s->wrenches)) return false;
-  s->wrench_names_at = r.pos();
-  if (!r.strings(s->wrenches)) return false;
-  s->wrench_at = r.pos();
-  return r.skip(48LL * s->wrenches) && r.count(&s->mac) && s->mac <= wire::kMaxMacBytes && r.skip(s->mac);
-}
-
 // The next of a walked list of strings (int32 length counting the NUL, then the bytes): its bytes
 // without the NUL.
 struct Names {
@@ -126,7 +95,6 @@ std::vector<unsigned char> mask(const std::vector<int>& idx, int n) {
 DirectStateDecoder::DirectStateDecoder(const System& sys)
     : sys_(sys),
       plan_(plan_state_fit(sys)),
-      hash_(fingerprint(MessageType::kMeasuredState)),
       q_names_(sys.model.q_names),
       v_names_(sys.model.v_names),
       wrench_names_(wrench_output_names(sys)),
@@ -158,11 +126,9 @@ Reject DirectStateDecoder::decode(const void* data, int len, StateSlot& out) {
   const int nq = sys_.model.nq(), nv = sys_.model.nv();
   const int n_out = static_cast<int>(sys_.wrenches.outputs.size());
   const uint8_t* b = static_cast<const uint8_t*>(data);
-  wire::Reader r(data, len);
   StateLayout m;
-  if (!b || !walk(r, hash_, &m)) return Reject::kDecode;
-  if (m.q_names > 4 * nq + 16 || m.q > 4 * nq + 16 || m.v_names > 4 * nv + 16 || m.v > 4 * nv + 16 || m.wrenches > n_out)
-    return Reject::kCount;
+  if (!b || !walk_state_layout(data, len, &m)) return Reject::kDecode;
+  if (state_counts_exceed(m, nq, nv, n_out)) return Reject::kCount;
   // Without names a state is complete (the scene's order); with names it may omit what the daemon
   // can fit (the floating bodies' coordinates) or knows (pseudo-joints, locked at q0).
   Reject rj = map_named(q_names_, b + m.q_names_at, m.q_names, b + m.q_at, m.q, nq, seen_q_, out.q);

@@ -49,7 +49,6 @@ class DirectStateDecoder {
                  const std::vector<unsigned char>& pseudo_mask, bool fittable, int n_fit, bool* fit) const;
   const System& sys_;
   StateFitPlan plan_;
-  int64_t hash_;
   NameTable q_names_, v_names_, wrench_names_;
   std::vector<unsigned char> seen_q_, seen_v_;
   std::vector<unsigned char> fit_q_mask_, fit_v_mask_, pseudo_q_mask_, pseudo_v_mask_;
