@@ -178,11 +178,15 @@ const Diagnostics& step_evaluated(const System& sys, Stepper& st, Integrator int
       break;
     }
   }
-  // Coulomb friction: a friction joint whose velocity changed sign within the step (at its end, or
-  // at an RK4 stage, where the friction's sign flipped and its stage slope with it) stops, at rest
-  // at the step's end; the next evaluation's stiction solve decides whether it stays there
+  // Coulomb friction: a friction joint that slid at the step's start (|v| > rest_speed) and whose
+  // velocity changed sign within the step (at its end, or at an RK4 stage, where the friction's sign
+  // flipped and its stage slope with it) stops, at rest at the step's end; the next evaluation's
+  // stiction solve decides whether it stays there. A joint at rest at the start has no sign to
+  // cross (its velocity is zero to round-off, whose sign says nothing): the stiction solve decided
+  // whether it breaks away, and the step keeps what the stages give.
   for (int d : st.ws.friction_dofs) {
     const double v0 = st.v_start[d];
+    if (std::abs(v0) <= st.ws.rest_speed) continue;
     bool crossed = v0 * v[d] < 0.0;
     if (integ == Integrator::kRk4)
       for (int s = 1; s < 4; ++s) crossed = crossed || v0 * (v0 + (s == 3 ? 1.0 : 0.5) * dt * st.k_v[s - 1][d]) < 0.0;

@@ -101,6 +101,25 @@ TEST(Friction, ASlidingJointStopsAtRestAndSticks) {
   EXPECT_EQ(st.ws.vdot[0], 0.0);
 }
 
+TEST(Friction, AJointBreakingAwayFromRestStepsAlikeWhateverTheSignOfItsRoundOffVelocity) {
+  // At rest with a velocity of round-off size (well below the 1e-9 rad/s rest threshold) and 1.5 N m
+  // against a 1 N m bound: it breaks away at 10 rad/s^2 whichever sign that velocity has. The sign
+  // of a resting joint's velocity says nothing; the step must not read it as a reversal and stop the
+  // joint (it once did, which made a breakaway depend on the processor's round-off).
+  const System sys = load_scene_string(pendulum(", friction: 1"), "pendulum.yaml");
+  for (Integrator integ : {Integrator::kRk4, Integrator::kSemiImplicitEuler}) {
+    Eigen::VectorXd v_end[2];
+    for (int k = 0; k < 2; ++k) {
+      Stepper st(sys);
+      Eigen::VectorXd q = sys.q0, v = vec1(k == 0 ? 4e-16 : -4e-16);
+      ASSERT_NE(step(sys, st, integ, 1e-3, vec1(1.5), q, v).status, Status::kError);
+      v_end[k] = v;
+    }
+    EXPECT_NEAR(v_end[0][0], 10.0 * 1e-3, 1e-12) << static_cast<int>(integ);
+    EXPECT_NEAR(v_end[1][0], v_end[0][0], 1e-15) << static_cast<int>(integ);
+  }
+}
+
 TEST(Friction, BoxProblemMeetsCoulombsConditions) {
   // a 3-joint problem by hand: A = diag-dominant, bounds 1; b chosen so joint 0 sticks, joint 1
   // slides, joint 2 sticks (the conditions checked directly)
