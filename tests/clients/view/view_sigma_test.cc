@@ -158,7 +158,7 @@ TEST(ViewSigma, BandHalfAxesAreSigmaOverTheArrowScale) {
 // The plot of arm1.ee with declared torque noise (20 N*m on every joint): about each of its six
 // curves, at the cursor's frame, a band from value - sigma to value + sigma of the CSV row (to
 // round-off), at the y its axes map those values to; no friction joint, no bound. In the
-// screenshot the band is where the probe says: one column right of the cursor, the plot differs
+// screenshot the band is where the probe says: in the column two CSS px right of the cursor, the plot differs
 // from the same page with #bands=0 (same axes: the checkbox does not rescale them) only inside the
 // three bands there (interpolated between the rows about that column's time), and inside each band
 // taller than 6 px on all its rows but those a curve crosses.
