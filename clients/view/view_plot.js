@@ -25,11 +25,9 @@ function ViewPlot(V, at) {
   // +-sigma band of the frames that carry a sigma (a translucent fill in the trace's colour) and the
   // friction bound of those that carry one (dashed lines in the trace's colour), in the component's
   // unit (N*m, N): value -+ sigma, value -+ bound, as the source gives them
-  function bandAt(i, k, c, key) {  // [lo, hi] of component c of wrench k at frame i; null without
+  function bandHalf(i, k, c, key) {  // the half-width of component c of wrench k at frame i; NaN without
     var s = V[key][i];
-    if (!s.length) return null;
-    var v = V.wrench_F[i][6 * k + c], d = Math.abs(s[6 * k + c]);
-    return isFinite(d) && isFinite(v) ? [v - d, v + d] : null;
+    return s.length ? Math.abs(s[6 * k + c]) : NaN;
   }
   // the runs of consecutive frames with a band, as drawn: per frame, or per pixel column (its lowest
   // lo and highest hi) when there are more than two frames a column; each point keeps its frames
@@ -37,12 +35,12 @@ function ViewPlot(V, at) {
     var N = V.t.length;
     var runs = [], run = null;
     for (var i = 0; i < N; ++i) {
-      var b = bandAt(i, k, c, key);
-      if (!b) { run = null; continue; }
+      var v = V.wrench_F[i][6 * k + c], d = bandHalf(i, k, c, key);
+      if (!isFinite(d) || !isFinite(v)) { run = null; continue; }
       var x = X(V.t[i]), col = Math.floor(x), p = run && run[run.length - 1];
-      if (dec && p && p.col === col) { p.lo = Math.min(p.lo, b[0]); p.hi = Math.max(p.hi, b[1]); p.i1 = i; continue; }
+      if (dec && p && p.col === col) { p.lo = Math.min(p.lo, v - d); p.hi = Math.max(p.hi, v + d); p.i1 = i; continue; }
       if (!run) runs.push(run = []);
-      run.push({ x: dec ? col + 0.5 : x, col: col, lo: b[0], hi: b[1], i0: i, i1: i });
+      run.push({ x: dec ? col + 0.5 : x, col: col, lo: v - d, hi: v + d, i0: i, i1: i });
     }
     return runs;
   }
@@ -86,11 +84,13 @@ function ViewPlot(V, at) {
   // not move the curves)
   function axisRange(k, p) {
     var N = V.t.length;
-    var lo = 0, hi = 0, grow = function (y) { if (y < lo) lo = y; if (y > hi) hi = y; };
-    for (var i = 0; i < N; ++i) for (var j = 0; j < 3; ++j) {
-      var c = 3 * p + j;
-      grow(V.wrench_F[i][6 * k + c]);
-      ['wrench_sigma', 'wrench_bound'].forEach(function (key) { var b = bandAt(i, k, c, key); if (b) { grow(b[0]); grow(b[1]); } });
+    var lo = 0, hi = 0;
+    for (var i = 0; i < N; ++i) for (var c = 3 * p; c < 3 * p + 3; ++c) {
+      var v = V.wrench_F[i][6 * k + c], s = V.wrench_sigma[i], b = V.wrench_bound[i];
+      var d = Math.max(s.length ? Math.abs(s[6 * k + c]) : 0, b.length ? Math.abs(b[6 * k + c]) : 0);
+      if (!isFinite(d)) d = 0;  // (not drawn either)
+      if (v - d < lo) lo = v - d;
+      if (v + d > hi) hi = v + d;
     }
     if (hi - lo < 1e-9 * Math.max(1, Math.abs(hi))) { lo -= 1; hi += 1; }
     var pad = 0.06 * (hi - lo);
