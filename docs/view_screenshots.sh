@@ -2,8 +2,9 @@
 # Screenshots of every shipped scene in `coopdyn view` (docs/guide/viewer.md): 1 s of `coopdyn sim`
 # (the inputs below; the real robots held still by --hold), the page, and headless Chromium
 # (software WebGL) at t = 0.5 s, paused; the
-# plot of arm1's end-effector wrench in two_puma_load at 0.7 s; and its +-sigma bands under declared
-# torque noise (exaggerated, 20 N m on every joint, so that they show at the arrows' scale).
+# plot of arm1's end-effector wrench in two_puma_load at 0.7 s; and its +-sigma bands (at the arrows
+# and in its plot) under declared torque noise (exaggerated, 20 N m on every joint, so that they
+# show at the arrows' scale).
 #   bash docs/view_screenshots.sh [build/bin] [docs/views]
 set -euo pipefail
 bin=${1:-build/bin}; out=${2:-docs/views}
@@ -41,6 +42,6 @@ printf '\nnoise: {tau: 20}\n' >> "$tmp/noisy.yaml"
 "$bin/coopdyn" sim --scene "$tmp/noisy.yaml" --duration 1 --dt 0.001 --out "$tmp/noisy.csv" 2>/dev/null
 (cd "$tmp" && "$bin/coopdyn" view --scene noisy.yaml --csv noisy.csv --out noisy.html > /dev/null 2>&1)
 timeout 120 "$chromium" --headless --no-sandbox --disable-gpu --use-angle=swiftshader --enable-unsafe-swiftshader \
-  --hide-scrollbars --mute-audio --no-first-run --user-data-dir="$tmp/profile" --window-size=900,600 \
-  --virtual-time-budget=3000 --screenshot="$out/view_two_puma_load_sigma.png" "file://$tmp/noisy.html#t=0.7&paused=1" 2>/dev/null
+  --hide-scrollbars --mute-audio --no-first-run --user-data-dir="$tmp/profile" --window-size=1100,600 \
+  --virtual-time-budget=3000 --screenshot="$out/view_two_puma_load_sigma.png" "file://$tmp/noisy.html#t=0.7&paused=1&wrench=arm1.ee" 2>/dev/null
 echo "$out/view_two_puma_load_sigma.png"

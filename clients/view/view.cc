@@ -30,6 +30,10 @@ namespace {
 const char kPage[] =
 #include "view_page.inc"
     ;
+// the plot of the selected wrench, inlined into the page at /*@PLOT_JS@*/
+const char kPlotJs[] =
+#include "view_plot.inc"
+    ;
 
 // A rotation taking +y to unit vector a (the three.js cylinder's axis to a wheel's axle).
 Mat3 y_to(const Vec3& a) {
@@ -674,13 +678,14 @@ void append_frames_json(std::string& d, const ViewFrames& vf) {
   d += "]}";
 }
 
-// The page template with the data and three.js in their places.
+// The page template with the data, three.js and the plot's script in their places.
 std::string fill_page(const std::string& data, const std::string& three_js) {
   // three.js inline: a "</script" in it would end the element early
   std::string js = three_js;
   for (size_t at = 0; (at = js.find("</script", at)) != std::string::npos; at += 2) js.replace(at, 2, "<\\/");
   std::string page = kPage;
   page = replace_once(page, "/*@VIEW_DATA@*/", data);
+  page = replace_once(page, "/*@PLOT_JS@*/", kPlotJs);
   page = replace_once(page, "/*@THREE_JS@*/", js);
   return page;
 }

@@ -4,8 +4,10 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <memory>
 #include <mutex>
@@ -44,10 +46,17 @@ struct LiveRig {
   int port = -1;
   std::mutex mu;
   std::vector<double> sim_t;               // output_t sim_time, as received
+  struct Sent {                            // what a received output_t says of wrench `track`
+    double sim_time;
+    int sigma_source;
+    std::array<double, 6> wrench, sigma;   // [moment; force] in its report frame
+  };
+  std::string track = "arm1.ee";
+  std::vector<Sent> sent;
   std::vector<std::pair<int64_t, int64_t>> stats;  // loop_stats_t (utime, tick)
   std::string skip;
 
-  LiveRig(int offset, const std::vector<std::string>& viewer_extra) {
+  LiveRig(int offset, const std::vector<std::string>& viewer_extra, const std::string& scene = scene_file("two_puma_load")) {
     if (!COOPDYN_VIEW_LIVE) {
       skip = "coopdyn view --live is not built (Debian: libwebsocketpp-dev libasio-dev)";
       return;
@@ -63,6 +72,9 @@ struct LiveRig {
       if (!io::decode_output(d, n, &o)) return;
       std::lock_guard<std::mutex> lk(mu);
       sim_t.push_back(o.sim_time);
+      for (size_t k = 0; k < o.wrench_names.size(); ++k)
+        if (o.wrench_names[k] == track && k < o.wrench.size() && k < o.wrench_sigma.size())
+          sent.push_back({o.sim_time, o.sigma_source, o.wrench[k], o.wrench_sigma[k]});
     });
     bus->subscribe("COOPDYN_STATS", [this](const void* d, int n, long long) {
       io::StatsFrame st;
@@ -74,10 +86,10 @@ struct LiveRig {
     const std::string cfg = daemon_test::tmp_path("live_cfg.yaml");
     std::ofstream(cfg) << "stats_period_s: 0.25\n";
     daemon = std::make_unique<daemon_test::Child>(
-        std::vector<std::string>{COOPDYND_PATH, "--scene", scene_file("two_puma_load"), "--config", cfg, "--lcm-url", url,
+        std::vector<std::string>{COOPDYND_PATH, "--scene", scene, "--config", cfg, "--lcm-url", url,
                                  "--rate", "1000", "--duration", "300"},
         "live_daemon");
-    std::vector<std::string> args{kBin, "view", "--scene", scene_file("two_puma_load"), "--live", "--listen",
+    std::vector<std::string> args{kBin, "view", "--scene", scene, "--live", "--listen",
                                   "127.0.0.1:0", "--lcm-url", url};
     args.insert(args.end(), viewer_extra.begin(), viewer_extra.end());
     viewer = std::make_unique<daemon_test::Child>(args, "live_viewer");
@@ -157,6 +169,82 @@ TEST(ViewLive, BrowserReceivesFramesAndTimeAdvances) {
     };
     EXPECT_TRUE(near(first_t)) << first_t << " is not a time the daemon published";
     EXPECT_TRUE(near(shown)) << shown << " is not a time the daemon published";
+  }
+  rig.viewer->signal(SIGTERM);
+  EXPECT_EQ(rig.viewer->wait(std::chrono::seconds(5)), 0) << daemon_test::slurp(rig.viewer->err);
+  rig.daemon->signal(SIGTERM);
+  EXPECT_EQ(rig.daemon->wait(std::chrono::seconds(5)), 0);
+}
+
+// Live with declared torque noise (two_puma_load with `noise: {tau: 20}`, the daemon simulating it):
+// the bands the page draws are the sigma the daemon published in the output_t of the frame shown
+// (matched by sim_time): the 3D ellipsoid's half-axes are that sigma over the page's arrow scales
+// (force, moment), and the plot's band at the cursor is that message's value -+ sigma, to
+// round-off, at the y its axes map them to. Waits for a frame with both drawn, never for a time.
+TEST(ViewLive, BandsAreTheSigmaTheDaemonPublished) {
+  REQUIRE_BROWSER();
+  TempDir dir("live_bands");
+  LiveRig rig(6, {}, noisy_scene(dir, "\nnoise: {tau: 20}\n"));
+  if (!rig.skip.empty()) GTEST_SKIP() << rig.skip;
+  ASSERT_GT(rig.port, 0) << daemon_test::slurp(rig.viewer->err);
+  DevTools browser(chromium, dir / "live");
+  ASSERT_EQ(browser.open("http://127.0.0.1:" + std::to_string(rig.port) + "/#wrench=arm1.ee"), "");
+  // a frame with both drawn, and the output_t of that frame as this process received it (the page's
+  // time is its sim_time to 9 digits; the daemon's ticks are 1 ms apart). UDP may drop a message on
+  // its way to this process (a loaded machine): then another frame of the page, within 60 s in all.
+  const auto drawn_both = [](const std::string& d) {
+    const PageState s = page_state(d);
+    return drawn(s.probe, "arm1.ee", "sigma_f").found && plot_band(s.probe, "fx").sigma.found;
+  };
+  const auto received = [&](double t, LiveRig::Sent* out) {
+    std::lock_guard<std::mutex> lk(rig.mu);
+    for (const LiveRig::Sent& x : rig.sent)
+      if (std::abs(x.sim_time - t) < 1e-6) {
+        *out = x;
+        return true;
+      }
+    return false;
+  };
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  std::string dom;
+  PageState p;
+  LiveRig::Sent msg{};
+  bool have = false;
+  while (!have && std::chrono::steady_clock::now() < end) {
+    if (!browser.wait_until(drawn_both, 60, &dom)) break;
+    p = page_state(dom);
+    for (int i = 0; i < 40 && !(have = received(p.t, &msg)); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_TRUE(drawn_both(dom)) << "no band drawn in 60 s: " << page_state(dom).probe << "\n" << browser.log();
+  EXPECT_EQ(p.title, "coopdyn view: two_puma_load") << "a JavaScript error, or the page did not finish";
+  ASSERT_TRUE(have) << "the test received no output_t at any frame the page showed (the last at t = " << p.t << ")";
+  EXPECT_NE(msg.sigma_source, 0) << "the daemon published no sigma";
+  std::printf("the page's frame at t = %.3f s: arm1.ee fz = %.6g N, sigma_fz = %.6g N in the daemon's output_t\n", p.t,
+              msg.wrench[5], msg.sigma[5]);
+  const double force_scale = p.force_scale, moment_scale = num_after(p.probe, "\"moment_scale\":");
+  ASSERT_GT(force_scale, 0);
+  ASSERT_GT(moment_scale, 0);
+  const Drawn f = drawn(p.probe, "arm1.ee", "sigma_f"), m = drawn(p.probe, "arm1.ee", "sigma_m");
+  ASSERT_TRUE(m.found) << p.probe;
+  for (int j = 0; j < 3; ++j) {
+    const double sm = msg.sigma[static_cast<size_t>(j)], sf = msg.sigma[static_cast<size_t>(3 + j)];
+    ASSERT_GT(sf, 0) << j;
+    EXPECT_NEAR(f.half[j], sf / force_scale, 1e-7 * sf / force_scale) << "force sigma along axis " << j;
+    EXPECT_NEAR(m.half[j], sm / moment_scale, 1e-7 * sm / moment_scale + 1e-12) << "moment sigma along axis " << j;
+  }
+  const std::vector<PlotAxes> axes = plot_axes(p.probe);
+  ASSERT_EQ(axes.size(), 2u) << p.probe;
+  for (int c = 0; c < 6; ++c) {
+    const PlotBand b = plot_band(p.probe, kComponents[c]);
+    ASSERT_TRUE(b.sigma.found) << kComponents[c] << ": " << p.probe;
+    const double v = msg.wrench[static_cast<size_t>(c)], s = msg.sigma[static_cast<size_t>(c)];
+    const double eps = 1e-12 * (std::abs(v) + s);
+    EXPECT_EQ(b.value, v) << kComponents[c];
+    EXPECT_NEAR(b.sigma.lo, v - s, eps) << kComponents[c];
+    EXPECT_NEAR(b.sigma.hi, v + s, eps) << kComponents[c];
+    EXPECT_NEAR(b.sigma.y_lo, axes[c < 3 ? 0 : 1].y(v - s), 1e-6) << kComponents[c];
+    EXPECT_NEAR(b.sigma.y_hi, axes[c < 3 ? 0 : 1].y(v + s), 1e-6) << kComponents[c];
+    EXPECT_FALSE(b.bound.found) << kComponents[c] << ": a friction bound in simulate mode";
   }
   rig.viewer->signal(SIGTERM);
   EXPECT_EQ(rig.viewer->wait(std::chrono::seconds(5)), 0) << daemon_test::slurp(rig.viewer->err);

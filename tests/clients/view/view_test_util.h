@@ -263,6 +263,92 @@ inline void expect_arrow_at(const Image& im, const PageState& p, const Eigen::Ve
   EXPECT_LT(dmax, 0.2 * L + 4) << what << ": force-coloured pixels away from the arrow's line";
 }
 
+// two_puma_load with `noise` (scene text: declared noise) appended, written into `dir` (its robot
+// file by absolute path).
+inline std::string noisy_scene(const TempDir& dir, const std::string& noise) {
+  std::string text = slurp(scene_file("two_puma_load"));
+  const std::string from = "file: ../robots/", to = "file: " + kSrc + "/config/robots/";
+  for (size_t at = 0; (at = text.find(from, at)) != std::string::npos; at += to.size()) text.replace(at, from.size(), to);
+  const std::string path = dir / "noisy.yaml";
+  std::ofstream(path) << text << noise;
+  return path;
+}
+
+// The 3D band the probe reads back from the scene: {"centre":[x,y,z],"half":[a,b,c]} of `key`
+// (sigma_f, sigma_m, bound_f, bound_m) in the band entry of wrench `name`.
+struct Drawn {
+  bool found = false;
+  Vec3 centre = Vec3::Constant(NAN), half = Vec3::Constant(NAN);
+};
+inline Drawn drawn(const std::string& probe, const std::string& name, const std::string& key) {
+  Drawn d;
+  const size_t at = probe.find("{\"name\":\"" + name + "\",\"sigma_f\"");
+  if (at == std::string::npos) return d;
+  const std::string entry = probe.substr(at, probe.find('}', probe.find("\"bound_m\"", at)) - at + 1);
+  const size_t k = entry.find("\"" + key + "\":{");
+  if (k == std::string::npos) return d;
+  d.found = true;
+  d.centre = vec_after(entry.substr(k), "\"centre\":[");
+  d.half = vec_after(entry.substr(k), "\"half\":[");
+  return d;
+}
+
+// The plot as the probe gives it: its two axes (moments, forces: the rectangle in page CSS px and
+// the value range) and, per component at the cursor's frame, the value and the +-sigma band and
+// friction bound drawn about it (lo, hi in N*m or N; y of each in page CSS px).
+struct PlotAxes {
+  double left = NAN, top = NAN, width = NAN, height = NAN, lo = NAN, hi = NAN;
+  double y(double v) const { return top + (hi - v) / (hi - lo) * height; }  // where value v is drawn
+};
+struct PlotEdge {
+  bool found = false;
+  double lo = NAN, hi = NAN, y_lo = NAN, y_hi = NAN;
+};
+struct PlotBand {
+  bool found = false;
+  double value = NAN, y = NAN;
+  PlotEdge sigma, bound;
+};
+inline std::vector<PlotAxes> plot_axes(const std::string& probe) {
+  std::vector<PlotAxes> out;
+  const std::string all = between(probe, "\"axes\":[", "]");
+  for (size_t at = 0; (at = all.find('{', at)) != std::string::npos; ++at) {
+    const std::string a = all.substr(at, all.find('}', at) - at);
+    out.push_back({num_after(a, "\"left\":"), num_after(a, "\"top\":"), num_after(a, "\"width\":"),
+                   num_after(a, "\"height\":"), num_after(a, "\"lo\":"), num_after(a, "\"hi\":")});
+  }
+  return out;
+}
+inline PlotEdge plot_edge(const std::string& entry, const std::string& key) {
+  PlotEdge e;
+  const size_t at = entry.find("\"" + key + "\":{");
+  if (at == std::string::npos) return e;
+  const std::string s = entry.substr(at, entry.find('}', at) - at);
+  e.found = true;
+  e.lo = num_after(s, "\"lo\":");
+  e.hi = num_after(s, "\"hi\":");
+  e.y_lo = num_after(s, "\"y_lo\":");
+  e.y_hi = num_after(s, "\"y_hi\":");
+  return e;
+}
+inline PlotBand plot_band(const std::string& probe, const std::string& comp) {  // comp: mx .. fz
+  PlotBand b;
+  const size_t plot = probe.find("\"plot\":{"), bands = plot == std::string::npos ? plot : probe.find("\"bands\":[", plot);
+  if (bands == std::string::npos) return b;
+  const size_t at = probe.find("{\"c\":\"" + comp + "\"", bands);
+  if (at == std::string::npos) return b;
+  const size_t next = probe.find("{\"c\":\"", at + 1);
+  // (the last entry runs to the probe's end: what follows the plot has no sigma, bound or value)
+  const std::string entry = probe.substr(at, next == std::string::npos ? std::string::npos : next - at);
+  b.found = true;
+  b.value = num_after(entry, "\"value\":");
+  b.y = num_after(entry, "\"y\":");
+  b.sigma = plot_edge(entry, "sigma");
+  b.bound = plot_edge(entry, "bound");
+  return b;
+}
+inline const char* const kComponents[6] = {"mx", "my", "mz", "fx", "fy", "fz"};
+
 inline std::vector<double> numbers(const std::string& list) {  // "1,2.5,3" -> {1, 2.5, 3}
   std::vector<double> out;
   const char* p = list.c_str();
