@@ -29,6 +29,7 @@
 #include <cstring>
 #include <future>
 #include <string>
+#include <system_error>
 #include <thread>
 
 #include "service/dynamics/constrained_dynamics.h"
@@ -243,7 +244,12 @@ std::unique_ptr<coopdyn::runtime::PublisherThread> make_publisher(const coopdyn:
   }
   const int max_bytes = std::max(io::OutputEncoder(sys).max_size(), io::StatsEncoder().max_size());
   auto p = std::make_unique<runtime::PublisherThread>(bus, max_bytes);
-  p->start(cfg.realtime.cpu);
+  try {
+    p->start(cfg.realtime.cpu);
+  } catch (const std::system_error& e) {  // no thread to be had (a process or cgroup limit)
+    spdlog::warn("publisher thread not started ({}): the loop publishes its outputs itself", e.what());
+    return nullptr;
+  }
   spdlog::info("outputs published by a publisher thread{} ({} slots of {} bytes)",
                cfg.realtime.cpu >= 0 ? " off the loop's CPU" : "", runtime::PublisherThread::kSlots, max_bytes);
   return p;
