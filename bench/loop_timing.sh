@@ -17,7 +17,9 @@
 #     mode) and times each one from its publish to the first output carrying its seq. The
 #     daemon's summary gives wake-up lateness (wake-up minus the deadline; in the event-driven
 #     row, wake-up minus the state's receipt in the receive process) and compute (wake-up to the
-#     end of the tick: handoff, dynamics, wrenches, encoding, lcm_publish) over every tick.
+#     end of the tick: handoff, dynamics, wrenches, encoding, and the hand-off of the bytes to the
+#     publisher thread; lcm_publish itself on arrival and in the "the loop publishing" row,
+#     realtime.publisher_thread: false) over every tick.
 #   cyclictest rows: cyclictest -t 1 -i 1000 with the same policy (it holds /dev/cpu_dma_latency
 #     at 0 itself), percentiles from its histogram.
 #   warm: build/bin/loop_bench's ServiceLoop::tick() of the same scene (BM_TickPaced, back to back,
@@ -26,7 +28,8 @@
 #     publishing over udpm on loopback with no subscriber and with one (loop_bench BM_TickPaced).
 #   LCM round trip alone: build/bin/lcm_pingpong, two processes that only talk LCM (100 Hz,
 #     messages of output_t's size both ways): the transport's and the client library's share.
-# Daemon variants: "rt" = SCHED_FIFO 80 + mlockall (needs root; refusals are logged); "+ tricks" =
+# Daemon variants: "the loop publishing" = realtime.publisher_thread false (the loop calls
+#   lcm_publish itself, as on arrival); "rt" = SCHED_FIFO 80 + mlockall (needs root; refusals are logged); "+ tricks" =
 #   rt + /dev/cpu_dma_latency held at 0 + the loop pinned to CPU 1 with the receive thread and
 #   process on the others + inputs on their own port (lcm_url_in: the receive process never sees
 #   the daemon's own outputs); "+ spin 50" = that + realtime.spin_us 50; "+ busy poll" = that +
@@ -130,6 +133,8 @@ TRICKS="$RT, cpu: 1, cpu_dma_latency_zero: true}\nlcm_url_in: \"$URL_IN\""
 with() { printf '%s' "$TRICKS" | sed "s/cpu_dma_latency_zero: true}/cpu_dma_latency_zero: true, $1}/"; }
 if [ "${ROWS:-all}" != arrival ]; then
   daemon "coopdynd simulate, SCHED_OTHER" simulate ""
+  # the same with the loop publishing each output itself (lcm_publish inside its compute window)
+  daemon "coopdynd simulate, SCHED_OTHER, the loop publishing" simulate "realtime: {publisher_thread: false}"
 fi
 cyclic "cyclictest, SCHED_OTHER"
 [ "${ROWS:-all}" != arrival ] && daemon "coopdynd simulate, rt" simulate "$RT}"

@@ -24,6 +24,7 @@ add_library(coopdyn_runtime
   ${CMAKE_CURRENT_LIST_DIR}/runtime/config.cc
   ${CMAKE_CURRENT_LIST_DIR}/runtime/config_fields.cc
   ${CMAKE_CURRENT_LIST_DIR}/runtime/config_reference.cc
+  ${CMAKE_CURRENT_LIST_DIR}/runtime/publisher_thread.cc
   ${CMAKE_CURRENT_LIST_DIR}/runtime/realtime.cc
   ${CMAKE_CURRENT_LIST_DIR}/runtime/service_loop.cc
 )

@@ -10,6 +10,7 @@ coopdyn_test(coopdynd_tests
     io/convert_test.cc
     runtime/service_loop_test.cc
     runtime/triple_buffer_test.cc
+    runtime/publisher_thread_test.cc
     runtime/histogram_test.cc
     runtime/service_loop_no_allocation_test.cc
     runtime/estimate_friction_loop_test.cc

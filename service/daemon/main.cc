@@ -3,8 +3,9 @@
 //   coopdynd --scene FILE [--config FILE] [--lcm-url URL] [--mode simulate|estimate]
 //            [--rate HZ] [--duration S]      (coopdynd --help: the options and their defaults)
 //
-// Processes and threads: the loop (ServiceLoop::run, optionally SCHED_FIFO) publishes through LCM
-// and never receives; inputs arrive in a supervised child process (coopdynd --rx-child,
+// Processes and threads: the loop (ServiceLoop::run, optionally SCHED_FIFO) never receives; at the
+// fixed rate it hands its encoded outputs to the publisher thread (runtime/publisher_thread.h), which
+// publishes them through LCM (realtime.publisher_thread; on arrival the loop publishes itself); inputs arrive in a supervised child process (coopdynd --rx-child,
 // io/rx_isolated.h: its own UDP socket and LCM wire parser, no liblcm) that copies raw bytes into a shared ring, drained by the receive thread here
 // (-> decode -> triple buffer), which also restarts the child when it dies (trigger: arrival: the
 // loop drains the ring itself, woken by the child, and the receive thread only supervises); spdlog's async logger
@@ -28,6 +29,7 @@
 #include <cstring>
 #include <future>
 #include <string>
+#include <system_error>
 #include <thread>
 
 #include "service/dynamics/constrained_dynamics.h"
@@ -36,6 +38,7 @@
 #include "service/io/lcm_bus.h"
 #include "service/io/rx_isolated.h"
 #include "service/runtime/config.h"
+#include "service/runtime/publisher_thread.h"
 #include "service/runtime/realtime.h"
 #include "service/runtime/service_loop.h"
 #include "service/scene/scene.h"
@@ -224,6 +227,32 @@ void start_logging(const coopdyn::runtime::ServiceConfig& cfg) {
   spdlog::set_default_logger(logger);
   spdlog::set_level(spdlog::level::from_str(cfg.log_level));
   spdlog::set_pattern("[%H:%M:%S.%e] [coopdynd] [%^%l%$] %v");
+}
+
+// outputs: at the fixed rate from a publisher thread kept off the loop's CPU (realtime.publisher_thread);
+// on arrival, or with it off, the loop publishes itself (nullptr)
+std::unique_ptr<coopdyn::runtime::PublisherThread> make_publisher(const coopdyn::System& sys,
+                                                                   const coopdyn::runtime::ServiceConfig& cfg,
+                                                                   coopdyn::io::Bus& bus) {
+  using namespace coopdyn;
+  const bool arrival = cfg.mode == runtime::ServiceMode::kEstimate && cfg.trigger == runtime::Trigger::kArrival;
+  if (!cfg.realtime.publisher_thread || arrival) {
+    spdlog::info("outputs published by the loop thread{}", arrival && cfg.realtime.publisher_thread
+                                                               ? " (on arrival: no wake-up between a state and its wrenches)"
+                                                               : "");
+    return nullptr;
+  }
+  const int max_bytes = std::max(io::OutputEncoder(sys).max_size(), io::StatsEncoder().max_size());
+  auto p = std::make_unique<runtime::PublisherThread>(bus, max_bytes);
+  try {
+    p->start(cfg.realtime.cpu);
+  } catch (const std::system_error& e) {  // no thread to be had (a process or cgroup limit)
+    spdlog::warn("publisher thread not started ({}): the loop publishes its outputs itself", e.what());
+    return nullptr;
+  }
+  spdlog::info("outputs published by a publisher thread{} ({} slots of {} bytes)",
+               cfg.realtime.cpu >= 0 ? " off the loop's CPU" : "", runtime::PublisherThread::kSlots, max_bytes);
+  return p;
 }
 
 // inputs: received by a supervised child process, never by this one (the bus only publishes)
@@ -540,7 +569,8 @@ int main(int argc, char** argv) {
     return 1;
   }
   for (const std::string& w : sys.warnings) spdlog::warn("scene: {}", w);
-  runtime::ServiceLoop loop(sys, cfg, *bus);
+  std::unique_ptr<runtime::PublisherThread> publisher = make_publisher(sys, cfg, *bus);
+  runtime::ServiceLoop loop(sys, cfg, publisher ? static_cast<io::Bus&>(*publisher) : *bus);
   std::unique_ptr<io::IsolatedReceiver> rx;
   try {
     rx = make_receiver(cfg);
@@ -562,6 +592,12 @@ int main(int argc, char** argv) {
   wait_for_receiver(*rx, cfg);
 
   const auto t_start = run(loop, sys, cfg, opt.duration, *rx, rejections);
+  if (publisher) {
+    publisher->stop();  // what the loop queued last goes out
+    if (publisher->dropped() > 0)
+      spdlog::warn("publisher thread: {} message(s) dropped (every slot still waiting: the thread did not get a CPU "
+                   "for {} ticks)", publisher->dropped(), runtime::PublisherThread::kSlots);
+  }
   print_summary(loop, cfg, *rx, t_start);
   return 0;
 }

@@ -2,10 +2,10 @@
 //
 // Publishing: lcm_publish() of raw bytes from the caller's thread. With udpm:// that is one
 // sendmsg() on a non-blocking-in-practice UDP socket into the kernel (fragmenting messages above
-// the MTU), no heap allocation in LCM 1.3's udpm path; that is why the loop publishes directly
-// instead of handing bytes to a publisher thread (one copy and one wake-up less, documented in
-// README "Running the service"). memq:// (tests) copies each message on the heap: fine for tests,
-// not for a real-time loop.
+// the MTU), no heap allocation in LCM 1.3's udpm path; the kernel delivers the datagram to every
+// subscriber on the host and wakes it inside that call. coopdynd's fixed-rate loop hands its bytes
+// to a publisher thread that calls this (runtime/publisher_thread.h); on arrival the loop calls it
+// itself. memq:// (tests) copies each message on the heap: fine for tests, not for a real-time loop.
 // Receiving: a thread runs lcm_handle_timeout() and calls the raw handlers; the loop never
 // touches lcm_handle.
 #pragma once

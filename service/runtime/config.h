@@ -43,8 +43,8 @@ enum class Trigger {
 struct RealtimeOptions {
   bool sched_fifo = false;  // SCHED_FIFO for the loop thread (needs CAP_SYS_NICE or root)
   int priority = 80;        // 1..99
-  int cpu = -1;             // pin the loop thread to this CPU; -1: no affinity. The receive thread
-                            // and the receive process are then kept off this CPU
+  int cpu = -1;             // pin the loop thread to this CPU; -1: no affinity. The receive thread,
+                            // the receive process and the publisher thread are then kept off this CPU
   bool mlockall = false;    // lock current and future pages (no page faults in the loop)
   // Fixed-rate loop: wake spin_us before each deadline, evaluate the held state once (warming the
   // caches and TLB after the sleep; the result is discarded) and poll the clock to the deadline (a
@@ -59,6 +59,12 @@ struct RealtimeOptions {
   // It takes a whole CPU at all times: give it one (cpu, ideally isolated from the scheduler with
   // isolcpus), with sched_fifo. Off by default.
   bool busy_poll = false;
+  // Fixed-rate loop (trigger: tick): the loop encodes each output and hands the bytes to a publisher
+  // thread (runtime/publisher_thread.h), which calls lcm_publish; the send and the kernel's delivery
+  // to the host's subscribers (their wake-ups) leave the loop's thread and, with cpu, its CPU. Each
+  // output then leaves one thread wake-up later. false: the loop publishes itself. On arrival
+  // (trigger: arrival) the loop always publishes itself: no wake-up between a state and its wrenches.
+  bool publisher_thread = true;
 };
 
 // What each value may be: the range the code can represent and the daemon can use. load_config and

@@ -261,7 +261,8 @@ const std::vector<ConfigField> kFields = {
     {"realtime", "sched_fifo", K::kFlag, "true or false", kNone, kNone, "", {}, false, COOPDYN_MEMBER(R::sched_fifo, b), nullptr, "", "`SCHED_FIFO` for the loop thread (root or `CAP_SYS_NICE`)"},
     {"realtime", "priority", K::kInteger, "an integer", 1, 99, "{lo}..{hi}", {}, false, COOPDYN_MEMBER(R::priority, n), check_priority, "", "its priority"},
     {"realtime", "cpu", K::kInteger, "an integer", 0, kMaxCpu, "-1 or [{lo}, {hi}]", {}, false, COOPDYN_MEMBER(R::cpu, n), check_cpu, "",
-     "pin the loop thread to this CPU (-1: no affinity); the receive thread and process then run on the other CPUs"},
+     "pin the loop thread to this CPU (-1: no affinity); the receive thread and process and the publisher thread "
+     "then run on the other CPUs"},
     {"realtime", "mlockall", K::kFlag, "true or false", kNone, kNone, "", {}, false, COOPDYN_MEMBER(R::mlockall, b), nullptr, "", "lock all pages (no page faults in the loop)"},
     {"realtime", "spin_us", K::kInteger, "an integer (us)", 0, 1000, "[{lo}, {hi}], below the period", {}, false,
      COOPDYN_MEMBER(R::spin_us, n), check_spin, "",
@@ -274,6 +275,11 @@ const std::vector<ConfigField> kFields = {
      COOPDYN_MEMBER(R::busy_poll, b), check_busy_poll, "",
      "`trigger: arrival` only: the loop polls for measured states instead of sleeping (no wake-up between a "
      "state's receipt and its computation); takes a whole CPU at all times: give it `cpu` (isolated) and `sched_fifo`"},
+    {"realtime", "publisher_thread", K::kFlag, "true or false", kNone, kNone, "", {}, false,
+     COOPDYN_MEMBER(R::publisher_thread, b), nullptr, "",
+     "`trigger: tick`: the loop hands each encoded output to a thread of its own that publishes it (the `sendmsg` "
+     "and its delivery to the host's subscribers off the loop's thread and, with `cpu`, its CPU; an output leaves "
+     "one thread wake-up later); false: the loop publishes itself. On arrival the loop always publishes itself"},
     {"", "log_level", K::kChoice, "a string", kNone, kNone, "", {"trace", "debug", "info", "warn", "error", "off"}, false,
      COOPDYN_MEMBER(S::log_level, s), nullptr, "", ""},
 };
