@@ -96,8 +96,9 @@ _PRE_MAC = {bytes.fromhex("b5f5b8e960348f9c"): "torque_command_t", bytes.fromhex
 
 # loop_stats_t's fingerprints before int64 fields were appended, and the bytes of those fields: such a
 # message reads as the current one with them 0 (as service/io/convert.cc reads it)
-_STATS_BEFORE = {bytes.fromhex("7f11746fd02903b9"): 8 * 7,  # before inputs_malformed and controls_*
-                 bytes.fromhex("48bcc81f9a071c5a"): 8 * 6}  # before controls_received ... controls_replayed
+_STATS_BEFORE = {bytes.fromhex("7f11746fd02903b9"): 8 * 8,  # before inputs_malformed and the fields after it
+                 bytes.fromhex("48bcc81f9a071c5a"): 8 * 7,  # before controls_received ... controls_replayed, outputs_dropped
+                 bytes.fromhex("5f3a349535103d01"): 8 * 1}  # before outputs_dropped
 
 
 def decode(data):

@@ -55,8 +55,9 @@ struct StatsBefore {
   int missing_bytes;
 };
 constexpr StatsBefore kStatsBefore[] = {
-    {0x7f11746fd02903b9ULL, 8 * 7},  // before inputs_malformed (and the controls_* fields)
-    {0x48bcc81f9a071c5aULL, 8 * 6},  // before controls_received ... controls_replayed
+    {0x7f11746fd02903b9ULL, 8 * 8},  // before inputs_malformed (and the fields after it)
+    {0x48bcc81f9a071c5aULL, 8 * 7},  // before controls_received ... controls_replayed, outputs_dropped
+    {0x5f3a349535103d01ULL, 8 * 1},  // before outputs_dropped
 };
 int stats_missing_bytes(uint64_t hash) {
   for (const StatsBefore& b : kStatsBefore)

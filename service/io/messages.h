@@ -117,6 +117,7 @@ struct StatsFrame {
   // control_t: received, accepted, rejected (every reason), and rejected as unauthenticated, bad MAC, replayed
   int64_t controls_received = 0, controls_accepted = 0, controls_rejected = 0;
   int64_t controls_unauthenticated = 0, controls_bad_mac = 0, controls_replayed = 0;
+  int64_t outputs_dropped = 0;  // output_t and loop_stats_t messages the loop's bus refused (publish() != 0)
 };
 
 // A decoded output_t, for clients and tests (allocates; never used by the loop).

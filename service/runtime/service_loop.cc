@@ -407,7 +407,7 @@ void ServiceLoop::publish_output(io::OutputFrame& f) {
   bool sanitized = false;
   const int len = out_enc_.encode(f, out_buf_.data(), static_cast<int>(out_buf_.size()), &sanitized);
   if (sanitized && f.valid) numerical_errors_.fetch_add(1, std::memory_order_relaxed);
-  if (len > 0) bus_.publish(cfg_.output_channel.c_str(), out_buf_.data(), len);
+  if (len > 0) publish(cfg_.output_channel, out_buf_, len);
   ticks_.fetch_add(1, std::memory_order_relaxed);
   // on arrival, run_on_arrival() publishes the stats by wall time (the ticks follow the states)
   if (++since_stats_ >= stats_every_ && cfg_.trigger == Trigger::kTick) {
@@ -455,6 +455,7 @@ void ServiceLoop::fill_counters(io::StatsFrame& s) const {
   s.controls_unauthenticated = ctl_by[static_cast<int>(io::Reject::kUnauthenticated)];
   s.controls_bad_mac = ctl_by[static_cast<int>(io::Reject::kBadMac)];
   s.controls_replayed = ctl_by[static_cast<int>(io::Reject::kReplayed)];
+  s.outputs_dropped = outputs_dropped();
 }
 
 void ServiceLoop::publish_stats() {
@@ -467,7 +468,11 @@ void ServiceLoop::publish_stats() {
   late_win_.reset();
   comp_win_.reset();
   const int len = stats_enc_.encode(s, stats_buf_.data(), static_cast<int>(stats_buf_.size()));
-  if (len > 0) bus_.publish(cfg_.stats_channel.c_str(), stats_buf_.data(), len);
+  if (len > 0) publish(cfg_.stats_channel, stats_buf_, len);
+}
+
+void ServiceLoop::publish(const std::string& channel, const std::vector<uint8_t>& buf, int len) {
+  if (bus_.publish(channel.c_str(), buf.data(), len) != 0) outputs_dropped_.fetch_add(1, std::memory_order_relaxed);
 }
 
 io::StatsFrame ServiceLoop::totals() const {

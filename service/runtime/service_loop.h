@@ -13,7 +13,9 @@
 // then the scene's wrench outputs of that evaluation (compute_wrenches: end-effector, base, tip,
 // axle and the joint reactions it asks for);
 // encode output_t into a preallocated buffer and publish it; every stats period publish
-// loop_stats_t. tick() does not sleep, allocate, lock, log or throw; tests call it directly.
+// loop_stats_t. A message the bus refuses (the publisher thread's ring full, lcm_publish failing) is
+// counted, in loop_stats_t outputs_dropped. tick() does not sleep, allocate, lock, log or throw;
+// tests call it directly.
 // run() calls tick() at absolute deadlines (clock_nanosleep TIMER_ABSTIME on CLOCK_MONOTONIC),
 // records wake-up lateness and compute time, and applies the overrun policy; with
 // realtime.spin_us it wakes spin_us before each deadline, evaluates the state it holds once (its
@@ -96,6 +98,9 @@ class ServiceLoop {
   int64_t numerical_errors() const { return numerical_errors_.load(std::memory_order_relaxed); }
   bool faulted() const { return faulted_.load(std::memory_order_relaxed); }
   int64_t closure_rejections() const { return closure_rejected_.load(std::memory_order_relaxed); }
+  // output_t and loop_stats_t messages the bus refused (publish() != 0: the publisher thread's ring
+  // full, lcm_publish failing); loop_stats_t outputs_dropped
+  int64_t outputs_dropped() const { return outputs_dropped_.load(std::memory_order_relaxed); }
   bool paused() const { return paused_; }  // loop thread
   const InputCounters& input_counters() const;
   // Fed by the daemon's receive supervision (io/rx_isolated.h), any thread; published in loop_stats_t.
@@ -147,6 +152,7 @@ class ServiceLoop {
   void safe_torque(const Eigen::VectorXd& q, const Eigen::VectorXd& v);
   void handle_control(const io::ControlSlot& c);
   void publish_stats();
+  void publish(const std::string& channel, const std::vector<uint8_t>& buf, int len);  // counts a refusal
   void fill_counters(io::StatsFrame& s) const;
   void run_on_arrival(const std::atomic<bool>& stop, long long max_ticks);
   bool wait_for_arrival(uint32_t seen, long long deadline, const std::atomic<bool>& stop, bool* stopped);
@@ -208,6 +214,7 @@ class ServiceLoop {
   std::atomic<int64_t> receiver_restarts_{0}, inputs_dropped_{0}, inputs_filtered_{0}, inputs_malformed_{0};
   std::atomic<int64_t> rx_input_rejected_[io::kRejectKinds] = {}, rx_control_rejected_[io::kRejectKinds] = {};
   std::atomic<int64_t> closure_rejected_{0};  // estimate: measured states above closure_tolerance
+  std::atomic<int64_t> outputs_dropped_{0};   // messages the bus refused
   Histogram late_win_, comp_win_, late_all_, comp_all_;
   EventRing<256> events_;
   Doorbell bell_;

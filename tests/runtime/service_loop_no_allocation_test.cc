@@ -1,8 +1,8 @@
 // The loop's step path allocates nothing: thousands of ServiceLoop::tick() calls (dynamics, input
-// handoff, watchdog, lock targets of the commands, output and stats encoding, publish) of every
-// scene in both modes, and run()
-// with its absolute-deadline sleeps, under the counting heap. Inputs are offered between ticks
-// outside the count (the receive thread is not the loop).
+// handoff, watchdog, lock targets of the commands, output and stats encoding, publish, a refused
+// publish counted) of every scene in both modes, and run() with its absolute-deadline sleeps, under
+// the counting heap. Inputs are offered between ticks outside the count (the receive thread is not
+// the loop).
 #define COOPDYN_COUNTING_ALLOCATOR_IMPL
 #include "tests/support/counting_allocator.h"
 
@@ -274,6 +274,114 @@ TEST(LoopNoAllocation, RunThroughThePublisherThread) {
   const long stats = bus.find(cfg.stats_channel.c_str()) ? bus.find(cfg.stats_channel.c_str())->count : 0;
   EXPECT_EQ(outputs + stats, pub.published());
   EXPECT_EQ(pub.published() + pub.dropped(), 300 + 300 / 50);
+}
+
+namespace {
+
+// Behind the loop, a bus that refuses every fourth message (publish() -1, as lcm_publish failing does
+// where the loop publishes itself), and remembers how many it had refused when it took the last
+// loop_stats_t. Fixed storage: publish() never allocates.
+struct RefusingBus : io::Bus {
+  explicit RefusingBus(const std::string& stats) : stats_channel(stats) {}
+  int publish(const char* channel, const void* data, int len) override {
+    if (++calls % 4 == 0) {
+      ++refused;
+      return -1;
+    }
+    if (stats_channel == channel) refused_before_last_stats = refused;
+    return taken.publish(channel, data, len);
+  }
+  const std::string stats_channel;
+  FakeBus taken;
+  long calls = 0, refused = 0, refused_before_last_stats = -1;
+};
+
+// The inner bus of a publisher thread, held inside publish() until released: the thread without a CPU.
+struct HeldBus : io::Bus {
+  int publish(const char* channel, const void* data, int len) override {
+    while (hold.load()) std::this_thread::yield();
+    return taken.publish(channel, data, len);
+  }
+  std::atomic<bool> hold{true};
+  FakeBus taken;
+};
+
+io::StatsFrame last_stats(const FakeBus& bus, const std::string& channel) {
+  io::StatsFrame s;
+  const FakeBus::Slot* slot = bus.find(channel.c_str());
+  EXPECT_TRUE(slot && io::decode_stats(slot->data.data(), slot->len, &s)) << "no loop_stats_t on " << channel;
+  return s;
+}
+
+}  // namespace
+
+// The loop counts each message its bus refuses (outputs_dropped), without allocating: every message
+// it made either reached the bus or is counted, and each loop_stats_t carries the refusals before it.
+TEST(LoopNoAllocation, CountsTheMessagesItsBusRefuses) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  const System sys = load_scene(scene_path("two_puma_load"));
+  runtime::ServiceConfig cfg;
+  cfg.stats_period_s = 0.05;  // stats every 50 ticks at 1 kHz
+  RefusingBus bus(cfg.stats_channel);
+  runtime::ServiceLoop loop(sys, cfg, bus);
+  long allocations = 0;
+  for (int k = 0; k < 1000; ++k) {
+    AllocationCounter c;
+    loop.tick(k * 1000000LL);
+    allocations += c.count();
+  }
+  EXPECT_EQ(allocations, 0);
+  EXPECT_EQ(bus.calls, 1000 + 20);  // 1000 output_t, 20 loop_stats_t
+  EXPECT_EQ(bus.refused, 255);  // every fourth: outputs and, of the stats (call 51 k), every fourth
+  EXPECT_EQ(loop.outputs_dropped(), bus.refused);
+  EXPECT_EQ(loop.totals().outputs_dropped, bus.refused);
+  EXPECT_EQ(bus.taken.count(cfg.output_channel.c_str()) + bus.taken.count(cfg.stats_channel.c_str()) + bus.refused,
+            bus.calls);
+  ASSERT_GT(bus.refused_before_last_stats, 0);
+  EXPECT_EQ(last_stats(bus.taken, cfg.stats_channel).outputs_dropped, bus.refused_before_last_stats);
+}
+
+// A publisher thread stuck in its inner publish: its ring takes kSlots messages, the loop counts every
+// later one the ring refuses (exactly the thread's dropped()), without allocating; once the thread
+// runs again, the next loop_stats_t that reaches the bus reports them.
+TEST(LoopNoAllocation, CountsWhatAStuckPublisherThreadDrops) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  const System sys = load_scene(scene_path("two_puma_load"));
+  runtime::ServiceConfig cfg;
+  cfg.stats_period_s = 0.05;
+  HeldBus inner;
+  runtime::PublisherThread pub(inner, std::max(io::OutputEncoder(sys).max_size(), io::StatsEncoder().max_size()));
+  pub.start();
+  runtime::ServiceLoop loop(sys, cfg, pub);
+  const auto handed = [&] { return static_cast<int64_t>(loop.ticks() + loop.ticks() / 50); };  // outputs + stats
+  const auto drained = [&] {
+    while (pub.published() + pub.dropped() < handed()) std::this_thread::yield();
+  };
+  long allocations = 0;
+  for (int k = 0; k < 60; ++k) {  // 60 outputs and the stats of tick 50 while the thread is stuck
+    AllocationCounter c;
+    loop.tick(k * 1000000LL);
+    allocations += c.count();
+  }
+  EXPECT_EQ(loop.outputs_dropped(), 61 - runtime::PublisherThread::kSlots);
+  EXPECT_EQ(loop.outputs_dropped(), pub.dropped());
+  inner.hold.store(false);
+  for (int k = 60; k < 100; ++k) {  // the thread runs again: each message waited for before the next
+    drained();
+    AllocationCounter c;
+    loop.tick(k * 1000000LL);
+    allocations += c.count();
+  }
+  drained();
+  pub.stop();
+  EXPECT_EQ(allocations, 0);
+  EXPECT_EQ(loop.outputs_dropped(), 61 - runtime::PublisherThread::kSlots);
+  EXPECT_EQ(pub.dropped(), loop.outputs_dropped());
+  EXPECT_EQ(inner.taken.count(cfg.output_channel.c_str()), runtime::PublisherThread::kSlots + 40);
+  EXPECT_EQ(inner.taken.count(cfg.stats_channel.c_str()), 1);
+  const io::StatsFrame s = last_stats(inner.taken, cfg.stats_channel);
+  EXPECT_EQ(s.tick, 100);
+  EXPECT_EQ(s.outputs_dropped, 61 - runtime::PublisherThread::kSlots);
 }
 
 // Estimate mode on arrival: `first` states a millisecond apart, `silence` ms without any (expiry,
