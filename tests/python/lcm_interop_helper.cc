@@ -140,7 +140,8 @@ std::string stats_json(const io::StatsFrame& s) {
                              std::make_pair("controls_rejected", s.controls_rejected),
                              std::make_pair("controls_unauthenticated", s.controls_unauthenticated),
                              std::make_pair("controls_bad_mac", s.controls_bad_mac),
-                             std::make_pair("controls_replayed", s.controls_replayed)})
+                             std::make_pair("controls_replayed", s.controls_replayed),
+                             std::make_pair("outputs_dropped", s.outputs_dropped)})
     j.add(k, num(v));
   std::vector<std::string> keys;
   std::vector<long long> counts;

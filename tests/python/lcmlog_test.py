@@ -135,15 +135,16 @@ class LcmLog(unittest.TestCase):
         self.assertEqual((back.utime, back.seq, back.action, back.mac_len), (7, 8, coopdyn.control_t.ACTION_PAUSE, 0))
 
     def test_loop_stats_recorded_before_the_control_counts_still_decode(self):
-        # loop_stats_t before controls_* (and before inputs_malformed): those fields read as 0
+        # loop_stats_t before outputs_dropped (and before controls_*, inputs_malformed): those fields read as 0
         m = coopdyn.loop_stats_t()
-        m.tick, m.commands_rejected, m.inputs_malformed, m.controls_bad_mac = 50, 5, 11, 2
+        m.tick, m.commands_rejected, m.inputs_malformed, m.controls_bad_mac, m.outputs_dropped = 50, 5, 11, 2, 13
         m.num_reject_reasons, m.reject_reasons, m.rejected_by_reason = 1, ["bad_mac"], [5]
-        for old, cut in (("48bcc81f9a071c5a", 6), ("7f11746fd02903b9", 7)):
+        for old, cut in (("5f3a349535103d01", 1), ("48bcc81f9a071c5a", 7), ("7f11746fd02903b9", 8)):
             back = lcmlog.decode(bytes.fromhex(old) + m.encode()[8:-8 * cut])
             self.assertIsInstance(back, coopdyn.loop_stats_t, old)
-            self.assertEqual((back.tick, back.commands_rejected, back.controls_bad_mac), (50, 5, 0), old)
-            self.assertEqual(back.inputs_malformed, 11 if cut == 6 else 0, old)
+            self.assertEqual((back.tick, back.commands_rejected, back.outputs_dropped), (50, 5, 0), old)
+            self.assertEqual(back.controls_bad_mac, 2 if cut == 1 else 0, old)
+            self.assertEqual(back.inputs_malformed, 0 if cut == 8 else 11, old)
 
     def test_write_read_identity(self):
         log, _ = self.logs["four_wheel_car"]
