@@ -279,7 +279,8 @@ const std::vector<ConfigField> kFields = {
      COOPDYN_MEMBER(R::publisher_thread, b), nullptr, "",
      "`trigger: tick`: the loop hands each encoded output to a thread of its own that publishes it (the `sendmsg` "
      "and its delivery to the host's subscribers off the loop's thread and, with `cpu`, its CPU; an output leaves "
-     "one thread wake-up later); false: the loop publishes itself. On arrival the loop always publishes itself"},
+     "one thread wake-up later; one that finds its 8 slots full is dropped and counted, `outputs_dropped`); false: "
+     "the loop publishes itself. On arrival the loop always publishes itself"},
     {"", "log_level", K::kChoice, "a string", kNone, kNone, "", {"trace", "debug", "info", "warn", "error", "off"}, false,
      COOPDYN_MEMBER(S::log_level, s), nullptr, "", ""},
 };
