@@ -78,6 +78,23 @@ void apply_pinv(const System& sys, Stepper& st, const Eigen::MatrixXd& G, const 
   st.ew.noalias() = st.eV * st.r;  // reuse as (G G^T)^+ b
   x.noalias() = G.transpose() * st.ew;
 }
+// Coulomb friction: a friction joint that slid at the step's start (|v| > rest_speed) and whose
+// velocity changed sign within the step (at its end, or at an RK4 stage, where the friction's sign
+// flipped and its stage slope with it) stops, at rest at the step's end; the next evaluation's
+// stiction solve decides whether it stays there. A joint at rest at the start has no sign to
+// cross (its velocity is zero to round-off, whose sign says nothing): the stiction solve decided
+// whether it breaks away, and the step keeps what the stages give.
+void stop_reversed_friction_joints(const Stepper& st, Integrator integ, double dt, Eigen::VectorXd& v) {
+  for (int d : st.ws.friction_dofs) {
+    const double v0 = st.v_start[d];
+    if (std::abs(v0) <= st.ws.rest_speed) continue;
+    bool crossed = v0 * v[d] < 0.0;
+    if (integ == Integrator::kRk4)
+      for (int s = 1; s < 4; ++s) crossed = crossed || v0 * (v0 + (s == 3 ? 1.0 : 0.5) * dt * st.k_v[s - 1][d]) < 0.0;
+    if (crossed) v[d] = 0.0;
+  }
+}
+
 }  // namespace
 
 double project_state(const System& sys, Stepper& st, Eigen::VectorXd& q, Eigen::VectorXd& v) {
@@ -178,20 +195,7 @@ const Diagnostics& step_evaluated(const System& sys, Stepper& st, Integrator int
       break;
     }
   }
-  // Coulomb friction: a friction joint that slid at the step's start (|v| > rest_speed) and whose
-  // velocity changed sign within the step (at its end, or at an RK4 stage, where the friction's sign
-  // flipped and its stage slope with it) stops, at rest at the step's end; the next evaluation's
-  // stiction solve decides whether it stays there. A joint at rest at the start has no sign to
-  // cross (its velocity is zero to round-off, whose sign says nothing): the stiction solve decided
-  // whether it breaks away, and the step keeps what the stages give.
-  for (int d : st.ws.friction_dofs) {
-    const double v0 = st.v_start[d];
-    if (std::abs(v0) <= st.ws.rest_speed) continue;
-    bool crossed = v0 * v[d] < 0.0;
-    if (integ == Integrator::kRk4)
-      for (int s = 1; s < 4; ++s) crossed = crossed || v0 * (v0 + (s == 3 ? 1.0 : 0.5) * dt * st.k_v[s - 1][d]) < 0.0;
-    if (crossed) v[d] = 0.0;
-  }
+  stop_reversed_friction_joints(st, integ, dt, v);
   if (sys.options.projection_iterations > 0 && sys.constraints.rows > 0) project_state(sys, st, q, v);
   // divergence detector: written as !(|v_i| <= bound) so that NaN trips it too
   int bad = -2;
