@@ -167,11 +167,8 @@ Workspace::Workspace(const System& sys)
     use_q_blocks = qb.usable && static_cast<int>(qb.groups.size()) >=
                                     (qb.has_nominal ? kQBlocksMinGroupsNominal : kQBlocksMinGroups);
   }
-  if (!nominal_rows.empty()) {
-    Qn.setZero(m, m);
-    kept_rows.assign(m, 0);
-    qn_tmp.setZero(m);
-  }
+  qs.plan_nominal(nominal_rows);
+  if (!nominal_rows.empty()) Qn.setZero(m, m);
   // Eigen's default LLT leaves its info unset, which a copy of the workspace reads (UBSan: "invalid
   // value for type ComputationInfo"): every workspace computes it once, sized where it is used
   d4_llt.compute(Eigen::MatrixXd::Identity(0, 0));
@@ -254,51 +251,26 @@ bool unpivoted_condition(double* a, int m, int k, double fast_tol, double* condi
 // revolute bearing at the base), whose dependence on the nominal inertia is O(I) (the base link's
 // inertia in the other DOFs' motion) instead of 1/I. Its condition is measured as QSolver measures
 // Q's: the pivot ratio of the unpivoted Cholesky where it passes the fast-path test (the block
-// path's reduced factor, q_blocks.h, has the same pivots), else that of a diagonally pivoted
-// Cholesky stopped at rank_tol (the rank path's).
+// path's reduced factor, q_blocks.h, and the leading pivots of QSolver::factor_nominal_last are
+// the same), else that of a diagonally pivoted Cholesky stopped at rank_tol (the rank path's).
+// Used where factor_nominal_last's fast path fails (solve_q).
 double condition_without_nominal(const System& sys, Workspace& ws) {
   const int m = sys.constraints.rows;
-  const Eigen::MatrixXd& G = ws.cd.G;
   Eigen::MatrixXd& A = ws.Qn;
   A = ws.Q;
   double* a = A.data();  // column-major, leading dimension m; raw loops: the sizes are small
-  for (int i = 0; i < m; ++i) ws.kept_rows[i] = 1;
-  for (const auto& [dof, r0] : ws.nominal_rows) {
-    Vec6 w = G.block<6, 1>(r0, dof);
-    const double un = w.norm();
-    if (!(un > 0.0) || !std::isfinite(un)) continue;
-    int single = -1;  // u along one axis of the weld frame (joint 1 on a base axis): just drop that row
-    for (int k = 0; k < 6; ++k)
-      if (w[k] != 0.0) single = single == -1 ? k : -2;
-    if (single >= 0) {
-      ws.kept_rows[r0 + single] = 0;
-      continue;
-    }
-    w /= un;
-    w[0] += w[0] >= 0 ? 1.0 : -1.0;  // H = I - 2 w w^T / w^T w maps u to -sign(u_0) |u| e_0
-    w *= std::sqrt(2.0 / w.squaredNorm());  // H = I - w w^T
-    for (int j = 0; j < m; ++j) {  // A <- H A (rows r0..r0+5)
-      double* c = a + static_cast<size_t>(j) * m + r0;
-      double t = 0.0;
-      for (int k = 0; k < 6; ++k) t += w[k] * c[k];
-      for (int k = 0; k < 6; ++k) c[k] -= t * w[k];
-    }
-    for (int i = 0; i < m; ++i) {  // A <- A H (columns r0..r0+5)
-      double t = 0.0;
-      for (int k = 0; k < 6; ++k) t += a[static_cast<size_t>(r0 + k) * m + i] * w[k];
-      for (int k = 0; k < 6; ++k) a[static_cast<size_t>(r0 + k) * m + i] -= t * w[k];
-    }
-    ws.kept_rows[r0] = 0;
-  }
+  ws.qs.prepare_nominal(ws.cd.G);  // the reflections H and the rows dropped (q_solve.h)
+  ws.qs.reflect_symmetric(a);
+  const std::vector<unsigned char>& kept = ws.qs.nominal_kept;
   // compact the kept rows and columns into the top-left k x k corner (leading dimension m)
   int k = 0;
   for (int j = 0; j < m; ++j) {
-    if (!ws.kept_rows[j]) continue;
+    if (!kept[j]) continue;
     const double* src = a + static_cast<size_t>(j) * m;
     double* dst = a + static_cast<size_t>(k) * m;
     int l = 0;
     for (int i = 0; i < m; ++i)
-      if (ws.kept_rows[i]) dst[l++] = src[i];
+      if (kept[i]) dst[l++] = src[i];
     ++k;
   }
   double fast = 0.0;
@@ -337,7 +309,10 @@ void dense_q_from_yb(const System& sys, Workspace& ws);
 
 // Solves Q x = b through ws.qs; with factor, factors ws.Q first and records rank and condition.
 // With the block structure (ws.use_q_blocks, build_q formed the blocks only) the block Cholesky is
-// tried first; where it fails the dense Q is formed and ws.qs decides.
+// tried first; where it fails the dense Q is formed and ws.qs decides. With nominal base links the
+// dense path first tries the fast path on Q with the nominal directions last (one factor for the
+// solve and the condition); where that fails (a pivot or the ratio of all pivots), ws.qs factors
+// Q as it is, as without nominal bases, and the condition comes from condition_without_nominal.
 void solve_q(const System& sys, Workspace& ws, const Eigen::VectorXd& b, Eigen::VectorXd& x, bool factor) {
   if (factor) {
     ws.q_blocks_active = false;
@@ -354,7 +329,12 @@ void solve_q(const System& sys, Workspace& ws, const Eigen::VectorXd& b, Eigen::
         dense_q_from_yb(sys, ws);
       }
     }
-    if (!ws.q_blocks_active) {
+    double condition = 1.0;
+    if (!ws.q_blocks_active && !ws.nominal_rows.empty() &&
+        ws.qs.factor_nominal_last(ws.Q, ws.cd.G, sys.options, &condition)) {
+      ws.diag.rank = ws.qs.m;  // one factor gives the solve and the condition (q_solve.h)
+      ws.diag.condition = condition;
+    } else if (!ws.q_blocks_active) {
       const QFactorInfo fi = ws.qs.factor(ws.Q, sys.options, sys.constraints.row_compliance);
       ws.diag.rank = fi.rank;
       ws.diag.condition = ws.nominal_rows.empty() ? fi.condition : condition_without_nominal(sys, ws);

@@ -117,18 +117,17 @@ struct Workspace {
   // nominal bases' condition from the reduced blocks), falling back to the dense Q and qs when Q,
   // or Q without the nominal directions, is not safely positive definite.
   // use_q_blocks may be set to false (tests: the dense path on the same workspace).
-  // With nominal bases the blocks factor Q and the reduced Q (twice the work), still faster than
-  // the dense path (with its dense condition_without_nominal) from 3 arms on (bench/README.md,
-  // "Arms on one load").
+  // With nominal bases the blocks factor Q and the reduced Q (twice the work); the dense path
+  // factors Q once with the nominal directions last (QSolver::factor_nominal_last: the reduced Q's
+  // pivots lead, so one factor gives the condition and the solve). The blocks are the faster from
+  // kQBlocksMinGroupsNominal groups on (bench/README.md, "Arms on one load").
   static constexpr int kQBlocksMinGroups = 3, kQBlocksMinGroupsNominal = 3;
   QBlocks qb;
   bool use_q_blocks = false;
   bool q_blocks_active = false;  // the last factorization took the block path (ws.Q not formed)
   // the condition without the nominal base-link directions (System::nominal_bases)
   std::vector<std::pair<int, int>> nominal_rows;  // (velocity index of joint 1, first row of the weld)
-  Eigen::MatrixXd Qn;                             // (rows x rows) work copy of Q
-  std::vector<int> kept_rows;                     // (rows)
-  Eigen::VectorXd qn_tmp;                         // (rows)
+  Eigen::MatrixXd Qn;                             // (rows x rows) work copy of Q (the rank path's condition)
   Eigen::MatrixXd eig_A, eig_V;  // (rows x rows) SVD baseline's eigen-decomposition of Q_r
   Eigen::VectorXd eig_w;         // (rows)
   Eigen::VectorXd tmp_m, tmp_m2;  // (rows)

@@ -249,6 +249,7 @@ void factor_compliance_metric(QSolver& qs, const Eigen::VectorXd& row_compliance
 QFactorInfo QSolver::factor(const Eigen::MatrixXd& Q, const SolverOptions& opt, const Eigen::VectorXd& row_compliance) {
   QFactorInfo info;
   fast_path = false;
+  nominal_active = false;
   use_compliance = false;
   if (m == 0) {
     fast_path = true;
@@ -268,6 +269,16 @@ QFactorInfo QSolver::factor(const Eigen::MatrixXd& Q, const SolverOptions& opt, 
 }
 
 void QSolver::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
+  if (fast_path && nominal_active) {  // x = R^T (R Q R^T)^-1 R b
+    tmp_m2 = b;
+    reflect_rows(tmp_m2.data(), 1, 1);
+    for (int i = 0; i < m; ++i) tmp_m[i] = tmp_m2[nominal_perm[i]];
+    cholesky_upper_solve_in_place(Lq, dinv_q, m, tmp_m);
+    for (int i = 0; i < m; ++i) tmp_m2[nominal_perm[i]] = tmp_m[i];
+    reflect_rows(tmp_m2.data(), 1, 1);
+    x = tmp_m2;
+    return;
+  }
   if (fast_path) {
     x = b;
     cholesky_upper_solve_in_place(Lq, dinv_q, m, x);
@@ -296,6 +307,109 @@ void QSolver::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
     for (int a = 0; a < k; ++a)
       for (int i = 0; i < m; ++i) x[i] += tmp_m[a] * Nq(i, a);
   }
+}
+
+void QSolver::plan_nominal(const std::vector<std::pair<int, int>>& rows) {
+  nominal_rows = rows;
+  nominal_w.assign(rows.size(), Eigen::Matrix<double, 6, 1>::Zero());
+  nominal_perm.assign(m, 0);
+  nominal_kept.assign(m, 1);
+  nominal_lead = m;
+  nominal_active = false;
+}
+
+// As the dense condition_without_nominal always did (constrained_dynamics.cc): u along one axis of
+// the weld frame (joint 1 on a base axis) drops that row; otherwise H = I - w w^T with
+// H u = -sign(u_0) |u| e_0 and row r0 is dropped; u = 0 (or not finite) drops nothing.
+int QSolver::prepare_nominal(const Eigen::MatrixXd& G) {
+  for (int i = 0; i < m; ++i) nominal_kept[i] = 1;
+  for (size_t a = 0; a < nominal_rows.size(); ++a) {
+    const auto [dof, r0] = nominal_rows[a];
+    Eigen::Matrix<double, 6, 1>& w = nominal_w[a];
+    w = G.block<6, 1>(r0, dof);
+    const double un = w.norm();
+    int single = -1;
+    for (int k = 0; k < 6; ++k)
+      if (w[k] != 0.0) single = single == -1 ? k : -2;
+    if (!(un > 0.0) || !std::isfinite(un) || single >= 0) {
+      if (un > 0.0 && std::isfinite(un)) nominal_kept[r0 + single] = 0;
+      w.setZero();
+      continue;
+    }
+    w /= un;
+    w[0] += w[0] >= 0 ? 1.0 : -1.0;
+    w *= std::sqrt(2.0 / w.squaredNorm());
+    nominal_kept[r0] = 0;
+  }
+  int k = 0;
+  for (int i = 0; i < m; ++i)
+    if (nominal_kept[i]) nominal_perm[k++] = i;
+  nominal_lead = k;
+  for (int i = 0; i < m; ++i)
+    if (!nominal_kept[i]) nominal_perm[k++] = i;
+  return nominal_lead;
+}
+
+void QSolver::reflect_symmetric(double* a) const {
+  for (size_t n = 0; n < nominal_rows.size(); ++n) {
+    const Eigen::Matrix<double, 6, 1>& w = nominal_w[n];
+    if (w.isZero(0.0)) continue;
+    const int r0 = nominal_rows[n].second;
+    for (int j = 0; j < m; ++j) {  // A <- H A (rows r0..r0+5)
+      double* c = a + static_cast<size_t>(j) * m + r0;
+      double t = 0.0;
+      for (int k = 0; k < 6; ++k) t += w[k] * c[k];
+      for (int k = 0; k < 6; ++k) c[k] -= t * w[k];
+    }
+    for (int i = 0; i < m; ++i) {  // A <- A H (columns r0..r0+5)
+      double t = 0.0;
+      for (int k = 0; k < 6; ++k) t += a[static_cast<size_t>(r0 + k) * m + i] * w[k];
+      for (int k = 0; k < 6; ++k) a[static_cast<size_t>(r0 + k) * m + i] -= t * w[k];
+    }
+  }
+}
+
+void QSolver::reflect_rows(double* x, Eigen::Index ld, int nc) const {
+  for (size_t n = 0; n < nominal_rows.size(); ++n) {
+    const Eigen::Matrix<double, 6, 1>& w = nominal_w[n];
+    if (w.isZero(0.0)) continue;
+    double* r = x + nominal_rows[n].second * ld;
+    for (int c = 0; c < nc; ++c) {
+      double t = 0.0;
+      for (int k = 0; k < 6; ++k) t += w[k] * r[k * ld + c];
+      for (int k = 0; k < 6; ++k) r[k * ld + c] -= t * w[k];
+    }
+  }
+}
+
+bool QSolver::factor_nominal_last(const Eigen::MatrixXd& Q, const Eigen::MatrixXd& G, const SolverOptions& opt,
+                                  double* condition) {
+  fast_path = false;
+  nominal_active = false;
+  use_compliance = false;
+  if (m == 0) return false;
+  const int lead = prepare_nominal(G);
+  Lp = Q;  // H Q H in Lp, then R Q R^T's upper triangle in Nq (both the rank path's, free here)
+  reflect_symmetric(Lp.data());
+  for (int j = 0; j < m; ++j)
+    for (int i = 0; i <= j; ++i) Nq(i, j) = Lp(nominal_perm[i], nominal_perm[j]);
+  if (!small_cholesky_upper(Nq, Lq, dinv_q, m)) return false;
+  double dmax = Lq(0, 0), dmin = Lq(0, 0), lmax = 0.0, lmin = HUGE_VAL;
+  for (int i = 0; i < m; ++i) {
+    dmax = std::max(dmax, Lq(i, i));
+    dmin = std::min(dmin, Lq(i, i));
+    if (i < lead) {
+      lmax = std::max(lmax, Lq(i, i));
+      lmin = std::min(lmin, Lq(i, i));
+    }
+  }
+  if (dmin * dmin / (dmax * dmax) < opt.fast_tol) return false;
+  fast_path = true;
+  nominal_active = true;
+  rank = m;
+  for (int i = 0; i < m; ++i) row_indeterminate[i] = 0;
+  *condition = lead > 0 ? 1.0 / (lmin * lmin / (lmax * lmax)) : 1.0;
+  return true;
 }
 
 }  // namespace coopdyn

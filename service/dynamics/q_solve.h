@@ -35,8 +35,25 @@
 //   true value, but it can underestimate it (by the 1 / v_p^2 above, a factor ~m for a random
 //   orientation, more when the small direction barely touches the last pivot row). The fast path
 //   reports the same ratio for its unpivoted factor.
+//
+// Nominal directions (System::nominal_bases: an arm's joint 1 without armature). In the weld's six
+// rows the direction u = G's column of joint 1 carries Q's ~1 / (nominal inertia) eigenvalue; the
+// condition reported is that of Q with it eliminated (constrained_dynamics.h). factor_nominal_last()
+// factors Q once in the basis where that direction is one row and in the order where those rows
+// come last: per nominal direction a Householder reflection H of the weld's rows (H u = |u| e_0 up
+// to sign; the one row u lies along when it is a base axis, without H), R = Pi H (Pi the order: the
+// kept rows as they were, then the dropped ones), and the unpivoted Cholesky of R Q R^T. Its
+// leading (rows - N) pivots are those of the reduced Q (Q without the nominal directions), whose
+// ratio is the condition; the whole factor solves Q x = b as x = R^T (R Q R^T)^-1 R b (R orthogonal).
+// Against factoring Q and then the reduced Q apart (as before), the condition is the same up to
+// round-off (the same matrix, factored in the same order) and the solution equal to round-off. The
+// fast-path test reads R Q R^T's pivots instead of Q's: the unpivoted Cholesky of one matrix in two
+// orthogonally related bases, each pivot ratio an estimate of its condition (within a factor of
+// about the rows, above), so they can disagree only where that condition is within such a factor
+// of 1 / fast_tol; where R Q R^T fails, factor() on Q decides exactly as before.
 #pragma once
 
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -59,11 +76,35 @@ struct QSolver {
   // x = the solution of Q x = b selected by the rule of the last factor(); x may not alias b.
   void solve(const Eigen::VectorXd& b, Eigen::VectorXd& x);
 
+  // The nominal directions: (velocity index of joint 1, first row of its 6-row weld) each. Start-up.
+  void plan_nominal(const std::vector<std::pair<int, int>>& nominal_rows);
+  // The reflections and the order of the nominal directions for the constraint rows G (rows x nv);
+  // returns the number of rows kept (rows less the directions dropped). Used by factor_nominal_last
+  // and by the caller's condition of the reduced Q where the fast path fails.
+  int prepare_nominal(const Eigen::MatrixXd& G);
+  // A <- H A H (A rows x rows, column-major, leading dimension rows), H the reflections of prepare_nominal.
+  void reflect_symmetric(double* a) const;
+  // X <- H X on nc columns of a row-major (rows x nc) X with leading dimension ld (one column: ld 1).
+  void reflect_rows(double* x, Eigen::Index ld, int nc) const;
+  // The fast path on R Q R^T (see above): true when its unpivoted Cholesky exists with every pivot
+  // >= fast_tol * the largest (as factor()'s fast path), with *condition = the leading pivots'
+  // ratio (the reduced Q's); solve() then works through it (nominal_active). False: nothing
+  // usable is left, factor() decides. Q: both triangles.
+  bool factor_nominal_last(const Eigen::MatrixXd& Q, const Eigen::MatrixXd& G, const SolverOptions& opt, double* condition);
+
   int m = 0;
   bool fast_path = true;
   int rank = 0;
   std::vector<unsigned char> row_indeterminate;  // (rows) 1 if that component is not determined
   bool use_compliance = false;
+
+  // the nominal directions (plan_nominal, prepare_nominal)
+  std::vector<std::pair<int, int>> nominal_rows;  // (velocity index of joint 1, first weld row)
+  std::vector<Eigen::Matrix<double, 6, 1>> nominal_w;  // H = I - w w^T on rows r0..r0+5 (w = 0: none)
+  std::vector<int> nominal_perm;  // (rows) row i of R Q R^T is row nominal_perm[i] of H Q H
+  std::vector<unsigned char> nominal_kept;  // (rows) 1 for a row of the reduced Q
+  int nominal_lead = 0;           // rows of the reduced Q
+  bool nominal_active = false;    // the fast-path factor Lq is of R Q R^T (factor_nominal_last)
 
   // buffers
   Eigen::MatrixXd Lq;     // (rows x rows) Cholesky factor on the fast path, stored as U = L^T (upper)

@@ -169,7 +169,13 @@ void q_solve_rows(Workspace& ws, WrenchSigmaData& sd, int nc) {
   if (ws.qs.fast_path) {  // U = L^T, column i of U is row i of L
     const double* u = ws.qs.Lq.data();
     const Eigen::Index ld = ws.qs.Lq.outerStride();
-    sd.Lam.leftCols(nc) = sd.Rhs.leftCols(nc);
+    const QSolver& qs = ws.qs;
+    if (qs.nominal_active) {  // the factor of R Q R^T (q_solve.h): Lam = R Rhs, Rhs is scratch
+      qs.reflect_rows(sd.Rhs.data(), sd.Rhs.outerStride(), nc);
+      for (int i = 0; i < m; ++i) sd.Lam.row(i).head(nc) = sd.Rhs.row(qs.nominal_perm[i]).head(nc);
+    } else {
+      sd.Lam.leftCols(nc) = sd.Rhs.leftCols(nc);
+    }
     double* x = sd.Lam.data();
     const Eigen::Index lx = sd.Lam.outerStride();
     for (int i = 0; i < m; ++i) {
@@ -181,6 +187,11 @@ void q_solve_rows(Workspace& ws, WrenchSigmaData& sd, int nc) {
       const double* ui = u + i * ld;
       scale_row(x + i * lx, ws.qs.dinv_q[i], nc);
       for (int k = 0; k < i; ++k) axpy_row(x + k * lx, x + i * lx, ui[k], nc);
+    }
+    if (qs.nominal_active) {  // Lam = R^T Lam
+      for (int i = 0; i < m; ++i) sd.Rhs.row(qs.nominal_perm[i]).head(nc) = sd.Lam.row(i).head(nc);
+      qs.reflect_rows(sd.Rhs.data(), sd.Rhs.outerStride(), nc);
+      sd.Lam.leftCols(nc) = sd.Rhs.leftCols(nc);
     }
     return;
   }

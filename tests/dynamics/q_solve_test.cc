@@ -265,5 +265,82 @@ TEST(QSolve, ZeroMatrixLeavesEveryRowIndeterminateAndTheSolutionZero) {
   EXPECT_EQ(x, Eigen::VectorXd::Zero(m));
 }
 
+// The fast path with the nominal directions last (factor_nominal_last, q_solve.h) on
+// Q = G M^-1 G^T built as the mobile-platform form builds it: two 6-row welds, each holding a leaf
+// DOF of nominal inertia 1e-3 (G's column of that DOF nonzero in its weld's rows only, along a
+// general direction in the first weld and along one axis in the second), the other DOFs of order 1.
+// Checked against independent constructions: the solution equals the plain fast path's (the same
+// linear system); the condition is the pivot ratio of Eigen's LLT of the reduced Q, formed with
+// Eigen from the reflection's definition (I - 2 v v^T / v^T v, v = u / |u| + sign(u_0) e_0) and the
+// dropped rows removed; and that reduced Q has the eigenvalues of Q restricted, by a QR, to the
+// complement of the nominal columns of G (it eliminates exactly those directions).
+TEST(QSolve, NominalDirectionsLastGiveTheReducedConditionAndTheSameSolution) {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> Nd;
+  const int m = 12, n = 14;
+  for (int trial = 0; trial < 20; ++trial) {
+    Eigen::MatrixXd G(m, n);
+    for (int i = 0; i < G.size(); ++i) G.data()[i] = Nd(rng);
+    G.col(0).setZero();
+    G.col(1).setZero();
+    for (int k = 0; k < 6; ++k) G(k, 0) = Nd(rng);  // weld 0: a general direction
+    G(6 + trial % 6, 1) = 0.5 + std::abs(Nd(rng));   // weld 1: along one axis
+    Eigen::MatrixXd A(n, n);
+    for (int i = 0; i < A.size(); ++i) A.data()[i] = Nd(rng);
+    Eigen::MatrixXd M = A * A.transpose() + n * Eigen::MatrixXd::Identity(n, n);
+    M.row(0).setZero();
+    M.col(0).setZero();
+    M.row(1).setZero();
+    M.col(1).setZero();
+    M(0, 0) = M(1, 1) = 1e-3;
+    Eigen::MatrixXd Q = G * M.llt().solve(G.transpose());
+    Q = 0.5 * (Q + Q.transpose()).eval();
+    const SolverOptions opt;
+    QSolver qs(m), plain(m);
+    qs.plan_nominal({{0, 0}, {1, 6}});
+    double condition = 0.0;
+    ASSERT_TRUE(qs.factor_nominal_last(Q, G, opt, &condition)) << trial;
+    EXPECT_TRUE(qs.fast_path);
+    EXPECT_EQ(qs.rank, m);
+    EXPECT_EQ(qs.nominal_lead, m - 2);
+    plain.factor(Q, opt, Eigen::VectorXd::Zero(m));
+    ASSERT_TRUE(plain.fast_path);
+    Eigen::VectorXd b(m), x(m), xp(m);
+    for (int i = 0; i < m; ++i) b[i] = Nd(rng);
+    qs.solve(b, x);
+    plain.solve(b, xp);
+    const Eigen::VectorXd eq = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(Q).eigenvalues();
+    const double eps = std::numeric_limits<double>::epsilon(), cond_q = eq.maxCoeff() / eq.minCoeff();
+    EXPECT_LE((x - xp).norm(), 100 * eps * cond_q * xp.norm()) << trial;  // both have errors ~ cond eps
+    EXPECT_LE((Q * x - b).norm(), 1e-12 * (Q.norm() * x.norm() + b.norm())) << trial;
+    // the reduced Q from the reflection's definition
+    Eigen::MatrixXd H = Eigen::MatrixXd::Identity(m, m);
+    const Eigen::VectorXd u = G.block(0, 0, 6, 1);
+    Eigen::VectorXd v = u / u.norm();
+    v[0] += v[0] >= 0 ? 1.0 : -1.0;
+    H.topLeftCorner(6, 6) -= 2.0 * v * v.transpose() / v.squaredNorm();
+    const Eigen::MatrixXd Qh = H * Q * H;
+    std::vector<int> kept;
+    for (int i = 0; i < m; ++i)
+      if (i != 0 && i != 6 + trial % 6) kept.push_back(i);
+    Eigen::MatrixXd Qr(m - 2, m - 2);
+    for (int i = 0; i < m - 2; ++i)
+      for (int j = 0; j < m - 2; ++j) Qr(i, j) = Qh(kept[i], kept[j]);
+    const Eigen::VectorXd d = Qr.llt().matrixL().toDenseMatrix().diagonal();
+    const double expected = (d.maxCoeff() / d.minCoeff()) * (d.maxCoeff() / d.minCoeff());
+    EXPECT_NEAR(condition, expected, 1e-9 * expected) << trial;
+    Eigen::MatrixXd U = Eigen::MatrixXd::Zero(m, 2);
+    U.col(0) = G.col(0);
+    U.col(1) = G.col(1);
+    Eigen::HouseholderQR<Eigen::MatrixXd> qr(U);
+    const Eigen::MatrixXd Nc = (qr.householderQ() * Eigen::MatrixXd::Identity(m, m)).rightCols(m - 2);
+    const Eigen::VectorXd e1 = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(Qr).eigenvalues();
+    const Eigen::VectorXd e2 = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(Nc.transpose() * Q * Nc).eigenvalues();
+    EXPECT_LE((e1 - e2).cwiseAbs().maxCoeff(), 1e-10 * e2.maxCoeff()) << trial;
+    // and Q itself carries the nominal eigenvalue, 1e2 and more above the reduced Q's
+    EXPECT_GT(eq.maxCoeff(), 100 * e2.maxCoeff());
+  }
+}
+
 }  // namespace
 }  // namespace coopdyn

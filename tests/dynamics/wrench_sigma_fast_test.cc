@@ -71,5 +71,38 @@ TEST(WrenchSigmaFast, EqualsThePreviousDefinitionOnEveryShippedScene) {
   EXPECT_GE(compared, 12);  // how many pairs (scene, formulation) propagate noise
 }
 
+// Arms without joint-1 armature on the dense path (1 and 2 PUMAs, bench/scenes): Q is factored
+// with the nominal directions last (q_solve.h), and the fast row solve goes through that basis;
+// the reference solves column by column through QSolver::solve.
+TEST(WrenchSigmaFast, EqualsThePreviousDefinitionWithNominalBaseLinks) {
+  for (int n : {1, 2}) {
+    const std::string path = std::string(COOPDYN_SOURCE_DIR) + "/bench/scenes/pumas_" + std::to_string(n) + "_no_armature.yaml";
+    SCOPED_TRACE(path);
+    const System sys = load_scene_string(without_reactions(slurp(path)) + "\nreactions: all\nnoise: {tau: 0.2, q: 1e-3, v: 1e-2}\n", path);
+    ASSERT_FALSE(sys.nominal_bases.empty());
+    ASSERT_TRUE(wrench_sigma_supported(sys));
+    Workspace ws(sys);
+    WrenchSigmaData fast(sys), ref(sys);
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> U(-1.0, 1.0);
+    Eigen::VectorXd v = sys.v0, tau = Eigen::VectorXd::Zero(sys.model.nv());
+    for (int i = 0; i < sys.model.nv(); ++i) {
+      v[i] += 0.3 * U(rng);
+      tau[i] = 2.0 * U(rng);
+    }
+    ASSERT_NE(evaluate(sys, ws, sys.q0, v, tau).status, Status::kError);
+    ASSERT_TRUE(ws.qs.nominal_active);
+    ASSERT_FALSE(ws.q_blocks_active);
+    compute_wrench_sigma(sys, ws, fast);
+    reference::compute_wrench_sigma(sys, ws, ref);
+    ASSERT_TRUE(fast.valid);
+    expect_same(sys, fast, ref);
+    compute_wrench_sigma(sys, ws, fast, sys.q0, v, tau);
+    reference::compute_wrench_sigma(sys, ws, ref, sys.q0, v, tau);
+    ASSERT_TRUE(fast.valid);
+    expect_same(sys, fast, ref);
+  }
+}
+
 }  // namespace
 }  // namespace coopdyn::testing

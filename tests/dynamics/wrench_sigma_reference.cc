@@ -106,11 +106,12 @@ void blocks_solve_rows(QBlocks& qb, WrenchSigmaData& sd, int nc) {
 }
 
 // Lam = Q^-1 Rhs with the evaluation's factorization of Q: the block or dense Cholesky on all
-// columns at once, the rank-revealing solve (over-constrained systems) column by column
+// columns at once, the rank-revealing solve (over-constrained systems) and the factor with the
+// nominal directions last (QSolver::factor_nominal_last) column by column through QSolver::solve
 void q_solve_rows(Workspace& ws, WrenchSigmaData& sd, int nc) {
   const int m = ws.qs.m;
   if (ws.q_blocks_active) return blocks_solve_rows(ws.qb, sd, nc);
-  if (ws.qs.fast_path) {  // U = L^T, column i of U is row i of L
+  if (ws.qs.fast_path && !ws.qs.nominal_active) {  // U = L^T, column i of U is row i of L
     const double* u = ws.qs.Lq.data();
     const Eigen::Index ld = ws.qs.Lq.outerStride();
     sd.Lam.leftCols(nc) = sd.Rhs.leftCols(nc);

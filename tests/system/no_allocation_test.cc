@@ -121,7 +121,8 @@ TEST(NoAllocation, BlockSolveOfQAndItsFallback) {
   struct Case {
     std::string path;
     std::optional<Formulation> f;
-    bool blocks;  // the block factorization succeeds
+    bool blocks;         // the block factorization succeeds
+    bool dense = false;  // the dense path (not the blocks) is asked for
   };
   const std::string arms = std::string(COOPDYN_SOURCE_DIR) + "/bench/scenes/pumas_";
   for (const Case& c : {Case{arms + "4.yaml", std::nullopt, true}, Case{arms + "8.yaml", std::nullopt, true},
@@ -129,14 +130,16 @@ TEST(NoAllocation, BlockSolveOfQAndItsFallback) {
                         Case{scene_path("planar_arms_load"), Formulation::kClassic, false},
                         // nominal base links (joint 1 without armature): the reduced Q's factor too
                         Case{arms + "8_no_armature.yaml", std::nullopt, true},
-                        Case{scene_path("planar_arms_load"), Formulation::kMobilePlatform, false}}) {
+                        Case{scene_path("planar_arms_load"), Formulation::kMobilePlatform, false},
+                        // the dense path's single factor with the nominal directions last
+                        Case{arms + "2_no_armature.yaml", std::nullopt, false, true}}) {
     SCOPED_TRACE(c.path);
     SceneOverrides ov;
     ov.formulation = c.f;
     const System sys = load_scene(c.path, ov);
     Stepper st(sys);
     ASSERT_TRUE(st.ws.qb.usable);
-    st.ws.use_q_blocks = true;
+    st.ws.use_q_blocks = !c.dense;
     WrenchData wd(sys);
     std::mt19937 rng(5);
     std::vector<Eigen::VectorXd> qs, vs;
@@ -148,18 +151,20 @@ TEST(NoAllocation, BlockSolveOfQAndItsFallback) {
     }
     Eigen::VectorXd q = sys.q0, v = sys.v0;
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(sys.model.nv());
-    int by_blocks = 0;
+    int by_blocks = 0, by_nominal_last = 0;
     {
       AllocationCounter counter;
       for (int k = 0; k < 400; ++k) {
         evaluate(sys, st.ws, qs[k % 8], vs[k % 8], zero);
         by_blocks += st.ws.q_blocks_active ? 1 : 0;
+        by_nominal_last += st.ws.qs.nominal_active ? 1 : 0;
         compute_wrenches(sys, st.ws, wd);
       }
       for (int k = 0; k < 100; ++k) step(sys, st, Integrator::kRk4, 1e-3, zero, q, v);
       EXPECT_EQ(counter.count(), 0);
     }
     EXPECT_EQ(by_blocks, c.blocks ? 400 : 0);
+    EXPECT_EQ(by_nominal_last, c.dense ? 400 : 0);
     EXPECT_TRUE(q.allFinite());
   }
 }
