@@ -242,7 +242,7 @@ std::unique_ptr<coopdyn::runtime::PublisherThread> make_publisher(const coopdyn:
                                                                : "");
     return nullptr;
   }
-  const int max_bytes = std::max(io::OutputEncoder(sys).max_size(), io::StatsEncoder().max_size());
+  const int max_bytes = runtime::ServiceLoop::max_message_bytes(sys);
   auto p = std::make_unique<runtime::PublisherThread>(bus, max_bytes);
   try {
     p->start(cfg.realtime.cpu);

@@ -2,6 +2,7 @@
 
 #include <time.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -473,6 +474,10 @@ void ServiceLoop::publish_stats() {
 
 void ServiceLoop::publish(const std::string& channel, const std::vector<uint8_t>& buf, int len) {
   if (bus_.publish(channel.c_str(), buf.data(), len) != 0) outputs_dropped_.fetch_add(1, std::memory_order_relaxed);
+}
+
+int ServiceLoop::max_message_bytes(const System& sys) {
+  return std::max(io::OutputEncoder(sys).max_size(), io::StatsEncoder().max_size());
 }
 
 io::StatsFrame ServiceLoop::totals() const {

@@ -61,6 +61,9 @@ class ServiceLoop {
   // Sizes every buffer. sys, cfg and bus must outlive the loop. With cfg.auth_key_file, reads the key
   // (io::KeyError naming the file when it cannot be used) and requires signed inputs.
   ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& bus);
+  // The largest message the loop publishes for this scene (output_t or loop_stats_t, bytes): what a
+  // bus that copies them (runtime::PublisherThread) must hold.
+  static int max_message_bytes(const System& sys);
   ServiceLoop(const ServiceLoop&) = delete;
   ServiceLoop& operator=(const ServiceLoop&) = delete;
 

@@ -11,6 +11,7 @@
 #include "service/dynamics/integrators.h"
 #include "service/dynamics/state_fit_sigma.h"
 #include "service/dynamics/wrench_sigma.h"
+#include "tests/support/sigma_monte_carlo.h"
 #include "tests/support/test_util.h"
 
 using namespace coopdyn;
@@ -134,37 +135,30 @@ TEST(WrenchSigmaFit, MonteCarloOfRefittedMeasurementsReproducesSigma) {
     ASSERT_TRUE(sd.valid);
     const std::vector<Vec6> W0 = wd.W;
     const size_t no = W0.size();
-    const int n = 300, na = static_cast<int>(sd.dofs.size()), nq = static_cast<int>(sd.q_dofs.size());
+    const int n = 300;
     std::mt19937 rng(13);
     std::normal_distribution<double> N01(0.0, 1.0);
-    Eigen::VectorXd sum = Eigen::VectorXd::Zero(6 * no), sum2 = sum, z(sd.ncols);
-    double lin_err = 0.0, smax = 0.0;
+    WrenchMoments mom(no);
+    Eigen::VectorXd z(sd.ncols);
+    double smax = 0.0;
     for (const Vec6& s : sd.sigma) smax = std::max(smax, s.maxCoeff());
     StateFitWorkspace fws(sys, plan);
     for (int s = 0; s < n; ++s) {
       for (int j = 0; j < sd.ncols; ++j) z[j] = N01(rng);
       Eigen::VectorXd qs = m.q, vs = m.v, ts = m.tau;
-      for (int j = 0; j < na; ++j) ts[sd.dofs[j]] += sd.S[j] * z[j];
-      for (int j = 0; j < nq; ++j) qs[sd.q_index[j]] += sd.Sq[j] * z[na + j];
-      for (int j = 0; j < static_cast<int>(sd.v_dofs.size()); ++j) vs[sd.v_dofs[j]] += sd.Sv[j] * z[na + nq + j];
+      apply_noise_draw(sd, z, qs, vs, ts);
       estimate(sys, plan, fws, m.q, qs, vs, ts, ws, wd);
-      const Eigen::VectorXd lin = sd.C.leftCols(sd.ncols) * z;
-      for (size_t k = 0; k < no; ++k)
-        for (int i = 0; i < 6; ++i) {
-          const double x = wd.W[k][i] - W0[k][i];
-          lin_err = std::max(lin_err, std::abs(x - lin[6 * k + i]));
-          sum[6 * k + i] += x;
-          sum2[6 * k + i] += x * x;
-        }
+      mom.add(wd.W, W0, sd.C.leftCols(sd.ncols) * z);
     }
+    const double lin_err = mom.lin_err;
     EXPECT_LT(lin_err, 2e-2 * smax);  // the linearization error, stated above
     const double tol = 5.0 * std::sqrt(2.0 / (n - 1));
     int compared = 0, held_outside = 0;
     double worst = 0.0;
     for (size_t k = 0; k < no; ++k)
       for (int i = 0; i < 6; ++i) {
-        const double mean = sum[6 * k + i] / n;
-        const double var = (sum2[6 * k + i] - n * mean * mean) / (n - 1);
+        const double mean = mom.sum[6 * k + i] / n;
+        const double var = (mom.sum2[6 * k + i] - n * mean * mean) / (n - 1);
         const double sg = sd.sigma[k][i], sh = held.sigma[k][i];
         if (sg < 1e-6 * smax) continue;
         ++compared;

@@ -257,7 +257,7 @@ TEST(LoopNoAllocation, RunThroughThePublisherThread) {
   runtime::ServiceConfig cfg;
   cfg.stats_period_s = 0.05;
   FakeBus bus;
-  runtime::PublisherThread pub(bus, std::max(io::OutputEncoder(sys).max_size(), io::StatsEncoder().max_size()));
+  runtime::PublisherThread pub(bus, runtime::ServiceLoop::max_message_bytes(sys));
   pub.start();
   runtime::ServiceLoop loop(sys, cfg, pub);
   std::atomic<bool> stop{false};
@@ -350,7 +350,7 @@ TEST(LoopNoAllocation, CountsWhatAStuckPublisherThreadDrops) {
   runtime::ServiceConfig cfg;
   cfg.stats_period_s = 0.05;
   HeldBus inner;
-  runtime::PublisherThread pub(inner, std::max(io::OutputEncoder(sys).max_size(), io::StatsEncoder().max_size()));
+  runtime::PublisherThread pub(inner, runtime::ServiceLoop::max_message_bytes(sys));
   pub.start();
   runtime::ServiceLoop loop(sys, cfg, pub);
   const auto handed = [&] { return static_cast<int64_t>(loop.ticks() + loop.ticks() / 50); };  // outputs + stats

@@ -1,0 +1,44 @@
+// Monte Carlo of declared noise (wrench_sigma.h), shared by the sigma tests: one draw applied to a
+// state, and the moments of the wrenches' changes with their largest difference from the linear
+// prediction C z.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "service/dynamics/wrench_sigma.h"
+
+namespace coopdyn::testing {
+
+// tau, q and v moved by the draw z (one standard normal per noise source, sd's column order:
+// torques, then positions, then velocities)
+inline void apply_noise_draw(const WrenchSigmaData& sd, const Eigen::VectorXd& z, Eigen::VectorXd& q,
+                             Eigen::VectorXd& v, Eigen::VectorXd& tau) {
+  const int na = static_cast<int>(sd.dofs.size()), nq = static_cast<int>(sd.q_dofs.size());
+  for (int j = 0; j < na; ++j) tau[sd.dofs[j]] += sd.S[j] * z[j];
+  for (int j = 0; j < nq; ++j) q[sd.q_index[j]] += sd.Sq[j] * z[na + j];
+  for (int j = 0; j < static_cast<int>(sd.v_dofs.size()); ++j) v[sd.v_dofs[j]] += sd.Sv[j] * z[na + nq + j];
+}
+
+// Sums and sums of squares of each component's change W - W0, and the largest |change - C z|.
+struct WrenchMoments {
+  explicit WrenchMoments(size_t outputs)
+      : sum(Eigen::VectorXd::Zero(6 * static_cast<Eigen::Index>(outputs))), sum2(sum) {}
+  void add(const std::vector<Vec6>& W, const std::vector<Vec6>& W0, const Eigen::VectorXd& lin) {
+    for (size_t k = 0; k < W0.size(); ++k)
+      for (int i = 0; i < 6; ++i) {
+        const Eigen::Index r = 6 * static_cast<Eigen::Index>(k) + i;
+        const double x = W[k][i] - W0[k][i];
+        lin_err = std::max(lin_err, std::abs(x - lin[r]));
+        sum[r] += x;
+        sum2[r] += x * x;
+      }
+  }
+  Eigen::VectorXd sum, sum2;
+  double lin_err = 0.0;
+};
+
+}  // namespace coopdyn::testing
