@@ -2,6 +2,7 @@
 
 #include <sstream>
 
+#include "service/dynamics/wrench_components.h"
 #include "service/dynamics/wrench_sigma.h"
 
 namespace coopdyn::cli {
@@ -136,7 +137,6 @@ bool step_schema_from_names(const std::string& scene, const std::vector<std::str
 }
 
 CsvColumns shared_step_columns(const StepSchema& s) {
-  static const char* comp[6] = {"mx", "my", "mz", "fx", "fy", "fz"};
   CsvColumns c;
   c.add("t", "s");
   for (size_t i = 0; i < s.q_names.size(); ++i) c.add("q:" + s.q_names[i], s.q_units[i]);
@@ -144,11 +144,11 @@ CsvColumns shared_step_columns(const StepSchema& s) {
   for (size_t i = 0; i < s.v_names.size(); ++i) c.add("tau:" + s.v_names[i], s.tau_units[i]);
   for (size_t i = 0; i < s.v_names.size(); ++i) c.add("vdot:" + s.v_names[i], s.vdot_units[i]);
   for (const auto& w : s.wrenches) {
-    for (int k = 0; k < 6; ++k) c.add(w.name + "." + comp[k], k < 3 ? "N*m" : "N");
+    for (int k = 0; k < 6; ++k) c.add(w.name + "." + kWrenchComponents[k], k < 3 ? "N*m" : "N");
     if (s.sigma)
-      for (int k = 0; k < 6; ++k) c.add(w.name + ".sigma_" + comp[k], k < 3 ? "N*m" : "N");
+      for (int k = 0; k < 6; ++k) c.add(w.name + ".sigma_" + kWrenchComponents[k], k < 3 ? "N*m" : "N");
     if (s.bound)
-      for (int k = 0; k < 6; ++k) c.add(w.name + ".bound_" + comp[k], k < 3 ? "N*m" : "N");
+      for (int k = 0; k < 6; ++k) c.add(w.name + ".bound_" + kWrenchComponents[k], k < 3 ? "N*m" : "N");
   }
   for (size_t i = 0; i < s.stress_names.size(); ++i) c.add("stress:" + s.stress_names[i], s.stress_units[i]);
   for (const auto& n : s.contact_names) {

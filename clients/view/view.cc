@@ -20,6 +20,7 @@
 #include "service/algorithms/kinematics.h"
 #include "service/constraints/constraints.h"
 #include "service/dynamics/contacts.h"
+#include "service/dynamics/wrench_components.h"
 #include "service/dynamics/wrenches.h"
 #include "service/scene/scene.h"
 
@@ -235,11 +236,10 @@ namespace {
 // the columns NAME.<tag>mx .. NAME.<tag>fz of every drawn wrench (need: a column's index, or throws)
 template <class Need>
 std::vector<std::array<int, 6>> wrench_columns(const System& sys, const ViewFrames& geo, const char* tag, const Need& need) {
-  static const char* comp[6] = {"mx", "my", "mz", "fx", "fy", "fz"};
   std::vector<std::array<int, 6>> cols;
   for (int k : geo.wrenches) {
     std::array<int, 6> c{};
-    for (int j = 0; j < 6; ++j) c[j] = need(sys.wrenches.outputs[k].name + "." + tag + comp[j]);
+    for (int j = 0; j < 6; ++j) c[j] = need(sys.wrenches.outputs[k].name + "." + tag + kWrenchComponents[j]);
     cols.push_back(c);
   }
   return cols;

@@ -6,10 +6,11 @@
 #include <set>
 #include <vector>
 
+#include "service/dynamics/wrench_components.h"
+
 namespace coopdyn {
 
 std::string free_direction_reading(const System& sys, const WrenchData& wd, int d) {
-  static const char* comp[6] = {"mx", "my", "mz", "fx", "fy", "fz"};
   const auto& outs = sys.wrenches.outputs;
   struct Part {
     double x;
@@ -26,7 +27,7 @@ std::string free_direction_reading(const System& sys, const WrenchData& wd, int 
     if (outs[k].spec < 0) continue;
     for (int c = 0; c < 6; ++c) {
       const double x = wd.free_W(6 * static_cast<Eigen::Index>(k) + c, d);
-      if (std::abs(x) > 1e-9 * std::max(big, 1e-300)) parts.push_back({x, outs[k].name + "." + comp[c], outs[k].name});
+      if (std::abs(x) > 1e-9 * std::max(big, 1e-300)) parts.push_back({x, outs[k].name + "." + kWrenchComponents[c], outs[k].name});
     }
   }
   // largest first; sizes equal to 1e-9 keep the scene's order (the +0.5 / -0.5 of a load transfer
