@@ -382,14 +382,11 @@ TEST(WrenchSigma, MonteCarloReproducesStateNoiseSigma) {
     const std::vector<Vec6> W0 = wd.W;
     const size_t no = W0.size();
     const int n = 300;
-    std::mt19937 rng(13);
-    std::normal_distribution<double> N01(0.0, 1.0);
+    NoiseDraws draws(sd.ncols, 13);
     WrenchMoments mom(no);
-    Eigen::VectorXd z(sd.ncols);
-    double smax = 0.0;
-    for (const Vec6& s : sd.sigma) smax = std::max(smax, s.maxCoeff());
+    const double smax = largest_sigma(sd);
     for (int s = 0; s < n; ++s) {
-      for (int j = 0; j < sd.ncols; ++j) z[j] = N01(rng);
+      const Eigen::VectorXd& z = draws.next();
       Eigen::VectorXd qs = q, vs = v, ts = tau;
       apply_noise_draw(sd, z, qs, vs, ts);
       ASSERT_NE(evaluate(sys, ws, qs, vs, ts).status, Status::kError);

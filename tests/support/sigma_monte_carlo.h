@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 #include <vector>
 
 #include <Eigen/Core>
@@ -12,6 +13,25 @@
 #include "service/dynamics/wrench_sigma.h"
 
 namespace coopdyn::testing {
+
+// Draws of one standard normal per noise source, from a seeded generator.
+struct NoiseDraws {
+  NoiseDraws(int sources, unsigned seed) : rng(seed), z(sources) {}
+  const Eigen::VectorXd& next() {
+    for (Eigen::Index j = 0; j < z.size(); ++j) z[j] = N01(rng);
+    return z;
+  }
+  std::mt19937 rng;
+  std::normal_distribution<double> N01{0.0, 1.0};
+  Eigen::VectorXd z;
+};
+
+// the largest standard deviation of any component of any output
+inline double largest_sigma(const WrenchSigmaData& sd) {
+  double smax = 0.0;
+  for (const Vec6& s : sd.sigma) smax = std::max(smax, s.maxCoeff());
+  return smax;
+}
 
 // tau, q and v moved by the draw z (one standard normal per noise source, sd's column order:
 // torques, then positions, then velocities)
