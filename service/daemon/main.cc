@@ -597,6 +597,8 @@ int main(int argc, char** argv) {
     if (publisher->dropped() > 0)
       spdlog::warn("publisher thread: {} message(s) dropped (every slot still waiting: the thread did not get a CPU "
                    "for {} ticks)", publisher->dropped(), runtime::PublisherThread::kSlots);
+    if (publisher->failed() > 0)
+      spdlog::warn("publisher thread: lcm_publish failed for {} message(s)", publisher->failed());
   }
   print_summary(loop, cfg, *rx, t_start);
   return 0;

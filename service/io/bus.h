@@ -9,6 +9,9 @@ class Bus {
   virtual ~Bus() = default;
   // Returns 0 on success (the message may still be lost, as with UDP).
   virtual int publish(const char* channel, const void* data, int len) = 0;
+  // Messages publish() accepted (returned 0) that a later stage could not send: a bus that queues and
+  // sends from another thread (runtime::PublisherThread) counts its sends that failed. Any thread; no lock.
+  virtual long long failed_after_accept() const { return 0; }
 };
 
 }  // namespace coopdyn::io

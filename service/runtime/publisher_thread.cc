@@ -58,8 +58,10 @@ void PublisherThread::drain() {
   const uint64_t head = head_.load(std::memory_order_acquire);
   for (; tail != head; ++tail) {
     const Slot& s = slots_[tail % kSlots];
-    inner_.publish(s.channel, s.bytes.data(), s.len);
-    published_.fetch_add(1, std::memory_order_relaxed);
+    if (inner_.publish(s.channel, s.bytes.data(), s.len) != 0)
+      failed_.fetch_add(1, std::memory_order_relaxed);
+    else
+      published_.fetch_add(1, std::memory_order_relaxed);
     tail_.store(tail + 1, std::memory_order_release);
   }
 }

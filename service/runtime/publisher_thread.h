@@ -8,7 +8,8 @@
 // here that is the publisher thread's, kept off the loop's CPU when the loop is pinned. What the
 // loop keeps: the copy (0.3 us) and the wake of this thread (a few us; more across vCPUs).
 // publish() does not allocate, lock, block or throw; when every slot is still waiting (the thread has
-// not run for kSlots messages) the message is dropped and counted, never waited for.
+// not run for kSlots messages) the message is dropped and counted, never waited for. A queued message
+// the inner bus refuses is counted too (failed(), Bus::failed_after_accept()).
 #pragma once
 
 #include <atomic>
@@ -40,6 +41,9 @@ class PublisherThread : public io::Bus {
 
   int64_t published() const { return published_.load(std::memory_order_relaxed); }
   int64_t dropped() const { return dropped_.load(std::memory_order_relaxed); }
+  // queued messages the inner bus then refused (its publish returned non-zero)
+  int64_t failed() const { return failed_.load(std::memory_order_relaxed); }
+  long long failed_after_accept() const override { return failed(); }
 
  private:
   struct Slot {
@@ -55,7 +59,7 @@ class PublisherThread : public io::Bus {
   Slot slots_[kSlots];
   alignas(64) std::atomic<uint64_t> head_{0};  // next slot the producer fills
   alignas(64) std::atomic<uint64_t> tail_{0};  // next slot the thread publishes
-  alignas(64) std::atomic<int64_t> published_{0}, dropped_{0};
+  alignas(64) std::atomic<int64_t> published_{0}, dropped_{0}, failed_{0};
   std::atomic<bool> stop_{false};
   Doorbell bell_;
   std::thread thread_;

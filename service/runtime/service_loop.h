@@ -102,8 +102,11 @@ class ServiceLoop {
   bool faulted() const { return faulted_.load(std::memory_order_relaxed); }
   int64_t closure_rejections() const { return closure_rejected_.load(std::memory_order_relaxed); }
   // output_t and loop_stats_t messages the bus refused (publish() != 0: the publisher thread's ring
-  // full, lcm_publish failing); loop_stats_t outputs_dropped
-  int64_t outputs_dropped() const { return outputs_dropped_.load(std::memory_order_relaxed); }
+  // full, lcm_publish failing) or accepted and then failed to send (the publisher thread's
+  // lcm_publish failing: Bus::failed_after_accept); loop_stats_t outputs_dropped
+  int64_t outputs_dropped() const {
+    return outputs_dropped_.load(std::memory_order_relaxed) + bus_.failed_after_accept();
+  }
   bool paused() const { return paused_; }  // loop thread
   const InputCounters& input_counters() const;
   // Fed by the daemon's receive supervision (io/rx_isolated.h), any thread; published in loop_stats_t.

@@ -355,7 +355,7 @@ TEST(LoopNoAllocation, CountsWhatAStuckPublisherThreadDrops) {
   runtime::ServiceLoop loop(sys, cfg, pub);
   const auto handed = [&] { return static_cast<int64_t>(loop.ticks() + loop.ticks() / 50); };  // outputs + stats
   const auto drained = [&] {
-    while (pub.published() + pub.dropped() < handed()) std::this_thread::yield();
+    while (pub.published() + pub.dropped() + pub.failed() < handed()) std::this_thread::yield();
   };
   long allocations = 0;
   for (int k = 0; k < 60; ++k) {  // 60 outputs and the stats of tick 50 while the thread is stuck
@@ -382,6 +382,41 @@ TEST(LoopNoAllocation, CountsWhatAStuckPublisherThreadDrops) {
   const io::StatsFrame s = last_stats(inner.taken, cfg.stats_channel);
   EXPECT_EQ(s.tick, 100);
   EXPECT_EQ(s.outputs_dropped, 61 - runtime::PublisherThread::kSlots);
+}
+
+// The publisher thread's own send failing (its inner bus refuses every fourth message, as lcm_publish
+// failing would): the thread counts each (failed()), and the loop's outputs_dropped and each
+// loop_stats_t include them, without the loop allocating. Each tick waits until the thread has handed
+// on what the tick made, so a loop_stats_t carries every failure before it but, at most, that of the
+// output its own tick queued just before it (still in the thread's hands when the stats were filled).
+TEST(LoopNoAllocation, CountsWhatThePublisherThreadFailsToSend) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  const System sys = load_scene(scene_path("two_puma_load"));
+  runtime::ServiceConfig cfg;
+  cfg.stats_period_s = 0.05;
+  RefusingBus inner(cfg.stats_channel);
+  runtime::PublisherThread pub(inner, runtime::ServiceLoop::max_message_bytes(sys));
+  pub.start();
+  runtime::ServiceLoop loop(sys, cfg, pub);
+  long allocations = 0;
+  for (int k = 0; k < 200; ++k) {
+    AllocationCounter c;
+    loop.tick(k * 1000000LL);
+    allocations += c.count();
+    const int64_t handed = loop.ticks() + loop.ticks() / 50;  // outputs + stats
+    while (pub.published() + pub.dropped() + pub.failed() < handed) std::this_thread::yield();
+  }
+  pub.stop();
+  EXPECT_EQ(allocations, 0);
+  EXPECT_EQ(pub.dropped(), 0);
+  EXPECT_EQ(inner.calls, 200 + 4);
+  EXPECT_EQ(inner.refused, 51);  // calls 4, 8, ..., 204
+  EXPECT_EQ(pub.failed(), inner.refused);
+  EXPECT_EQ(loop.outputs_dropped(), inner.refused);
+  ASSERT_GT(inner.refused_before_last_stats, 0);
+  const int64_t reported = last_stats(inner.taken, cfg.stats_channel).outputs_dropped;
+  EXPECT_LE(reported, inner.refused_before_last_stats);
+  EXPECT_GE(reported, inner.refused_before_last_stats - 1);
 }
 
 // Estimate mode on arrival: `first` states a millisecond apart, `silence` ms without any (expiry,
