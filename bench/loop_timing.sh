@@ -33,7 +33,9 @@
 #   rt + /dev/cpu_dma_latency held at 0 + the loop pinned to CPU 1 with the receive thread and
 #   process on the others + inputs on their own port (lcm_url_in: the receive process never sees
 #   the daemon's own outputs); "+ spin 50" = that + realtime.spin_us 50; "+ busy poll" = that +
-#   realtime.busy_poll (event-driven only: the loop polls for states, a whole CPU); "polling client"
+#   realtime.busy_poll (event-driven only: the loop polls for states, a whole CPU); "receive in loop" =
+#   realtime.receive_in_loop (event-driven only: the loop reads the input socket itself, no receive
+#   process; sleeping in ppoll on it, or polling it with busy poll); "polling client"
 #   = `coopdyn send --busy-poll` (its read-back thread polls LCM without sleeping, as a real-time
 #   controller polls each cycle), next to the LCM round trip alone with both ends polling
 #   (lcm_pingpong --busy-poll).
@@ -152,6 +154,12 @@ daemon "coopdynd estimate on arrival, rt + tricks + busy poll" estimate "$(with 
   estimate "$(with "busy_poll: true")" arrival "$(cd "$BASELINE" && pwd)" --busy-poll
 daemon "coopdynd estimate on arrival, rt + tricks + busy poll, polling client" estimate "$(with "busy_poll: true")" arrival \
   "$BUILD" --busy-poll
+# the loop reading the input socket itself (realtime.receive_in_loop: no receive process), sleeping and polling
+daemon "coopdynd estimate on arrival, rt + tricks, receive in loop" estimate "$(with "receive_in_loop: true")" arrival
+daemon "coopdynd estimate on arrival, rt + tricks + busy poll, receive in loop" estimate \
+  "$(with "busy_poll: true, receive_in_loop: true")" arrival
+daemon "coopdynd estimate on arrival, rt + tricks + busy poll, receive in loop, polling client" estimate \
+  "$(with "busy_poll: true, receive_in_loop: true")" arrival "$BUILD" --busy-poll
 
 LOOP_BENCH_SCENE=$(realpath "$SCENE") "${NS[@]}" taskset -c 1 "$BUILD/bin/loop_bench" --benchmark_filter='BM_TickPaced' \
   --benchmark_format=csv 2>/dev/null > "$TMP/warm.csv" || true
