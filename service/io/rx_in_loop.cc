@@ -14,7 +14,7 @@ wire::UdpmUrl udpm_or_throw(const std::string& url) {
   wire::UdpmUrl u;
   std::string why;
   if (!wire::parse_udpm_url(url, &u, &why))
-    throw std::runtime_error("receive.in_loop reads udpm:// inputs only; input URL '" + url + "': " + why);
+    throw std::runtime_error("realtime.receive_in_loop reads udpm:// inputs only; input URL '" + url + "': " + why);
   return u;
 }
 
@@ -27,7 +27,7 @@ InLoopReceiver::InLoopReceiver(const std::string& url, const std::vector<std::st
   const wire::UdpmUrl u = udpm_or_throw(url);
   std::string why;
   fd_ = open_input_socket(u, socket_buffer_bytes, gate_.channels(), &counters_store_, &why);
-  if (fd_ < 0) throw std::runtime_error("receive.in_loop: input URL '" + url + "': " + why);
+  if (fd_ < 0) throw std::runtime_error("realtime.receive_in_loop: input URL '" + url + "': " + why);
 }
 
 InLoopReceiver::~InLoopReceiver() {

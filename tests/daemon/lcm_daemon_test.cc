@@ -546,6 +546,16 @@ TEST(DaemonStartup, BrokenSceneOrConfigStopsWithAClearMessage) {
     EXPECT_NE(slurp(c.err).find("input URL: the group '10.1.2.3' of 'udpm://10.1.2.3:7667?ttl=0' is not an IPv4 multicast"),
               std::string::npos) << slurp(c.err);
   }
+  // the loop reading the inputs itself: udpm only, and the URL named
+  const std::string in_loop = tmp_path("in_loop_memq.yaml");
+  std::ofstream(in_loop) << "mode: estimate\ntrigger: arrival\nrealtime: {receive_in_loop: true}\n";
+  {
+    Child c({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", in_loop, "--lcm-url", "memq://"}, "in_loop_memq");
+    EXPECT_EQ(c.wait(), 1);
+    EXPECT_NE(slurp(c.err).find("realtime.receive_in_loop reads udpm:// inputs only; input URL 'memq://'"), std::string::npos)
+        << slurp(c.err);
+  }
+  std::remove(in_loop.c_str());
   std::remove(bad_in.c_str());
   std::remove(bad_scene.c_str());
   std::remove(bad_cfg.c_str());
