@@ -480,40 +480,36 @@ void start_receiving(coopdyn::io::IsolatedReceiver& rx, coopdyn::runtime::Servic
       });
 }
 
-// outputs start only once inputs are received: waits (bounded) for the receive process to
-// subscribe, then logs what its socket got
-void wait_for_receiver(const coopdyn::io::IsolatedReceiver& rx, const coopdyn::runtime::ServiceConfig& cfg);
-
 // what the receive socket got: its buffer and its filter
 void log_receive_socket(const coopdyn::io::ReceiverCounters& rx, const coopdyn::runtime::ServiceConfig& cfg) {
-  {
-    // what the kernel granted (it caps SO_RCVBUF at net.core.rmem_max and reports twice the request)
-    long long rmem_max = -1;
-    if (std::FILE* f = std::fopen("/proc/sys/net/core/rmem_max", "r")) {
-      if (std::fscanf(f, "%lld", &rmem_max) != 1) rmem_max = -1;
-      std::fclose(f);
-    }
-    const long long got = rx.socket_buffer();
-    if (cfg.receive_socket_buffer > 0 && got < 2LL * cfg.receive_socket_buffer)
-      spdlog::warn("receive socket buffer: asked for {} bytes, the kernel grants {} (SO_RCVBUF reports {}; "
-                   "net.core.rmem_max = {} caps it: raise it with sysctl -w net.core.rmem_max={}); a flood's "
-                   "bursts may overflow it and valid inputs are lost with the junk (counted)",
-                   cfg.receive_socket_buffer, got / 2, got, rmem_max, cfg.receive_socket_buffer);
-    else if (cfg.receive_socket_buffer > 0)
-      spdlog::info("receive socket buffer: {} bytes as configured (SO_RCVBUF reports {}: the kernel doubles a request "
-                   "for its bookkeeping)", cfg.receive_socket_buffer, got);
-    else
-      spdlog::info("receive socket buffer: SO_RCVBUF {} bytes (the OS default, net.core.rmem_default; "
-                   "receive.socket_buffer_bytes sets it)", got);
-    if (rx.filter_state() == 1)
-      spdlog::info("receive socket filter: only coopdyn messages on the input channels reach the receive path");
-    else
-      spdlog::warn("receive socket filter not attached ({}): every datagram on the input URL reaches the receive process, "
-                   "which still refuses what is not a coopdyn message",
-                   rx.filter_state() == -1 ? "the input URL is not udpm" : "the kernel refused it");
+  // what the kernel granted (it caps SO_RCVBUF at net.core.rmem_max and reports twice the request)
+  long long rmem_max = -1;
+  if (std::FILE* f = std::fopen("/proc/sys/net/core/rmem_max", "r")) {
+    if (std::fscanf(f, "%lld", &rmem_max) != 1) rmem_max = -1;
+    std::fclose(f);
   }
+  const long long got = rx.socket_buffer();
+  if (cfg.receive_socket_buffer > 0 && got < 2LL * cfg.receive_socket_buffer)
+    spdlog::warn("receive socket buffer: asked for {} bytes, the kernel grants {} (SO_RCVBUF reports {}; "
+                 "net.core.rmem_max = {} caps it: raise it with sysctl -w net.core.rmem_max={}); a flood's "
+                 "bursts may overflow it and valid inputs are lost with the junk (counted)",
+                 cfg.receive_socket_buffer, got / 2, got, rmem_max, cfg.receive_socket_buffer);
+  else if (cfg.receive_socket_buffer > 0)
+    spdlog::info("receive socket buffer: {} bytes as configured (SO_RCVBUF reports {}: the kernel doubles a request "
+                 "for its bookkeeping)", cfg.receive_socket_buffer, got);
+  else
+    spdlog::info("receive socket buffer: SO_RCVBUF {} bytes (the OS default, net.core.rmem_default; "
+                 "receive.socket_buffer_bytes sets it)", got);
+  if (rx.filter_state() == 1)
+    spdlog::info("receive socket filter: only coopdyn messages on the input channels reach the receive path");
+  else
+    spdlog::warn("receive socket filter not attached ({}): every datagram on the input URL reaches the receive path, "
+                 "which still refuses what is not a coopdyn message",
+                 rx.filter_state() == -1 ? "the input URL is not udpm" : "the kernel refused it");
 }
 
+// outputs start only once inputs are received: waits (bounded) for the receive process to
+// subscribe, then logs what its socket got
 void wait_for_receiver(const coopdyn::io::IsolatedReceiver& rx, const coopdyn::runtime::ServiceConfig& cfg) {
   for (int i = 0; i < 400 && !rx.child_ready(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
   if (!rx.child_ready()) spdlog::warn("the receive process has not subscribed after 2 s; starting anyway");
