@@ -15,6 +15,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <mutex>
 #include <random>
 #include <thread>
 
@@ -225,6 +226,108 @@ TEST(RxInLoop, WithAuthenticationUnsignedBadMacAndReplayedRefusedByReason) {
   EXPECT_EQ(c.received.load(), 2) << "only the signed states reach the inbox";
   EXPECT_EQ(c.accepted.load(), 2);
   EXPECT_EQ(bus.last_output().input_seq, 4);
+  runtime::Event e;
+  while (loop.events().pop(&e)) {
+  }
+}
+
+// A flood in this mode, authentication on: one thread sends, as fast as it goes, junk after the
+// state fingerprint, well-formed unsigned states, states signed with another key and a signed
+// state's bytes again, in turn, while 300 signed states arrive at 100 Hz; the loop's thread reads
+// all of it. Asserted: nothing of the junk reaches the inbox (every state the inbox receives is
+// accepted, and the outputs carry only signed states' seqs), each kind is refused by the gate with
+// its reason, the loop allocates nothing. The share of signed states applied depends on the machine
+// (the junk and the loop share two CPUs here) and is printed, not judged.
+TEST(RxInLoop, FloodWithAuthenticationRefusedByReasonNothingOfItApplied) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  const System sys = load_scene(scene_path("two_puma_load"));
+  runtime::ServiceConfig cfg = on_arrival(false);
+  cfg.watchdog_ms = 1000;
+  const std::string key_hex(64, 'b');
+  cfg.auth_key_file = key_file("rx_in_loop_flood_key", key_hex);
+  const io::AuthKey key = io::parse_key(key_hex, "test key"), other = io::parse_key(std::string(64, '3'), "other key");
+  const std::string url = private_udpm_url(3, "239.255.76.98");
+  std::unique_ptr<io::LcmBus> out = try_bus(url);
+  auto rx = in_loop_receiver(url, cfg);
+  if (!out || !rx) GTEST_SKIP() << "LCM udpm unavailable (no multicast route?)";
+  rx->set_auth_key(key);
+  FakeBus bus;
+  runtime::ServiceLoop loop(sys, cfg, bus);
+  SocketSource source(*rx, loop);
+  loop.take_arrivals_from(&source);
+  auto state = [&](int64_t seq, const io::AuthKey* k, int64_t ahead_us = 0) {
+    auto b = io::encode_measured_state(io::wall_us() + ahead_us, seq, {}, stdvec(sys.q0), {}, stdvec(sys.v0),
+                                       stdvec(some_torque(sys, 2)));
+    if (k) io::sign(b, cfg.state_channel, *k, io::MessageType::kMeasuredState);
+    return b;
+  };
+  // LC02 framing of a payload on the state channel (what liblcm sends)
+  auto lc02 = [&](const std::vector<uint8_t>& payload, uint32_t seqno) {
+    std::vector<uint8_t> b;
+    put32(b, 0x4c433032);
+    put32(b, seqno);
+    b.insert(b.end(), cfg.state_channel.begin(), cfg.state_channel.end());
+    b.push_back(0);
+    b.insert(b.end(), payload.begin(), payload.end());
+    return b;
+  };
+  std::mt19937 rng(5);
+  const std::vector<uint8_t> junk = fingerprinted_junk(rng, cfg.state_channel), unsigned_state = lc02(state(100000, nullptr), 1),
+                             forged = lc02(state(100001, &other, 60'000'000), 2);  // newer than any signed one: its MAC is checked
+  std::atomic<bool> stop{false}, done{false};
+  std::atomic<long> allocations{-1};
+  std::thread loop_thread([&] {
+    AllocationCounter c;
+    loop.run(stop);
+    allocations = c.count();
+  });
+  std::atomic<long> sent{0};
+  std::vector<uint8_t> replayed;  // a signed state's bytes, once one went out
+  std::mutex mu;
+  std::thread flood([&] {
+    RawUdp raw(url);
+    for (long k = 0; !done.load(); ++k) {
+      const int kind = static_cast<int>(k % 4);
+      if (kind == 0) raw.send(junk);
+      else if (kind == 1) raw.send(unsigned_state);
+      else if (kind == 2) raw.send(forged);
+      else {
+        std::lock_guard<std::mutex> lk(mu);
+        if (!replayed.empty()) raw.send(replayed);
+      }
+      sent.fetch_add(1, std::memory_order_relaxed);
+    }
+  });
+  auto next = std::chrono::steady_clock::now();
+  for (int seq = 1; seq <= 300; ++seq) {
+    const auto b = state(seq, &key);
+    out->publish(cfg.state_channel.c_str(), b.data(), static_cast<int>(b.size()));
+    {
+      std::lock_guard<std::mutex> lk(mu);
+      replayed = lc02(b, 3);
+    }
+    next += std::chrono::milliseconds(10);
+    std::this_thread::sleep_until(next);
+  }
+  done = true;
+  flood.join();
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  stop = true;
+  loop_thread.join();
+  EXPECT_EQ(allocations.load(), 0);
+  const runtime::InputCounters& c = loop.states().counters();
+  EXPECT_EQ(c.received.load(), c.accepted.load()) << "only signed states reach the inbox";
+  EXPECT_GT(rx->rejected(0, io::Reject::kDecode), 0);
+  EXPECT_GT(rx->rejected(0, io::Reject::kUnauthenticated), 0);
+  EXPECT_GT(rx->rejected(0, io::Reject::kBadMac), 0);
+  EXPECT_GT(rx->rejected(0, io::Reject::kReplayed), 0);
+  const io::DecodedOutput o = bus.last_output();
+  EXPECT_LE(o.input_seq, 300) << "an output carries a junk state's seq";
+  std::printf("[flood in loop] %ld junk datagrams (%.0f/s) against 300 signed states at 100 Hz: %lld applied; refused "
+              "malformed %lld, unsigned %lld, bad MAC %lld, replayed %lld; socket drops %lld\n",
+              sent.load(), sent.load() / 3.0, static_cast<long long>(c.accepted.load()), rx->rejected(0, io::Reject::kDecode),
+              rx->rejected(0, io::Reject::kUnauthenticated), rx->rejected(0, io::Reject::kBadMac),
+              rx->rejected(0, io::Reject::kReplayed), rx->socket_drops());
   runtime::Event e;
   while (loop.events().pop(&e)) {
   }
