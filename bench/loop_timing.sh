@@ -7,6 +7,10 @@
 #                                         # namespace with lo up and a multicast route on it)
 #   ROWS=arrival bench/loop_timing.sh ... # only the event-driven rows, next to cyclictest and the
 #                                         # fixed-rate estimate row
+#   ROWS=receive bench/loop_timing.sh ... # the receive process against the loop reading the socket
+#                                         # itself (realtime.receive_in_loop), sleeping and busy polling
+#                                         # with a polling client, alternated for ROUNDS rounds (default
+#                                         # 3), next to cyclictest FIFO
 #   BASELINE=DIR bench/loop_timing.sh ... # also the event-driven rows of another build's coopdynd
 #                                         # (DIR/bin/coopdynd: before and after a change, in one run)
 #
@@ -33,7 +37,9 @@
 #   rt + /dev/cpu_dma_latency held at 0 + the loop pinned to CPU 1 with the receive thread and
 #   process on the others + inputs on their own port (lcm_url_in: the receive process never sees
 #   the daemon's own outputs); "+ spin 50" = that + realtime.spin_us 50; "+ busy poll" = that +
-#   realtime.busy_poll (event-driven only: the loop polls for states, a whole CPU); "polling client"
+#   realtime.busy_poll (event-driven only: the loop polls for states, a whole CPU); "receive in loop" =
+#   realtime.receive_in_loop (event-driven only: the loop reads the input socket itself, no receive
+#   process; sleeping in ppoll on it, or polling it with busy poll); "polling client"
 #   = `coopdyn send --busy-poll` (its read-back thread polls LCM without sleeping, as a real-time
 #   controller polls each cycle), next to the LCM round trip alone with both ends polling
 #   (lcm_pingpong --busy-poll).
@@ -131,27 +137,51 @@ RT="realtime: {sched_fifo: true, priority: 80, mlockall: true"
 TRICKS="$RT, cpu: 1, cpu_dma_latency_zero: true}\nlcm_url_in: \"$URL_IN\""
 : > "$TMP/rows"
 with() { printf '%s' "$TRICKS" | sed "s/cpu_dma_latency_zero: true}/cpu_dma_latency_zero: true, $1}/"; }
-if [ "${ROWS:-all}" != arrival ]; then
-  daemon "coopdynd simulate, SCHED_OTHER" simulate ""
-  # the same with the loop publishing each output itself (lcm_publish inside its compute window)
-  daemon "coopdynd simulate, SCHED_OTHER, the loop publishing" simulate "realtime: {publisher_thread: false}"
+# receive: A/B rounds, each row right after the other, so that a load that changes over the run
+# reaches both
+receive_rounds() {
+  cyclic "cyclictest, SCHED_FIFO 80 -m" -p 80 -m
+  for r in $(seq "${ROUNDS:-3}"); do
+    daemon "coopdynd estimate on arrival, rt + tricks (round $r)" estimate "$TRICKS" arrival
+    daemon "coopdynd estimate on arrival, rt + tricks, receive in loop (round $r)" estimate \
+      "$(with "receive_in_loop: true")" arrival
+    daemon "coopdynd estimate on arrival, rt + tricks + busy poll, polling client (round $r)" estimate \
+      "$(with "busy_poll: true")" arrival "$BUILD" --busy-poll
+    daemon "coopdynd estimate on arrival, rt + tricks + busy poll, receive in loop, polling client (round $r)" estimate \
+      "$(with "busy_poll: true, receive_in_loop: true")" arrival "$BUILD" --busy-poll
+  done
+}
+if [ "${ROWS:-all}" = receive ]; then
+  receive_rounds
+else
+  if [ "${ROWS:-all}" != arrival ]; then
+    daemon "coopdynd simulate, SCHED_OTHER" simulate ""
+    # the same with the loop publishing each output itself (lcm_publish inside its compute window)
+    daemon "coopdynd simulate, SCHED_OTHER, the loop publishing" simulate "realtime: {publisher_thread: false}"
+  fi
+  cyclic "cyclictest, SCHED_OTHER"
+  [ "${ROWS:-all}" != arrival ] && daemon "coopdynd simulate, rt" simulate "$RT}"
+  cyclic "cyclictest, SCHED_FIFO 80 -m" -p 80 -m
+  if [ "${ROWS:-all}" != arrival ]; then
+    daemon "coopdynd simulate, rt + tricks" simulate "$TRICKS"
+    daemon "coopdynd simulate, rt + tricks + spin 50" simulate "$(with "spin_us: 50")"
+  fi
+  daemon "coopdynd estimate at the tick, rt + tricks" estimate "$TRICKS" tick
+  [ -n "${BASELINE:-}" ] && daemon "coopdynd estimate on arrival, rt + tricks, BASELINE build" estimate "$TRICKS" arrival \
+    "$(cd "$BASELINE" && pwd)"
+  daemon "coopdynd estimate on arrival, rt + tricks" estimate "$TRICKS" arrival
+  daemon "coopdynd estimate on arrival, rt + tricks + busy poll" estimate "$(with "busy_poll: true")" arrival
+  [ -n "${BASELINE:-}" ] && daemon "coopdynd estimate on arrival, rt + tricks + busy poll, polling client, BASELINE build" \
+    estimate "$(with "busy_poll: true")" arrival "$(cd "$BASELINE" && pwd)" --busy-poll
+  daemon "coopdynd estimate on arrival, rt + tricks + busy poll, polling client" estimate "$(with "busy_poll: true")" arrival \
+    "$BUILD" --busy-poll
+  # the loop reading the input socket itself (realtime.receive_in_loop: no receive process), sleeping and polling
+  daemon "coopdynd estimate on arrival, rt + tricks, receive in loop" estimate "$(with "receive_in_loop: true")" arrival
+  daemon "coopdynd estimate on arrival, rt + tricks + busy poll, receive in loop" estimate \
+    "$(with "busy_poll: true, receive_in_loop: true")" arrival
+  daemon "coopdynd estimate on arrival, rt + tricks + busy poll, receive in loop, polling client" estimate \
+    "$(with "busy_poll: true, receive_in_loop: true")" arrival "$BUILD" --busy-poll
 fi
-cyclic "cyclictest, SCHED_OTHER"
-[ "${ROWS:-all}" != arrival ] && daemon "coopdynd simulate, rt" simulate "$RT}"
-cyclic "cyclictest, SCHED_FIFO 80 -m" -p 80 -m
-if [ "${ROWS:-all}" != arrival ]; then
-  daemon "coopdynd simulate, rt + tricks" simulate "$TRICKS"
-  daemon "coopdynd simulate, rt + tricks + spin 50" simulate "$(with "spin_us: 50")"
-fi
-daemon "coopdynd estimate at the tick, rt + tricks" estimate "$TRICKS" tick
-[ -n "${BASELINE:-}" ] && daemon "coopdynd estimate on arrival, rt + tricks, BASELINE build" estimate "$TRICKS" arrival \
-  "$(cd "$BASELINE" && pwd)"
-daemon "coopdynd estimate on arrival, rt + tricks" estimate "$TRICKS" arrival
-daemon "coopdynd estimate on arrival, rt + tricks + busy poll" estimate "$(with "busy_poll: true")" arrival
-[ -n "${BASELINE:-}" ] && daemon "coopdynd estimate on arrival, rt + tricks + busy poll, polling client, BASELINE build" \
-  estimate "$(with "busy_poll: true")" arrival "$(cd "$BASELINE" && pwd)" --busy-poll
-daemon "coopdynd estimate on arrival, rt + tricks + busy poll, polling client" estimate "$(with "busy_poll: true")" arrival \
-  "$BUILD" --busy-poll
 
 LOOP_BENCH_SCENE=$(realpath "$SCENE") "${NS[@]}" taskset -c 1 "$BUILD/bin/loop_bench" --benchmark_filter='BM_TickPaced' \
   --benchmark_format=csv 2>/dev/null > "$TMP/warm.csv" || true

@@ -8,8 +8,10 @@ add_library(coopdyn_io
   ${CMAKE_CURRENT_LIST_DIR}/io/codec.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/convert.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/direct_decoder.cc
+  ${CMAKE_CURRENT_LIST_DIR}/io/input_gate.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/lcm_bus.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/lcm_wire.cc
+  ${CMAKE_CURRENT_LIST_DIR}/io/rx_in_loop.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/rx_isolated.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/udpm_socket.cc
 )

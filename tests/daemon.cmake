@@ -5,6 +5,8 @@
 coopdyn_test(coopdynd_tests
   FILES
     io/lcm_wire_test.cc
+    io/input_gate_test.cc
+    io/rx_in_loop_test.cc
     io/direct_decoder_test.cc
     io/lcm_bus_test.cc
     io/convert_test.cc

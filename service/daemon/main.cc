@@ -36,6 +36,7 @@
 #include "service/io/auth.h"
 #include "service/io/codec.h"
 #include "service/io/lcm_bus.h"
+#include "service/io/rx_in_loop.h"
 #include "service/io/rx_isolated.h"
 #include "service/runtime/config.h"
 #include "service/runtime/publisher_thread.h"
@@ -284,10 +285,22 @@ std::unique_ptr<coopdyn::io::IsolatedReceiver> make_receiver(const coopdyn::runt
   return rx;
 }
 
+// realtime.receive_in_loop: the input socket read by the loop's thread itself (io/rx_in_loop.h),
+// through the receive process's gate; estimate mode on arrival only (the config says so)
+std::unique_ptr<coopdyn::io::InLoopReceiver> make_in_loop_receiver(const coopdyn::runtime::ServiceConfig& cfg) {
+  using namespace coopdyn;
+  auto rx = std::make_unique<io::InLoopReceiver>(
+      cfg.input_url(), std::vector<std::string>{cfg.state_channel, cfg.control_channel},
+      std::vector<int64_t>{io::fingerprint(io::MessageType::kMeasuredState), io::fingerprint(io::MessageType::kControl)},
+      cfg.receive_max_bytes, cfg.receive_socket_buffer);
+  if (!cfg.auth_key_file.empty()) rx->set_auth_key(io::read_key_file(cfg.auth_key_file));
+  return rx;
+}
+
 // The receive process's counters into the loop's statistics (any thread): restarts, drops, refusals
 // and its rejections by reason (malformed; with authentication on also unauthenticated, bad MAC,
 // replayed), channel 0 the input, 1 the control channel
-void feed_receiver_counters(coopdyn::runtime::ServiceLoop& loop, const coopdyn::io::IsolatedReceiver& rx) {
+void feed_receiver_counters(coopdyn::runtime::ServiceLoop& loop, const coopdyn::io::ReceiverCounters& rx) {
   using namespace coopdyn;
   loop.set_receiver_counters(rx.restarts(), rx.dropped(), rx.filtered(), rx.malformed());
   int64_t input[io::kRejectKinds], control[io::kRejectKinds];
@@ -307,8 +320,11 @@ void log_startup(const coopdyn::System& sys, const coopdyn::runtime::ServiceConf
   spdlog::info("wrenches out: {} end-effector, {} base, {} tip, {} axle, {} joint reactions; {} pseudo-joint stresses",
                by_kind[0], by_kind[1], by_kind[2], by_kind[3], by_kind[4], sys.model.pseudo_dofs.size());
   if (cfg.trigger == runtime::Trigger::kArrival)
-    spdlog::info("event-driven: each measured state is evaluated on arrival, taken by the loop from the receive "
-                 "process's ring itself; without a fresh state the error status goes out at {} Hz", cfg.rate_hz);
+    spdlog::info("event-driven: each measured state is evaluated on arrival, taken by the loop {}; without a fresh "
+                 "state the error status goes out at {} Hz",
+                 cfg.realtime.receive_in_loop ? "from the input socket itself (realtime.receive_in_loop: no receive process)"
+                                              : "from the receive process's ring itself",
+                 cfg.rate_hz);
   if (cfg.realtime.busy_poll)
     spdlog::info("busy poll: the loop polls for measured states and takes a whole CPU{}", cfg.realtime.cpu >= 0 ? ""
                  : " (realtime.cpu not set: give it one of its own)");
@@ -325,10 +341,14 @@ void log_startup(const coopdyn::System& sys, const coopdyn::runtime::ServiceConf
                  "unsigned, bad-MAC and replayed ones are rejected", cfg.auth_key_file);
   else
     spdlog::info("authentication off: any host that reaches the input URL can command (auth.key_file turns it on)");
-  spdlog::info("LCM in {}: {} {} (isolated receive process, queue {} x {} bytes); out {}: {} (output), {} (stats every {} s)",
-               cfg.input_url(), cfg.mode == runtime::ServiceMode::kSimulate ? "commands on" : "measured states on",
-               cfg.mode == runtime::ServiceMode::kSimulate ? cfg.command_channel : cfg.state_channel, cfg.receive_queue,
-               cfg.receive_max_bytes, cfg.lcm_url, cfg.output_channel, cfg.stats_channel, cfg.stats_period_s);
+  spdlog::info("LCM in {}: {} {} ({}); out {}: {} (output), {} (stats every {} s)", cfg.input_url(),
+               cfg.mode == runtime::ServiceMode::kSimulate ? "commands on" : "measured states on",
+               cfg.mode == runtime::ServiceMode::kSimulate ? cfg.command_channel : cfg.state_channel,
+               cfg.realtime.receive_in_loop
+                   ? "read by the loop's thread, messages up to " + std::to_string(cfg.receive_max_bytes) + " bytes"
+                   : "isolated receive process, queue " + std::to_string(cfg.receive_queue) + " x " +
+                         std::to_string(cfg.receive_max_bytes) + " bytes",
+               cfg.lcm_url, cfg.output_channel, cfg.stats_channel, cfg.stats_period_s);
 }
 
 void install_signal_handlers() {
@@ -348,11 +368,11 @@ struct RejectionReport {
   long long rx_rejected_logged[coopdyn::io::kRejectKinds] = {};  // by the receive process, before its ring
   long long malformed_logged[coopdyn::io::wire::kWireStatuses] = {};
   std::chrono::steady_clock::time_point last_report = std::chrono::steady_clock::now() - std::chrono::seconds(2);
-  void flush(bool force, const coopdyn::runtime::ServiceLoop& loop, const coopdyn::io::IsolatedReceiver& rx);
+  void flush(bool force, const coopdyn::runtime::ServiceLoop& loop, const coopdyn::io::ReceiverCounters& rx);
 };
 
 void RejectionReport::flush(bool force, const coopdyn::runtime::ServiceLoop& loop,
-                          const coopdyn::io::IsolatedReceiver& rx) {
+                            const coopdyn::io::ReceiverCounters& rx) {
   using namespace coopdyn;
   const auto now = std::chrono::steady_clock::now();
   if (!force && now - last_report < std::chrono::seconds(1)) return;
@@ -370,7 +390,7 @@ void RejectionReport::flush(bool force, const coopdyn::runtime::ServiceLoop& loo
     missed_logged = m;
   }
   if (const long long f = rx.filtered(); f > filtered_logged) {
-    what += (what.empty() ? "" : ", ") + std::to_string(f - filtered_logged) + " not coopdyn messages (refused by the receive process)";
+    what += (what.empty() ? "" : ", ") + std::to_string(f - filtered_logged) + " not coopdyn messages (refused by the receive path)";
     filtered_logged = f;
   }
   std::string wire;  // malformed datagrams, by the wire parser's reason
@@ -416,6 +436,27 @@ struct RingArrivals : coopdyn::runtime::ArrivalSource {
   }
 };
 
+// trigger: arrival with realtime.receive_in_loop: the loop reads the input socket itself, sleeping in
+// ppoll on it (or polling it, realtime.busy_poll): no other thread or process between the kernel and
+// the loop
+struct SocketArrivals : coopdyn::runtime::ArrivalSource {
+  coopdyn::io::InLoopReceiver& rx;
+  coopdyn::runtime::ServiceLoop& loop;
+  RejectionReport& rejections;
+  SocketArrivals(coopdyn::io::InLoopReceiver& r, coopdyn::runtime::ServiceLoop& l, RejectionReport& j)
+      : rx(r), loop(l), rejections(j) {}
+  uint32_t bell() const override { return rx.bell(); }
+  void wait(uint32_t seen, long long deadline_ns) override {
+    if (rx.bell() != seen) return;
+    rx.wait_readable(deadline_ns);
+    drain();
+  }
+  void poll() override { drain(); }
+  void drain() override {
+    rx.receive([this](const void* d, int n, long long t) { offer_input(loop, false, rejections, d, n, t); });
+  }
+};
+
 // the receive thread: offers each input to the loop's inboxes, counts what is not applied (unless
 // the loop drains the ring itself: then it only supervises); logs the receive process's deaths
 void start_receiving(coopdyn::io::IsolatedReceiver& rx, coopdyn::runtime::ServiceLoop& loop,
@@ -439,44 +480,48 @@ void start_receiving(coopdyn::io::IsolatedReceiver& rx, coopdyn::runtime::Servic
       });
 }
 
+// what the receive socket got: its buffer and its filter
+void log_receive_socket(const coopdyn::io::ReceiverCounters& rx, const coopdyn::runtime::ServiceConfig& cfg) {
+  // what the kernel granted (it caps SO_RCVBUF at net.core.rmem_max and reports twice the request)
+  long long rmem_max = -1;
+  if (std::FILE* f = std::fopen("/proc/sys/net/core/rmem_max", "r")) {
+    if (std::fscanf(f, "%lld", &rmem_max) != 1) rmem_max = -1;
+    std::fclose(f);
+  }
+  const long long got = rx.socket_buffer();
+  if (cfg.receive_socket_buffer > 0 && got < 2LL * cfg.receive_socket_buffer)
+    spdlog::warn("receive socket buffer: asked for {} bytes, the kernel grants {} (SO_RCVBUF reports {}; "
+                 "net.core.rmem_max = {} caps it: raise it with sysctl -w net.core.rmem_max={}); a flood's "
+                 "bursts may overflow it and valid inputs are lost with the junk (counted)",
+                 cfg.receive_socket_buffer, got / 2, got, rmem_max, cfg.receive_socket_buffer);
+  else if (cfg.receive_socket_buffer > 0)
+    spdlog::info("receive socket buffer: {} bytes as configured (SO_RCVBUF reports {}: the kernel doubles a request "
+                 "for its bookkeeping)", cfg.receive_socket_buffer, got);
+  else
+    spdlog::info("receive socket buffer: SO_RCVBUF {} bytes (the OS default, net.core.rmem_default; "
+                 "receive.socket_buffer_bytes sets it)", got);
+  if (rx.filter_state() == 1)
+    spdlog::info("receive socket filter: only coopdyn messages on the input channels reach the receive path");
+  else
+    spdlog::warn("receive socket filter not attached ({}): every datagram on the input URL reaches the receive path, "
+                 "which still refuses what is not a coopdyn message",
+                 rx.filter_state() == -1 ? "the input URL is not udpm" : "the kernel refused it");
+}
+
 // outputs start only once inputs are received: waits (bounded) for the receive process to
 // subscribe, then logs what its socket got
 void wait_for_receiver(const coopdyn::io::IsolatedReceiver& rx, const coopdyn::runtime::ServiceConfig& cfg) {
   for (int i = 0; i < 400 && !rx.child_ready(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
   if (!rx.child_ready()) spdlog::warn("the receive process has not subscribed after 2 s; starting anyway");
-  else {
-    // what the kernel granted (it caps SO_RCVBUF at net.core.rmem_max and reports twice the request)
-    long long rmem_max = -1;
-    if (std::FILE* f = std::fopen("/proc/sys/net/core/rmem_max", "r")) {
-      if (std::fscanf(f, "%lld", &rmem_max) != 1) rmem_max = -1;
-      std::fclose(f);
-    }
-    const long long got = rx.socket_buffer();
-    if (cfg.receive_socket_buffer > 0 && got < 2LL * cfg.receive_socket_buffer)
-      spdlog::warn("receive socket buffer: asked for {} bytes, the kernel grants {} (SO_RCVBUF reports {}; "
-                   "net.core.rmem_max = {} caps it: raise it with sysctl -w net.core.rmem_max={}); a flood's "
-                   "bursts may overflow it and valid inputs are lost with the junk (counted)",
-                   cfg.receive_socket_buffer, got / 2, got, rmem_max, cfg.receive_socket_buffer);
-    else if (cfg.receive_socket_buffer > 0)
-      spdlog::info("receive socket buffer: {} bytes as configured (SO_RCVBUF reports {}: the kernel doubles a request "
-                   "for its bookkeeping)", cfg.receive_socket_buffer, got);
-    else
-      spdlog::info("receive socket buffer: SO_RCVBUF {} bytes (the OS default, net.core.rmem_default; "
-                   "receive.socket_buffer_bytes sets it)", got);
-    if (rx.filter_state() == 1)
-      spdlog::info("receive socket filter: only coopdyn messages on the input channels reach the receive process");
-    else
-      spdlog::warn("receive socket filter not attached ({}): every datagram on the input URL reaches the receive process, "
-                   "which still refuses what is not a coopdyn message",
-                   rx.filter_state() == -1 ? "the input URL is not udpm" : "the kernel refused it");
-  }
+  else log_receive_socket(rx, cfg);
 }
 
 // run: the loop in its thread (real-time options applied there); this thread drains the loop's
 // events into the log until a signal or the duration. Returns when the loop has stopped.
 std::chrono::steady_clock::time_point run(coopdyn::runtime::ServiceLoop& loop, const coopdyn::System& sys,
                                           const coopdyn::runtime::ServiceConfig& cfg, double duration,
-                                          coopdyn::io::IsolatedReceiver& rx, RejectionReport& rejections) {
+                                          const coopdyn::io::ReceiverCounters& rx, coopdyn::io::IsolatedReceiver* isolated,
+                                          RejectionReport& rejections) {
   using namespace coopdyn;
   std::promise<std::vector<runtime::RealtimeResult>> rt_promise;
   auto rt_future = rt_promise.get_future();
@@ -508,7 +553,7 @@ std::chrono::steady_clock::time_point run(coopdyn::runtime::ServiceLoop& loop, c
       g_stop.store(true);
   }
   loop_thread.join();
-  rx.stop();
+  if (isolated) isolated->stop();
   feed_receiver_counters(loop, rx);  // the summary line counts what the receive process did last
   rejections.flush(true, loop, rx);
   while (loop.events().pop(&e)) {
@@ -521,7 +566,7 @@ std::chrono::steady_clock::time_point run(coopdyn::runtime::ServiceLoop& loop, c
 
 // report: the summary line on stdout (the tests and scripts read it)
 void print_summary(const coopdyn::runtime::ServiceLoop& loop, const coopdyn::runtime::ServiceConfig& cfg,
-                   const coopdyn::io::IsolatedReceiver& rx, std::chrono::steady_clock::time_point t_start) {
+                   const coopdyn::io::ReceiverCounters& rx, std::chrono::steady_clock::time_point t_start) {
   using namespace coopdyn;
   const io::StatsFrame s = loop.totals();
   const runtime::InputCounters& ic = loop.input_counters();
@@ -571,27 +616,37 @@ int main(int argc, char** argv) {
   for (const std::string& w : sys.warnings) spdlog::warn("scene: {}", w);
   std::unique_ptr<runtime::PublisherThread> publisher = make_publisher(sys, cfg, *bus);
   runtime::ServiceLoop loop(sys, cfg, publisher ? static_cast<io::Bus&>(*publisher) : *bus);
-  std::unique_ptr<io::IsolatedReceiver> rx;
+  std::unique_ptr<io::IsolatedReceiver> isolated;
+  std::unique_ptr<io::InLoopReceiver> in_loop;
   try {
-    rx = make_receiver(cfg);
+    if (cfg.realtime.receive_in_loop) in_loop = make_in_loop_receiver(cfg);
+    else isolated = make_receiver(cfg);
   } catch (const std::exception& e) {
     spdlog::shutdown();
     std::fprintf(stderr, "coopdynd: %s\n", e.what());
     return 1;
   }
+  const io::ReceiverCounters& rx = isolated ? static_cast<const io::ReceiverCounters&>(*isolated) : *in_loop;
   log_startup(sys, cfg, opt.scene_path);
   install_signal_handlers();
   RejectionReport rejections;
-  rx->avoid_cpu(cfg.realtime.cpu);  // the receive thread and process stay off the loop's CPU
-  RingArrivals arrivals(*rx, loop, rejections);
-  if (cfg.trigger == runtime::Trigger::kArrival && cfg.mode == runtime::ServiceMode::kEstimate) {
-    rx->drain_in_caller();
-    loop.take_arrivals_from(&arrivals);
+  std::unique_ptr<runtime::ArrivalSource> arrivals;
+  if (in_loop) {
+    arrivals = std::make_unique<SocketArrivals>(*in_loop, loop, rejections);
+    loop.take_arrivals_from(arrivals.get());
+    log_receive_socket(*in_loop, cfg);
+  } else {
+    isolated->avoid_cpu(cfg.realtime.cpu);  // the receive thread and process stay off the loop's CPU
+    if (cfg.trigger == runtime::Trigger::kArrival && cfg.mode == runtime::ServiceMode::kEstimate) {
+      isolated->drain_in_caller();
+      arrivals = std::make_unique<RingArrivals>(*isolated, loop, rejections);
+      loop.take_arrivals_from(arrivals.get());
+    }
+    start_receiving(*isolated, loop, cfg, rejections);
+    wait_for_receiver(*isolated, cfg);
   }
-  start_receiving(*rx, loop, cfg, rejections);
-  wait_for_receiver(*rx, cfg);
 
-  const auto t_start = run(loop, sys, cfg, opt.duration, *rx, rejections);
+  const auto t_start = run(loop, sys, cfg, opt.duration, rx, isolated.get(), rejections);
   if (publisher) {
     publisher->stop();  // what the loop queued last goes out
     if (publisher->dropped() > 0)
@@ -600,6 +655,6 @@ int main(int argc, char** argv) {
     if (publisher->failed() > 0)
       spdlog::warn("publisher thread: lcm_publish failed for {} message(s)", publisher->failed());
   }
-  print_summary(loop, cfg, *rx, t_start);
+  print_summary(loop, cfg, rx, t_start);
   return 0;
 }

@@ -8,7 +8,8 @@
 // opens a UDP socket on the inbound URL's group and port (SO_REUSEADDR, as liblcm, so lcm-logger
 // listens beside it), reads datagrams with recvmmsg in batches and parses them with lcm_wire.h
 // (every length and offset checked, fragments reassembled in preallocated per-sender slots with a
-// timeout); a complete message on an input channel whose payload starts with that channel's type
+// timeout; the checks are input_gate.h's, which the in-loop receive path, rx_in_loop.h, shares);
+// a complete message on an input channel whose payload starts with that channel's type
 // fingerprint goes as raw bytes into a shared-memory ring (single producer, single consumer, fixed
 // slots); it decodes nothing. The daemon's receive thread drains the ring and hands the bytes to
 // the decoders (bounds-checked, codec.h); with drain_in_caller() the loop drains it itself, woken
@@ -63,12 +64,11 @@
 #include <vector>
 
 #include "service/io/auth.h"
+#include "service/io/input_gate.h"
 #include "service/io/lcm_wire.h"
 #include "service/io/messages.h"
 
 namespace coopdyn::io {
-
-constexpr int kRxChannels = 8;  // channels one receive process accepts at most
 
 // The shared ring: a header, then `slots` slots of (len, recv_ns, bytes[slot_bytes]).
 struct RxRingHeader {
@@ -76,21 +76,12 @@ struct RxRingHeader {
   uint32_t slots, slot_bytes;
   std::atomic<uint64_t> head;     // next slot the child writes (producer)
   std::atomic<uint64_t> tail;     // next slot the daemon reads (consumer)
-  std::atomic<uint64_t> dropped;  // messages the child could not queue (too large, ring full)
-  std::atomic<uint64_t> received; // messages the child received on the channel
   std::atomic<uint64_t> alive;    // set by the child once subscribed
-  std::atomic<uint64_t> filtered; // messages the child refused: not a coopdyn message of its channel
-  std::atomic<uint64_t> socket_drops;  // the kernel's drop count of the receive socket (filter + overflow)
-  std::atomic<int64_t> rcvbuf;    // SO_RCVBUF as the kernel reports it (twice a request it granted; the OS default as is)
-  std::atomic<int64_t> filter;    // 1: socket filter attached; < 0: not (-1 no socket (not udpm), -2 refused)
-  // datagrams the child refused as malformed LCM (lcm_wire.h), by reason (WireStatus)
-  std::atomic<uint64_t> malformed_by[wire::kWireStatuses];
-  // authentication on: the key (written by the daemon before the child starts); the messages the
-  // child rejected by channel (the order given) and reason (Reject: malformed, and with
-  // authentication unauthenticated, bad_mac, replayed)
+  // what the child's gate (input_gate.h) refused, by reason, and what it could not queue (dropped)
+  RxCounters counters;
+  // authentication on: the key (written by the daemon before the child starts)
   std::atomic<uint64_t> auth_on;
   unsigned char auth_key[kKeyBytes];
-  std::atomic<uint64_t> rejected_by[kRxChannels][kRejectKinds];
   // the loop drains the ring itself (IsolatedReceiver::drain_in_caller): set by the daemon before the
   // child starts. Then the child rings `bell` (a futex word shared by the two processes) after each
   // batch it queued, waking the waiter when `bell_waiting` says one sleeps, instead of the eventfd.
@@ -99,9 +90,8 @@ struct RxRingHeader {
   std::atomic<uint32_t> bell_waiting;
 };
 static_assert(sizeof(std::atomic<uint32_t>) == sizeof(uint32_t), "the shared futex word is the counter itself");
-static_assert(std::atomic<uint64_t>::is_always_lock_free, "the ring's counters must be lock-free across processes");
 
-class IsolatedReceiver {
+class IsolatedReceiver : public ReceiverCounters {
  public:
   // raw message: bytes, length, receive time (CLOCK_MONOTONIC ns, taken by the child)
   using Handler = std::function<void(const void* data, int len, long long recv_ns)>;
@@ -142,17 +132,8 @@ class IsolatedReceiver {
   void start(Handler handler, RestartHandler on_restart);
   void stop();  // stops the thread, kills and reaps the child (also done by the destructor)
 
-  long long restarts() const { return restarts_.load(std::memory_order_relaxed); }
-  long long dropped() const;
+  long long restarts() const override { return restarts_.load(std::memory_order_relaxed); }
   long long child_received() const;
-  long long filtered() const;      // refused by the child (not a coopdyn message of its channel)
-  long long malformed() const;     // datagrams refused by the child's wire parser (every reason)
-  long long malformed(wire::WireStatus why) const;
-  // messages of channel k (the order given) the child rejected for reason why
-  long long rejected(int channel, Reject why) const;
-  long long socket_drops() const;  // dropped by the kernel at the receive socket (filter + overflow)
-  long long socket_buffer() const; // SO_RCVBUF the kernel reports (0 until known)
-  int filter_state() const;        // 1 attached, 0 not yet, -1 no receive socket found, -2 refused
   pid_t child_pid() const { return pid_.load(); }
   // true once the current child has subscribed (tests wait for it)
   bool child_ready() const;

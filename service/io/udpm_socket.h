@@ -1,7 +1,8 @@
 // A UDP socket in an LCM udpm group, opened as liblcm opens its own (bound to the URL's port with
 // SO_REUSEADDR, so that lcm-logger and other subscribers on this host receive too; the group joined
 // on any interface; IP_MULTICAST_ALL off, so only this group's datagrams arrive), non-blocking.
-// Used by the daemon's receive process and by LcmBus's polling reader, which read LCM's wire format
+// Used by the daemon's receive path (input_gate.h: the receive process, or the loop with
+// realtime.receive_in_loop) and by LcmBus's polling reader, which read LCM's wire format
 // themselves (lcm_wire.h).
 #pragma once
 

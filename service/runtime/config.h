@@ -59,6 +59,11 @@ struct RealtimeOptions {
   // It takes a whole CPU at all times: give it one (cpu, ideally isolated from the scheduler with
   // isolcpus), with sched_fifo. Off by default.
   bool busy_poll = false;
+  // Event-driven estimate mode (trigger: arrival) only: the loop's thread reads the input socket
+  // itself (io/rx_in_loop.h) instead of taking states from the isolated receive process's ring; a
+  // state then goes from the kernel to the loop with one wake-up (none with busy_poll), through the
+  // same bounded parser and checks, but that parser runs in the daemon's process. Off by default.
+  bool receive_in_loop = false;
   // Fixed-rate loop (trigger: tick): the loop encodes each output and hands the bytes to a publisher
   // thread (runtime/publisher_thread.h), which calls lcm_publish; the send and the kernel's delivery
   // to the host's subscribers (their wake-ups) leave the loop's thread and, with cpu, its CPU. Each
@@ -81,7 +86,7 @@ struct RealtimeOptions {
 //   realtime.cpu    -1 or [0, CPU_SETSIZE - 1 = 1023]: the bit must exist in a cpu_set_t
 //   realtime.spin_us  [0, 1000] us and below the period (1e6 / rate_hz us)
 //   trigger         tick, or arrival in estimate mode only
-//   realtime.busy_poll  with trigger arrival only
+//   realtime.busy_poll, realtime.receive_in_loop  with trigger arrival only
 //   closure_tolerance.*  (0, 1e6] in m, rad, m/s, rad/s
 //   receive.queue   [2, 4096] messages; receive.max_message_bytes [256, 4194304] bytes
 //   receive.socket_buffer_bytes  0 (the OS default) or [4096, 268435456] bytes (SO_RCVBUF takes an

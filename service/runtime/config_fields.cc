@@ -165,6 +165,12 @@ std::string check_busy_poll(const ConfigField&, const FieldValue& v, const Servi
          std::string(mode_name(c.mode)) + ", trigger " + trigger_name(c.trigger) + "); the fixed-rate loop has spin_us";
 }
 
+std::string check_receive_in_loop(const ConfigField&, const FieldValue& v, const ServiceConfig& c) {
+  if (!v.b || (c.mode == ServiceMode::kEstimate && c.trigger == Trigger::kArrival)) return "";
+  return "realtime.receive_in_loop reads measured states on the loop's thread and applies to mode estimate with trigger "
+         "arrival only (mode " + std::string(mode_name(c.mode)) + ", trigger " + trigger_name(c.trigger) + ")";
+}
+
 constexpr double kNone = 0;
 
 using K = FieldKind;
@@ -275,6 +281,12 @@ const std::vector<ConfigField> kFields = {
      COOPDYN_MEMBER(R::busy_poll, b), check_busy_poll, "",
      "`trigger: arrival` only: the loop polls for measured states instead of sleeping (no wake-up between a "
      "state's receipt and its computation); takes a whole CPU at all times: give it `cpu` (isolated) and `sched_fifo`"},
+    {"realtime", "receive_in_loop", K::kFlag, "true or false", kNone, kNone, "", {}, false,
+     COOPDYN_MEMBER(R::receive_in_loop, b), check_receive_in_loop, " (the isolated receive process)",
+     "`trigger: arrival` only: the loop's thread reads the input socket itself (sleeping in `ppoll` on it, or "
+     "polling it with `busy_poll`) through the same bounded parser, checks and counters as the receive process, "
+     "so that a state goes from the kernel to the loop with no other wake-up; no receive process then isolates "
+     "the parser from the daemon (docs/guide/service.md, threat model). udpm inputs only"},
     {"realtime", "publisher_thread", K::kFlag, "true or false", kNone, kNone, "", {}, false,
      COOPDYN_MEMBER(R::publisher_thread, b), nullptr, "",
      "`trigger: tick`: the loop hands each encoded output to a thread of its own that publishes it (the `sendmsg` "

@@ -529,8 +529,10 @@ bool ServiceLoop::wait_for_arrival(uint32_t seen, long long deadline, const std:
       *stopped = true;
       return false;
     }
-    if (poll) cpu_relax();
-    else if (source_) source_->wait(seen, sleep_end_ns(now, deadline));
+    if (poll) {
+      if (source_) source_->poll();
+      cpu_relax();
+    } else if (source_) source_->wait(seen, sleep_end_ns(now, deadline));
     else bell_.wait(seen, sleep_end_ns(now, deadline));
   }
 }

@@ -402,6 +402,89 @@ TEST_F(DaemonProcess, UdpmEstimateOnArrivalBusyPollingOneOutputPerStateEqualOffl
   std::remove(cfg_path.c_str());
 }
 
+// realtime.receive_in_loop (the loop reads the input socket itself, no receive process) against the
+// default (the loop drains the receive process's ring), the same states to each in lock-step: each
+// state gets exactly one output carrying its seq, and the two modes' outputs for the same state are
+// equal bit for bit (wrenches, accelerations), and equal to the offline evaluation. Before each
+// state, liblcm's crash fragment and junk after the state fingerprint arrive on the inputs (their
+// own group and port, so that no liblcm subscriber of this test sees them): in both modes they are
+// refused and counted (malformed), nothing restarts, and every state is applied.
+TEST_F(DaemonProcess, UdpmEstimateReceivingInTheLoopEqualsTheReceiveProcess) {
+  const std::string url_in = private_udpm_url(2, "239.255.76.99");
+  auto in = try_bus(url_in);  // publishes only
+  ASSERT_TRUE(in);
+  RawUdp raw(url_in);
+  OutputSink sink;
+  sink.attach(*bus_);
+  bus_->start();
+  Eigen::VectorXd v = sys_.v0;
+  for (int i = 0; i < v.size(); ++i) v[i] = 0.05 * std::sin(2 * i + 1.0);
+  v = closing_velocity(sys_, sys_.q0, v);
+  const Eigen::VectorXd tau = some_torque(sys_, 6);
+  std::mt19937 rng(27);
+  constexpr int kStates = 20;
+  std::vector<io::DecodedOutput> outs;  // both runs'
+  for (const int in_loop : {0, 1}) {
+    const std::string cfg_path = tmp_path("in_loop.yaml");
+    std::ofstream(cfg_path) << "rate_hz: 200\nmode: estimate\ntrigger: arrival\nlcm_url_in: \"" << url_in
+                            << "\"\nrealtime: {receive_in_loop: " << (in_loop ? "true" : "false") << "}\n";
+    auto d = start_daemon({"--config", cfg_path}, in_loop ? "in_loop" : "ring");
+    ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.input != static_cast<int>(io::Input::kState); }, 10s))
+        << slurp(d->err);
+    const int base = in_loop ? 100 : 0;
+    for (int k = 1; k <= kStates; ++k) {
+      raw.send(lc03(1, 100, 0xFFFFFF00u, 0, 2, "COOPDYN_STATE", 324));  // liblcm 1.3.1's crash fragment
+      std::vector<uint8_t> junk;
+      put32(junk, 0x4c433032);
+      put32(junk, rng());
+      for (char c : std::string("COOPDYN_STATE")) junk.push_back(static_cast<uint8_t>(c));
+      junk.push_back(0);
+      const uint64_t h = static_cast<uint64_t>(io::fingerprint(io::MessageType::kMeasuredState));
+      for (int sh = 56; sh >= 0; sh -= 8) junk.push_back(static_cast<uint8_t>(h >> sh));
+      for (int i = 0; i < 100; ++i) junk.push_back(static_cast<uint8_t>(rng()));
+      raw.send(junk);
+      const Eigen::VectorXd vv = v * k;
+      const auto b = io::encode_measured_state(io::wall_us(), base + k, sys_.model.q_names, stdvec(sys_.q0), sys_.model.v_names,
+                                               stdvec(vv), stdvec(tau));
+      in->publish("COOPDYN_STATE", b.data(), static_cast<int>(b.size()));
+      const int seq = base + k;
+      if (!sink.wait_for([seq](const io::DecodedOutput& o) { return o.input_seq == seq; }, 5s)) {
+        d->signal(SIGTERM);
+        d->wait();
+        FAIL() << "no output for seq " << seq << "\n" << slurp(d->out) << slurp(d->err);
+      }
+    }
+    d->signal(SIGTERM);
+    EXPECT_EQ(d->wait(), 0) << slurp(d->err);
+    const std::string out = slurp(d->out);
+    // the junk: rejected by the receive path (Reject::kDecode), counted with the states received
+    EXPECT_NE(out.find("states received 40, accepted 20, rejected 20, out-of-order 0"), std::string::npos) << out;
+    EXPECT_NE(out.find("receiver restarts 0,"), std::string::npos) << out;
+    long long malformed = -1;
+    if (const auto p = out.find("malformed "); p != std::string::npos) malformed = std::atoll(out.c_str() + p + 10);
+    EXPECT_GE(malformed, kStates) << "the crash fragments are counted: " << out;
+    if (in_loop) EXPECT_NE(slurp(d->err).find("realtime.receive_in_loop: no receive process"), std::string::npos) << slurp(d->err);
+    std::remove(cfg_path.c_str());
+    std::lock_guard<std::mutex> lk(sink.mu);  // the next run waits for outputs of its own
+    outs.insert(outs.end(), sink.outs.begin(), sink.outs.end());
+    sink.outs.clear();
+  }
+  bus_->stop();
+  std::map<long long, std::vector<io::DecodedOutput>> per_seq;
+  for (const auto& o : outs)
+    if (o.input == static_cast<int>(io::Input::kState)) per_seq[o.input_seq].push_back(o);
+  for (int k = 1; k <= kStates; ++k) {
+    ASSERT_EQ(per_seq[k].size(), 1u) << "outputs carrying seq " << k << " (receive process)";
+    ASSERT_EQ(per_seq[100 + k].size(), 1u) << "outputs carrying seq " << 100 + k << " (in the loop)";
+    const io::DecodedOutput &a = per_seq[k][0], &b = per_seq[100 + k][0];
+    ASSERT_EQ(a.wrench.size(), b.wrench.size());
+    for (size_t t = 0; t < a.wrench.size(); ++t)
+      for (int c = 0; c < 6; ++c) EXPECT_EQ(a.wrench[t][c], b.wrench[t][c]) << "seq " << k << " wrench " << t << " " << c;
+    EXPECT_EQ(a.vdot, b.vdot) << "seq " << k;
+    expect_matches_offline(sys_, b);
+  }
+}
+
 // At the lowest rate (1 Hz) SIGTERM right after a tick, and --duration, end the daemon, saying how
 // and after how many ticks. That a stop is seen within one 10 ms slice, not at the next deadline, is
 // ServiceLoop.StopEndsRunWithinASliceAtTheLowestRate's (exactly, on the sleep plan); the times taken
@@ -463,6 +546,16 @@ TEST(DaemonStartup, BrokenSceneOrConfigStopsWithAClearMessage) {
     EXPECT_NE(slurp(c.err).find("input URL: the group '10.1.2.3' of 'udpm://10.1.2.3:7667?ttl=0' is not an IPv4 multicast"),
               std::string::npos) << slurp(c.err);
   }
+  // the loop reading the inputs itself: udpm only, and the URL named
+  const std::string in_loop = tmp_path("in_loop_memq.yaml");
+  std::ofstream(in_loop) << "mode: estimate\ntrigger: arrival\nrealtime: {receive_in_loop: true}\n";
+  {
+    Child c({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", in_loop, "--lcm-url", "memq://"}, "in_loop_memq");
+    EXPECT_EQ(c.wait(), 1);
+    EXPECT_NE(slurp(c.err).find("realtime.receive_in_loop reads udpm:// inputs only; input URL 'memq://'"), std::string::npos)
+        << slurp(c.err);
+  }
+  std::remove(in_loop.c_str());
   std::remove(bad_in.c_str());
   std::remove(bad_scene.c_str());
   std::remove(bad_cfg.c_str());

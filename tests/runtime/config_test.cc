@@ -83,17 +83,22 @@ TEST(DaemonConfig, EveryBadValueNamesFileLineAndReason) {
       {"mode: estimate\nrealtime: {busy_poll: true}\n",
        "t.yaml:2:23: realtime.busy_poll polls for measured states and applies to mode estimate with trigger arrival only "
        "(mode estimate, trigger tick)"},
+      {"realtime: {receive_in_loop: true}\n",
+       "t.yaml:1:29: realtime.receive_in_loop reads measured states on the loop's thread and applies to mode estimate "
+       "with trigger arrival only (mode simulate, trigger tick)"},
   };
   expect_refused(cases);
   EXPECT_THROW(load_config("/no/such/coopdynd.yaml"), ConfigError);
   const ServiceConfig c = load_config_string(
-      "mode: estimate\ntrigger: arrival\noverrun: {policy: skip}\nrealtime: {spin_us: 50, cpu_dma_latency_zero: true, busy_poll: true}\n",
+      "mode: estimate\ntrigger: arrival\noverrun: {policy: skip}\nrealtime: {spin_us: 50, cpu_dma_latency_zero: true, busy_poll: true, "
+      "receive_in_loop: true}\n",
       "t.yaml");
   EXPECT_EQ(c.mode, ServiceMode::kEstimate);
   EXPECT_EQ(c.trigger, Trigger::kArrival);
   EXPECT_EQ(c.realtime.spin_us, 50);
   EXPECT_TRUE(c.realtime.cpu_dma_latency_zero);
   EXPECT_TRUE(c.realtime.busy_poll);
+  EXPECT_TRUE(c.realtime.receive_in_loop);
   EXPECT_EQ(c.overrun, OverrunPolicy::kSkip);
 }
 
