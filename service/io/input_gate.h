@@ -1,6 +1,6 @@
 // What every datagram on the daemon's inputs goes through before any decoder sees it, wherever it
 // is read: in the isolated receive process (rx_isolated.h, the default) or on the loop's own thread
-// (rx_in_loop.h, `receive.in_loop`). One code path, so both refuse the same datagrams for the same
+// (rx_in_loop.h, `realtime.receive_in_loop`). One code path, so both refuse the same datagrams for the same
 // reasons and count them in the same counters:
 //   - the socket (open_input_socket): udpm_socket.h's, with the buffer asked for and, before it is
 //     bound, a classic BPF filter that lets through only LC02 datagrams whose channel is an input

@@ -1,4 +1,4 @@
-// The daemon's inputs read on the loop's own thread (`receive.in_loop`, estimate mode with
+// The daemon's inputs read on the loop's own thread (`realtime.receive_in_loop`, estimate mode with
 // `trigger: arrival` only): no receive process, no ring, no wake-up of another thread or process
 // between the kernel and the loop. The loop sleeps in ppoll on the input socket (woken by the
 // kernel when a datagram is queued) or, with `realtime.busy_poll`, reads it without waiting; each

@@ -3,7 +3,7 @@
 // moved, drains the source into its inboxes on its own thread. The daemon's sources: the receive
 // process's ring (io/rx_isolated.h, drain_in_caller; the default): the message goes from the
 // process that received it to the loop with one wake-up, the loop's; or the input socket itself
-// (io/rx_in_loop.h, receive.in_loop): from the kernel to the loop with one wake-up (none when
+// (io/rx_in_loop.h, realtime.receive_in_loop): from the kernel to the loop with one wake-up (none when
 // polling). Implementations must not allocate, lock, log or throw in any of the four calls.
 #pragma once
 

@@ -463,7 +463,9 @@ TEST_F(DaemonProcess, UdpmEstimateReceivingInTheLoopEqualsTheReceiveProcess) {
     long long malformed = -1;
     if (const auto p = out.find("malformed "); p != std::string::npos) malformed = std::atoll(out.c_str() + p + 10);
     EXPECT_GE(malformed, kStates) << "the crash fragments are counted: " << out;
-    if (in_loop) EXPECT_NE(slurp(d->err).find("realtime.receive_in_loop: no receive process"), std::string::npos) << slurp(d->err);
+    if (in_loop) {
+      EXPECT_NE(slurp(d->err).find("realtime.receive_in_loop: no receive process"), std::string::npos) << slurp(d->err);
+    }
     std::remove(cfg_path.c_str());
     std::lock_guard<std::mutex> lk(sink.mu);  // the next run waits for outputs of its own
     outs.insert(outs.end(), sink.outs.begin(), sink.outs.end());
