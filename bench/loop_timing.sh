@@ -11,6 +11,9 @@
 #                                         # itself (realtime.receive_in_loop), sleeping and busy polling
 #                                         # with a polling client, alternated for ROUNDS rounds (default
 #                                         # 3), next to cyclictest FIFO
+#   ROWS=inplace bench/loop_timing.sh ... # the default config against the same with
+#                                         # realtime.cpu_dma_latency_zero, alternated for ROUNDS rounds
+#                                         # (default 3), next to cyclictest SCHED_OTHER
 #   BASELINE=DIR bench/loop_timing.sh ... # also the event-driven rows of another build's coopdynd
 #                                         # (DIR/bin/coopdynd: before and after a change, in one run)
 #
@@ -151,8 +154,20 @@ receive_rounds() {
       "$(with "busy_poll: true, receive_in_loop: true")" arrival "$BUILD" --busy-poll
   done
 }
+# inplace: the default config against the same with the CPUs kept out of deep idle states
+# (realtime.cpu_dma_latency_zero, what cyclictest does), A/B rounds as above
+inplace_rounds() {
+  cyclic "cyclictest, SCHED_OTHER"
+  for r in $(seq "${ROUNDS:-3}"); do
+    daemon "coopdynd simulate, SCHED_OTHER (round $r)" simulate ""
+    daemon "coopdynd simulate, SCHED_OTHER, cpu_dma_latency_zero (round $r)" simulate \
+      "realtime: {cpu_dma_latency_zero: true}"
+  done
+}
 if [ "${ROWS:-all}" = receive ]; then
   receive_rounds
+elif [ "${ROWS:-all}" = inplace ]; then
+  inplace_rounds
 else
   if [ "${ROWS:-all}" != arrival ]; then
     daemon "coopdynd simulate, SCHED_OTHER" simulate ""
