@@ -106,6 +106,16 @@ struct WrenchSigmaData {
   Eigen::VectorXd qp, vp, tau_id, r0_tau, r_tau;  // (nq), (nv), (nv), (nv), (nv)
   Eigen::VectorXd r0_g, r_g;                       // (rows)
   StateRefit* refit = nullptr;  // estimate mode: refits the fitted coordinates per column (not owned)
+
+  // measurement noise, velocity columns: the tangent along a velocity change (wrench_sigma_velocity.h)
+  Eigen::VectorXd tv;                 // (nv) the velocity change of the column (a unit, refitted)
+  std::vector<int> tv_nz;             // its nonzero entries
+  std::vector<Vec6> tV, tA, tF;       // per body: the change of V_W, of A0_W, of the bias force's
+                                      // subtree sum (world, at p_ref)
+  std::vector<Vec6> P_W;              // per body: I_W V_W (its momentum, at the evaluated state)
+  std::vector<char> t_moved, t_touched;  // per body: tV, tA set (a moved body); tF set
+  Eigen::VectorXd tGdot;              // (rows) the change of Gdot v
+  std::vector<double> trr;            // per spec: the change of a rolling spec's rr_arm
 };
 
 // Torque noise only (simulate mode: the state is exact). Fills sd.sigma and sd.C for the
