@@ -409,13 +409,15 @@ void batch_outputs(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
 }
 
 // the residuals (E1, E2 of the header) and the wrenches at (sd.qp, sd.vp) with the evaluation's
-// vdot, lambda and friction held (damping follows v)
+// vdot, lambda and friction held (damping follows v). fk_root >= 0: sd.wp's kinematics are at a
+// state that differs from (sd.qp, sd.vp) only below body fk_root (forward_kinematics_subtree).
 void residual(const System& sys, const Workspace& ws, WrenchSigmaData& sd, const Eigen::VectorXd& v,
-              const Eigen::VectorXd& tau, Eigen::VectorXd& r_tau, Eigen::VectorXd& r_g, WrenchData& wd) {
+              const Eigen::VectorXd& tau, Eigen::VectorXd& r_tau, Eigen::VectorXd& r_g, WrenchData& wd, int fk_root = -1) {
   const Model& model = sys.model;
   const ConstraintSet& cs = sys.constraints;
   Workspace& wp = *sd.wp;
-  forward_kinematics(model, wp.data, sd.qp, sd.vp);
+  if (fk_root >= 0) forward_kinematics_subtree(model, wp.data, sd.qp, sd.vp, fk_root);
+  else forward_kinematics(model, wp.data, sd.qp, sd.vp);
   rnea(model, wp.data, ws.vdot, nullptr, sd.tau_id);
   rnea_bias(model, wp.data);  // the bias forces the wrench pass reads
   constraint_rows(model, wp.data, cs, sd.qp, sd.vp, wp.cd);
@@ -467,12 +469,15 @@ void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
         sd.Cd(6 * static_cast<Eigen::Index>(k) + c, j) = (sd.wd1->W[k][c] - sd.wd0->W[k][c]) * scale;
   };
   for (int a = 0; a < nq; ++a) {
-    const int iq = sd.q_index[static_cast<size_t>(a)];
+    // without a refit only the joint's subtree moves: its kinematics alone are redone, and
+    // undone after the column
+    const int iq = sd.q_index[static_cast<size_t>(a)], root = sd.refit ? -1 : sys.model.dof_body[sd.q_dofs[static_cast<size_t>(a)]];
     sd.qp[iq] = q[iq] + h;
     if (sd.refit) sd.refit->refit(sd.qp, sd.vp, true);
-    residual(sys, ws, sd, v, tau, sd.r_tau, sd.r_g, *sd.wd1);
+    residual(sys, ws, sd, v, tau, sd.r_tau, sd.r_g, *sd.wd1, root);
     sd.qp = q;
     sd.vp = v;
+    if (root >= 0) forward_kinematics_subtree(sys.model, sd.wp->data, q, v, root);
     column(a, sd.Sq[a] / h);
   }
   if (sd.v_dofs.empty()) return;
