@@ -30,6 +30,8 @@ class FitRefit final : public StateRefit {
   bool active() const { return (fit_q_ || fit_v_) && !plan_.fit_v.empty(); }
   // a moved position refits the pose (and the twist at it), a moved velocity the twist only
   void refit(Eigen::VectorXd& q, Eigen::VectorXd& v, bool q_moved) override;
+  // the twist's change for a change of the measured velocities (fit_velocity_change)
+  void refit_velocity_change(const Eigen::MatrixXd& G, Eigen::VectorXd& dv) override;
 
  private:
   const System& sys_;

@@ -449,8 +449,7 @@ void residual(const System& sys, const Workspace& ws, WrenchSigmaData& sd, const
 // coordinate) and of Cd (the wrenches' own change at fixed vdot, lambda). Positions: forward
 // differences. Velocities: the tangent of the velocity recursion (wrench_sigma_velocity.h), along
 // the unit change of the joint's velocity and, with a refit, the fitted velocities' change (the
-// velocity fit is linear and homogeneous in the measured velocities: state_fit.h, so refitting
-// the unit vector gives it exactly).
+// velocity fit is linear in the measured velocities: fit_velocity_change of state_fit.h).
 void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, const Eigen::VectorXd& q,
                    const Eigen::VectorXd& v, const Eigen::VectorXd& tau, int nq) {
   constexpr double h = 1e-7;  // rad, m
@@ -488,8 +487,7 @@ void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
     sd.tv[d] = 1.0;
     sd.tv_nz.assign(1, d);
     if (sd.refit) {
-      sd.qp = q;
-      sd.refit->refit(sd.qp, sd.tv, false);
+      sd.refit->refit_velocity_change(ws.cd.G, sd.tv);
       sd.tv_nz.clear();
       for (int i = 0; i < sd.tv.size(); ++i)
         if (sd.tv[i] != 0.0) sd.tv_nz.push_back(i);

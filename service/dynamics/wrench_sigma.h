@@ -63,6 +63,9 @@ struct StateRefit {
   // (q, v): the evaluated state with one measured coordinate moved (a position when q_moved, else a
   // velocity); sets the fitted ones from it
   virtual void refit(Eigen::VectorXd& q, Eigen::VectorXd& v, bool q_moved) = 0;
+  // dv: a change of the measured velocities at the evaluated state, G (rows x nv) the constraint
+  // rows' Jacobian there; sets the fitted velocities' change with it (the velocity fit is linear)
+  virtual void refit_velocity_change(const Eigen::MatrixXd& G, Eigen::VectorXd& dv) = 0;
 };
 
 // The scene declares noise (torque, or joint position or velocity) on some DOF and its formulation
