@@ -10,7 +10,8 @@
 // step (fit_position_step) between the moved and the evaluated measurement, -(G_u^T G_u)^+ G_u^T
 // G_a dq_a to first order (exact in the linearization, free of the iterative fit's tolerance, which
 // a 1e-7 step would amplify); the twist is refitted exactly (the velocity fit is a linear solve) at
-// the moved state. In a workspace of its own (the daemon's warm start is not touched).
+// the moved state. A velocity column's twist change is the fit of the velocity change itself
+// (fit_velocity_change, from the evaluation's constraint Jacobian). In a workspace of its own (the daemon's warm start is not touched).
 // Allocation-free after construction; never throws.
 #pragma once
 
