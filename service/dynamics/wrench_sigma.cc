@@ -470,7 +470,8 @@ void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
   for (int a = 0; a < nq; ++a) {
     // without a refit only the joint's subtree moves: its kinematics alone are redone, and
     // undone after the column
-    const int iq = sd.q_index[static_cast<size_t>(a)], root = sd.refit ? -1 : sys.model.dof_body[sd.q_dofs[static_cast<size_t>(a)]];
+    const int iq = sd.q_index[static_cast<size_t>(a)];
+    const int root = sd.refit ? -1 : sys.model.dof_body[sd.q_dofs[static_cast<size_t>(a)]];
     sd.qp[iq] = q[iq] + h;
     if (sd.refit) sd.refit->refit(sd.qp, sd.vp, true);
     residual(sys, ws, sd, v, tau, sd.r_tau, sd.r_g, *sd.wd1, root);

@@ -1,5 +1,7 @@
 #include "service/dynamics/wrench_sigma_velocity.h"
 
+#include <algorithm>
+
 namespace coopdyn {
 
 namespace {
@@ -34,7 +36,8 @@ void tangent_down(const Model& model, const Data& data, WrenchSigmaData& sd, con
       dA += cross_motion(dV, J) + cross_motion(data.V_W[i], dJ);
       if (j.type == JointType::kRevolute2) {  // S' qdot = qd0 qd1 a1 x a2 (kinematics.cc)
         const int d = j.idx_v;
-        const Vec3 c = (sd.tv[d] * v[d + 1] + v[d] * sd.tv[d + 1]) * data.S_W.col(d).head<3>().cross(data.S_W.col(d + 1).head<3>());
+        const Vec3 a1 = data.S_W.col(d).head<3>(), a2 = data.S_W.col(d + 1).head<3>();
+        const Vec3 c = (sd.tv[d] * v[d + 1] + v[d] * sd.tv[d + 1]) * a1.cross(a2);
         dA.head<3>() += c;
         dA.tail<3>() += (data.X_WB[i].p - data.p_ref).cross(c);
       }
