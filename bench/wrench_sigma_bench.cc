@@ -7,7 +7,8 @@
 // velocity noise (estimate mode), then the same with the load's pose and twist refitted per column
 // (state_fit_sigma.h: estimate mode when a state omits them; scenes with a load), each block ~0.3 ms; printed per scene: the medians over REPS
 // (default 31) repetitions of each per-call time and of the ratios sigma / evaluate within one
-// repetition. Goal: the sigma of every reported wrench under 25 % of an evaluation.
+// repetition. q_us and v_us: estimate mode with the torque noise and only the position (only the
+// velocity) noise declared, what each kind of measurement-noise column adds to sigma_us. Goal: the sigma of every reported wrench under 25 % of an evaluation.
 //
 //   wrench_sigma_bench [REPS] [SCENE]   (SCENE: only the scenes whose file name contains it)
 #include <algorithm>
@@ -32,14 +33,14 @@ using coopdyn::bench::per_call_us;
 
 namespace {
 
-System load(const std::string& path) {
+System load(const std::string& path, const char* noise = "{tau: 0.1, q: 1e-4, v: 1e-3}") {
   std::ifstream f(path);
   std::stringstream ss;
   ss << f.rdbuf();
   std::string text = ss.str();
   const auto p = text.find("\nreactions:");
   if (p != std::string::npos) text.erase(p, text.find('\n', p + 1) - p);
-  return load_scene_string(text + "\nreactions: all\nnoise: {tau: 0.1, q: 1e-4, v: 1e-3}\n", path);
+  return load_scene_string(text + "\nreactions: all\nnoise: " + noise + "\n", path);
 }
 
 }  // namespace
@@ -53,15 +54,18 @@ int main(int argc, char** argv) {
                         "two_iiwa_load", "two_puma_load", "two_wheel_vehicle", "unicycle"})
     scenes.push_back(dir + "/config/scenes/" + n + ".yaml");
   for (const char* n : {"pumas_1", "pumas_2", "pumas_4", "pumas_8"}) scenes.push_back(dir + "/bench/scenes/" + n + ".yaml");
-  std::printf("%-22s %4s %4s %4s %5s %5s %8s %9s %8s %10s %8s %10s %8s %10s\n", "scene", "nv", "rows", "out", "tau", "q+v",
-              "eval_us", "wrench_us", "sigma_us", "sigma/eval", "est_us", "est/eval", "fit_us", "fit/eval");
+  std::printf("%-22s %4s %4s %4s %5s %5s %8s %9s %8s %10s %8s %10s %8s %8s %8s %10s\n", "scene", "nv", "rows", "out", "tau", "q+v",
+              "eval_us", "wrench_us", "sigma_us", "sigma/eval", "est_us", "est/eval", "q_us", "v_us", "fit_us", "fit/eval");
   for (const std::string& path : scenes) {
     if (path.substr(path.rfind('/') + 1).find(only) == std::string::npos) continue;
     const System sys = load(path);
     Workspace ws(sys);
     WrenchData wd(sys);
     WrenchSigmaData sd(sys);
-    if (!wrench_sigma_supported(sys)) continue;  // a formulation that does not propagate noise
+    if (!wrench_sigma_supported(sys)) continue;
+    const System sys_q = load(path, "{tau: 0.1, q: 1e-4}"), sys_v = load(path, "{tau: 0.1, v: 1e-3}");
+    Workspace ws_q(sys_q), ws_v(sys_v);
+    WrenchSigmaData sd_q(sys_q), sd_v(sys_v);  // a formulation that does not propagate noise
     const Eigen::VectorXd tau = Eigen::VectorXd::Constant(sys.model.nv(), 0.1);
     const StateFitPlan plan = plan_state_fit(sys);
     std::optional<FitRefit> refit;
@@ -72,14 +76,18 @@ int main(int argc, char** argv) {
       sf.refit = &*refit;
     }
     evaluate(sys, ws, sys.q0, sys.v0, tau);
+    evaluate(sys_q, ws_q, sys.q0, sys.v0, tau);
+    evaluate(sys_v, ws_v, sys.q0, sys.v0, tau);
     const double e0 = per_call_us(50, [&] { evaluate(sys, ws, sys.q0, sys.v0, tau); });
     const int n = std::max(5, static_cast<int>(300.0 / std::max(e0, 1e-3)));
-    std::vector<double> te, tw, ts, tq, tf, ratio, ratio_q, ratio_f;
+    std::vector<double> te, tw, ts, tq, tqq, tqv, tf, ratio, ratio_q, ratio_f;
     for (int r = 0; r < reps; ++r) {
       te.push_back(per_call_us(n, [&] { evaluate(sys, ws, sys.q0, sys.v0, tau); }));
       tw.push_back(per_call_us(n, [&] { compute_wrenches(sys, ws, wd); }));
       ts.push_back(per_call_us(n, [&] { compute_wrench_sigma(sys, ws, sd); }));
       tq.push_back(per_call_us(n, [&] { compute_wrench_sigma(sys, ws, sd, sys.q0, sys.v0, tau); }));
+      tqq.push_back(per_call_us(n, [&] { compute_wrench_sigma(sys_q, ws_q, sd_q, sys.q0, sys.v0, tau); }));
+      tqv.push_back(per_call_us(n, [&] { compute_wrench_sigma(sys_v, ws_v, sd_v, sys.q0, sys.v0, tau); }));
       ratio.push_back(ts.back() / te.back());
       ratio_q.push_back(tq.back() / te.back());
       if (!refit) continue;
@@ -87,9 +95,9 @@ int main(int argc, char** argv) {
       ratio_f.push_back(tf.back() / te.back());
     }
     const std::string name = path.substr(path.rfind('/') + 1);
-    std::printf("%-22s %4d %4d %4zu %5zu %5zu %8.2f %9.2f %8.2f %10.3f %8.2f %10.3f", name.c_str(), sys.model.nv(),
+    std::printf("%-22s %4d %4d %4zu %5zu %5zu %8.2f %9.2f %8.2f %10.3f %8.2f %10.3f %8.2f %8.2f", name.c_str(), sys.model.nv(),
                 sys.constraints.rows, sys.wrenches.outputs.size(), sd.dofs.size(), sd.q_dofs.size() + sd.v_dofs.size(), median(te),
-                median(tw), median(ts), median(ratio), median(tq), median(ratio_q));
+                median(tw), median(ts), median(ratio), median(tq), median(ratio_q), median(tqq), median(tqv));
     if (refit) std::printf(" %8.2f %10.3f\n", median(tf), median(ratio_f));
     else std::printf(" %8s %10s\n", "-", "-");
   }

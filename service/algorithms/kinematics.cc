@@ -155,24 +155,40 @@ void store_body_motion(Data& data, int i, const BodyPass& s) {
 
 }  // namespace
 
+namespace {
+
+// body i's pass (its parent's entries current); p_ref: the reference point (body 0 sets it)
+inline void body_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q, const Eigen::VectorXd& v, int i,
+                            Vec3& p_ref) {
+  const Body& b = model.bodies[i];
+  const Joint& j = b.joint;
+  BodyPass s{Transform(), data.X_WB[i], Vec3(), Vec3(), Vec3(), Vec3(), p_ref, data.S_W, i == 0};
+  start_from_parent(data, b, s);
+  switch (j.type) {
+    case JointType::kFixed: fixed_joint(s); break;
+    case JointType::kRevolute: revolute_joint(j, q[j.idx_q], v[j.idx_v], s); break;
+    case JointType::kPrismatic: prismatic_joint(j, q[j.idx_q], v[j.idx_v], s); break;
+    case JointType::kRevolute2: revolute2_joint(j, q, v, s); break;
+    case JointType::kFloating: floating_joint(j, q, v, s); break;
+  }
+  store_body_motion(data, i, s);
+}
+
+}  // namespace
+
 void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
   const int nb = model.nbodies();
   Vec3 p_ref = Vec3::Zero();  // kept in a register; stored in data.p_ref at the end
-  for (int i = 0; i < nb; ++i) {
-    const Body& b = model.bodies[i];
-    const Joint& j = b.joint;
-    BodyPass s{Transform(), data.X_WB[i], Vec3(), Vec3(), Vec3(), Vec3(), p_ref, data.S_W, i == 0};
-    start_from_parent(data, b, s);
-    switch (j.type) {
-      case JointType::kFixed: fixed_joint(s); break;
-      case JointType::kRevolute: revolute_joint(j, q[j.idx_q], v[j.idx_v], s); break;
-      case JointType::kPrismatic: prismatic_joint(j, q[j.idx_q], v[j.idx_v], s); break;
-      case JointType::kRevolute2: revolute2_joint(j, q, v, s); break;
-      case JointType::kFloating: floating_joint(j, q, v, s); break;
-    }
-    store_body_motion(data, i, s);
-  }
+  for (int i = 0; i < nb; ++i) body_kinematics(model, data, q, v, i, p_ref);
   data.p_ref = p_ref;
+}
+
+void forward_kinematics_subtree(const Model& model, Data& data, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
+                                int root) {
+  if (root <= 0) return forward_kinematics(model, data, q, v);
+  Vec3 p_ref = data.p_ref;
+  for (int i = root; i < model.nbodies(); ++i)
+    if (model.is_ancestor(root, i)) body_kinematics(model, data, q, v, i, p_ref);
 }
 
 Transform frame_pose(const Model& model, const Data& data, int frame) {

@@ -356,6 +356,77 @@ void constraint_rows(const Model& model, const Data& data, const ConstraintSet& 
     cd.gamma = -cd.Gdot_v;
 }
 
+namespace {
+
+// rolling_rows' Gdot_v and rr_arm along (dV, dA0) of the wheel: rolling_geometry's rates are linear
+// in (w, c_dot), so its call with (dw, dc_dot) gives the rates' changes
+void rolling_tangent(const Data& data, const ConstraintSpec& c, int s, int r0, const Vec6& dV, const Vec6& dA,
+                     Eigen::VectorXd& dGdot_v, std::vector<double>& drr_arm) {
+  const Transform& X_WB = data.X_WB[c.body];
+  const Vec6& V_W = data.V_W[c.body];
+  const Vec3 w = V_W.head<3>(), dw = dV.head<3>();
+  const Vec3 c_R = X_WB.p - data.p_ref;
+  RollingGeometry g, t;
+  rolling_geometry(X_WB.R, c_R, c.axle, c.radius, c.ground_n, w, V_W.tail<3>() + w.cross(c_R), g);
+  rolling_geometry(X_WB.R, c_R, c.axle, c.radius, c.ground_n, dw, dV.tail<3>() + dw.cross(c_R), t);
+  const Vec3 u = V_W.tail<3>() + w.cross(g.p), du = dV.tail<3>() + dw.cross(g.p);
+  const Vec3 du_dot = dA.tail<3>() + dA.head<3>().cross(g.p) + dw.cross(g.p_dot) + w.cross(t.p_dot);
+  dGdot_v[r0] = t.x_dot.dot(u) + g.x_dot.dot(du) + g.x.dot(du_dot);
+  dGdot_v[r0 + 1] = t.y_dot.dot(u) + g.y_dot.dot(du) + g.y.dot(du_dot);
+  dGdot_v[r0 + 2] = c.ground_n.dot(du_dot);
+  if (c.rolling_resistance > 0) {  // d/du [u / sqrt(u^2 + u0^2)] = u0^2 / (u^2 + u0^2)^(3/2)
+    const double uc = g.x.dot(V_W.tail<3>() + w.cross(c_R)), duc = g.x.dot(dV.tail<3>() + dw.cross(c_R));
+    const double u0 = kRollingResistanceSpeed, s2 = uc * uc + u0 * u0;
+    drr_arm[s] = -c.rolling_resistance * c.radius * u0 * u0 / (s2 * std::sqrt(s2)) * duc;
+  }
+}
+
+// a weld's rows of Gdot_v: the relative bias acceleration of A and B in A (frame_weld_rows:
+// a_rel = A0_a - A0_b + V_A x V_B, all seen in A), along (dV, dA0)
+void weld_tangent(const Model& model, const Data& data, const ConstraintSet& set, const ConstraintData& cd, int s,
+                  const std::vector<Vec6>& dV_W, const std::vector<Vec6>& dA0_W, const std::vector<char>& moved,
+                  Eigen::VectorXd& dGdot_v) {
+  const ConstraintSpec& c = set.specs[static_cast<size_t>(s)];
+  const int ba = model.frames[c.frame_a].body, bb = c.frame_b >= 0 ? model.frames[c.frame_b].body : -1;
+  const bool ma = ba >= 0 && moved[ba], mb = bb >= 0 && moved[bb];
+  const int r0 = set.row_offset[s], n = set.row_count[s];
+  if (!ma && !mb) {
+    for (int k = 0; k < n; ++k) dGdot_v[r0 + k] = 0.0;
+    return;
+  }
+  const Transform& X_RA = cd.X_RS[s];  // A's pose, origin relative to p_ref
+  Vec6 dA = Vec6::Zero(), dVa = Vec6::Zero(), dVb = Vec6::Zero();
+  if (ma) dA += dA0_W[ba], dVa = dV_W[ba];
+  if (mb) dA -= dA0_W[bb], dVb = dV_W[bb];
+  Vec6 da = X_RA.inv_act(dA);
+  if (bb >= 0) {  // + d(V_A x V_B), both seen in A
+    const Vec6 V_A = ba >= 0 ? X_RA.inv_act(data.V_W[ba]) : Vec6::Zero(), V_B = X_RA.inv_act(data.V_W[bb]);
+    da += cross_motion(X_RA.inv_act(dVa), V_B) + cross_motion(V_A, X_RA.inv_act(dVb));
+  }
+  for (int k = 0; k < n; ++k) dGdot_v[r0 + k] = da[set.row_axis[s][k]];
+}
+
+}  // namespace
+
+void constraint_bias_tangent(const Model& model, const Data& data, const ConstraintSet& set, const ConstraintData& cd,
+                             const std::vector<Vec6>& dV_W, const std::vector<Vec6>& dA0_W, const std::vector<char>& moved,
+                             Eigen::VectorXd& dGdot_v, std::vector<double>& drr_arm) {
+  for (size_t i = 0; i < set.specs.size(); ++i) {
+    const ConstraintSpec& c = set.specs[i];
+    const int s = static_cast<int>(i), r0 = set.row_offset[i];
+    drr_arm[i] = 0.0;
+    switch (c.kind) {
+      case ConstraintKind::kLock:
+      case ConstraintKind::kCouple: dGdot_v[r0] = 0.0; break;
+      case ConstraintKind::kRolling:
+        if (moved[c.body]) rolling_tangent(data, c, s, r0, dV_W[c.body], dA0_W[c.body], dGdot_v, drr_arm);
+        else dGdot_v.segment<3>(r0).setZero();
+        break;
+      case ConstraintKind::kWeld: weld_tangent(model, data, set, cd, s, dV_W, dA0_W, moved, dGdot_v); break;
+    }
+  }
+}
+
 double constraint_position_error(const ConstraintData& cd) {
   return cd.err.size() ? cd.err.cwiseAbs().maxCoeff() : 0.0;
 }

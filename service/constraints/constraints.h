@@ -144,6 +144,18 @@ inline void set_rolling_resistance_moment(const ConstraintSet& set, const Constr
 void constraint_rows(const Model& model, const Data& data, const ConstraintSet& set, const Eigen::VectorXd& q,
                      const Eigen::VectorXd& v, ConstraintData& cd);
 
+// The change of Gdot*v (cd.Gdot_v) and of each rolling spec's rr_arm along a change of the velocity
+// at a fixed configuration: dV_W, dA0_W the bodies' changes of V_W and A0_W (world, at data.p_ref),
+// read only for bodies with moved[body] != 0 (the others did not change). data and cd as
+// forward_kinematics and constraint_rows left them at (q, v). Exact: Gdot*v is quadratic in the
+// velocities (bilinear in V_W, linear in A0_W), its tangent linear in (dV_W, dA0_W); rr_arm's is
+// the derivative of its smoothed sign. The change of G v is G dv (G does not depend on v), not
+// computed here. Writes every row of dGdot_v (rows) and every entry of drr_arm (specs).
+// Allocation-free.
+void constraint_bias_tangent(const Model& model, const Data& data, const ConstraintSet& set, const ConstraintData& cd,
+                             const std::vector<Vec6>& dV_W, const std::vector<Vec6>& dA0_W, const std::vector<char>& moved,
+                             Eigen::VectorXd& dGdot_v, std::vector<double>& drr_arm);
+
 // Stacked position error of every block at q (needs forward_kinematics at q).
 double constraint_position_error(const ConstraintData& cd);
 

@@ -188,6 +188,17 @@ void fit_position_step(const System& sys, const StateFitPlan& plan, StateFitWork
   *dx = -ws.x;
 }
 
+void fit_velocity_change(const StateFitPlan& plan, StateFitWorkspace& ws, const Eigen::MatrixXd& G, Eigen::VectorXd& dv) {
+  const int nu = static_cast<int>(plan.fit_v.size()), rows = static_cast<int>(G.rows());
+  if (nu == 0) return;
+  for (int d : plan.fit_v) dv[d] = 0.0;
+  ws.r.head(rows).noalias() = G * dv;
+  for (int r = 0; r < rows; ++r)
+    for (int k = 0; k < nu; ++k) ws.Gu(r, k) = G(r, plan.fit_v[k]);
+  least_squares(ws, rows);
+  for (int k = 0; k < nu; ++k) dv[plan.fit_v[k]] = -ws.x[k];
+}
+
 const Closure& fit_state(const System& sys, const StateFitPlan& plan, StateFitWorkspace& ws, bool fit_q, bool fit_v,
                          Eigen::VectorXd& q, Eigen::VectorXd& v) {
   const Model& m = sys.model;

@@ -105,6 +105,12 @@ const Closure& fit_state(const System& sys, const StateFitPlan& plan, StateFitWo
 void fit_position_step(const System& sys, const StateFitPlan& plan, StateFitWorkspace& ws, const Eigen::VectorXd& q,
                        const Eigen::VectorXd& v, Eigen::VectorXd* dx);
 
+// The velocity fit's response to a change dv of the measured velocities (dv's fitted entries are
+// ignored on input and set): -(G_u^T G_u)^+ G_u^T (G dv), G (rows x nv) the constraint rows'
+// Jacobian at the configuration (the fit is linear and homogeneous in the measured velocities, so
+// this is fit_state's velocity fit of dv, without its kinematics). Allocation-free.
+void fit_velocity_change(const StateFitPlan& plan, StateFitWorkspace& ws, const Eigen::MatrixXd& G, Eigen::VectorXd& dv);
+
 // The closure residual of cd (constraint_rows at the state), rows classified by plan.
 void closure_residual(const ConstraintSet& set, const StateFitPlan& plan, const ConstraintData& cd, Closure* out);
 

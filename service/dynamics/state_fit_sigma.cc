@@ -28,4 +28,8 @@ void FitRefit::refit(Eigen::VectorXd& q, Eigen::VectorXd& v, bool q_moved) {
   if (fit_v_) fit_state(sys_, plan_, fws_, false, true, q, v);
 }
 
+void FitRefit::refit_velocity_change(const Eigen::MatrixXd& G, Eigen::VectorXd& dv) {
+  if (active() && fit_v_) fit_velocity_change(plan_, fws_, G, dv);
+}
+
 }  // namespace coopdyn

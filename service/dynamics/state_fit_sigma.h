@@ -10,7 +10,8 @@
 // step (fit_position_step) between the moved and the evaluated measurement, -(G_u^T G_u)^+ G_u^T
 // G_a dq_a to first order (exact in the linearization, free of the iterative fit's tolerance, which
 // a 1e-7 step would amplify); the twist is refitted exactly (the velocity fit is a linear solve) at
-// the moved state. In a workspace of its own (the daemon's warm start is not touched).
+// the moved state. A velocity column's twist change is the fit of the velocity change itself
+// (fit_velocity_change, from the evaluation's constraint Jacobian). In a workspace of its own (the daemon's warm start is not touched).
 // Allocation-free after construction; never throws.
 #pragma once
 
@@ -30,6 +31,8 @@ class FitRefit final : public StateRefit {
   bool active() const { return (fit_q_ || fit_v_) && !plan_.fit_v.empty(); }
   // a moved position refits the pose (and the twist at it), a moved velocity the twist only
   void refit(Eigen::VectorXd& q, Eigen::VectorXd& v, bool q_moved) override;
+  // the twist's change for a change of the measured velocities (fit_velocity_change)
+  void refit_velocity_change(const Eigen::MatrixXd& G, Eigen::VectorXd& dv) override;
 
  private:
   const System& sys_;

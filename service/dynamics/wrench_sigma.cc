@@ -5,6 +5,7 @@
 #include "service/algorithms/kinematics.h"
 #include "service/algorithms/rnea.h"
 #include "service/algorithms/tree_cholesky.h"
+#include "service/dynamics/wrench_sigma_velocity.h"
 
 namespace coopdyn {
 
@@ -75,6 +76,16 @@ WrenchSigmaData::WrenchSigmaData(const System& sys) {
     r_tau.setZero(n);
     r0_g.setZero(m);
     r_g.setZero(m);
+    tv.setZero(n);
+    tv_nz.reserve(static_cast<size_t>(n));
+    tV.assign(nb, Vec6::Zero());
+    tA.assign(nb, Vec6::Zero());
+    tF.assign(nb, Vec6::Zero());
+    P_W.assign(nb, Vec6::Zero());
+    t_moved.assign(nb, 0);
+    t_touched.assign(nb, 0);
+    tGdot.setZero(m);
+    trr.assign(sys.constraints.specs.size(), 0.0);
   }
 }
 
@@ -398,13 +409,15 @@ void batch_outputs(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
 }
 
 // the residuals (E1, E2 of the header) and the wrenches at (sd.qp, sd.vp) with the evaluation's
-// vdot, lambda and friction held (damping follows v)
+// vdot, lambda and friction held (damping follows v). fk_root >= 0: sd.wp's kinematics are at a
+// state that differs from (sd.qp, sd.vp) only below body fk_root (forward_kinematics_subtree).
 void residual(const System& sys, const Workspace& ws, WrenchSigmaData& sd, const Eigen::VectorXd& v,
-              const Eigen::VectorXd& tau, Eigen::VectorXd& r_tau, Eigen::VectorXd& r_g, WrenchData& wd) {
+              const Eigen::VectorXd& tau, Eigen::VectorXd& r_tau, Eigen::VectorXd& r_g, WrenchData& wd, int fk_root = -1) {
   const Model& model = sys.model;
   const ConstraintSet& cs = sys.constraints;
   Workspace& wp = *sd.wp;
-  forward_kinematics(model, wp.data, sd.qp, sd.vp);
+  if (fk_root >= 0) forward_kinematics_subtree(model, wp.data, sd.qp, sd.vp, fk_root);
+  else forward_kinematics(model, wp.data, sd.qp, sd.vp);
   rnea(model, wp.data, ws.vdot, nullptr, sd.tau_id);
   rnea_bias(model, wp.data);  // the bias forces the wrench pass reads
   constraint_rows(model, wp.data, cs, sd.qp, sd.vp, wp.cd);
@@ -433,15 +446,20 @@ void residual(const System& sys, const Workspace& ws, WrenchSigmaData& sd, const
 }
 
 // Columns na.. of X0 and Gm (the residuals' change per one standard deviation of each measured
-// coordinate) and of Cd (the wrenches' own change at fixed vdot, lambda): forward differences
+// coordinate) and of Cd (the wrenches' own change at fixed vdot, lambda). Positions: forward
+// differences. Velocities: the tangent of the velocity recursion (wrench_sigma_velocity.h), along
+// the unit change of the joint's velocity and, with a refit, the fitted velocities' change (the
+// velocity fit is linear in the measured velocities: fit_velocity_change of state_fit.h).
 void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, const Eigen::VectorXd& q,
                    const Eigen::VectorXd& v, const Eigen::VectorXd& tau, int nq) {
-  constexpr double h = 1e-7;  // rad, m, rad/s, m/s
+  constexpr double h = 1e-7;  // rad, m
   const int na = static_cast<int>(sd.dofs.size());
   const size_t no = sys.wrenches.outputs.size();
-  sd.qp = q;
-  sd.vp = v;
-  residual(sys, ws, sd, v, tau, sd.r0_tau, sd.r0_g, *sd.wd0);
+  if (nq > 0) {
+    sd.qp = q;
+    sd.vp = v;
+    residual(sys, ws, sd, v, tau, sd.r0_tau, sd.r0_g, *sd.wd0);
+  }
   auto column = [&](int j, double scale) {
     sd.X0.col(na + j) = (sd.r_tau - sd.r0_tau) * scale;
     sd.Gm.col(na + j) = (sd.r_g - sd.r0_g) * scale;
@@ -450,22 +468,32 @@ void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
         sd.Cd(6 * static_cast<Eigen::Index>(k) + c, j) = (sd.wd1->W[k][c] - sd.wd0->W[k][c]) * scale;
   };
   for (int a = 0; a < nq; ++a) {
+    // without a refit only the joint's subtree moves: its kinematics alone are redone, and
+    // undone after the column
     const int iq = sd.q_index[static_cast<size_t>(a)];
+    const int root = sd.refit ? -1 : sys.model.dof_body[sd.q_dofs[static_cast<size_t>(a)]];
     sd.qp[iq] = q[iq] + h;
     if (sd.refit) sd.refit->refit(sd.qp, sd.vp, true);
-    residual(sys, ws, sd, v, tau, sd.r_tau, sd.r_g, *sd.wd1);
+    residual(sys, ws, sd, v, tau, sd.r_tau, sd.r_g, *sd.wd1, root);
     sd.qp = q;
     sd.vp = v;
+    if (root >= 0) forward_kinematics_subtree(sys.model, sd.wp->data, q, v, root);
     column(a, sd.Sq[a] / h);
   }
+  if (sd.v_dofs.empty()) return;
+  velocity_tangent_setup(sys, ws, sd);
   for (int a = 0; a < static_cast<int>(sd.v_dofs.size()); ++a) {
     const int d = sd.v_dofs[static_cast<size_t>(a)];
-    sd.vp[d] = v[d] + h;
-    if (sd.refit) sd.refit->refit(sd.qp, sd.vp, false);
-    residual(sys, ws, sd, v, tau, sd.r_tau, sd.r_g, *sd.wd1);
-    sd.qp = q;
-    sd.vp = v;
-    column(nq + a, sd.Sv[a] / h);
+    sd.tv.setZero();
+    sd.tv[d] = 1.0;
+    sd.tv_nz.assign(1, d);
+    if (sd.refit) {
+      sd.refit->refit_velocity_change(ws.cd.G, sd.tv);
+      sd.tv_nz.clear();
+      for (int i = 0; i < sd.tv.size(); ++i)
+        if (sd.tv[i] != 0.0) sd.tv_nz.push_back(i);
+    }
+    velocity_column(sys, ws, sd, v, na + nq + a, nq + a, sd.Sv[a]);
   }
 }
 
@@ -492,8 +520,8 @@ void tau_columns(WrenchSigmaData& sd) {
   for (int j = 0; j < na; ++j) sd.X0(sd.dofs[static_cast<size_t>(j)], j) = sd.S[j];
 }
 
+// after batch_setup
 void propagate(const System& sys, Workspace& ws, WrenchSigmaData& sd, int nc) {
-  batch_setup(sys, ws, sd);
   batch_response(sys, ws, sd, nc);
   if (!sys.wrenches.pass.empty()) batch_reactions(sys, ws, sd, nc);
   batch_outputs(sys, ws, sd, nc);
@@ -511,6 +539,7 @@ void compute_wrench_sigma(const System& sys, Workspace& ws, WrenchSigmaData& sd)
   if (!start(ws, sd, na)) return;
   sd.source = WrenchSigmaData::kTau;
   tau_columns(sd);
+  batch_setup(sys, ws, sd);
   propagate(sys, ws, sd, na);
   finish(sd);
 }
@@ -526,6 +555,7 @@ void compute_wrench_sigma(const System& sys, Workspace& ws, WrenchSigmaData& sd,
   if (!start(ws, sd, nc)) return;
   sd.source = (na > 0 ? WrenchSigmaData::kTau : 0) | (nq > 0 ? WrenchSigmaData::kQ : 0) | (nv > 0 ? WrenchSigmaData::kV : 0);
   tau_columns(sd);
+  batch_setup(sys, ws, sd);
   if (nq + nv > 0) state_columns(sys, ws, sd, q, v, tau, nq);
   propagate(sys, ws, sd, nc);
   if (nq + nv > 0) sd.C.block(0, na, sd.C.rows(), nq + nv) += sd.Cd.leftCols(nq + nv);

@@ -14,13 +14,16 @@
 // and reports w = g(q, v, vdot, lambda). A change dx of one measured coordinate moves the solution by
 //   M dvdot - G^T dlambda = dE1/dx dx,   G dvdot = dE2/dx dx
 // (the same solve as a torque change, with a right-hand side in both rows), and the wrench by
-// dg/dx dx (its own dependence at fixed vdot, lambda) plus the solve's part. dE/dx and dg/dx are
-// directional differences of the residual (kinematics, inverse dynamics, constraint rows and the
-// wrench pass, no factorization) with a forward step h = 1e-7 (rad, m, rad/s, m/s): the solve
-// itself is never repeated. The linearization error is second order in the noise (a wrench's
-// curvature in q times S_q^2); the truncation error of the step is O(h): against central
-// differences of whole evaluations the columns agree to 1e-4 (absolute, or relative above 1) on the
-// shipped scenes (tests/dynamics/wrench_sigma_test.cc). A load pose and twist fitted from the
+// dg/dx dx (its own dependence at fixed vdot, lambda) plus the solve's part; the solve itself is
+// never repeated. Velocity columns: dE/dv and dg/dv are exact tangents of the velocity recursion
+// at fixed q (wrench_sigma_velocity.h: v enters only the bias forces, Gdot v, the damping and the
+// rolling-resistance arm), equal to central differences of any step to round-off. Position
+// columns: directional differences of the residual (kinematics of the joint's subtree, inverse
+// dynamics, constraint rows and the wrench pass, no factorization) with a forward step h = 1e-7
+// (rad, m), truncation error O(h). The linearization error is second order in the noise (a
+// wrench's curvature in q times S_q^2); against central differences of whole evaluations the
+// columns agree to 1e-4 (absolute, or relative above 1) on the shipped scenes
+// (tests/dynamics/wrench_sigma_test.cc). A load pose and twist fitted from the
 // joints (state_fit.h) are held unless WrenchSigmaData::refit is set (state_fit_sigma.h): then each
 // column refits them at the perturbed measurement, as the estimator does. Joint friction is held at the evaluation's (set-valued at rest, its sign constant
 // while sliding); damping follows v.
@@ -60,6 +63,9 @@ struct StateRefit {
   // (q, v): the evaluated state with one measured coordinate moved (a position when q_moved, else a
   // velocity); sets the fitted ones from it
   virtual void refit(Eigen::VectorXd& q, Eigen::VectorXd& v, bool q_moved) = 0;
+  // dv: a change of the measured velocities at the evaluated state, G (rows x nv) the constraint
+  // rows' Jacobian there; sets the fitted velocities' change with it (the velocity fit is linear)
+  virtual void refit_velocity_change(const Eigen::MatrixXd& G, Eigen::VectorXd& dv) = 0;
 };
 
 // The scene declares noise (torque, or joint position or velocity) on some DOF and its formulation
@@ -106,6 +112,16 @@ struct WrenchSigmaData {
   Eigen::VectorXd qp, vp, tau_id, r0_tau, r_tau;  // (nq), (nv), (nv), (nv), (nv)
   Eigen::VectorXd r0_g, r_g;                       // (rows)
   StateRefit* refit = nullptr;  // estimate mode: refits the fitted coordinates per column (not owned)
+
+  // measurement noise, velocity columns: the tangent along a velocity change (wrench_sigma_velocity.h)
+  Eigen::VectorXd tv;                 // (nv) the velocity change of the column (a unit, refitted)
+  std::vector<int> tv_nz;             // its nonzero entries
+  std::vector<Vec6> tV, tA, tF;       // per body: the change of V_W, of A0_W, of the bias force's
+                                      // subtree sum (world, at p_ref)
+  std::vector<Vec6> P_W;              // per body: I_W V_W (its momentum, at the evaluated state)
+  std::vector<char> t_moved, t_touched;  // per body: tV, tA set (a moved body); tF set
+  Eigen::VectorXd tGdot;              // (rows) the change of Gdot v
+  std::vector<double> trr;            // per spec: the change of a rolling spec's rr_arm
 };
 
 // Torque noise only (simulate mode: the state is exact). Fills sd.sigma and sd.C for the

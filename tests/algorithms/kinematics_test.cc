@@ -66,3 +66,39 @@ TEST(Kinematics, FrameJacobiansMatchFiniteDifferencesOnEveryScene) {
     }
   }
 }
+
+// forward_kinematics_subtree: after the kinematics at one state, redoing a subtree at a state that
+// differs in the subtree's joints only gives every entry of the whole pass at the new state,
+// bit for bit (the same operations on the same inputs), on every body of the every-joint model.
+TEST(Kinematics, SubtreePassEqualsTheWholePass) {
+  const Model m = every_joint_model();
+  std::mt19937 rng(11);
+  Eigen::VectorXd q0, v0, q1, v1;
+  random_qv(m, rng, q0, v0);
+  random_qv(m, rng, q1, v1);
+  Data whole(m), part(m);
+  int compared = 0;
+  for (int root = 1; root < m.nbodies(); ++root) {
+    Eigen::VectorXd q = q0, v = v0;  // the subtree's joints from (q1, v1)
+    for (int i = root; i < m.nbodies(); ++i) {
+      if (!m.is_ancestor(root, i)) continue;
+      const Joint& j = m.bodies[i].joint;
+      q.segment(j.idx_q, j.nq) = q1.segment(j.idx_q, j.nq);
+      v.segment(j.idx_v, j.nv) = v1.segment(j.idx_v, j.nv);
+    }
+    forward_kinematics(m, part, q0, v0);
+    forward_kinematics_subtree(m, part, q, v, root);
+    forward_kinematics(m, whole, q, v);
+    EXPECT_EQ(part.p_ref, whole.p_ref);
+    EXPECT_EQ(part.S_W, whole.S_W) << root;
+    for (int i = 0; i < m.nbodies(); ++i) {
+      EXPECT_EQ(part.X_WB[i].R, whole.X_WB[i].R) << root << " " << i;
+      EXPECT_EQ(part.X_WB[i].p, whole.X_WB[i].p) << root << " " << i;
+      EXPECT_EQ(part.V_W[i], whole.V_W[i]) << root << " " << i;
+      EXPECT_EQ(part.A0_W[i], whole.A0_W[i]) << root << " " << i;
+      if (part.has_inertia[i]) EXPECT_EQ(part.I_W[i].Io, whole.I_W[i].Io) << root << " " << i;
+    }
+    compared += (q != q0);
+  }
+  EXPECT_GT(compared, 3);
+}

@@ -109,6 +109,38 @@ TEST(StateFit, JointsOnlyGiveTheTrueLoadPoseAndTwist) {
   }
 }
 
+// fit_velocity_change: the fit is linear and homogeneous in the measured velocities, so the change
+// of the fitted twist for a change dv of them is the fit of dv itself (and the difference of two
+// fits at v + dv and v): from the constraint Jacobian alone, to round-off of both.
+TEST(StateFit, VelocityChangeIsTheFitOfTheChange) {
+  for (const Case& c : kCases) {
+    SCOPED_TRACE(std::string(c.scene) + " " + formulation_name(c.f));
+    const System sys = load(c.scene, c.f);
+    const StateFitPlan plan = plan_state_fit(sys);
+    StateFitWorkspace ws(sys, plan);
+    std::mt19937 rng(5);
+    Eigen::VectorXd q, v;
+    closed_state(sys, rng, 0.2, q, v);
+    Data d(sys.model);
+    ConstraintData cd(sys.model, sys.constraints);
+    forward_kinematics(sys.model, d, q, v);
+    constraint_rows(sys.model, d, sys.constraints, q, v, cd);
+    std::uniform_real_distribution<double> U(-1.0, 1.0);
+    Eigen::VectorXd dv = Eigen::VectorXd::Zero(sys.model.nv());
+    for (int i = 0; i < dv.size(); ++i) dv[i] = U(rng);
+    Eigen::VectorXd v0 = v, v1 = v + dv, change = dv;
+    fit_state(sys, plan, ws, false, true, q, v0);
+    fit_state(sys, plan, ws, false, true, q, v1);
+    fit_velocity_change(plan, ws, cd.G, change);
+    for (int i = 0; i < dv.size(); ++i) {
+      const bool fitted = std::find(plan.fit_v.begin(), plan.fit_v.end(), i) != plan.fit_v.end();
+      if (!fitted) EXPECT_EQ(change[i], dv[i]) << "measured: untouched";
+      else EXPECT_NEAR(change[i], v1[i] - v0[i], 1e-12 * (1 + v1.cwiseAbs().maxCoeff())) << i;
+    }
+    EXPECT_GT((v1 - v0).cwiseAbs().maxCoeff(), 0.1);
+  }
+}
+
 // A joint off by delta: the arms disagree. The residual left is what the linearized least
 // squares predicts, (I - G_u G_u^+) e_0 with e_0 the error at the true load pose, to O(delta^2); it
 // grows linearly with delta; and the fitted pose is a least-squares optimum (no pose nearby has a

@@ -4,7 +4,9 @@
 // formulations, the square root C of each covariance, the sigmas and what they contain agree to
 // 1e-10 relative to the largest entry of each output's block, or to 1e-13 of the largest entry of C
 // for a block that is zero but for round-off (a reaction nothing loads: 1e-23 against 2e-14 seen on
-// the TIAGo's base), the two differing only in the order of the floating-point operations.
+// the TIAGo's base), the two differing only in the order of the floating-point operations (and,
+// in the velocity columns, the fast path's tangents against the reference's central differences,
+// exact for those terms but for round-off: wrench_sigma_velocity_test.cc).
 #include <gtest/gtest.h>
 
 #include <random>

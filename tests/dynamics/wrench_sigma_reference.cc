@@ -12,6 +12,8 @@
 
 namespace coopdyn::reference {
 
+double velocity_step = 1e-2;
+
 namespace {
 using RowMat = WrenchSigmaData::RowMat;
 
@@ -335,12 +337,20 @@ void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
     sd.qp[iq] = q[iq];
     column(a, sd.Sq[a] / h);
   }
+  // velocities: central differences of step velocity_step (the residuals and wrenches are
+  // quadratic in v but for the rolling-resistance arm: no truncation error there, round-off
+  // ~1e-16 |r| / step), or forward differences of 1e-7 (velocity_step <= 0: the former definition)
+  const double hv = velocity_step > 0 ? velocity_step : h;
   for (int a = 0; a < static_cast<int>(sd.v_dofs.size()); ++a) {
     const int d = sd.v_dofs[static_cast<size_t>(a)];
-    sd.vp[d] = v[d] + h;
+    if (velocity_step > 0) {
+      sd.vp[d] = v[d] - hv;
+      residual(sys, ws, sd, v, tau, sd.r0_tau, sd.r0_g, *sd.wd0);
+    }
+    sd.vp[d] = v[d] + hv;
     residual(sys, ws, sd, v, tau, sd.r_tau, sd.r_g, *sd.wd1);
     sd.vp[d] = v[d];
-    column(nq + a, sd.Sv[a] / h);
+    column(nq + a, sd.Sv[a] / (velocity_step > 0 ? 2 * hv : hv));
   }
 }
 

@@ -6,6 +6,11 @@
 
 namespace coopdyn::reference {
 
+// The velocity columns' step (rad/s, m/s): central differences of this step (default 1e-3), or
+// the forward differences of 1e-7 the fast path used before its tangents when <= 0. The position
+// columns: forward differences of 1e-7, as the fast path.
+extern double velocity_step;
+
 void compute_wrench_sigma(const System& sys, Workspace& ws, WrenchSigmaData& sd);
 void compute_wrench_sigma(const System& sys, Workspace& ws, WrenchSigmaData& sd, const Eigen::VectorXd& q,
                           const Eigen::VectorXd& v, const Eigen::VectorXd& tau);

@@ -302,8 +302,9 @@ TEST(WrenchSigma, SceneKeyStateNoise) {
 
 // The measurement-noise columns against whole evaluations: column j / S_j is d w / d x_j at the
 // state, here by central differences of two full evaluate() + compute_wrenches() (step 1e-4: their
-// truncation error ~1e-8 relative, their round-off ~1e-12 |w| / 1e-4). The columns' own forward
-// step (1e-7) leaves O(1e-7 |d2w/dx2|): up to 8e-5 on the iiwa pair, hence the bound 1e-4.
+// truncation error ~1e-8 relative, their round-off ~1e-12 |w| / 1e-4). The position columns' own
+// forward step (1e-7) leaves O(1e-7 |d2w/dx2|): up to 8e-5 on the iiwa pair, hence the bound 1e-4
+// (the velocity columns are exact tangents: wrench_sigma_velocity_test.cc).
 TEST(WrenchSigma, StateNoiseColumnsMatchWholeEvaluations) {
   for (const Case& c : {Case{"two_puma_load", "{q: 1e-3, v: 1e-2}", std::nullopt, ""},
                         Case{"two_iiwa_load", "{tau: 0.3, q: 1e-3, v: 1e-2}", std::nullopt, ""},  // URDF damping
