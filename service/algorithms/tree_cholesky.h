@@ -27,35 +27,57 @@ inline const double* tree_factor_row(const Model& model, const Data& data, int k
 }
 
 // x <- L^{-T} x  (solves L^T y = x). Also turns a row g of G into the row of Y = G L^{-1}.
+// Leaves to root in Model::dof_elim_steps: a paired parent j with its child k in one pass over
+// their ancestors, each entry's two updates in the order of the two steps.
 template <typename Vec>
 inline void tree_solve_Lt(const Model& model, const Data& data, Vec&& x) {
-  const int n = model.nv();
   const int* path = model.dof_path.data();
-  for (int e = 0; e < n; ++e) {  // leaves to root, branches interleaved
-    const int i = model.dof_elim_order[e];
-    const double* r = tree_factor_row(model, data, i);
-    const int d = model.dof_depth[i];
-    const double xi = x[i] * data.Ld_inv[i];
-    x[i] = xi;
-    if (xi == 0.0) continue;
-    const int* pi = path + model.dof_path_offset[i];
-    for (int p = 0; p < d; ++p) x[pi[p]] -= r[p] * xi;
+  for (const auto& [k, j] : model.dof_elim_steps) {  // leaves to root, branches interleaved
+    const double* rk = tree_factor_row(model, data, k);
+    const int d = model.dof_depth[k];
+    const int* pk = path + model.dof_path_offset[k];
+    const double xk = x[k] * data.Ld_inv[k];
+    x[k] = xk;
+    if (j < 0) {
+      if (xk == 0.0) continue;
+      for (int p = 0; p < d; ++p) x[pk[p]] -= rk[p] * xk;
+      continue;
+    }
+    const double* rj = tree_factor_row(model, data, j);  // j's path: the first d - 1 entries of k's
+    const double xj = (xk == 0.0 ? x[j] : x[j] - rk[d - 1] * xk) * data.Ld_inv[j];
+    x[j] = xj;
+    if (xk == 0.0 && xj == 0.0) continue;
+    for (int p = 0; p < d - 1; ++p) x[pk[p]] = x[pk[p]] - rk[p] * xk - rj[p] * xj;
   }
 }
 
-// x <- L^{-1} x  (solves L y = x)
+// x <- L^{-1} x  (solves L y = x): root to leaves, a paired parent j before its child k, their two
+// dot products over the common ancestors in one pass.
 template <typename Vec>
 inline void tree_solve_L(const Model& model, const Data& data, Vec&& x) {
-  const int n = model.nv();
   const int* path = model.dof_path.data();
-  for (int e = n - 1; e >= 0; --e) {  // root to leaves, branches interleaved
-    const int i = model.dof_elim_order[e];
-    const double* r = tree_factor_row(model, data, i);
-    const int d = model.dof_depth[i];
-    const int* pi = path + model.dof_path_offset[i];
-    double s = x[i];
-    for (int p = 0; p < d; ++p) s -= r[p] * x[pi[p]];
-    x[i] = s * data.Ld_inv[i];
+  for (auto it = model.dof_elim_steps.rbegin(); it != model.dof_elim_steps.rend(); ++it) {
+    const int k = it->first, j = it->second;
+    const double* rk = tree_factor_row(model, data, k);
+    const int d = model.dof_depth[k];
+    const int* pk = path + model.dof_path_offset[k];
+    double s = x[k];
+    if (j < 0) {
+      for (int p = 0; p < d; ++p) s -= rk[p] * x[pk[p]];
+      x[k] = s * data.Ld_inv[k];
+      continue;
+    }
+    const double* rj = tree_factor_row(model, data, j);
+    double sj = x[j];
+    for (int p = 0; p < d - 1; ++p) {
+      const double a = x[pk[p]];
+      sj -= rj[p] * a;
+      s -= rk[p] * a;
+    }
+    const double xj = sj * data.Ld_inv[j];
+    x[j] = xj;
+    s -= rk[d - 1] * xj;
+    x[k] = s * data.Ld_inv[k];
   }
 }
 

@@ -136,9 +136,11 @@ Workspace::Workspace(const System& sys)
       if (touch[s][d]) y_support[s].push_back(d);
   }
   for (int s = 0; s < ns; ++s) Yb.push_back(YBlock::Zero(n, 6));
-  for (int e = 0; e < n; ++e)
-    for (int s = 0; s < ns; ++s)
-      if (touch[s][sys.model.dof_elim_order[e]]) y_sweep.push_back({s, sys.model.dof_elim_order[e]});
+  for (const auto& [k, j] : sys.model.dof_elim_steps)
+    for (int s = 0; s < ns; ++s) {
+      if (touch[s][k]) y_sweep.push_back({s, k, j});
+      else if (j >= 0 && touch[s][j]) y_sweep.push_back({s, j, -1});
+    }
   pair_ranges.resize(static_cast<size_t>(ns) * ns);
   for (int s = 0; s < ns; ++s)
     for (int t = s; t < ns; ++t)
@@ -344,6 +346,28 @@ void solve_q(const System& sys, Workspace& ws, const Eigen::VectorXd& b, Eigen::
   else ws.qs.solve(b, x);
 }
 
+// One step of the L^-T solve of a spec's rows (y: its Yb, row-major, DOF i's 6 entries at y + 6 i):
+// DOF k, then its parent j (Model::dof_elim_steps) in the same pass over their ancestors, each
+// ancestor's two updates in that order (the arithmetic of k's step, then j's).
+void y_sweep_step(const Model& model, const Data& data, const Workspace::YStep& st, double* y) {
+  const int k = st.k, d = model.dof_depth[k];
+  const double* rk = tree_factor_row(model, data, k);
+  const int* pk = model.dof_path.data() + model.dof_path_offset[k];
+  const Vec6 yk = Eigen::Map<const Vec6>(y + 6 * k) * data.Ld_inv[k];
+  Eigen::Map<Vec6>(y + 6 * k) = yk;
+  if (st.j < 0) {
+    for (int p = 0; p < d; ++p) Eigen::Map<Vec6>(y + 6 * pk[p]) -= rk[p] * yk;
+    return;
+  }
+  const double* rj = tree_factor_row(model, data, st.j);  // j's path: k's first d - 1 entries
+  const Vec6 yj = (Eigen::Map<const Vec6>(y + 6 * st.j) - rk[d - 1] * yk) * data.Ld_inv[st.j];
+  Eigen::Map<Vec6>(y + 6 * st.j) = yj;
+  for (int p = 0; p < d - 1; ++p) {
+    Eigen::Map<Vec6> ya(y + 6 * pk[p]);
+    ya = ya - rk[p] * yk - rj[p] * yj;
+  }
+}
+
 // Y^T = (G L^-1)^T and Q = Y Y^T from the rows of G, touching only the DOFs each row reaches: the
 // arms of a mobile platform share only the platform's DOFs, so their off-diagonal blocks of Q are
 // sums over 6 entries. With dense_yt, also the dense Y^T (the pseudo-joint Schur form reads it).
@@ -359,15 +383,7 @@ void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G, bool de
     for (int d : ws.y_support[s])
       for (int k = 0; k < nk; ++k) Y(d, k) = G(r0 + k, d);
   }
-  for (const auto& [s, i] : ws.y_sweep) {
-    double* y = ws.Yb[s].data();  // row-major: DOF i's 6 entries at y + 6 i
-    const double* r = tree_factor_row(model, ws.data, i);
-    const int d = model.dof_depth[i];
-    const int* pi = model.dof_path.data() + model.dof_path_offset[i];
-    const Vec6 yi = Eigen::Map<const Vec6>(y + 6 * i) * ws.data.Ld_inv[i];
-    Eigen::Map<Vec6>(y + 6 * i) = yi;
-    for (int p = 0; p < d; ++p) Eigen::Map<Vec6>(y + 6 * pi[p]) -= r[p] * yi;
-  }
+  for (const Workspace::YStep& st : ws.y_sweep) y_sweep_step(model, ws.data, st, ws.Yb[st.spec].data());
   if (dense_yt)
     for (int s = 0; s < ns; ++s)
       for (int d : ws.y_support[s])

@@ -109,7 +109,13 @@ struct Workspace {
   std::vector<std::vector<int>> y_support;
   using YBlock = Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>;
   std::vector<YBlock> Yb;  // per spec: (nv x 6) its rows of Y as columns, one DOF per row
-  std::vector<std::pair<int, int>> y_sweep;  // (spec, DOF) in model.dof_elim_order, specs interleaved
+  // (spec, DOF k, its parent j or -1) in model.dof_elim_steps, specs interleaved: j is eliminated
+  // with k where the step pairs them (the spec reaches j whenever it reaches k: its support is
+  // ancestor-closed)
+  struct YStep {
+    int spec, k, j;
+  };
+  std::vector<YStep> y_sweep;
   std::vector<std::vector<std::pair<int, int>>> pair_ranges;  // index s * nspecs + t
   QSolver qs;                     // Q lambda = b: fast path, rank, indeterminate rows, rule
   // Q per group of specs coupled through the common (platform) DOFs only (q_blocks.h): used when

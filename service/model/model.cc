@@ -39,6 +39,22 @@ const char* joint_type_name(JointType t) {
   return "?";
 }
 
+void Model::plan_elimination_steps() {
+  const int n = static_cast<int>(dof_parent.size());
+  std::vector<int> children(n, 0);
+  for (int k = 0; k < n; ++k)
+    if (dof_parent[k] >= 0) ++children[dof_parent[k]];
+  std::vector<char> done(n, 0);
+  dof_elim_steps.clear();
+  for (int k : dof_elim_order) {
+    if (done[k]) continue;
+    const int j = dof_parent[k];
+    const bool pair = j >= 0 && children[j] == 1;
+    dof_elim_steps.emplace_back(k, pair ? j : -1);
+    if (pair) done[j] = 1;
+  }
+}
+
 int Model::add_body(const std::string& name, int parent, const Transform& X_PJ, Joint joint, const Inertia& I) {
   if (parent < -1 || parent >= nbodies()) throw std::invalid_argument("body '" + name + "': bad parent index");
   if (body_index(name) >= 0) throw std::invalid_argument("duplicate body name '" + name + "'");
@@ -92,6 +108,7 @@ int Model::add_body(const std::string& name, int parent, const Transform& X_PJ, 
   std::stable_sort(dof_elim_order.begin(), dof_elim_order.end(), [this](int a, int b) {
     return dof_depth[a] != dof_depth[b] ? dof_depth[a] > dof_depth[b] : a > b;
   });
+  plan_elimination_steps();
   const std::string& jn = joint.name;
   switch (joint.type) {
     case JointType::kFixed: break;

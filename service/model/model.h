@@ -11,6 +11,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -104,6 +105,12 @@ class Model {
   // branches: by depth, deepest first. Sweeps that eliminate DOFs one by one (the factorization,
   // L^-T solves) use it, and its reverse for root-to-leaves sweeps.
   std::vector<int> dof_elim_order;
+  // The tree factorization's steps (tree_cholesky.h), leaves to root: (k, j) eliminates DOF k, then
+  // its parent j = dof_parent[k] in the same pass over their ancestors' rows when k is j's only child
+  // DOF (a chain: the joints of an arm, the DOFs of a floating joint), else (k, -1). Every DOF
+  // appears once, after all its descendants; the order is dof_elim_order's with each such parent
+  // moved up to its child.
+  std::vector<std::pair<int, int>> dof_elim_steps;
   std::vector<std::string> q_names, v_names;
   std::vector<int> pseudo_dofs;  // velocity indices of pseudo-joints, ascending
   std::vector<std::vector<int>> body_support;  // support_dofs of every body
@@ -112,6 +119,7 @@ class Model {
   Eigen::VectorXd neutral() const;
 
  private:
+  void plan_elimination_steps();  // dof_elim_steps from dof_elim_order and dof_parent
   int nq_ = 0, nv_ = 0;
   std::vector<int> empty_;
 };

@@ -37,6 +37,41 @@ TEST(TreeCholesky, FactorReproducesMassMatrixWithTreeSparsityAndSolves) {
     Eigen::VectorXd b = Eigen::VectorXd::Random(m.nv()), x = b;
     tree_solve_M(m, d, x);
     EXPECT_LT((d.M * x - b).norm(), 1e-10 * (1 + b.norm()));
+    // each triangular solve alone (their steps pair a parent with its only child DOF)
+    x = b;
+    tree_solve_Lt(m, d, x);
+    EXPECT_LT((L.transpose() * x - b).norm(), 1e-12 * (1 + b.norm()) * (1 + L.norm() * x.norm()));
+    x = b;
+    tree_solve_L(m, d, x);
+    EXPECT_LT((L * x - b).norm(), 1e-12 * (1 + b.norm()) * (1 + L.norm() * x.norm()));
+  }
+}
+
+// Model::dof_elim_steps, which the factorization and the solves follow: every DOF once, after all
+// its descendants, and a DOF paired with its parent only where it is the parent's only child DOF.
+TEST(TreeCholesky, EliminationStepsVisitEveryDofAfterItsDescendants) {
+  for (const auto& name : all_scenes()) {
+    SCOPED_TRACE(name);
+    const Model& m = load(name).model;
+    const int n = m.nv();
+    std::vector<int> at(n, -1), children(n, 0);
+    for (int k = 0; k < n; ++k)
+      if (m.dof_parent[k] >= 0) ++children[m.dof_parent[k]];
+    int t = 0, pairs = 0;
+    for (const auto& [k, j] : m.dof_elim_steps) {
+      ASSERT_EQ(at[k], -1);
+      at[k] = t++;
+      if (j < 0) continue;
+      EXPECT_EQ(m.dof_parent[k], j);
+      EXPECT_EQ(children[j], 1);
+      ASSERT_EQ(at[j], -1);
+      at[j] = t++;
+      ++pairs;
+    }
+    EXPECT_EQ(t, n);
+    for (int k = 0; k < n; ++k)
+      if (m.dof_parent[k] >= 0) EXPECT_GT(at[m.dof_parent[k]], at[k]) << "DOF " << k;
+    if (n >= 2) EXPECT_GT(pairs, 0);  // every shipped scene has a chain
   }
 }
 
