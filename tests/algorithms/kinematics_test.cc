@@ -96,7 +96,9 @@ TEST(Kinematics, SubtreePassEqualsTheWholePass) {
       EXPECT_EQ(part.X_WB[i].p, whole.X_WB[i].p) << root << " " << i;
       EXPECT_EQ(part.V_W[i], whole.V_W[i]) << root << " " << i;
       EXPECT_EQ(part.A0_W[i], whole.A0_W[i]) << root << " " << i;
-      if (part.has_inertia[i]) EXPECT_EQ(part.I_W[i].Io, whole.I_W[i].Io) << root << " " << i;
+      if (part.has_inertia[i]) {
+        EXPECT_EQ(part.I_W[i].Io, whole.I_W[i].Io) << root << " " << i;
+      }
     }
     compared += (q != q0);
   }
