@@ -11,7 +11,7 @@
 #                                         # itself (realtime.receive_in_loop), sleeping and busy polling
 #                                         # with a polling client, alternated for ROUNDS rounds (default
 #                                         # 3), next to cyclictest FIFO
-#   ROWS=inplace bench/loop_timing.sh ... # the default config against the same with
+#   ROWS=inplace bench/loop_timing.sh ... # the default config against the same without
 #                                         # realtime.cpu_dma_latency_zero, alternated for ROUNDS rounds
 #                                         # (default 3), next to cyclictest SCHED_OTHER
 #   BASELINE=DIR bench/loop_timing.sh ... # also the event-driven rows of another build's coopdynd
@@ -154,14 +154,14 @@ receive_rounds() {
       "$(with "busy_poll: true, receive_in_loop: true")" arrival "$BUILD" --busy-poll
   done
 }
-# inplace: the default config against the same with the CPUs kept out of deep idle states
-# (realtime.cpu_dma_latency_zero, what cyclictest does), A/B rounds as above
+# inplace: the default config (which keeps the CPUs out of deep idle states:
+# realtime.cpu_dma_latency_zero, what cyclictest does) against the same without it, A/B rounds as above
 inplace_rounds() {
   cyclic "cyclictest, SCHED_OTHER"
   for r in $(seq "${ROUNDS:-3}"); do
     daemon "coopdynd simulate, SCHED_OTHER (round $r)" simulate ""
-    daemon "coopdynd simulate, SCHED_OTHER, cpu_dma_latency_zero (round $r)" simulate \
-      "realtime: {cpu_dma_latency_zero: true}"
+    daemon "coopdynd simulate, SCHED_OTHER, cpu_dma_latency_zero: false (round $r)" simulate \
+      "realtime: {cpu_dma_latency_zero: false}"
   done
 }
 if [ "${ROWS:-all}" = receive ]; then

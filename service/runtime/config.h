@@ -52,8 +52,11 @@ struct RealtimeOptions {
   // [0, 1000] us and below the period.
   int spin_us = 0;
   // Hold /dev/cpu_dma_latency at 0 while running (the PM QoS request cyclictest makes: no deep
-  // C-states, so no exit latency on wake-up; needs root; the whole machine draws more power).
-  bool cpu_dma_latency_zero = false;
+  // C-states, so no exit latency on wake-up and the loop's caches not flushed by a deep idle state
+  // between ticks; needs root, else logged and ignored; the whole machine draws more power while the
+  // daemon runs). On by default: the in-place tick measured 1.41-1.67x the warm tick with it against
+  // 2.57-2.94x without (bench/README.md, "Loop timing").
+  bool cpu_dma_latency_zero = true;
   // Event-driven estimate mode (trigger: arrival) only: the loop thread never sleeps waiting for a
   // state but polls for one, so no wake-up stands between a state's receipt and its computation.
   // It takes a whole CPU at all times: give it one (cpu, ideally isolated from the scheduler with

@@ -276,7 +276,8 @@ const std::vector<ConfigField> kFields = {
      "(discarded), then busy-wait to the deadline; costs about `spin_us * rate_hz / 1e6` of a CPU"},
     {"realtime", "cpu_dma_latency_zero", K::kFlag, "true or false", kNone, kNone, "", {}, false,
      COOPDYN_MEMBER(R::cpu_dma_latency_zero, b), nullptr, "",
-     "hold `/dev/cpu_dma_latency` at 0 while running (no deep idle states; root)"},
+     "hold `/dev/cpu_dma_latency` at 0 while running (no deep idle states, so the loop wakes with its caches; "
+     "root, else logged and ignored; the machine draws more power while the daemon runs)"},
     {"realtime", "busy_poll", K::kFlag, "true or false", kNone, kNone, "", {}, false,
      COOPDYN_MEMBER(R::busy_poll, b), check_busy_poll, "",
      "`trigger: arrival` only: the loop polls for measured states instead of sleeping (no wake-up between a "

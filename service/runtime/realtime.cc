@@ -35,7 +35,7 @@ std::vector<RealtimeResult> apply_realtime(const RealtimeOptions& o) {
     if (fd >= 0 && ::write(fd, &zero, sizeof zero) == static_cast<ssize_t>(sizeof zero))
       out.push_back({true, "/dev/cpu_dma_latency held at 0 us (no deep idle states while running)"});
     else
-      out.push_back({false, std::string("/dev/cpu_dma_latency not held at 0: ") + std::strerror(errno) + " (needs root)"});
+      out.push_back({false, std::string("/dev/cpu_dma_latency not held at 0: ") + std::strerror(errno) + " (needs root; the loop then wakes from deep idle states: realtime.cpu_dma_latency_zero)"});
   }
   if (o.spin_us > 0)
     out.push_back({true, "spinning the last " + std::to_string(o.spin_us) + " us before each deadline (busy wait)"});
