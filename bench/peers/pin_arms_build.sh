@@ -1,10 +1,9 @@
 #!/bin/bash
 # Builds bench/peers/pin_arms.cc (coopdyn against Pinocchio on the arms-on-one-load scenes)
 # in a scratch folder outside the repository; nothing here is part of coopdyn's build:
-#   bench/peers/pin_arms_build.sh SCRATCH_DIR [PINOCCHIO_GIT_DIR] [COOPDYN_GIT_DIR] [COOPDYN_COMMIT]
+#   bench/peers/pin_arms_build.sh SCRATCH_DIR PINOCCHIO_GIT_DIR [COOPDYN_GIT_DIR] [COOPDYN_COMMIT]
 #   taskset -c 1 SCRATCH_DIR/pin_arms 21
 # PINOCCHIO_GIT_DIR: a git (or bare) clone of github.com/stack-of-tasks/pinocchio
-#                    (default /work/.mirror/stack-of-tasks+pinocchio/repo)
 # COOPDYN_GIT_DIR:   the coopdyn repository, only read with `git archive` (default: this one)
 # COOPDYN_COMMIT:    default HEAD
 # Steps: 1. `git archive` both sources into SCRATCH_DIR/pinocchio-src and coopdyn-src;
@@ -17,9 +16,9 @@
 # Needs libboost-dev (Pinocchio's headers) besides coopdyn's own build dependencies.
 # Builds run under nice with at most 2 jobs.
 set -euo pipefail
-SCRATCH=${1:?usage: pin_arms_build.sh SCRATCH_DIR [PINOCCHIO_GIT_DIR] [COOPDYN_GIT_DIR] [COOPDYN_COMMIT]}
+SCRATCH=${1:?usage: pin_arms_build.sh SCRATCH_DIR PINOCCHIO_GIT_DIR [COOPDYN_GIT_DIR] [COOPDYN_COMMIT]}
 PEERS=$(cd "$(dirname "$0")" && pwd)
-PIN_GIT=${2:-/work/.mirror/stack-of-tasks+pinocchio/repo}
+PIN_GIT=${2:?usage: pin_arms_build.sh SCRATCH_DIR PINOCCHIO_GIT_DIR [COOPDYN_GIT_DIR] [COOPDYN_COMMIT] (a clone of github.com/stack-of-tasks/pinocchio)}
 COOP_GIT=${3:-$(cd "$PEERS/../.." && pwd)}
 COOP_REV=${4:-HEAD}
 mkdir -p "$SCRATCH"

@@ -1,10 +1,9 @@
 #!/bin/bash
 # Builds bench/peers/pin_robots.cc (the Pinocchio reference for scenes of whole robots holding a load)
 # in a scratch folder outside the repository; nothing here is part of coopdyn's build:
-#   bench/peers/pin_robots_build.sh SCRATCH_DIR [PINOCCHIO_GIT_DIR]
+#   bench/peers/pin_robots_build.sh SCRATCH_DIR PINOCCHIO_GIT_DIR
 #   bench/peers/pin_robots_compare.py --peer bench/peers/pin_robots/SCENE.json --pin SCRATCH_DIR/pin_robots
 # PINOCCHIO_GIT_DIR: a git (or bare) clone of github.com/stack-of-tasks/pinocchio
-#                    (default /work/.mirror/stack-of-tasks+pinocchio/repo)
 # Steps: 1. `git archive` Pinocchio into SCRATCH_DIR/pinocchio-src;
 #        2. Pinocchio header-only, as pin_arms_build.sh (config.hpp, parsers/config.hpp, deprecated.hpp,
 #           warning.hpp written into gen/pinocchio/), plus its URDF parser: src/parsers/urdf/model.cpp and
@@ -14,9 +13,9 @@
 # Needs libboost-dev, libeigen3-dev and liburdfdom-dev (coopdyn's own build dependencies but Boost).
 # Builds run under nice with at most 2 jobs.
 set -euo pipefail
-SCRATCH=${1:?usage: pin_robots_build.sh SCRATCH_DIR [PINOCCHIO_GIT_DIR]}
+SCRATCH=${1:?usage: pin_robots_build.sh SCRATCH_DIR PINOCCHIO_GIT_DIR}
 PEERS=$(cd "$(dirname "$0")" && pwd)
-PIN_GIT=${2:-/work/.mirror/stack-of-tasks+pinocchio/repo}
+PIN_GIT=${2:?usage: pin_robots_build.sh SCRATCH_DIR PINOCCHIO_GIT_DIR (a clone of github.com/stack-of-tasks/pinocchio)}
 REPO=$(cd "$PEERS/../.." && pwd)
 mkdir -p "$SCRATCH"
 HERE=$(cd "$SCRATCH" && pwd)

@@ -2,14 +2,13 @@
 # Regenerates config/robots/{pr2,baxter,tiago_pro}.urdf from Gepetto/example-robot-data with
 # bench/peers/strip_urdf.py (visual, collision, gazebo, transmission and top-level material elements
 # removed, every number as published, source and licence in a header comment):
-#   bench/peers/prepare_robots.sh [EXAMPLE_ROBOT_DATA_GIT_DIR] [APACHE_LICENSE_FILE]
+#   bench/peers/prepare_robots.sh EXAMPLE_ROBOT_DATA_GIT_DIR [APACHE_LICENSE_FILE]
 # EXAMPLE_ROBOT_DATA_GIT_DIR: a git (or bare) clone of github.com/Gepetto/example-robot-data
-#                             (default /work/.mirror/Gepetto+example-robot-data/repo)
 # APACHE_LICENSE_FILE: the Apache License 2.0 text (default Debian's /usr/share/common-licenses/Apache-2.0)
 # The commit is pinned; the outputs are written into config/robots/ of this repository.
 set -euo pipefail
 PEERS=$(cd "$(dirname "$0")" && pwd)
-ERD=${1:-/work/.mirror/Gepetto+example-robot-data/repo}
+ERD=${1:?usage: prepare_robots.sh EXAMPLE_ROBOT_DATA_GIT_DIR [APACHE_LICENSE_FILE] (a clone of github.com/Gepetto/example-robot-data)}
 APACHE=${2:-/usr/share/common-licenses/Apache-2.0}
 COMMIT=39aa94379908fa743da90b21dc9e1fb8308f746b
 OUT=$PEERS/../../config/robots
