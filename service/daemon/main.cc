@@ -40,6 +40,7 @@
 #include "service/io/rx_isolated.h"
 #include "service/runtime/config.h"
 #include "service/runtime/publisher_thread.h"
+#include "service/runtime/socket_arrivals.h"
 #include "service/runtime/realtime.h"
 #include "service/runtime/service_loop.h"
 #include "service/scene/scene.h"
@@ -436,27 +437,6 @@ struct RingArrivals : coopdyn::runtime::ArrivalSource {
   }
 };
 
-// trigger: arrival with realtime.receive_in_loop: the loop reads the input socket itself, sleeping in
-// ppoll on it (or polling it, realtime.busy_poll): no other thread or process between the kernel and
-// the loop
-struct SocketArrivals : coopdyn::runtime::ArrivalSource {
-  coopdyn::io::InLoopReceiver& rx;
-  coopdyn::runtime::ServiceLoop& loop;
-  RejectionReport& rejections;
-  SocketArrivals(coopdyn::io::InLoopReceiver& r, coopdyn::runtime::ServiceLoop& l, RejectionReport& j)
-      : rx(r), loop(l), rejections(j) {}
-  uint32_t bell() const override { return rx.bell(); }
-  void wait(uint32_t seen, long long deadline_ns) override {
-    if (rx.bell() != seen) return;
-    rx.wait_readable(deadline_ns);
-    drain();
-  }
-  void poll() override { drain(); }
-  void drain() override {
-    rx.receive([this](const void* d, int n, long long t) { offer_input(loop, false, rejections, d, n, t); });
-  }
-};
-
 // the receive thread: offers each input to the loop's inboxes, counts what is not applied (unless
 // the loop drains the ring itself: then it only supervises); logs the receive process's deaths
 void start_receiving(coopdyn::io::IsolatedReceiver& rx, coopdyn::runtime::ServiceLoop& loop,
@@ -632,7 +612,8 @@ int main(int argc, char** argv) {
   RejectionReport rejections;
   std::unique_ptr<runtime::ArrivalSource> arrivals;
   if (in_loop) {
-    arrivals = std::make_unique<SocketArrivals>(*in_loop, loop, rejections);
+    auto offer = [&loop, &rejections](const void* d, int n, long long t) { offer_input(loop, false, rejections, d, n, t); };
+    arrivals = std::make_unique<runtime::SocketArrivals<decltype(offer)>>(*in_loop, offer);
     loop.take_arrivals_from(arrivals.get());
     log_receive_socket(*in_loop, cfg);
   } else {

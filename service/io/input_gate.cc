@@ -9,6 +9,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "service/io/lcm_bus.h"
 #include "service/io/udpm_socket.h"
 
 namespace coopdyn::io {
@@ -17,11 +18,6 @@ namespace {
 
 constexpr uint32_t kLc02 = 0x4c433032, kLc03 = 0x4c433033;  // LCM's short message and fragment magic
 
-long long now_ns() {
-  timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<long long>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
-}
 
 // The classic BPF program of the receive socket. For a UDP socket the filter sees the datagram from
 // the UDP header (8 bytes) on: LCM's header at 8 (magic, seqno), the channel and its NUL at 16, the
@@ -183,7 +179,7 @@ int InputGate::read_batch(int sock) {
     msgs_[k].msg_len = 0;
   }
   const int n = recvmmsg(sock, msgs_.data(), kBatch, MSG_DONTWAIT, nullptr);
-  batch_ns_ = now_ns();
+  batch_ns_ = monotonic_ns();
   return n > 0 ? n : 0;
 }
 

@@ -6,6 +6,8 @@
 
 #include <stdexcept>
 
+#include "service/io/lcm_bus.h"
+
 namespace coopdyn::io {
 
 namespace {
@@ -35,9 +37,7 @@ InLoopReceiver::~InLoopReceiver() {
 }
 
 void InLoopReceiver::wait_readable(long long deadline_ns) const {
-  timespec now;
-  clock_gettime(CLOCK_MONOTONIC, &now);
-  const long long left = deadline_ns - (static_cast<long long>(now.tv_sec) * 1000000000LL + now.tv_nsec);
+  const long long left = deadline_ns - monotonic_ns();
   if (left <= 0) return;
   const timespec ts{static_cast<time_t>(left / 1000000000LL), static_cast<long>(left % 1000000000LL)};
   pollfd pfd{fd_, POLLIN, 0};

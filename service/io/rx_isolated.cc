@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "service/io/codec.h"
+#include "service/io/lcm_bus.h"
 #include "service/io/lcm_wire.h"
 
 extern char** environ;
@@ -42,11 +43,6 @@ size_t slot_stride(int slot_bytes) { return (sizeof(uint32_t) + sizeof(int64_t) 
 size_t ring_size(int slots, int slot_bytes) { return 64 * ((sizeof(RxRingHeader) + 63) / 64) + slots * slot_stride(slot_bytes); }
 unsigned char* slot_at(unsigned char* base, int slot_bytes, uint64_t i, int slots) {
   return base + (i % static_cast<uint64_t>(slots)) * slot_stride(slot_bytes);
-}
-long long now_ns() {
-  timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<long long>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
 }
 
 }  // namespace
@@ -164,7 +160,7 @@ void IsolatedReceiver::wait_bell(uint32_t seen, long long deadline_ns) {
 }
 
 void IsolatedReceiver::run() {
-  long long started = now_ns(), backoff_ns = 0, respawn_at = 0;
+  long long started = monotonic_ns(), backoff_ns = 0, respawn_at = 0;
   pollfd pfd{event_fd_, POLLIN, 0};
   const bool supervise_only = caller_drains();
   while (!stop_.load(std::memory_order_relaxed)) {
@@ -180,13 +176,13 @@ void IsolatedReceiver::run() {
       if (waitpid(p, &status, WNOHANG) == p) {
         pid_.store(-1);
         const long long n = restarts_.fetch_add(1) + 1;
-        const long long now = now_ns();
+        const long long now = monotonic_ns();
         backoff_ns = now - started < 1000000000LL ? std::min(std::max(2 * backoff_ns, 1000000LL), 1000000000LL) : 0;
         respawn_at = now + backoff_ns;
         if (on_restart_) on_restart_(status, n);
       }
-    } else if (now_ns() >= respawn_at) {
-      started = now_ns();
+    } else if (monotonic_ns() >= respawn_at) {
+      started = monotonic_ns();
       spawn();
     }
   }

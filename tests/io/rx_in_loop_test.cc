@@ -15,6 +15,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <mutex>
 #include <random>
 #include <thread>
@@ -25,6 +26,7 @@
 #include "service/io/rx_in_loop.h"
 #include "service/runtime/realtime.h"
 #include "service/runtime/service_loop.h"
+#include "service/runtime/socket_arrivals.h"
 #include "tests/support/child_process.h"
 #include "tests/support/daemon_test_util.h"
 #include "tests/support/raw_udp.h"
@@ -36,25 +38,15 @@ using coopdyn::testing::kCountingAvailable;
 
 namespace {
 
-// The daemon's source in this mode (service/daemon/main.cc SocketArrivals), without its log counters.
-struct SocketSource : runtime::ArrivalSource {
-  io::InLoopReceiver& rx;
-  runtime::ServiceLoop& loop;
-  SocketSource(io::InLoopReceiver& r, runtime::ServiceLoop& l) : rx(r), loop(l) {}
-  uint32_t bell() const override { return rx.bell(); }
-  void wait(uint32_t seen, long long deadline_ns) override {
-    if (rx.bell() != seen) return;
-    rx.wait_readable(deadline_ns);
-    drain();
-  }
-  void poll() override { drain(); }
-  void drain() override {
-    rx.receive([this](const void* d, int n, long long t) {
-      if (io::identify(d, n) == io::MessageType::kControl) loop.controls().offer(d, n, t);
-      else loop.states().offer(d, n, t);
-    });
-  }
-};
+// What the daemon's source in this mode offers to (service/daemon/main.cc offer_input, without its log
+// counters): controls to the control inbox, states to the state inbox.
+runtime::SocketArrivals<std::function<void(const void*, int, long long)>> socket_source(io::InLoopReceiver& rx,
+                                                                                      runtime::ServiceLoop& loop) {
+  return {rx, [&loop](const void* d, int n, long long t) {
+            if (io::identify(d, n) == io::MessageType::kControl) loop.controls().offer(d, n, t);
+            else loop.states().offer(d, n, t);
+          }};
+}
 
 std::string key_file(const std::string& name, const std::string& hex) {
   const std::string p = tmp_path(name);
@@ -112,7 +104,7 @@ void hostile_and_valid_states_in_the_loop(bool busy_poll) {
   EXPECT_EQ(rx->filter_state(), 1);
   FakeBus bus;
   runtime::ServiceLoop loop(sys, cfg, bus);
-  SocketSource source(*rx, loop);
+  auto source = socket_source(*rx, loop);
   loop.take_arrivals_from(&source);
   RawUdp raw(url);
   std::mt19937 rng(27);
@@ -196,7 +188,7 @@ TEST(RxInLoop, WithAuthenticationUnsignedBadMacAndReplayedRefusedByReason) {
   rx->set_auth_key(key);
   FakeBus bus;
   runtime::ServiceLoop loop(sys, cfg, bus);
-  SocketSource source(*rx, loop);
+  auto source = socket_source(*rx, loop);
   loop.take_arrivals_from(&source);
   std::atomic<bool> stop{false};
   std::thread loop_thread([&] { loop.run(stop); });
@@ -253,7 +245,7 @@ TEST(RxInLoop, FloodWithAuthenticationRefusedByReasonNothingOfItApplied) {
   rx->set_auth_key(key);
   FakeBus bus;
   runtime::ServiceLoop loop(sys, cfg, bus);
-  SocketSource source(*rx, loop);
+  auto source = socket_source(*rx, loop);
   loop.take_arrivals_from(&source);
   auto state = [&](int64_t seq, const io::AuthKey* k, int64_t ahead_us = 0) {
     auto b = io::encode_measured_state(io::wall_us() + ahead_us, seq, {}, stdvec(sys.q0), {}, stdvec(sys.v0),
