@@ -48,7 +48,8 @@ std::shared_ptr<const UrdfTree> read_urdf_tree(const Ctx& c, const YAML::Node& w
     check_link_inertial(c, where, f, above, warnings);
   }
   if (root->inertial) t->root_inertia = link_inertia(c, where, *root);
-  std::vector<urdf::LinkConstSharedPtr> stack = {root};
+  std::vector<urdf::LinkConstSharedPtr> stack;  // not {root}: GCC 12 warns (-Wfree-nonheap-object) on that form
+  stack.push_back(root);
   while (!stack.empty()) {
     const urdf::LinkConstSharedPtr l = stack.back();
     stack.pop_back();
