@@ -134,6 +134,8 @@ struct WrenchSigmaData {
   std::vector<std::vector<int>> qt_path;         // (q_dofs) the DOFs above the joint
   std::vector<std::vector<int>> qt_specs;        // (q_dofs) the welds, couplings and locks it moves
   std::vector<std::vector<int>> qt_outputs;      // (q_dofs) the reactions it moves
+  std::vector<std::vector<signed char>> qt_side;  // per weld, per support DOF: +1 it moves frame A,
+                                                  // -1 frame B, 0 both (G's column is X_A^-1 S_k times it)
   std::vector<RigidInertia> I_own;               // per body: its own inertia (world, at p_ref)
   std::vector<Vec6> pa, pAt, pP, pF;             // per body: vdot-linear and total acceleration,
                                                  // momentum, subtree sum of the body forces

@@ -101,9 +101,10 @@ void weld_change(const System& sys, const Workspace& ws, WrenchSigmaData& sd, co
   const Vec6 dFs = cross_force(delta, sd.pFs[static_cast<size_t>(s)]);
   const double alpha = cs.stabilize ? cs.baumgarte_alpha : 0.0;
   Vec6 w = Vec6::Zero();  // sum over k of dG(:, k) (vdot_k + alpha v_k), all six axes of A
-  for (int d : cs.support[static_cast<size_t>(s)]) {
-    const int bd = model.dof_body[d];
-    const int sg = (A >= 0 && model.is_ancestor(bd, A) ? 1 : 0) - (B >= 0 && model.is_ancestor(bd, B) ? 1 : 0);
+  const std::vector<int>& sup = cs.support[static_cast<size_t>(s)];
+  const signed char* side = sd.qt_side[static_cast<size_t>(s)].data();
+  for (size_t n = 0; n < sup.size(); ++n) {
+    const int d = sup[n], bd = model.dof_body[d], sg = side[n];
     const bool dm = sd.t_moved[bd] != 0;
     if (sg == 0 || dm == Am) continue;  // S_k and A carried together, or neither
     const double e = Am ? 1.0 : -1.0;   // dG(:, k) = sg X_A^-1 (dS_k - [A moved] delta x S_k)
@@ -169,6 +170,17 @@ void position_tangent_plan(const System& sys, WrenchSigmaData& sd) {
   sd.qt_path.assign(nq, {});
   sd.qt_specs.assign(nq, {});
   sd.qt_outputs.assign(nq, {});
+  const ConstraintSet& cs = sys.constraints;
+  sd.qt_side.assign(cs.specs.size(), {});
+  for (size_t s = 0; s < cs.specs.size(); ++s) {
+    if (cs.specs[s].kind != ConstraintKind::kWeld) continue;
+    const int A = frame_body(model, cs.specs[s].frame_a), B = frame_body(model, cs.specs[s].frame_b);
+    for (int d : cs.support[s]) {
+      const int bd = model.dof_body[d];
+      sd.qt_side[s].push_back(static_cast<signed char>((A >= 0 && model.is_ancestor(bd, A) ? 1 : 0) -
+                                                       (B >= 0 && model.is_ancestor(bd, B) ? 1 : 0)));
+    }
+  }
   for (size_t a = 0; a < nq; ++a) {
     const int dof = sd.q_dofs[a], b = model.dof_body[dof];
     const JointType t = model.bodies[b].joint.type;
