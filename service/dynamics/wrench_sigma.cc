@@ -5,6 +5,7 @@
 #include "service/algorithms/kinematics.h"
 #include "service/algorithms/rnea.h"
 #include "service/algorithms/tree_cholesky.h"
+#include "service/dynamics/wrench_sigma_position.h"
 #include "service/dynamics/wrench_sigma_velocity.h"
 
 namespace coopdyn {
@@ -86,6 +87,13 @@ WrenchSigmaData::WrenchSigmaData(const System& sys) {
     t_touched.assign(nb, 0);
     tGdot.setZero(m);
     trr.assign(sys.constraints.specs.size(), 0.0);
+    I_own.assign(nb, RigidInertia());
+    pa.assign(nb, Vec6::Zero());
+    pAt.assign(nb, Vec6::Zero());
+    pP.assign(nb, Vec6::Zero());
+    pF.assign(nb, Vec6::Zero());
+    pFs.assign(sys.constraints.specs.size(), Vec6::Zero());
+    position_tangent_plan(sys, *this);
   }
 }
 
@@ -446,8 +454,8 @@ void residual(const System& sys, const Workspace& ws, WrenchSigmaData& sd, const
 }
 
 // Columns na.. of X0 and Gm (the residuals' change per one standard deviation of each measured
-// coordinate) and of Cd (the wrenches' own change at fixed vdot, lambda). Positions: forward
-// differences. Velocities: the tangent of the velocity recursion (wrench_sigma_velocity.h), along
+// coordinate) and of Cd (the wrenches' own change at fixed vdot, lambda). Positions: the tangent
+// along the joint's motion (wrench_sigma_position.h), else forward differences. Velocities: the tangent of the velocity recursion (wrench_sigma_velocity.h), along
 // the unit change of the joint's velocity and, with a refit, the fitted velocities' change (the
 // velocity fit is linear in the measured velocities: fit_velocity_change of state_fit.h).
 void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, const Eigen::VectorXd& q,
@@ -455,7 +463,11 @@ void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
   constexpr double h = 1e-7;  // rad, m
   const int na = static_cast<int>(sd.dofs.size());
   const size_t no = sys.wrenches.outputs.size();
-  if (nq > 0) {
+  auto tangent = [&](int a) { return !sd.refit && sd.qt_tangent[static_cast<size_t>(a)]; };
+  bool any_tangent = false, any_difference = false;
+  for (int a = 0; a < nq; ++a) (tangent(a) ? any_tangent : any_difference) = true;
+  if (any_tangent) position_tangent_setup(sys, ws, sd);
+  if (any_difference) {
     sd.qp = q;
     sd.vp = v;
     residual(sys, ws, sd, v, tau, sd.r0_tau, sd.r0_g, *sd.wd0);
@@ -468,6 +480,10 @@ void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
         sd.Cd(6 * static_cast<Eigen::Index>(k) + c, j) = (sd.wd1->W[k][c] - sd.wd0->W[k][c]) * scale;
   };
   for (int a = 0; a < nq; ++a) {
+    if (tangent(a)) {
+      position_column(sys, ws, sd, v, a, na + a, a, sd.Sq[a]);
+      continue;
+    }
     // without a refit only the joint's subtree moves: its kinematics alone are redone, and
     // undone after the column
     const int iq = sd.q_index[static_cast<size_t>(a)];

@@ -18,11 +18,16 @@
 // never repeated. Velocity columns: dE/dv and dg/dv are exact tangents of the velocity recursion
 // at fixed q (wrench_sigma_velocity.h: v enters only the bias forces, Gdot v, the damping and the
 // rolling-resistance arm), equal to central differences of any step to round-off. Position
-// columns: directional differences of the residual (kinematics of the joint's subtree, inverse
-// dynamics, constraint rows and the wrench pass, no factorization) with a forward step h = 1e-7
-// (rad, m), truncation error O(h). The linearization error is second order in the noise (a
-// wrench's curvature in q times S_q^2); against central differences of whole evaluations the
-// columns agree to 1e-4 (absolute, or relative above 1) on the shipped scenes
+// columns: exact tangents too (wrench_sigma_position.h: a joint's motion carries its subtree as one
+// rigid body; the inverse dynamics, the welds' rows and the reactions change over that subtree and
+// its path to the root only), equal to five-point central differences to round-off. Where that
+// does not hold (a refit per column, the first body's joint, a rolling contact in the subtree, a
+// weld in it under Baumgarte position feedback) a column is a directional difference of the
+// residual (kinematics of the joint's subtree, inverse dynamics, constraint rows and the wrench
+// pass, no factorization) with a forward step h = 1e-7 (rad, m), truncation error O(h). The
+// linearization error is second order in the noise (a wrench's curvature in q times S_q^2);
+// against central differences of whole evaluations the columns agree to 1e-4 (absolute, or
+// relative above 1) on the shipped scenes
 // (tests/dynamics/wrench_sigma_test.cc). A load pose and twist fitted from the
 // joints (state_fit.h) are held unless WrenchSigmaData::refit is set (state_fit_sigma.h): then each
 // column refits them at the perturbed measurement, as the estimator does. Joint friction is held at the evaluation's (set-valued at rest, its sign constant
@@ -122,6 +127,19 @@ struct WrenchSigmaData {
   std::vector<char> t_moved, t_touched;  // per body: tV, tA set (a moved body); tF set
   Eigen::VectorXd tGdot;              // (rows) the change of Gdot v
   std::vector<double> trr;            // per spec: the change of a rolling spec's rr_arm
+
+  // measurement noise, position columns: the tangent along a joint's motion (wrench_sigma_position.h)
+  std::vector<char> qt_tangent;                  // (q_dofs) the column is a tangent (else a difference)
+  std::vector<std::vector<int>> qt_bodies;       // (q_dofs) the joint's subtree, ascending
+  std::vector<std::vector<int>> qt_path;         // (q_dofs) the DOFs above the joint
+  std::vector<std::vector<int>> qt_specs;        // (q_dofs) the welds, couplings and locks it moves
+  std::vector<std::vector<int>> qt_outputs;      // (q_dofs) the reactions it moves
+  std::vector<std::vector<signed char>> qt_side;  // per weld, per support DOF: +1 it moves frame A,
+                                                  // -1 frame B, 0 both (G's column is X_A^-1 S_k times it)
+  std::vector<RigidInertia> I_own;               // per body: its own inertia (world, at p_ref)
+  std::vector<Vec6> pa, pAt, pP, pF;             // per body: vdot-linear and total acceleration,
+                                                 // momentum, subtree sum of the body forces
+  std::vector<Vec6> pFs;                         // per spec (welds, rolling): its force (spec_force)
 };
 
 // Torque noise only (simulate mode: the state is exact). Fills sd.sigma and sd.C for the

@@ -6,7 +6,9 @@
 // for a block that is zero but for round-off (a reaction nothing loads: 1e-23 against 2e-14 seen on
 // the TIAGo's base), the two differing only in the order of the floating-point operations (and,
 // in the velocity columns, the fast path's tangents against the reference's central differences,
-// exact for those terms but for round-off: wrench_sigma_velocity_test.cc).
+// exact for those terms but for round-off: wrench_sigma_velocity_test.cc; in the position columns
+// that are tangents, against its five-point central differences of step 1e-3, truncation ~1e-12:
+// wrench_sigma_position_test.cc).
 #include <gtest/gtest.h>
 
 #include <random>

@@ -13,6 +13,7 @@
 namespace coopdyn::reference {
 
 double velocity_step = 1e-2;
+double position_step = 1e-3;
 
 namespace {
 using RowMat = WrenchSigmaData::RowMat;
@@ -313,6 +314,29 @@ void residual(const System& sys, const Workspace& ws, WrenchSigmaData& sd, const
   compute_wrenches(sys, wp, wd);
 }
 
+// Column col of X0 and Gm and cd_col of Cd for position iq: the five-point central difference of
+// step position_step, (8 (r(h) - r(-h)) - (r(2h) - r(-2h))) / 12 h (truncation O(h^4), round-off
+// ~eps |r| / h). Allocates (test code).
+void five_point(const System& sys, const Workspace& ws, WrenchSigmaData& sd, const Eigen::VectorXd& q,
+                const Eigen::VectorXd& v, const Eigen::VectorXd& tau, int iq, int col, int cd_col, double scale) {
+  const double hs = position_step;
+  const size_t no = sys.wrenches.outputs.size();
+  Eigen::VectorXd t = Eigen::VectorXd::Zero(sd.r_tau.size()), g = Eigen::VectorXd::Zero(sd.r_g.size());
+  Eigen::VectorXd w = Eigen::VectorXd::Zero(6 * static_cast<Eigen::Index>(no));
+  for (const auto& [k, wt] : {std::pair{1.0, 8.0}, {-1.0, -8.0}, {2.0, -1.0}, {-2.0, 1.0}}) {
+    sd.qp[iq] = q[iq] + k * hs;
+    residual(sys, ws, sd, v, tau, sd.r_tau, sd.r_g, *sd.wd1);
+    t += wt * sd.r_tau;
+    g += wt * sd.r_g;
+    for (size_t o = 0; o < no; ++o) w.segment<6>(6 * static_cast<Eigen::Index>(o)) += wt * sd.wd1->W[o];
+  }
+  sd.qp[iq] = q[iq];
+  const double f = scale / (12.0 * hs);
+  sd.X0.col(col) = f * t;
+  sd.Gm.col(col) = f * g;
+  for (Eigen::Index r = 0; r < w.size(); ++r) sd.Cd(r, cd_col) = f * w[r];
+}
+
 // Columns na.. of X0 and Gm (the residuals' change per one standard deviation of each measured
 // coordinate) and of Cd (the wrenches' own change at fixed vdot, lambda): forward differences
 void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, const Eigen::VectorXd& q,
@@ -332,6 +356,10 @@ void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
   };
   for (int a = 0; a < nq; ++a) {
     const int iq = sd.q_index[static_cast<size_t>(a)];
+    if (position_step > 0 && !sd.refit && sd.qt_tangent[static_cast<size_t>(a)]) {
+      five_point(sys, ws, sd, q, v, tau, iq, na + a, a, sd.Sq[a]);
+      continue;
+    }
     sd.qp[iq] = q[iq] + h;
     residual(sys, ws, sd, v, tau, sd.r_tau, sd.r_g, *sd.wd1);
     sd.qp[iq] = q[iq];

@@ -7,9 +7,13 @@
 namespace coopdyn::reference {
 
 // The velocity columns' step (rad/s, m/s): central differences of this step (default 1e-3), or
-// the forward differences of 1e-7 the fast path used before its tangents when <= 0. The position
-// columns: forward differences of 1e-7, as the fast path.
+// the forward differences of 1e-7 the fast path used before its tangents when <= 0.
 extern double velocity_step;
+// The position columns' step (rad, m): when > 0 (default 1e-3), five-point central differences of
+// this step for the columns the fast path takes as tangents (WrenchSigmaData::qt_tangent, no
+// refit) and the forward differences of 1e-7 for the others, as the fast path; when <= 0, forward
+// differences of 1e-7 for every column, the fast path's before its tangents.
+extern double position_step;
 
 void compute_wrench_sigma(const System& sys, Workspace& ws, WrenchSigmaData& sd);
 void compute_wrench_sigma(const System& sys, Workspace& ws, WrenchSigmaData& sd, const Eigen::VectorXd& q,
