@@ -161,6 +161,7 @@ void IsolatedReceiver::start(Handler handler, RestartHandler on_restart) {
       p.sched_priority = fifo_priority_.load();
       pthread_setschedparam(pthread_self(), SCHED_FIFO, &p);  // refused without the privilege
     }
+    prctl(PR_SET_NAME, "coopdynd-rx", 0, 0, 0);
     tid_.store(static_cast<pid_t>(syscall(SYS_gettid)));
     run();
   });
