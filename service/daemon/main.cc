@@ -551,6 +551,20 @@ struct ReceiveFifoGuard {
   }
 };
 
+// what realtime.receive_priority got: the receive process's and thread's policy, from the kernel
+void log_receive_priority(const coopdyn::io::IsolatedReceiver& rx, const coopdyn::runtime::ServiceConfig& cfg) {
+  const int want = cfg.realtime.receive_priority;
+  if (want <= 0 || !coopdyn::runtime::loop_asks_fifo(cfg.realtime)) return;
+  for (int i = 0; i < 100 && rx.thread_tid() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  const pid_t child = rx.child_pid(), tid = rx.thread_tid();
+  if (child > 0 && tid > 0 && sched_getscheduler(child) == SCHED_FIFO && sched_getscheduler(tid) == SCHED_FIFO)
+    spdlog::info("receive process and thread run SCHED_FIFO priority {} (stepped down to SCHED_OTHER if a flood keeps "
+                 "either busy)", want);
+  else
+    spdlog::warn("receive process and thread: SCHED_FIFO priority {} refused (needs root or CAP_SYS_NICE); they run "
+                 "SCHED_OTHER", want);
+}
+
 // run: the loop in its thread (real-time options applied there); this thread drains the loop's
 // events into the log until a signal or the duration. Returns when the loop has stopped.
 std::chrono::steady_clock::time_point run(coopdyn::runtime::ServiceLoop& loop, const coopdyn::System& sys,
@@ -691,6 +705,7 @@ int main(int argc, char** argv) {
     }
     start_receiving(*isolated, loop, cfg, rejections);
     wait_for_receiver(*isolated, cfg);
+    log_receive_priority(*isolated, cfg);
   }
 
   ReceiveFifoGuard rx_guard;

@@ -108,7 +108,9 @@ void run_flood(Junk kind, FloodFigures* fig) {
   const bool auth = kind == Junk::kForged;
   const std::string config = tmp_path("flood.yaml"), key_file = tmp_path("flood.key");
   {
-    std::ofstream(config) << "lcm_url_in: \"" << url_in << "\"\nstats_period_s: 0.1\n"
+    // the receive process and thread at SCHED_FIFO 70, below the loop's 80 (as root; else refused and
+    // logged, and they run SCHED_OTHER): the share applied is judged only where it was granted
+    std::ofstream(config) << "lcm_url_in: \"" << url_in << "\"\nstats_period_s: 0.1\nrealtime: {receive_priority: 70}\n"
                           << (auth ? "auth:\n  key_file: " + key_file + "\n" : "");
     std::remove(key_file.c_str());
     std::ofstream(key_file) << kKeyHex << "\n";
@@ -296,6 +298,11 @@ void run_flood(Junk kind, FloodFigures* fig) {
   EXPECT_NE(log.find("receive socket filter: only coopdyn messages"), std::string::npos) << log;
   Summary s;
   ASSERT_TRUE(parse_summary(slurp(d.out), &s)) << slurp(d.out);
+  const bool rx_fifo = log.find("receive process and thread run SCHED_FIFO priority 70") != std::string::npos;
+  std::smatch dm;
+  const std::string out_text = slurp(d.out);
+  const bool stepped = std::regex_search(out_text, dm, std::regex(R"(SCHED_FIFO stepped down: loop (\d+), receive (\d+))"));
+  const long loop_down = stepped ? std::stol(dm[1]) : -1, rx_down = stepped ? std::stol(dm[2]) : -1;
   // accepted: of the flood's valid commands (seq 1 and the kAfter after it excluded)
   const long accepted = s.accepted - 1 - kAfter;
   const long lost = kValid - accepted;
@@ -306,12 +313,13 @@ void run_flood(Junk kind, FloodFigures* fig) {
       "%ld, lost %ld (%.2f %%), counted as missed (seq gaps) %ld; the receive process: refused %ld (not coopdyn), %ld "
       "(malformed LCM), ring full or too large %ld; the kernel dropped %ld at the socket (filter and overflow, %.2f %% of the junk); "
       "rejected %ld (malformed %ld, unauthenticated %ld, bad MAC %ld, replayed %ld), out of order %ld; ticks during "
-      "the flood %lld (%.1f per s), outputs seen %lld at %.1f Hz\n",
+      "the flood %lld (%.1f per s), outputs seen %lld at %.1f Hz; receive path SCHED_FIFO 70 %s, stepped down: loop "
+      "%ld, receive %ld\n",
       junk_name(kind), flood_s, kValid, junk_n, junk_n / flood_s, accepted, lost, 100.0 * lost / kValid, s.missed,
       s.filtered, s.malformed, s.dropped, s.socket_drops, 100.0 * s.socket_drops / std::max(1L, junk_n), s.rejected,
       by(io::Reject::kDecode), by(io::Reject::kUnauthenticated), by(io::Reject::kBadMac), by(io::Reject::kReplayed),
       s.out_of_order, static_cast<long long>(tick_after - tick_before), (tick_after - tick_before) / flood_s,
-      static_cast<long long>(outs), out_rate_hz);
+      static_cast<long long>(outs), out_rate_hz, rx_fifo ? "granted" : "refused", loop_down, rx_down);
   fig->valid = kValid;
   fig->applied = accepted;
   fig->missed = s.missed;
