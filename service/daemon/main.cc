@@ -516,8 +516,8 @@ void wait_for_receiver(const coopdyn::io::IsolatedReceiver& rx, const coopdyn::r
   else log_receive_socket(rx, cfg);
 }
 
-// The receive process and thread at SCHED_FIFO (realtime.receive_priority) under the same guard as
-// the loop (runtime/fifo_guard.h), watched from the main thread: each stats window, the CPU time
+// The receive process and thread at SCHED_FIFO (realtime.receive_priority), under realtime.sched_fifo
+// auto, under the same guard as the loop (runtime/fifo_guard.h), watched from the main thread: each stats window, the CPU time
 // each took; one that was busy more than the guard allows (a flood) steps both down to SCHED_OTHER
 // for the rest of the run, a respawned child included.
 struct ReceiveFifoGuard {
@@ -558,8 +558,10 @@ void log_receive_priority(const coopdyn::io::IsolatedReceiver& rx, const coopdyn
   for (int i = 0; i < 100 && rx.thread_tid() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   const pid_t child = rx.child_pid(), tid = rx.thread_tid();
   if (child > 0 && tid > 0 && sched_getscheduler(child) == SCHED_FIFO && sched_getscheduler(tid) == SCHED_FIFO)
-    spdlog::info("receive process and thread run SCHED_FIFO priority {} (stepped down to SCHED_OTHER if a flood keeps "
-                 "either busy)", want);
+    spdlog::info("receive process and thread run SCHED_FIFO priority {}{}", want,
+                 cfg.realtime.sched_fifo == coopdyn::runtime::SchedFifo::kAuto
+                     ? " (stepped down to SCHED_OTHER if a flood keeps either busy)"
+                     : " (realtime.sched_fifo true: never stepped down)");
   else
     spdlog::warn("receive process and thread: SCHED_FIFO priority {} refused (needs root or CAP_SYS_NICE); they run "
                  "SCHED_OTHER", want);
@@ -590,7 +592,8 @@ std::chrono::steady_clock::time_point run(coopdyn::runtime::ServiceLoop& loop, c
   const auto t_start = std::chrono::steady_clock::now();
   runtime::Event e;
   OverrunReport overruns;
-  if (isolated && runtime::loop_asks_fifo(cfg.realtime) && cfg.realtime.receive_priority > 0) {
+  // sched_fifo: true keeps every priority it gives (a lab's CPUs); auto guards the receive path as the loop
+  if (isolated && cfg.realtime.sched_fifo == runtime::SchedFifo::kAuto && cfg.realtime.receive_priority > 0) {
     rx_guard.rx = isolated;
     rx_guard.window_ns = static_cast<long long>(cfg.stats_period_s * 1e9);
   }
