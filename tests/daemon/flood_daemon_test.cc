@@ -4,8 +4,9 @@
 // (each valid command waits until 20 more junk datagrams went out, so the flood is at least 20x the
 // valid traffic whatever the machine's speed). The figures are printed ([flood] ...); without
 // authentication the loss and the loop's rate under the flood depend on the machine and are measured
-// by bench/flood.sh, not judged here, and so is the share applied with authentication (a race between
-// one sending thread and the receive process). Every output's torque must be a valid command's (no junk applied).
+// by bench/flood.sh, not judged here; with authentication, >= 99 % of the signed commands must be
+// applied where the receive path ran at SCHED_FIFO throughout (realtime.receive_priority, as root),
+// and the share is only printed elsewhere. Every output's torque must be a valid command's (no junk applied).
 //
 // Random junk: random payloads of 8..600 bytes, which the kernel's socket filter drops. Asserted:
 // every lost valid command is counted (the daemon's `missed (seq gaps)` equals the commands that
@@ -109,13 +110,15 @@ void run_flood(Junk kind, FloodFigures* fig) {
   const bool auth = kind == Junk::kForged;
   const std::string config = tmp_path("flood.yaml"), key_file = tmp_path("flood.key");
   {
-    // the receive process and thread at SCHED_FIFO 70, below the loop's 80 (as root; else refused and
-    // logged, and they run SCHED_OTHER; stepped down by sched_fifo auto's guard when the flood keeps
-    // them busy). COOPDYN_FLOOD_REALTIME replaces the realtime mapping (bench/flood.sh measures
-    // variants: "{sched_fifo: true, receive_priority: 70}" keeps the priority through the flood)
+    // the receive process and thread at SCHED_FIFO 70, below the loop's 80, held through the flood
+    // (sched_fifo: true: no guard steps them down; as root, else refused and logged, and they run
+    // SCHED_OTHER). For at most the flood's 3 s the receive process, at real-time priority, takes what
+    // one sending thread on this host makes it read (it sleeps whenever the socket is empty).
+    // COOPDYN_FLOOD_REALTIME replaces the realtime mapping (bench/flood.sh measures variants:
+    // "{receive_priority: 70}" under sched_fifo auto, whose guard steps a busy receive path down)
     const char* rt = std::getenv("COOPDYN_FLOOD_REALTIME");
     std::ofstream(config) << "lcm_url_in: \"" << url_in << "\"\nstats_period_s: 0.1\nrealtime: "
-                          << (rt && *rt ? rt : "{receive_priority: 70}") << "\n"
+                          << (rt && *rt ? rt : "{sched_fifo: true, receive_priority: 70}") << "\n"
                           << (auth ? "auth:\n  key_file: " + key_file + "\n" : "");
     std::remove(key_file.c_str());
     std::ofstream(key_file) << kKeyHex << "\n";
@@ -352,9 +355,17 @@ void run_flood(Junk kind, FloodFigures* fig) {
     EXPECT_EQ(st.receiver_restarts, 0);
   }
   if (auth) {
-    // the share applied is a race between one sending thread and the receive process (a loaded or
-    // sanitized machine loses more): printed above and measured by bench/flood.sh, never asserted;
-    // what is asserted is that no junk is accepted and every valid command lost is counted
+    // The share applied: with the receive path at SCHED_FIFO through the flood it applied 300 of 300
+    // in each of 22 runs of bench/flood.sh (12 at load 5-7, 10 beside a parallel build at load 6-10;
+    // 67,000-297,000 junk datagrams/s), so it is asserted there; without the priority (not root, or
+    // a guard that stepped it down) it is a race between one sending thread and the receive process
+    // (180-299 of 300 when auto's guard stepped it down), printed and not judged. What is asserted
+    // in every case: no junk is accepted and every valid command lost is counted.
+    if (rx_fifo && rx_down == 0)
+      EXPECT_GE(accepted, kValid * 99 / 100) << "with the receive path at SCHED_FIFO, >= 99 % of valid commands applied";
+    else
+      std::printf("[flood] the share applied is not judged: the receive path %s\n",
+                  rx_fifo ? "was stepped down to SCHED_OTHER during the flood" : "did not get SCHED_FIFO (needs root)");
     EXPECT_EQ(s.accepted, 1 + accepted + kAfter) << "no junk accepted";
     EXPECT_EQ(by(io::Reject::kDecode) + by(io::Reject::kUnauthenticated) + by(io::Reject::kBadMac) +
                   by(io::Reject::kReplayed),
@@ -393,8 +404,9 @@ TEST(DaemonFlood, CraftedFragmentsAtFullRateRefusedAndCounted) {
 
 // Authentication on: the flood's junk is garbage after the command fingerprint, well-formed unsigned
 // commands, commands signed with another key and a valid command's bytes sent again, in turn, as fast
-// as one thread publishes them, while 300 signed commands arrive at 100 Hz. The share of signed
-// commands applied is printed (bench/flood.sh measures it: 300 of 300 on a quiet machine); none of the junk is (every output's torque is a signed command's), and
+// as one thread publishes them, while 300 signed commands arrive at 100 Hz. With the receive path at
+// SCHED_FIFO (as root) at least 99 % of the signed commands are applied (else the share is printed,
+// bench/flood.sh measures it); none of the junk is (every output's torque is a signed command's), and
 // every junk datagram that reaches a check is rejected with its reason (asserted in run_flood).
 TEST(DaemonFlood, WithAuthenticationJunkIsRejectedAndValidCommandsApplied) {
   FloodFigures f;
