@@ -58,7 +58,7 @@ struct RealtimeOptions {
   // The receive process and the receive thread, when the loop asks for SCHED_FIFO: SCHED_FIFO at
   // this priority, below the loop's (0: SCHED_OTHER). Under sched_fifo auto both step down to
   // SCHED_OTHER when either would hog its CPU (a flood), as the loop does. 0 by default: at 70 a
-  // state's hand-off on arrival measured 50-70 us slower, and a receive path held at real-time
+  // state's publish to wrenches on arrival measured 51-55 us slower at load 5, and a receive path held at real-time
   // priority spends what a flood from another host costs (bench/README.md, "Commands under a flood").
   int receive_priority = 0;
   int cpu = -1;             // pin the loop thread to this CPU; -1: no affinity. The receive thread,
