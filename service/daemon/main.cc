@@ -3,7 +3,8 @@
 //   coopdynd --scene FILE [--config FILE] [--lcm-url URL] [--mode simulate|estimate]
 //            [--rate HZ] [--duration S]      (coopdynd --help: the options and their defaults)
 //
-// Processes and threads: the loop (ServiceLoop::run, optionally SCHED_FIFO) never receives; at the
+// Processes and threads: the loop (ServiceLoop::run, thread coopdynd-loop; SCHED_FIFO as root under
+// realtime.sched_fifo auto, stepped down if it hogs its CPU) never receives; at the
 // fixed rate it hands its encoded outputs to the publisher thread (runtime/publisher_thread.h), which
 // publishes them through LCM (realtime.publisher_thread; on arrival the loop publishes itself); inputs arrive in a supervised child process (coopdynd --rx-child,
 // io/rx_isolated.h: its own UDP socket and LCM wire parser, no liblcm) that copies raw bytes into a shared ring, drained by the receive thread here
