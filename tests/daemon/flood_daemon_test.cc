@@ -110,15 +110,17 @@ void run_flood(Junk kind, FloodFigures* fig) {
   const bool auth = kind == Junk::kForged;
   const std::string config = tmp_path("flood.yaml"), key_file = tmp_path("flood.key");
   {
-    // the receive process and thread at SCHED_FIFO 70, below the loop's 80, held through the flood
-    // (sched_fifo: true: no guard steps them down; as root, else refused and logged, and they run
-    // SCHED_OTHER). For at most the flood's 3 s the receive process, at real-time priority, takes what
-    // one sending thread on this host makes it read (it sleeps whenever the socket is empty).
-    // COOPDYN_FLOOD_REALTIME replaces the realtime mapping (bench/flood.sh measures variants:
-    // "{receive_priority: 70}" under sched_fifo auto, whose guard steps a busy receive path down)
+    // the receive process and thread at SCHED_FIFO 70, below the loop's 80 (as root, else refused and
+    // logged, and they run SCHED_OTHER). With authentication, where the share applied is judged, held
+    // through the flood (sched_fifo: true: no guard steps them down); for at most the flood's 3 s the
+    // receive process then takes, at real-time priority, what one sending thread on this host makes
+    // it read (it sleeps whenever the socket is empty). The other floods run sched_fifo auto, whose
+    // guard steps a busy receive path down after a 0.1 s window. COOPDYN_FLOOD_REALTIME replaces the
+    // realtime mapping (bench/flood.sh measures variants).
     const char* rt = std::getenv("COOPDYN_FLOOD_REALTIME");
+    const char* rt_default = auth ? "{sched_fifo: true, receive_priority: 70}" : "{receive_priority: 70}";
     std::ofstream(config) << "lcm_url_in: \"" << url_in << "\"\nstats_period_s: 0.1\nrealtime: "
-                          << (rt && *rt ? rt : "{sched_fifo: true, receive_priority: 70}") << "\n"
+                          << (rt && *rt ? rt : rt_default) << "\n"
                           << (auth ? "auth:\n  key_file: " + key_file + "\n" : "");
     std::remove(key_file.c_str());
     std::ofstream(key_file) << kKeyHex << "\n";
