@@ -358,8 +358,8 @@ void run_flood(Junk kind, FloodFigures* fig) {
   }
   if (auth) {
     // The share applied: with the receive path at SCHED_FIFO through the flood it applied 300 of 300
-    // in each of 22 runs of bench/flood.sh (12 at load 5-7, 10 beside a parallel build at load 6-10;
-    // 68,000-297,000 junk datagrams/s), so it is asserted there; without the priority (not root, or
+    // in each of 30 runs (bench/flood.sh: 12 at load 5-7, 10 beside a parallel build at load 6-10;
+    // this test alone, 8 at load 10; 68,000-297,000 junk datagrams/s), so it is asserted there; without the priority (not root, or
     // a guard that stepped it down) it is a race between one sending thread and the receive process
     // (180-299 of 300 when auto's guard stepped it down), printed and not judged. What is asserted
     // in every case: no junk is accepted and every valid command lost is counted.
