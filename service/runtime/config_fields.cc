@@ -279,8 +279,9 @@ const std::vector<ConfigField> kFields = {
      nullptr, "",
      "`SCHED_FIFO` at `priority` for the loop thread: `auto` takes it when the process may (root or `CAP_SYS_NICE`; "
      "else logged, the loop runs `SCHED_OTHER`), not with `busy_poll` without a `cpu`, and steps the loop down to "
-     "`SCHED_OTHER` (logged, `fifo_demotions` in the summary) when over a stats window its computation took more than "
-     "half the time, or at least half its ticks overran for three windows in a row; `true` always, never stepped down; "
+     "`SCHED_OTHER` (logged, `SCHED_FIFO stepped down` in the summary) when over a stats window its thread was busy "
+     "(CPU time; with `busy_poll`, the ticks' compute time) more than half the time, or at least half its ticks "
+     "overran for three windows in a row; `true` always, never stepped down; "
      "`false` never"},
     {"realtime", "priority", K::kInteger, "an integer", 1, 99, "{lo}..{hi}", {}, false, COOPDYN_MEMBER(R::priority, n), check_priority, "", "its priority"},
     {"realtime", "receive_priority", K::kInteger, "an integer", 1, 98, "0 or 1..`priority` - 1", {}, false,

@@ -4,9 +4,9 @@
 // A SCHED_FIFO thread runs until it blocks: one that computes most of the time (a scene too heavy
 // for the period, an overrun policy catching up back to back, a receive process under a flood)
 // leaves the other tasks of its CPU only what the kernel's real-time throttling keeps for them
-// (sched_rt_runtime_us: 5 % by default). The guard is fed each window's busy time (the loop: the
-// sum of its ticks' compute time; the receive process: the time between its wake-ups and its next
-// wait) and its ticks and overruns, and says when to step down:
+// (sched_rt_runtime_us: 5 % by default). The guard is fed each window's busy time (the CPU time
+// the thread or process took in it; a busy-polling loop's, whose polling is meant to hold its CPU,
+// the sum of its ticks' compute time) and its ticks and overruns, and says when to step down:
 //   - busy more than kMaxBusyShare of the window's wall time (the thread would hold half a CPU or
 //     more at real-time priority), or
 //   - at least kOverrunShare of the window's ticks overran, kOverrunWindows windows in a row (the

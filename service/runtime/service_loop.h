@@ -79,8 +79,9 @@ class ServiceLoop {
   // run(); the source outlives it.
   void take_arrivals_from(ArrivalSource* source) { source_ = source; }
   // The loop's thread runs SCHED_FIFO under realtime.sched_fifo auto: run() watches each stats
-  // window with a FifoGuard (fifo_guard.h) and steps the thread down to SCHED_OTHER when it would
-  // hog its CPU, once (event kFifoDemoted, fifo_demotions()). Call from the loop's thread before run().
+  // window with a FifoGuard (fifo_guard.h), fed the thread's CPU time over the window (with
+  // busy_poll, the ticks' compute time), and steps the thread down to SCHED_OTHER when it would hog
+  // its CPU, once (event kFifoDemoted, fifo_demotions()). Call from the loop's thread before run().
   void guard_fifo(bool on) { guard_on_ = on; }
 
   // One period at monotonic time now_ns. Loop thread only.
@@ -230,10 +231,11 @@ class ServiceLoop {
   std::atomic<int64_t> closure_rejected_{0};  // estimate: measured states above closure_tolerance
   std::atomic<int64_t> outputs_dropped_{0};   // messages the bus refused
   std::atomic<int64_t> fifo_demotions_{0};
-  // the FIFO guard's window: since guard_start_ns_, busy (compute) ns, ticks, overruns at its start
+  // the FIFO guard's window: since guard_start_ns_, the ticks' compute ns, ticks, overruns and the
+  // thread's CPU time at its start
   FifoGuard guard_;
   bool guard_on_ = false;
-  long long guard_start_ns_ = -1, guard_busy_ns_ = 0;
+  long long guard_start_ns_ = -1, guard_busy_ns_ = 0, guard_cpu0_ns_ = 0;
   int64_t guard_ticks_ = 0, guard_overruns0_ = 0;
   Histogram late_win_, comp_win_, late_all_, comp_all_;
   EventRing<256> events_;

@@ -249,8 +249,7 @@ TEST(LoopNoAllocation, RunWithDeadlineSleeps) {
 }
 
 // realtime.sched_fifo auto's guard (fifo_guard.h) in run(): a scene too heavy for the period
-// (tiago_pro_box at 10 kHz, every tick overrunning) is stepped down at the end of its first window,
-// once, with an event for the daemon's log, and neither the watch nor the step down allocates. (The
+// (tiago_pro_box at 10 kHz, every tick overrunning) is stepped down, once, with an event for the daemon's log, and neither the watch nor the step down allocates. (The
 // test's thread runs SCHED_OTHER: the step down is then a no-op the kernel accepts.)
 TEST(LoopNoAllocation, RunStepsATooHeavyLoopDownOnce) {
   if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
@@ -275,8 +274,11 @@ TEST(LoopNoAllocation, RunStepsATooHeavyLoopDownOnce) {
   while (loop.events().pop(&e))
     if (e.code == runtime::EventCode::kFifoDemoted) {
       ++demoted;
-      EXPECT_EQ(e.a, static_cast<int64_t>(runtime::FifoGuard::Verdict::kBusy));
-      EXPECT_GT(e.x, runtime::FifoGuard::kMaxBusyShare);
+      // busy (its CPU time over half the window) or, on a loaded machine that gives this SCHED_OTHER
+      // test thread less than half a CPU, overrunning every tick for three windows
+      const auto v = static_cast<runtime::FifoGuard::Verdict>(e.a);
+      EXPECT_TRUE(v == runtime::FifoGuard::Verdict::kBusy || v == runtime::FifoGuard::Verdict::kOverruns) << e.a;
+      if (v == runtime::FifoGuard::Verdict::kBusy) EXPECT_GT(e.x, runtime::FifoGuard::kMaxBusyShare);
     }
   EXPECT_EQ(demoted, 1);
 }
