@@ -5,8 +5,13 @@
 # then with authentication on junk of four kinds in turn (garbage after the fingerprint, unsigned,
 # forged MAC, a replayed valid command) against signed commands. RUNS times; prints each run's [flood]
 # lines: junk rate, valid commands applied and lost (without authentication the test asserts only that
-# every loss is counted; with it, that at least 99 % are applied), where the junk went, and the
-# daemon's tick rate during the flood. Needs a multicast route (ip route add 224.0.0.0/4 dev lo).
+# every loss is counted; with it, that at least 99 % are applied where the receive path ran at
+# SCHED_FIFO throughout), where the junk went, and the
+# daemon's tick rate during the flood, and whether the receive process and thread got SCHED_FIFO
+# (realtime.receive_priority 70; as root; with sched_fifo true in the authenticated flood, auto in
+# the others) and were stepped down. COOPDYN_FLOOD_REALTIME='{...}' sets the daemon's realtime mapping instead (e.g.
+# '{receive_priority: 70}': sched_fifo auto, whose guard steps a busy receive path down). Needs a multicast route (ip route add
+# 224.0.0.0/4 dev lo).
 set -euo pipefail
 build=${1:-build}
 runs=${2:-3}

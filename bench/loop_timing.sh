@@ -11,9 +11,11 @@
 #                                         # itself (realtime.receive_in_loop), sleeping and busy polling
 #                                         # with a polling client, alternated for ROUNDS rounds (default
 #                                         # 3), next to cyclictest FIFO
-#   ROWS=inplace bench/loop_timing.sh ... # the default config against the same without
-#                                         # realtime.cpu_dma_latency_zero, alternated for ROUNDS rounds
-#                                         # (default 3), next to cyclictest SCHED_OTHER
+#   ROWS=inplace bench/loop_timing.sh ... # the default config against the same with
+#                                         # realtime.sched_fifo: false, in place (simulate) and on arrival
+#                                         # (estimate; also with receive_priority 70 and with
+#                                         # receive_in_loop), alternated for ROUNDS rounds (default 3),
+#                                         # next to cyclictest SCHED_OTHER and SCHED_FIFO 80
 #   BASELINE=DIR bench/loop_timing.sh ... # also the event-driven rows of another build's coopdynd
 #                                         # (DIR/bin/coopdynd: before and after a change, in one run)
 #
@@ -35,7 +37,8 @@
 #     publishing over udpm on loopback with no subscriber and with one (loop_bench BM_TickPaced).
 #   LCM round trip alone: build/bin/lcm_pingpong, two processes that only talk LCM (100 Hz,
 #     messages of output_t's size both ways): the transport's and the client library's share.
-# Daemon variants: "the loop publishing" = realtime.publisher_thread false (the loop calls
+# Daemon variants: "default config" = none of the options below set (realtime.sched_fifo auto: SCHED_FIFO
+#   80 as root); "SCHED_OTHER" = realtime.sched_fifo false; "the loop publishing" = realtime.publisher_thread false (the loop calls
 #   lcm_publish itself, as on arrival); "rt" = SCHED_FIFO 80 + mlockall (needs root; refusals are logged); "+ tricks" =
 #   rt + /dev/cpu_dma_latency held at 0 + the loop pinned to CPU 1 with the receive thread and
 #   process on the others + inputs on their own port (lcm_url_in: the receive process never sees
@@ -154,14 +157,18 @@ receive_rounds() {
       "$(with "busy_poll: true, receive_in_loop: true")" arrival "$BUILD" --busy-poll
   done
 }
-# inplace: the default config (which keeps the CPUs out of deep idle states:
-# realtime.cpu_dma_latency_zero, what cyclictest does) against the same without it, A/B rounds as above
+# inplace: the default config (realtime.sched_fifo auto: SCHED_FIFO 80 as root; cpu_dma_latency_zero)
+# against the same with sched_fifo: false, in place and on arrival, A/B rounds as above
 inplace_rounds() {
   cyclic "cyclictest, SCHED_OTHER"
+  cyclic "cyclictest, SCHED_FIFO 80 -m" -p 80 -m
   for r in $(seq "${ROUNDS:-3}"); do
-    daemon "coopdynd simulate, SCHED_OTHER (round $r)" simulate ""
-    daemon "coopdynd simulate, SCHED_OTHER, cpu_dma_latency_zero: false (round $r)" simulate \
-      "realtime: {cpu_dma_latency_zero: false}"
+    daemon "coopdynd simulate, default config (round $r)" simulate ""
+    daemon "coopdynd simulate, sched_fifo: false (round $r)" simulate "realtime: {sched_fifo: false}"
+    daemon "coopdynd estimate on arrival, default config (round $r)" estimate "" arrival
+    daemon "coopdynd estimate on arrival, receive_priority: 70 (round $r)" estimate "realtime: {receive_priority: 70}" arrival
+    daemon "coopdynd estimate on arrival, receive in loop (round $r)" estimate "realtime: {receive_in_loop: true}" arrival
+    daemon "coopdynd estimate on arrival, sched_fifo: false (round $r)" estimate "realtime: {sched_fifo: false}" arrival
   done
 }
 if [ "${ROWS:-all}" = receive ]; then
@@ -170,9 +177,10 @@ elif [ "${ROWS:-all}" = inplace ]; then
   inplace_rounds
 else
   if [ "${ROWS:-all}" != arrival ]; then
-    daemon "coopdynd simulate, SCHED_OTHER" simulate ""
+    daemon "coopdynd simulate, default config" simulate ""
+    daemon "coopdynd simulate, SCHED_OTHER" simulate "realtime: {sched_fifo: false}"
     # the same with the loop publishing each output itself (lcm_publish inside its compute window)
-    daemon "coopdynd simulate, SCHED_OTHER, the loop publishing" simulate "realtime: {publisher_thread: false}"
+    daemon "coopdynd simulate, SCHED_OTHER, the loop publishing" simulate "realtime: {sched_fifo: false, publisher_thread: false}"
   fi
   cyclic "cyclictest, SCHED_OTHER"
   [ "${ROWS:-all}" != arrival ] && daemon "coopdynd simulate, rt" simulate "$RT}"

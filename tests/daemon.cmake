@@ -17,12 +17,14 @@ coopdyn_test(coopdynd_tests
     runtime/service_loop_no_allocation_test.cc
     runtime/estimate_friction_loop_test.cc
     runtime/config_test.cc
+    runtime/fifo_guard_test.cc
     runtime/vehicle_command_test.cc
     daemon/lcm_daemon_test.cc
     daemon/estimate_friction_test.cc
     daemon/flood_daemon_test.cc
     daemon/netns_test.cc
     daemon/auth_daemon_test.cc
+    daemon/sched_fifo_daemon_test.cc
     dynamics/vehicle_test.cc
     clients/cli/sim_test.cc
     clients/csv/step_csv_test.cc

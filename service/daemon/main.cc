@@ -3,7 +3,8 @@
 //   coopdynd --scene FILE [--config FILE] [--lcm-url URL] [--mode simulate|estimate]
 //            [--rate HZ] [--duration S]      (coopdynd --help: the options and their defaults)
 //
-// Processes and threads: the loop (ServiceLoop::run, optionally SCHED_FIFO) never receives; at the
+// Processes and threads: the loop (ServiceLoop::run, thread coopdynd-loop; SCHED_FIFO as root under
+// realtime.sched_fifo auto, stepped down if it hogs its CPU) never receives; at the
 // fixed rate it hands its encoded outputs to the publisher thread (runtime/publisher_thread.h), which
 // publishes them through LCM (realtime.publisher_thread; on arrival the loop publishes itself); inputs arrive in a supervised child process (coopdynd --rx-child,
 // io/rx_isolated.h: its own UDP socket and LCM wire parser, no liblcm) that copies raw bytes into a shared ring, drained by the receive thread here
@@ -13,6 +14,7 @@
 // thread, which waits for SIGINT/SIGTERM (or --duration), drains the loop's event ring into the log
 // and prints the summary line at exit.
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 #include <spdlog/async.h>
@@ -61,6 +63,16 @@ bool parse_double(const char* s, double* out) {
   return end && *end == 0 && end != s && std::isfinite(*out);
 }
 
+// why a FifoGuard (runtime/fifo_guard.h) stepped a thread down; share: its busy share of the window
+std::string fifo_verdict_text(int64_t verdict, double share) {
+  using V = coopdyn::runtime::FifoGuard::Verdict;
+  if (static_cast<V>(verdict) == V::kBusy)
+    return fmt::format("busy {:.0f} % of a stats window (more than {:.0f} %)", 100 * share,
+                       100 * coopdyn::runtime::FifoGuard::kMaxBusyShare);
+  return fmt::format("at least {:.0f} % of its ticks overran in {} stats windows in a row",
+                     100 * coopdyn::runtime::FifoGuard::kOverrunShare, coopdyn::runtime::FifoGuard::kOverrunWindows);
+}
+
 void log_event(const coopdyn::System& sys, const coopdyn::runtime::Event& e) {
   using coopdyn::runtime::EventCode;
   switch (e.code) {
@@ -91,6 +103,15 @@ void log_event(const coopdyn::System& sys, const coopdyn::runtime::Event& e) {
     }
     case EventCode::kClosureBack: spdlog::info("measured states close the constraints again (seq {})", e.a); break;
     case EventCode::kResetRejected: spdlog::warn("control seq {}: {}", e.a, coopdyn::runtime::reset_refusal_text(sys, e)); break;
+    case EventCode::kFifoDemoted:
+      if (e.a > 0)
+        spdlog::warn("the loop stepped down from SCHED_FIFO to SCHED_OTHER at tick {}: {} (realtime.sched_fifo auto "
+                     "never lets it hog its CPU; sched_fifo: true keeps the priority, on a CPU of its own)",
+                     e.b, fifo_verdict_text(e.a, e.x));
+      else
+        spdlog::error("the loop should step down from SCHED_FIFO at tick {} ({}) but the kernel refused", e.b,
+                      fifo_verdict_text(-e.a, e.x));
+      break;
     case EventCode::kOverrun: break;  // aggregated by OverrunReport
   }
 }
@@ -496,17 +517,71 @@ void wait_for_receiver(const coopdyn::io::IsolatedReceiver& rx, const coopdyn::r
   else log_receive_socket(rx, cfg);
 }
 
+// The receive process and thread at SCHED_FIFO (realtime.receive_priority), under realtime.sched_fifo
+// auto, under the same guard as the loop (runtime/fifo_guard.h), watched from the main thread: each stats window, the CPU time
+// each took; one that was busy more than the guard allows (a flood) steps both down to SCHED_OTHER
+// for the rest of the run, a respawned child included.
+struct ReceiveFifoGuard {
+  coopdyn::io::IsolatedReceiver* rx = nullptr;
+  coopdyn::runtime::FifoGuard child, thread;
+  long long window_ns = 0, start = -1, child0 = -1, thread0 = -1;
+  long long demotions = 0;
+  void check(long long now) {
+    if (!rx || window_ns <= 0) return;
+    const long long c = rx->child_cpu_ns(), t = rx->thread_cpu_ns();
+    if (start < 0 || c < child0 || t < thread0) {  // the first window, or a new child (its clock restarts)
+      start = now, child0 = c, thread0 = t;
+      return;
+    }
+    if (now - start < window_ns) return;
+    using V = coopdyn::runtime::FifoGuard::Verdict;
+    const V vc = child.window(now - start, c - child0, 0, 0), vt = thread.window(now - start, t - thread0, 0, 0);
+    if (vc != V::kKeep || vt != V::kKeep) {
+      rx->set_fifo_priority(0);
+      const bool ok = coopdyn::runtime::demote_to_other(rx->child_pid()) & coopdyn::runtime::demote_to_other(rx->thread_tid());
+      ++demotions;
+      spdlog::warn("the receive {} stepped down from SCHED_FIFO to SCHED_OTHER{}: busy {:.0f} % of {:.1f} s (more than "
+                   "{:.0f} %: a flood?); inputs are still read, the loop keeps its priority",
+                   vc != V::kKeep ? "process" : "thread", ok ? "" : " (refused by the kernel)",
+                   100.0 * static_cast<double>(vc != V::kKeep ? c - child0 : t - thread0) / static_cast<double>(now - start),
+                   1e-9 * static_cast<double>(now - start), 100 * coopdyn::runtime::FifoGuard::kMaxBusyShare);
+      rx = nullptr;  // once
+      return;
+    }
+    start = now, child0 = c, thread0 = t;
+  }
+};
+
+// what realtime.receive_priority got: the receive process's and thread's policy, from the kernel
+void log_receive_priority(const coopdyn::io::IsolatedReceiver& rx, const coopdyn::runtime::ServiceConfig& cfg) {
+  const int want = cfg.realtime.receive_priority;
+  if (want <= 0 || !coopdyn::runtime::loop_asks_fifo(cfg.realtime)) return;
+  for (int i = 0; i < 100 && rx.thread_tid() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  const pid_t child = rx.child_pid(), tid = rx.thread_tid();
+  if (child > 0 && tid > 0 && sched_getscheduler(child) == SCHED_FIFO && sched_getscheduler(tid) == SCHED_FIFO)
+    spdlog::info("receive process and thread run SCHED_FIFO priority {}{}", want,
+                 cfg.realtime.sched_fifo == coopdyn::runtime::SchedFifo::kAuto
+                     ? " (stepped down to SCHED_OTHER if a flood keeps either busy)"
+                     : " (realtime.sched_fifo true: never stepped down)");
+  else
+    spdlog::warn("receive process and thread: SCHED_FIFO priority {} refused (needs root or CAP_SYS_NICE); they run "
+                 "SCHED_OTHER", want);
+}
+
 // run: the loop in its thread (real-time options applied there); this thread drains the loop's
 // events into the log until a signal or the duration. Returns when the loop has stopped.
 std::chrono::steady_clock::time_point run(coopdyn::runtime::ServiceLoop& loop, const coopdyn::System& sys,
                                           const coopdyn::runtime::ServiceConfig& cfg, double duration,
                                           const coopdyn::io::ReceiverCounters& rx, coopdyn::io::IsolatedReceiver* isolated,
-                                          RejectionReport& rejections) {
+                                          RejectionReport& rejections, ReceiveFifoGuard& rx_guard) {
   using namespace coopdyn;
   std::promise<std::vector<runtime::RealtimeResult>> rt_promise;
   auto rt_future = rt_promise.get_future();
   std::thread loop_thread([&] {
-    rt_promise.set_value(runtime::apply_realtime(cfg.realtime));
+    prctl(PR_SET_NAME, "coopdynd-loop", 0, 0, 0);  // ps -L, top -H, /proc/PID/task/*/comm
+    auto results = runtime::apply_realtime(cfg.realtime);
+    loop.guard_fifo(cfg.realtime.sched_fifo == runtime::SchedFifo::kAuto && runtime::runs_fifo());
+    rt_promise.set_value(std::move(results));
     loop.run(g_stop);
   });
   for (const auto& r : rt_future.get()) {
@@ -518,8 +593,14 @@ std::chrono::steady_clock::time_point run(coopdyn::runtime::ServiceLoop& loop, c
   const auto t_start = std::chrono::steady_clock::now();
   runtime::Event e;
   OverrunReport overruns;
+  // sched_fifo: true keeps every priority it gives (a lab's CPUs); auto guards the receive path as the loop
+  if (isolated && cfg.realtime.sched_fifo == runtime::SchedFifo::kAuto && cfg.realtime.receive_priority > 0) {
+    rx_guard.rx = isolated;
+    rx_guard.window_ns = static_cast<long long>(cfg.stats_period_s * 1e9);
+  }
   while (!g_stop.load()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    rx_guard.check(io::monotonic_ns());
     while (loop.events().pop(&e)) {
       log_event(sys, e);
       overruns.add(e);
@@ -546,7 +627,8 @@ std::chrono::steady_clock::time_point run(coopdyn::runtime::ServiceLoop& loop, c
 
 // report: the summary line on stdout (the tests and scripts read it)
 void print_summary(const coopdyn::runtime::ServiceLoop& loop, const coopdyn::runtime::ServiceConfig& cfg,
-                   const coopdyn::io::ReceiverCounters& rx, std::chrono::steady_clock::time_point t_start) {
+                   const coopdyn::io::ReceiverCounters& rx, std::chrono::steady_clock::time_point t_start,
+                   long long rx_demotions) {
   using namespace coopdyn;
   const io::StatsFrame s = loop.totals();
   const runtime::InputCounters& ic = loop.input_counters();
@@ -560,14 +642,15 @@ void print_summary(const coopdyn::runtime::ServiceLoop& loop, const coopdyn::run
       "rejected %lld, out-of-order %lld, expired %lld, stale utime %lld, missed (seq gaps) %lld; receiver restarts %lld, "
       "inputs dropped %lld, filtered %lld, malformed %lld, socket drops (kernel filter and overflow) %lld; "
       "numerical errors %lld; lateness us p50 %.1f p99 %.1f p99.9 %.1f "
-      "max %.1f; compute us p50 %.1f p99 %.1f p99.9 %.1f max %.1f\n",
+      "max %.1f; compute us p50 %.1f p99 %.1f p99.9 %.1f max %.1f; SCHED_FIFO stepped down: loop %lld, receive %lld\n",
       sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "duration", static_cast<long long>(s.tick), secs,
       static_cast<long long>(s.overruns), static_cast<long long>(s.skipped_periods),
       cfg.mode == runtime::ServiceMode::kSimulate ? "commands" : "states", static_cast<long long>(s.received),
       static_cast<long long>(s.accepted), static_cast<long long>(s.rejected), static_cast<long long>(s.out_of_order),
       static_cast<long long>(s.expired), stale, static_cast<long long>(ic.missed.load()), rx.restarts(), rx.dropped(),
       rx.filtered(), rx.malformed(), rx.socket_drops(), static_cast<long long>(s.numerical_errors), s.lateness_us[0], s.lateness_us[1],
-      s.lateness_us[2], s.lateness_us[3], s.compute_us[0], s.compute_us[1], s.compute_us[2], s.compute_us[3]);
+      s.lateness_us[2], s.lateness_us[3], s.compute_us[0], s.compute_us[1], s.compute_us[2], s.compute_us[3],
+      static_cast<long long>(loop.fifo_demotions()), rx_demotions);
   std::fflush(stdout);
 }
 
@@ -618,6 +701,7 @@ int main(int argc, char** argv) {
     log_receive_socket(*in_loop, cfg);
   } else {
     isolated->avoid_cpu(cfg.realtime.cpu);  // the receive thread and process stay off the loop's CPU
+    if (runtime::loop_asks_fifo(cfg.realtime)) isolated->set_fifo_priority(cfg.realtime.receive_priority);
     if (cfg.trigger == runtime::Trigger::kArrival && cfg.mode == runtime::ServiceMode::kEstimate) {
       isolated->drain_in_caller();
       arrivals = std::make_unique<RingArrivals>(*isolated, loop, rejections);
@@ -625,9 +709,11 @@ int main(int argc, char** argv) {
     }
     start_receiving(*isolated, loop, cfg, rejections);
     wait_for_receiver(*isolated, cfg);
+    log_receive_priority(*isolated, cfg);
   }
 
-  const auto t_start = run(loop, sys, cfg, opt.duration, rx, isolated.get(), rejections);
+  ReceiveFifoGuard rx_guard;
+  const auto t_start = run(loop, sys, cfg, opt.duration, rx, isolated.get(), rejections, rx_guard);
   if (publisher) {
     publisher->stop();  // what the loop queued last goes out
     if (publisher->dropped() > 0)
@@ -636,6 +722,6 @@ int main(int argc, char** argv) {
     if (publisher->failed() > 0)
       spdlog::warn("publisher thread: lcm_publish failed for {} message(s)", publisher->failed());
   }
-  print_summary(loop, cfg, rx, t_start);
+  print_summary(loop, cfg, rx, t_start, rx_guard.demotions);
   return 0;
 }

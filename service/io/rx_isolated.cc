@@ -112,6 +112,32 @@ void IsolatedReceiver::spawn() {
   pid_.store(rc == 0 ? pid : -1);
   cpu_set_t set;
   if (rc == 0 && other_cpus(&set)) sched_setaffinity(pid, sizeof set, &set);  // inherited by its threads
+  if (rc == 0 && fifo_priority_.load() > 0) {
+    sched_param p{};
+    p.sched_priority = fifo_priority_.load();
+    sched_setscheduler(pid, SCHED_FIFO, &p);  // refused without the privilege: SCHED_OTHER
+  }
+}
+
+namespace {
+long long cpu_clock_ns(clockid_t id) {
+  timespec ts;
+  if (clock_gettime(id, &ts) != 0) return -1;
+  return static_cast<long long>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
+}
+}  // namespace
+
+long long IsolatedReceiver::child_cpu_ns() const {
+  const pid_t p = pid_.load();
+  clockid_t id;
+  if (p <= 0 || clock_getcpuclockid(p, &id) != 0) return -1;
+  return cpu_clock_ns(id);
+}
+
+long long IsolatedReceiver::thread_cpu_ns() const {
+  clockid_t id;
+  if (tid_.load() == 0 || pthread_getcpuclockid(const_cast<std::thread&>(thread_).native_handle(), &id) != 0) return -1;
+  return cpu_clock_ns(id);
 }
 
 bool IsolatedReceiver::other_cpus(cpu_set_t* set) const {
@@ -130,6 +156,13 @@ void IsolatedReceiver::start(Handler handler, RestartHandler on_restart) {
   thread_ = std::thread([this] {
     cpu_set_t set;
     if (other_cpus(&set)) pthread_setaffinity_np(pthread_self(), sizeof set, &set);
+    if (fifo_priority_.load() > 0) {
+      sched_param p{};
+      p.sched_priority = fifo_priority_.load();
+      pthread_setschedparam(pthread_self(), SCHED_FIFO, &p);  // refused without the privilege
+    }
+    prctl(PR_SET_NAME, "coopdynd-rx", 0, 0, 0);
+    tid_.store(static_cast<pid_t>(syscall(SYS_gettid)));
     run();
   });
 }

@@ -112,6 +112,15 @@ class IsolatedReceiver : public ReceiverCounters {
   // Keeps the receive thread and the child off this CPU (the loop's realtime.cpu): call before
   // start(). Ignored when it would leave no CPU.
   void avoid_cpu(int cpu) { avoid_cpu_ = cpu; }
+  // SCHED_FIFO at this priority for the child (each one spawned) and the receive thread; 0:
+  // SCHED_OTHER (the default). Before start(), or later to step them down (0 keeps a respawned
+  // child at SCHED_OTHER too). A refusal (no privilege) leaves them SCHED_OTHER.
+  void set_fifo_priority(int priority) { fifo_priority_.store(priority); }
+  // CPU time consumed so far (ns) by the current child and by the receive thread; -1 if unknown.
+  long long child_cpu_ns() const;
+  long long thread_cpu_ns() const;
+  // the receive thread's kernel id (0 before start()), for a scheduler change from outside
+  pid_t thread_tid() const { return tid_.load(); }
   // Authentication on: the child verifies each message's MAC and the replay rule before the ring
   // (above). Call before start().
   void set_auth_key(const AuthKey& key);
@@ -148,6 +157,8 @@ class IsolatedReceiver : public ReceiverCounters {
   int slots_, slot_bytes_, socket_buffer_bytes_;
   int shm_fd_ = -1, event_fd_ = -1;
   int avoid_cpu_ = -1;
+  std::atomic<int> fifo_priority_{0};
+  std::atomic<pid_t> tid_{0};
   bool other_cpus(cpu_set_t* set) const;  // every online CPU but avoid_cpu_; false if none or not set
   size_t shm_size_ = 0;
   RxRingHeader* hdr_ = nullptr;

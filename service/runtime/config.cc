@@ -27,6 +27,10 @@ bool parse_trigger(const std::string& s, Trigger* t) {
   return true;
 }
 
+bool loop_asks_fifo(const RealtimeOptions& o) {
+  return o.sched_fifo == SchedFifo::kOn || (o.sched_fifo == SchedFifo::kAuto && !(o.busy_poll && o.cpu < 0));
+}
+
 namespace {
 
 struct Ctx {

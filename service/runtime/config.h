@@ -40,9 +40,27 @@ enum class Trigger {
              // rate_hz as the fixed-rate path does. Estimate mode only.
 };
 
+// realtime.sched_fifo: whether the loop thread asks for SCHED_FIFO at `priority`.
+enum class SchedFifo {
+  kAuto,  // the default: SCHED_FIFO when the process may take it (root or CAP_SYS_NICE; else logged,
+          // the loop runs SCHED_OTHER), except with busy_poll without a cpu of its own (a polling
+          // loop at real-time priority would hold a shared CPU); the loop steps down to SCHED_OTHER
+          // by itself when it would hog its CPU (runtime/fifo_guard.h). On a loaded 2-vCPU VM the
+          // in-place tick measured 2.17-2.31x the warm tick with 0-17 overruns in 15,000 ticks,
+          // against 2.69-5.17x and 174-3560 with false (bench/README.md, "Loop timing")
+  kOn,    // SCHED_FIFO at `priority`, never stepped down (a lab that gives the loop its own CPU)
+  kOff,   // SCHED_OTHER
+};
+
 struct RealtimeOptions {
-  bool sched_fifo = false;  // SCHED_FIFO for the loop thread (needs CAP_SYS_NICE or root)
+  SchedFifo sched_fifo = SchedFifo::kAuto;
   int priority = 80;        // 1..99
+  // The receive process and the receive thread, when the loop asks for SCHED_FIFO: SCHED_FIFO at
+  // this priority, below the loop's (0: SCHED_OTHER). Under sched_fifo auto both step down to
+  // SCHED_OTHER when either would hog its CPU (a flood), as the loop does. 0 by default: at 70 a
+  // state's publish to wrenches on arrival measured 51-55 us slower at load 5, and a receive path held at real-time
+  // priority spends what a flood from another host costs (bench/README.md, "Commands under a flood").
+  int receive_priority = 0;
   int cpu = -1;             // pin the loop thread to this CPU; -1: no affinity. The receive thread,
                             // the receive process and the publisher thread are then kept off this CPU
   bool mlockall = false;    // lock current and future pages (no page faults in the loop)
@@ -86,6 +104,7 @@ struct RealtimeOptions {
 //                   7.2e7 ticks per window, well inside the histograms' counters)
 //   max_catch_up    [0, 1000] ticks
 //   max_input_age_ms  0 (off) or [1, 3600000] ms, like watchdog_ms
+//   realtime.receive_priority  0 (SCHED_OTHER) or 1..priority - 1
 //   realtime.cpu    -1 or [0, CPU_SETSIZE - 1 = 1023]: the bit must exist in a cpu_set_t
 //   realtime.spin_us  [0, 1000] us and below the period (1e6 / rate_hz us)
 //   trigger         tick, or arrival in estimate mode only
@@ -170,6 +189,10 @@ void validate(const ServiceConfig& c);
 // The table of keys of docs/reference/config.md (key, default, range, meaning), one row per key in
 // the order of the loader; coopdynd --print-config-reference prints it.
 std::string config_reference_markdown();
+
+// Whether the loop thread asks for SCHED_FIFO under these options (sched_fifo true, or auto and not
+// busy-polling without a cpu of its own); whether it gets it depends on the process's privileges.
+bool loop_asks_fifo(const RealtimeOptions& o);
 
 const char* mode_name(ServiceMode m);
 bool parse_mode(const std::string& s, ServiceMode* m);

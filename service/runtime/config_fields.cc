@@ -54,19 +54,19 @@ void set_closure(ServiceConfig& c, const FieldValue& v) {
 
 // An enum member as a choice: its word, and the word back to the enum (the word is one of the
 // field's choices, in the order of the enum values listed here).
-template <class E, E ServiceConfig::*M, E... Values>
+template <class E, auto M, E... Values>
 FieldValue get_choice(const ServiceConfig& c, const char* const* words) {
   const E values[] = {Values...};
   FieldValue v;
   for (size_t k = 0; k < sizeof...(Values); ++k)
-    if (values[k] == c.*M) v.s = words[k];
+    if (values[k] == member(c, M)) v.s = words[k];
   return v;
 }
-template <class E, E ServiceConfig::*M, E... Values>
+template <class E, auto M, E... Values>
 void set_choice(ServiceConfig& c, const FieldValue& v, const char* const* words) {
   const E values[] = {Values...};
   for (size_t k = 0; k < sizeof...(Values); ++k)
-    if (v.s == words[k]) c.*M = values[k];
+    if (v.s == words[k]) member(c, M) = values[k];
 }
 
 // the words are mode_name's and trigger_name's (config.cc), in the order of their enums
@@ -75,10 +75,13 @@ const char* const kTriggerWords[] = {trigger_name(Trigger::kTick), trigger_name(
 const char* const kIntegratorWords[] = {"rk4", "semi_implicit_euler", "implicit_euler"};
 const char* const kSafeTorqueWords[] = {"hold", "zero", "damping"};
 const char* const kOverrunWords[] = {"catch_up", "skip"};
+const char* const kSchedFifoWords[] = {"auto", "true", "false"};
 
-#define COOPDYN_CHOICE(E, member, words, ...)                                                                  \
-  [](const ServiceConfig& c) { return get_choice<E, &ServiceConfig::member, __VA_ARGS__>(c, words); },           \
-      [](ServiceConfig& c, const FieldValue& v) { set_choice<E, &ServiceConfig::member, __VA_ARGS__>(c, v, words); }
+// m: &ServiceConfig::x or &RealtimeOptions::x
+#define COOPDYN_CHOICE_OF(E, m, words, ...)                                                   \
+  [](const ServiceConfig& c) { return get_choice<E, m, __VA_ARGS__>(c, words); },           \
+      [](ServiceConfig& c, const FieldValue& v) { set_choice<E, m, __VA_ARGS__>(c, v, words); }
+#define COOPDYN_CHOICE(E, member, words, ...) COOPDYN_CHOICE_OF(E, &ServiceConfig::member, words, __VA_ARGS__)
 
 // The checks: "" if ok, else the reason with the limits (from the table) and the value given.
 std::string check_rate(const ConfigField& f, const FieldValue& v, const ServiceConfig&) {
@@ -148,6 +151,12 @@ std::string check_stats_period(const ConfigField& f, const FieldValue& v, const 
 std::string check_priority(const ConfigField& f, const FieldValue& v, const ServiceConfig&) {
   if (v.n >= f.lo && v.n <= f.hi) return "";
   return "realtime.priority must be " + integer(f.lo) + ".." + integer(f.hi) + ", got " + std::to_string(v.n);
+}
+std::string check_receive_priority(const ConfigField& f, const FieldValue& v, const ServiceConfig& c) {
+  if (v.n == 0 || (v.n >= f.lo && v.n < c.realtime.priority)) return "";
+  return "realtime.receive_priority must be 0 (SCHED_OTHER) or " + integer(f.lo) + ".." +
+         std::to_string(c.realtime.priority - 1) + " (below realtime.priority " + std::to_string(c.realtime.priority) +
+         ": the loop preempts the receive path), got " + std::to_string(v.n);
 }
 std::string check_cpu(const ConfigField& f, const FieldValue& v, const ServiceConfig&) {
   if (v.n >= -1 && v.n <= f.hi) return "";
@@ -264,8 +273,22 @@ const std::vector<ConfigField> kFields = {
     {"", "stats_period_s", K::kReal, "a number (s)", kNone, kMaxStatsPeriodS, "[1/rate_hz, {hi}] s", {}, false,
      COOPDYN_MEMBER(S::stats_period_s, x), check_stats_period, "",
      "`loop_stats_t` period; its percentiles are over this window"},
-    {"realtime", "sched_fifo", K::kFlag, "true or false", kNone, kNone, "", {}, false, COOPDYN_MEMBER(R::sched_fifo, b), nullptr, "", "`SCHED_FIFO` for the loop thread (root or `CAP_SYS_NICE`)"},
+    {"realtime", "sched_fifo", K::kChoice, "a string", kNone, kNone, "", {kSchedFifoWords, kSchedFifoWords + 3}, true,
+     COOPDYN_CHOICE_OF(SchedFifo, &RealtimeOptions::sched_fifo, kSchedFifoWords, SchedFifo::kAuto, SchedFifo::kOn,
+                       SchedFifo::kOff),
+     nullptr, "",
+     "`SCHED_FIFO` at `priority` for the loop thread: `auto` takes it when the process may (root or `CAP_SYS_NICE`; "
+     "else logged, the loop runs `SCHED_OTHER`), not with `busy_poll` without a `cpu`, and steps the loop down to "
+     "`SCHED_OTHER` (logged, `SCHED_FIFO stepped down` in the summary) when over a stats window its thread was busy "
+     "(CPU time; with `busy_poll`, the ticks' compute time) more than half the time, or at least half its ticks "
+     "overran for three windows in a row; `true` always, never stepped down; "
+     "`false` never"},
     {"realtime", "priority", K::kInteger, "an integer", 1, 99, "{lo}..{hi}", {}, false, COOPDYN_MEMBER(R::priority, n), check_priority, "", "its priority"},
+    {"realtime", "receive_priority", K::kInteger, "an integer", 1, 98, "0 or 1..`priority` - 1", {}, false,
+     COOPDYN_MEMBER(R::receive_priority, n), check_receive_priority, " (`SCHED_OTHER`)",
+     "when the loop asks for `SCHED_FIFO`: the receive process and thread at `SCHED_FIFO` this priority, below the "
+     "loop's; each steps down to `SCHED_OTHER` when it keeps its CPU busy more than half a second in a second (a "
+     "flood)"},
     {"realtime", "cpu", K::kInteger, "an integer", 0, kMaxCpu, "-1 or [{lo}, {hi}]", {}, false, COOPDYN_MEMBER(R::cpu, n), check_cpu, "",
      "pin the loop thread to this CPU (-1: no affinity); the receive thread and process and the publisher thread "
      "then run on the other CPUs"},
@@ -330,6 +353,7 @@ std::string field_text(const ConfigField& f, const FieldValue& v) {
 }
 
 #undef COOPDYN_CHOICE
+#undef COOPDYN_CHOICE_OF
 #undef COOPDYN_MEMBER
 
 }  // namespace coopdyn::runtime

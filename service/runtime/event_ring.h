@@ -21,6 +21,9 @@ enum class EventCode : int32_t {
   kClosureBack,     // the first state back within tolerance: a: seq
   kResetRejected,   // a reset_to_state refused: a: seq of the control_t, b: (ResetRefusal * 4 + closure
                     // kind) * 65536 + constraint index + 1 (0: none), x: the closure residual (kClosure)
+  kFifoDemoted,     // the loop stepped down from SCHED_FIFO to SCHED_OTHER (fifo_guard.h): a: the
+                    // verdict (FifoGuard::Verdict), b: tick, x: the window's busy share; a < 0: the
+                    // kernel refused the step down
 };
 
 // Why a reset_to_state was refused.

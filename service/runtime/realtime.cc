@@ -50,18 +50,49 @@ std::vector<RealtimeResult> apply_realtime(const RealtimeOptions& o) {
       out.push_back({false, "CPU affinity " + std::to_string(o.cpu) + " refused: " + std::strerror(rc) + " (" +
                                 std::to_string(sysconf(_SC_NPROCESSORS_ONLN)) + " CPUs online)"});
   }
-  if (o.sched_fifo) {
+  if (o.sched_fifo == SchedFifo::kAuto && !loop_asks_fifo(o))
+    out.push_back({true, "loop thread runs SCHED_OTHER: realtime.sched_fifo auto takes no real-time priority for a "
+                         "busy-polling loop without a cpu of its own (it would hold a shared CPU); set cpu, or "
+                         "sched_fifo: true"});
+  if (loop_asks_fifo(o)) {
     sched_param p{};
     p.sched_priority = o.priority;
     const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p);
+    const std::string how = o.sched_fifo == SchedFifo::kAuto
+                                ? " (realtime.sched_fifo auto: stepped down to SCHED_OTHER if it hogs its CPU)"
+                                : " (realtime.sched_fifo true)";
     if (rc == 0)
-      out.push_back({true, "loop thread runs SCHED_FIFO priority " + std::to_string(o.priority)});
+      out.push_back({true, "loop thread runs SCHED_FIFO priority " + std::to_string(o.priority) + how});
     else
       out.push_back({false, std::string("SCHED_FIFO priority ") + std::to_string(o.priority) + " refused: " + std::strerror(rc) +
                                 " (needs root, CAP_SYS_NICE or an rtprio limit); running SCHED_OTHER"});
   }
   if (out.empty()) out.push_back({true, "real-time options off (SCHED_OTHER, no affinity, no mlockall)"});
   return out;
+}
+
+bool runs_fifo() {
+  int policy = 0;
+  sched_param p{};
+  return pthread_getschedparam(pthread_self(), &policy, &p) == 0 && policy == SCHED_FIFO;
+}
+
+bool demote_to_other() {
+  sched_param p{};
+  p.sched_priority = 0;
+  return pthread_setschedparam(pthread_self(), SCHED_OTHER, &p) == 0;
+}
+
+bool demote_to_other(int pid) {
+  sched_param p{};
+  p.sched_priority = 0;
+  return sched_setscheduler(pid, SCHED_OTHER, &p) == 0;
+}
+
+bool set_fifo(int pid, int priority) {
+  sched_param p{};
+  p.sched_priority = priority;
+  return sched_setscheduler(pid, SCHED_FIFO, &p) == 0;
 }
 
 }  // namespace coopdyn::runtime

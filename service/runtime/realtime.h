@@ -1,6 +1,6 @@
-// Opt-in real-time settings for the calling thread (SCHED_FIFO, CPU affinity) and the process
-// (mlockall). Each returns a line saying what happened; a refusal is not fatal (the loop still runs,
-// with worse jitter), so the caller logs it as a warning.
+// Real-time settings for the calling thread (SCHED_FIFO, by default when the process may; CPU
+// affinity) and the process (mlockall, cpu_dma_latency). Each returns a line saying what happened; a
+// refusal is not fatal (the loop still runs, with worse jitter), so the caller logs it as a warning.
 #pragma once
 
 #include <string>
@@ -16,5 +16,14 @@ struct RealtimeResult {
 };
 
 std::vector<RealtimeResult> apply_realtime(const RealtimeOptions& o);
+
+// The calling thread's scheduling policy is SCHED_FIFO (one system call).
+bool runs_fifo();
+// The calling thread (or process pid, tid) to SCHED_OTHER, nice 0: the guard's step down
+// (fifo_guard.h). No allocation, no lock, no throw; false if the kernel refused.
+bool demote_to_other();
+bool demote_to_other(int pid);
+// SCHED_FIFO at priority for process or thread pid (0: the caller); false if refused.
+bool set_fifo(int pid, int priority);
 
 }  // namespace coopdyn::runtime

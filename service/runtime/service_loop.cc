@@ -1,4 +1,5 @@
 #include "service/runtime/service_loop.h"
+#include "service/runtime/realtime.h"
 
 #include <time.h>
 
@@ -497,6 +498,46 @@ void ServiceLoop::record_timing(long long lateness_ns, long long compute_ns) {
   comp_all_.record(compute_ns);
 }
 
+namespace {
+// CPU time of the calling thread, ns (a system call: once per guard window)
+long long thread_cpu_ns() {
+  timespec ts;
+  if (clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts) != 0) return 0;
+  return static_cast<long long>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
+}
+}  // namespace
+
+// The guard's busy time: the thread's CPU time over the window (all it did: ticks, a spin, a flood
+// read on its thread with receive_in_loop), or with busy_poll, whose polling is meant to take its
+// CPU, the ticks' compute time alone.
+void ServiceLoop::watch_fifo(long long now, long long compute_ns) {
+  if (!guard_on_) return;
+  if (guard_start_ns_ < 0) {
+    guard_start_ns_ = now;
+    guard_overruns0_ = overruns();
+    guard_cpu0_ns_ = thread_cpu_ns();
+  }
+  guard_busy_ns_ += compute_ns;
+  ++guard_ticks_;
+  const long long window = now - guard_start_ns_;
+  if (window < static_cast<long long>(cfg_.stats_period_s * 1e9)) return;
+  const long long cpu = thread_cpu_ns();
+  if (!cfg_.realtime.busy_poll) guard_busy_ns_ = cpu - guard_cpu0_ns_;
+  guard_cpu0_ns_ = cpu;
+  const FifoGuard::Verdict v = guard_.window(window, guard_busy_ns_, guard_ticks_, overruns() - guard_overruns0_);
+  if (v != FifoGuard::Verdict::kKeep) {
+    const bool ok = demote_to_other();
+    if (ok) fifo_demotions_.fetch_add(1, std::memory_order_relaxed);
+    events_.push({EventCode::kFifoDemoted, ok ? static_cast<int64_t>(v) : -static_cast<int64_t>(v), ticks(),
+                  static_cast<double>(guard_busy_ns_) / static_cast<double>(window)});
+    guard_on_ = false;  // once: SCHED_OTHER from here on
+  }
+  guard_start_ns_ = now;
+  guard_busy_ns_ = 0;
+  guard_ticks_ = 0;
+  guard_overruns0_ = overruns();
+}
+
 void ServiceLoop::warm_up() {
   // the tick's own workspace and state: the tick recomputes everything it publishes
   if (cfg_.mode == ServiceMode::kSimulate) {
@@ -576,6 +617,7 @@ void ServiceLoop::run_on_arrival(const std::atomic<bool>& stop, long long max_ti
     now = io::monotonic_ns();
     if (ticked) {
       record_timing(late, now - wake);
+      watch_fifo(now, now - wake);
       ++n;
       // heartbeats keep the period's cadence; after a state, the next one is a period away
       if (heartbeat && beat == next_beat && next_beat + period_ns_ > now) next_beat += period_ns_;
@@ -646,6 +688,7 @@ void ServiceLoop::run(const std::atomic<bool>& stop, long long max_ticks) {
     } else {
       in_overrun_ = false;
     }
+    watch_fifo(end, end - wake);
   }
 }
 

@@ -51,6 +51,7 @@
 #include "service/runtime/config.h"
 #include "service/runtime/doorbell.h"
 #include "service/runtime/event_ring.h"
+#include "service/runtime/fifo_guard.h"
 #include "service/runtime/histogram.h"
 #include "service/runtime/inbox.h"
 
@@ -77,6 +78,11 @@ class ServiceLoop {
   // instead of the doorbell, and drains the source itself when it moves (arrival_source.h). Before
   // run(); the source outlives it.
   void take_arrivals_from(ArrivalSource* source) { source_ = source; }
+  // The loop's thread runs SCHED_FIFO under realtime.sched_fifo auto: run() watches each stats
+  // window with a FifoGuard (fifo_guard.h), fed the thread's CPU time over the window (with
+  // busy_poll, the ticks' compute time), and steps the thread down to SCHED_OTHER when it would hog
+  // its CPU, once (event kFifoDemoted, fifo_demotions()). Call from the loop's thread before run().
+  void guard_fifo(bool on) { guard_on_ = on; }
 
   // One period at monotonic time now_ns. Loop thread only.
   void tick(long long now_ns);
@@ -99,6 +105,8 @@ class ServiceLoop {
   int64_t skipped_periods() const { return skipped_.load(std::memory_order_relaxed); }
   int64_t expirations() const { return expired_.load(std::memory_order_relaxed); }
   int64_t numerical_errors() const { return numerical_errors_.load(std::memory_order_relaxed); }
+  // times the guard stepped the loop down from SCHED_FIFO to SCHED_OTHER (0 or 1)
+  int64_t fifo_demotions() const { return fifo_demotions_.load(std::memory_order_relaxed); }
   bool faulted() const { return faulted_.load(std::memory_order_relaxed); }
   int64_t closure_rejections() const { return closure_rejected_.load(std::memory_order_relaxed); }
   // output_t and loop_stats_t messages the bus refused (publish() != 0: the publisher thread's ring
@@ -164,6 +172,7 @@ class ServiceLoop {
   bool wait_for_arrival(uint32_t seen, long long deadline, const std::atomic<bool>& stop, bool* stopped);
   uint32_t bell_value() const { return source_ ? source_->bell() : bell_.value(); }
   void require_auth(const io::AuthKey& key);  // every inbox verifies its channel's MAC
+  void watch_fifo(long long now, long long compute_ns);  // the guard, after each tick's timing
   void warm_up();  // spin_us: one evaluation of the held state before the deadline (caches, TLB)
 
   const System& sys_;
@@ -221,6 +230,13 @@ class ServiceLoop {
   std::atomic<int64_t> rx_input_rejected_[io::kRejectKinds] = {}, rx_control_rejected_[io::kRejectKinds] = {};
   std::atomic<int64_t> closure_rejected_{0};  // estimate: measured states above closure_tolerance
   std::atomic<int64_t> outputs_dropped_{0};   // messages the bus refused
+  std::atomic<int64_t> fifo_demotions_{0};
+  // the FIFO guard's window: since guard_start_ns_, the ticks' compute ns, ticks, overruns and the
+  // thread's CPU time at its start
+  FifoGuard guard_;
+  bool guard_on_ = false;
+  long long guard_start_ns_ = -1, guard_busy_ns_ = 0, guard_cpu0_ns_ = 0;
+  int64_t guard_ticks_ = 0, guard_overruns0_ = 0;
   Histogram late_win_, comp_win_, late_all_, comp_all_;
   EventRing<256> events_;
   Doorbell bell_;

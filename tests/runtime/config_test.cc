@@ -71,7 +71,13 @@ TEST(DaemonConfig, EveryBadValueNamesFileLineAndReason) {
       {"overrun: {policy: skip, max_catch_up: 5000}\n", "overrun.max_catch_up must be in [0, 1000]"},
       {"channels: {output: ''}\n", "channel 'output' is empty"},
       {"realtime: {priority: 120}\n", "realtime.priority must be 1..99, got 120"},
-      {"realtime: {sched_fifo: maybe}\n", "'sched_fifo' must be true or false"},
+      {"realtime: {sched_fifo: maybe}\n", "t.yaml:1:24: realtime.sched_fifo must be auto, true or false"},
+      {"realtime: {sched_fifo: yes}\n", "t.yaml:1:24: realtime.sched_fifo must be auto, true or false"},
+      {"realtime: {sched_fifo: ~}\n", "t.yaml:1:24: realtime.sched_fifo must be auto, true or false"},
+      {"realtime: {sched_fifo: [true]}\n", "t.yaml:1:24: 'sched_fifo' must be a string"},
+      {"realtime: {receive_priority: 80}\n",
+       "t.yaml:1:30: realtime.receive_priority must be 0 (SCHED_OTHER) or 1..79 (below realtime.priority 80"},
+      {"realtime: {priority: 10, receive_priority: 10}\n", "realtime.receive_priority must be 0 (SCHED_OTHER) or 1..9"},
       {"rate: 1000\n", "t.yaml:1:1: unknown key 'rate' in the service config"},
       {"rate_hz: [1\n", "t.yaml:"},
       {"trigger: arrival\n",
@@ -100,6 +106,23 @@ TEST(DaemonConfig, EveryBadValueNamesFileLineAndReason) {
   EXPECT_TRUE(c.realtime.busy_poll);
   EXPECT_TRUE(c.realtime.receive_in_loop);
   EXPECT_EQ(c.overrun, OverrunPolicy::kSkip);
+}
+
+// realtime.sched_fifo: auto (the default), true or false, each its own policy; whether the loop asks
+// for SCHED_FIFO follows from it and busy_poll without a cpu (auto then stays SCHED_OTHER).
+TEST(DaemonConfig, SchedFifoIsAutoTrueOrFalse) {
+  EXPECT_EQ(ServiceConfig().realtime.sched_fifo, SchedFifo::kAuto);
+  EXPECT_EQ(load_config_string("realtime: {sched_fifo: auto}\n", "t.yaml").realtime.sched_fifo, SchedFifo::kAuto);
+  EXPECT_EQ(load_config_string("realtime: {sched_fifo: true}\n", "t.yaml").realtime.sched_fifo, SchedFifo::kOn);
+  EXPECT_EQ(load_config_string("realtime: {sched_fifo: false}\n", "t.yaml").realtime.sched_fifo, SchedFifo::kOff);
+  const std::string arrival = "mode: estimate\ntrigger: arrival\n";
+  auto asks = [&](const std::string& rt) { return loop_asks_fifo(load_config_string(arrival + rt, "t.yaml").realtime); };
+  EXPECT_TRUE(asks("realtime: {sched_fifo: auto}\n"));
+  EXPECT_FALSE(asks("realtime: {sched_fifo: auto, busy_poll: true}\n")) << "a polling loop on a shared CPU";
+  EXPECT_TRUE(asks("realtime: {sched_fifo: auto, busy_poll: true, cpu: 1}\n"));
+  EXPECT_TRUE(asks("realtime: {sched_fifo: true, busy_poll: true}\n")) << "true keeps its meaning";
+  EXPECT_FALSE(asks("realtime: {sched_fifo: false}\n"));
+  EXPECT_EQ(load_config_string("realtime: {priority: 60, receive_priority: 59}\n", "t.yaml").realtime.receive_priority, 59);
 }
 
 // Every value bounded to what the code can represent (period_ns(), watchdog_ns()

@@ -248,6 +248,41 @@ TEST(LoopNoAllocation, RunWithDeadlineSleeps) {
   }
 }
 
+// realtime.sched_fifo auto's guard (fifo_guard.h) in run(): a scene too heavy for the period
+// (tiago_pro_box at 10 kHz, every tick overrunning) is stepped down, once, with an event for the daemon's log, and neither the watch nor the step down allocates. (The
+// test's thread runs SCHED_OTHER: the step down is then a no-op the kernel accepts.)
+TEST(LoopNoAllocation, RunStepsATooHeavyLoopDownOnce) {
+  if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
+  const System sys = load_scene(scene_path("tiago_pro_box"));
+  runtime::ServiceConfig cfg;
+  cfg.rate_hz = 10000;
+  cfg.stats_period_s = 0.02;
+  FakeBus bus;
+  runtime::ServiceLoop loop(sys, cfg, bus);
+  loop.guard_fifo(true);
+  std::atomic<bool> stop{false};
+  long allocations;
+  {
+    AllocationCounter c;
+    loop.run(stop, 400);
+    allocations = c.count();
+  }
+  EXPECT_EQ(allocations, 0);
+  EXPECT_EQ(loop.fifo_demotions(), 1);
+  runtime::Event e;
+  int demoted = 0;
+  while (loop.events().pop(&e))
+    if (e.code == runtime::EventCode::kFifoDemoted) {
+      ++demoted;
+      // busy (its CPU time over half the window) or, on a loaded machine that gives this SCHED_OTHER
+      // test thread less than half a CPU, overrunning every tick for three windows
+      const auto v = static_cast<runtime::FifoGuard::Verdict>(e.a);
+      EXPECT_TRUE(v == runtime::FifoGuard::Verdict::kBusy || v == runtime::FifoGuard::Verdict::kOverruns) << e.a;
+      if (v == runtime::FifoGuard::Verdict::kBusy) EXPECT_GT(e.x, runtime::FifoGuard::kMaxBusyShare);
+    }
+  EXPECT_EQ(demoted, 1);
+}
+
 // The daemon's fixed-rate loop publishes through a publisher thread (realtime.publisher_thread): the
 // loop's side of it (the copy into a slot, the doorbell) allocates nothing either, and every output
 // and stats message reaches the bus behind it or is counted as dropped.
