@@ -278,7 +278,9 @@ TEST(LoopNoAllocation, RunStepsATooHeavyLoopDownOnce) {
       // test thread less than half a CPU, overrunning every tick for three windows
       const auto v = static_cast<runtime::FifoGuard::Verdict>(e.a);
       EXPECT_TRUE(v == runtime::FifoGuard::Verdict::kBusy || v == runtime::FifoGuard::Verdict::kOverruns) << e.a;
-      if (v == runtime::FifoGuard::Verdict::kBusy) EXPECT_GT(e.x, runtime::FifoGuard::kMaxBusyShare);
+      if (v == runtime::FifoGuard::Verdict::kBusy) {
+        EXPECT_GT(e.x, runtime::FifoGuard::kMaxBusyShare);
+      }
     }
   EXPECT_EQ(demoted, 1);
 }
