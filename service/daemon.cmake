@@ -32,5 +32,10 @@ add_library(coopdyn_runtime
 )
 target_link_libraries(coopdyn_runtime PUBLIC coopdyn_io coopdyn_text yaml-cpp Threads::Threads)
 
-add_executable(coopdynd ${CMAKE_CURRENT_LIST_DIR}/daemon/main.cc)
+add_executable(coopdynd
+  ${CMAKE_CURRENT_LIST_DIR}/daemon/main.cc
+  ${CMAKE_CURRENT_LIST_DIR}/daemon/options.cc
+  ${CMAKE_CURRENT_LIST_DIR}/daemon/receive.cc
+  ${CMAKE_CURRENT_LIST_DIR}/daemon/reports.cc
+)
 target_link_libraries(coopdynd PRIVATE coopdyn_runtime coopdyn_scene spdlog::spdlog CLI11::CLI11)

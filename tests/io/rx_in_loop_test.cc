@@ -38,7 +38,7 @@ using coopdyn::testing::kCountingAvailable;
 
 namespace {
 
-// What the daemon's source in this mode offers to (service/daemon/main.cc offer_input, without its log
+// What the daemon's source in this mode offers to (service/daemon/receive.cc offer_input, without its log
 // counters): controls to the control inbox, states to the state inbox.
 runtime::SocketArrivals<std::function<void(const void*, int, long long)>> socket_source(io::InLoopReceiver& rx,
                                                                                       runtime::ServiceLoop& loop) {

@@ -532,7 +532,7 @@ TEST(LoopNoAllocation, RunOnArrivalBusyPolling) {
 }
 
 namespace {
-// The daemon's hand-off on arrival (service/daemon/main.cc RingArrivals): the loop drains the receive
+// The daemon's hand-off on arrival (service/daemon/receive.h RingArrivals): the loop drains the receive
 // process's ring itself, woken by the bell the process rings.
 struct RingSource : runtime::ArrivalSource {
   io::IsolatedReceiver& rx;
