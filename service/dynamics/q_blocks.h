@@ -35,7 +35,8 @@
 // The fast-path test reads every pivot of R Q R^T (the reduced ones and L_S's), as the dense
 // factor_nominal_last does; where it fails, the caller takes the dense path. Solve: b <- R b, the
 // block forward solve on the reduced rows with y_d = L_S^-1 (b_d - sum_g Y_g^T y_g), x_d = L_S^-T y_d,
-// the block backward solve of y_r - L_dr^T x_d, x <- R^T x.
+// the block backward solve of y_r - L_dr^T x_d, x <- R^T x. Each group then also costs O(N^2) for
+// its S update; N is padded to 4 or 8 with zero rows so that those updates run at fixed sizes.
 //
 // Where the structure does not hold (fewer than two groups, a group's rows not contiguous in the
 // spec order, more than 6 common DOFs or 12 rows in a group) plan() leaves it unusable; where Q is
