@@ -11,6 +11,27 @@ namespace {
 // the padded width of the nominal columns (q_blocks.h): 4 or 8 where the kernels are fixed, else N
 int nominal_width(int n) { return n <= 4 ? 4 : n <= 8 ? 8 : n; }
 
+// the single factor's storage (q_blocks.h): nmax nominal directions, rows of Q
+void size_nominal(QBlocks& qb, int nmax, int rows) {
+  const int pmax = nominal_width(nmax);
+  for (QBlocks::Group& g : qb.groups) {
+    g.Ar.setZero(g.rows, g.rows);
+    g.Br.setZero(g.rows, QBlocks::kMaxCommon);
+    g.Wr.setZero(g.rows, QBlocks::kMaxCommon);
+    g.dinvr.setZero(g.rows);
+    g.keep.setOnes(g.rows);
+    g.hw.assign(g.nominal.size(), Vec6::Zero());
+    g.Ad.setZero(g.rows, g.rows);
+    g.Kr.setZero(g.rows, QBlocks::kMaxCommon);
+    g.Yt.setZero(pmax, QBlocks::kMaxGroupRows);
+  }
+  qb.S.setZero(pmax, pmax);
+  qb.sdinv.setZero(nmax);
+  qb.Zt.setZero(pmax, QBlocks::kMaxCommon);
+  qb.xd.setZero(pmax);
+  qb.xr.setZero(rows);
+}
+
 }  // namespace
 
 void QBlocks::plan(const System& sys, const std::vector<std::vector<int>>& y_support,
@@ -98,26 +119,7 @@ void QBlocks::plan(const System& sys, const std::vector<std::vector<int>>& y_sup
     in->nominal.emplace_back(dof, r0 - in->row0);
     has_nominal = true;
   }
-  const int nmax = static_cast<int>(nominal_rows.size()), pmax = nominal_width(nmax);
-  for (Group& g : groups) {
-    if (!has_nominal) break;
-    g.Ar.setZero(g.rows, g.rows);
-    g.Br.setZero(g.rows, kMaxCommon);
-    g.Wr.setZero(g.rows, kMaxCommon);
-    g.dinvr.setZero(g.rows);
-    g.keep.setOnes(g.rows);
-    g.hw.assign(g.nominal.size(), Vec6::Zero());
-    g.Ad.setZero(g.rows, g.rows);
-    g.Kr.setZero(g.rows, kMaxCommon);
-    g.Yt.setZero(pmax, kMaxGroupRows);
-  }
-  if (has_nominal) {
-    S.setZero(pmax, pmax);
-    sdinv.setZero(nmax);
-    Zt.setZero(pmax, kMaxCommon);
-    xd.setZero(pmax);
-    xr.setZero(cs.rows);
-  }
+  if (has_nominal) size_nominal(*this, static_cast<int>(nominal_rows.size()), cs.rows);
   usable = groups.size() >= 2;
   if (!usable) groups.clear();
 }
