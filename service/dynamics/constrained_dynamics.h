@@ -123,9 +123,9 @@ struct Workspace {
   // nominal bases' condition from the reduced blocks), falling back to the dense Q and qs when Q,
   // or Q without the nominal directions, is not safely positive definite.
   // use_q_blocks may be set to false (tests: the dense path on the same workspace).
-  // With nominal bases the blocks factor Q and the reduced Q (twice the work); the dense path
-  // factors Q once with the nominal directions last (QSolver::factor_nominal_last: the reduced Q's
-  // pivots lead, so one factor gives the condition and the solve). The blocks are the faster from
+  // With nominal bases both paths factor Q once with the nominal directions last (the blocks:
+  // QBlocks' single factor; the dense path: QSolver::factor_nominal_last): the reduced Q's pivots
+  // lead, so one factor gives the condition and the solve. The blocks are the faster from
   // kQBlocksMinGroupsNominal groups on (bench/README.md, "Arms on one load").
   static constexpr int kQBlocksMinGroups = 3, kQBlocksMinGroupsNominal = 3;
   QBlocks qb;

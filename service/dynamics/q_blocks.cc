@@ -6,6 +6,34 @@
 
 namespace coopdyn {
 
+namespace {
+
+// the padded width of the nominal columns (q_blocks.h): 4 or 8 where the kernels are fixed, else N
+int nominal_width(int n) { return n <= 4 ? 4 : n <= 8 ? 8 : n; }
+
+// the single factor's storage (q_blocks.h): nmax nominal directions, rows of Q
+void size_nominal(QBlocks& qb, int nmax, int rows) {
+  const int pmax = nominal_width(nmax);
+  for (QBlocks::Group& g : qb.groups) {
+    g.Ar.setZero(g.rows, g.rows);
+    g.Br.setZero(g.rows, QBlocks::kMaxCommon);
+    g.Wr.setZero(g.rows, QBlocks::kMaxCommon);
+    g.dinvr.setZero(g.rows);
+    g.keep.setOnes(g.rows);
+    g.hw.assign(g.nominal.size(), Vec6::Zero());
+    g.Ad.setZero(g.rows, g.rows);
+    g.Kr.setZero(g.rows, QBlocks::kMaxCommon);
+    g.Yt.setZero(pmax, QBlocks::kMaxGroupRows);
+  }
+  qb.S.setZero(pmax, pmax);
+  qb.sdinv.setZero(nmax);
+  qb.Zt.setZero(pmax, QBlocks::kMaxCommon);
+  qb.xd.setZero(pmax);
+  qb.xr.setZero(rows);
+}
+
+}  // namespace
+
 void QBlocks::plan(const System& sys, const std::vector<std::vector<int>>& y_support,
                    const std::vector<std::pair<int, int>>& nominal_rows) {
   usable = false;
@@ -91,14 +119,7 @@ void QBlocks::plan(const System& sys, const std::vector<std::vector<int>>& y_sup
     in->nominal.emplace_back(dof, r0 - in->row0);
     has_nominal = true;
   }
-  for (Group& g : groups) {
-    if (!has_nominal) break;
-    g.Ar.setZero(g.rows, g.rows);
-    g.Br.setZero(g.rows, kMaxCommon);
-    g.Wr.setZero(g.rows, kMaxCommon);
-    g.dinvr.setZero(g.rows);
-    g.keep.setOnes(g.rows);
-  }
+  if (has_nominal) size_nominal(*this, static_cast<int>(nominal_rows.size()), cs.rows);
   usable = groups.size() >= 2;
   if (!usable) groups.clear();
 }
@@ -120,8 +141,10 @@ using VecR = Eigen::Matrix<double, R, 1, 0, R == Eigen::Dynamic ? QBlocks::kMaxG
 // One group of the block Cholesky (q_blocks.h) on r rows: A's lower triangle <- L_g of
 // A_g + B_g P B_g^T, W = L_g^-1 B_g P, P -= W^T W, dinv = 1 / diag(L_g); dmax, dmin the extreme
 // diagonals so far. False on a pivot that is not positive.
+// With kk (R x 6, as W), also K = L_g^-1 B_g there (the single factor with the nominal rows last).
 template <int R>
-bool factor_group(int r, double* a, const double* b, double* w, double* dinv, Mat6& P, double& dmax, double& dmin) {
+bool factor_group(int r, double* a, const double* b, double* w, double* dinv, Mat6& P, double& dmax, double& dmin,
+                  double* kk = nullptr) {
   Eigen::Map<MatR<R>> A(a, r, r);
   Eigen::Map<const MatR6<R>> B(b, r, 6);
   Eigen::Map<MatR6<R>> W(w, r, 6);
@@ -150,6 +173,14 @@ bool factor_group(int r, double* a, const double* b, double* w, double* dinv, Ma
     for (int k = 0; k < i; ++k) W.row(i) -= A(i, k) * W.row(k);
     W.row(i) *= dinv[i];
   }
+  if (kk) {  // K = L_g^-1 B the same way
+    Eigen::Map<MatR6<R>> K(kk, r, 6);
+    K = B;
+    for (int i = 0; i < r; ++i) {
+      for (int k = 0; k < i; ++k) K.row(i) -= A(i, k) * K.row(k);
+      K.row(i) *= dinv[i];
+    }
+  }
   P.noalias() -= W.transpose().lazyProduct(W);
   return true;
 }
@@ -158,21 +189,25 @@ bool factor_group(int r, double* a, const double* b, double* w, double* dinv, Ma
 // per nominal direction u = G's column of joint 1 in the weld's rows, either the one row u lies
 // along is dropped or H = I - w w^T (H u = -sign(u_0) |u| e_0) acts on the six rows, A <- H A H,
 // B <- H B, and the first is dropped; the kept rows are then written to Ar and Br, sized to them.
+// Also the dropped rows, for the single factor (q_blocks.h): their local indices, Ad = H A_g H (kept,
+// dropped), their rows of H B_g into Zt's rows d0.. and their block of H A_g H into S at (d0, d0).
 template <int R>
-void reduce_group(QBlocks::Group& g, const Eigen::MatrixXd& G) {
+void reduce_group(QBlocks::Group& g, const Eigen::MatrixXd& G, int d0, Eigen::MatrixXd& Zt, Eigen::MatrixXd& S) {
   const int r = g.rows;
   MatR<R> A = Eigen::Map<const MatR<R>>(g.A.data(), r, r);  // both triangles (assemble)
   MatR6<R> B = Eigen::Map<const MatR6<R>>(g.B.data(), r, 6);
   g.keep.setOnes(r);
-  for (const auto& [dof, o] : g.nominal) {
-    Vec6 w = G.block<6, 1>(g.row0 + o, dof);
+  for (size_t n = 0; n < g.nominal.size(); ++n) {
+    const auto [dof, o] = g.nominal[n];
+    Vec6& w = g.hw[n];
+    w = G.block<6, 1>(g.row0 + o, dof);
     const double un = w.norm();
-    if (!(un > 0.0) || !std::isfinite(un)) continue;
     int single = -1;
     for (int k = 0; k < 6; ++k)
       if (w[k] != 0.0) single = single == -1 ? k : -2;
-    if (single >= 0) {
-      g.keep[o + single] = 0;
+    if (!(un > 0.0) || !std::isfinite(un) || single >= 0) {
+      if (un > 0.0 && std::isfinite(un)) g.keep[o + single] = 0;
+      w.setZero();
       continue;
     }
     w /= un;
@@ -188,27 +223,40 @@ void reduce_group(QBlocks::Group& g, const Eigen::MatrixXd& G) {
     B.template middleRows<6>(o) -= w.lazyProduct(tb);
     g.keep[o] = 0;
   }
-  int k = 0;
-  for (int j = 0; j < r; ++j) k += g.keep[j] != 0.0 ? 1 : 0;
+  int k = 0, nd = 0;
+  for (int j = 0; j < r; ++j) {
+    if (g.keep[j] != 0.0) g.kept_idx[k++] = j;
+    else g.drop_idx[nd++] = j;
+  }
   g.red_rows = k;
+  g.nd = nd;
+  g.d0 = d0;
   g.Ar.resize(k, k);  // within the fixed maximum: no allocation
   g.Br.resize(k, 6);
   g.Wr.resize(k, 6);
+  g.Kr.resize(k, 6);
   g.dinvr.resize(k);
-  for (int j = 0, c = 0; j < r; ++j) {
-    if (g.keep[j] == 0.0) continue;
-    for (int i = 0, l = 0; i < r; ++i)
-      if (g.keep[i] != 0.0) g.Ar(l++, c) = A(i, j);
-    g.Br.row(c++) = B.row(j);
+  g.Ad.resize(k, nd);
+  for (int c = 0; c < k; ++c) {
+    const int j = g.kept_idx[c];
+    for (int l = 0; l < k; ++l) g.Ar(l, c) = A(g.kept_idx[l], j);
+    g.Br.row(c) = B.row(j);
+  }
+  for (int c = 0; c < nd; ++c) {
+    const int j = g.drop_idx[c];
+    for (int l = 0; l < k; ++l) g.Ad(l, c) = A(g.kept_idx[l], j);
+    for (int l = 0; l < nd; ++l) S(d0 + l, d0 + c) = A(g.drop_idx[l], j);
+    Zt.row(d0 + c) = B.row(j);
   }
 }
 
-bool factor_any(int r, double* a, const double* b, double* w, double* dinv, Mat6& P, double& dmax, double& dmin) {
+bool factor_any(int r, double* a, const double* b, double* w, double* dinv, Mat6& P, double& dmax, double& dmin,
+                double* kk = nullptr) {
   switch (r) {
-    case 6: return factor_group<6>(r, a, b, w, dinv, P, dmax, dmin);
-    case 5: return factor_group<5>(r, a, b, w, dinv, P, dmax, dmin);
-    case 3: return factor_group<3>(r, a, b, w, dinv, P, dmax, dmin);
-    default: return factor_group<Eigen::Dynamic>(r, a, b, w, dinv, P, dmax, dmin);
+    case 6: return factor_group<6>(r, a, b, w, dinv, P, dmax, dmin, kk);
+    case 5: return factor_group<5>(r, a, b, w, dinv, P, dmax, dmin, kk);
+    case 3: return factor_group<3>(r, a, b, w, dinv, P, dmax, dmin, kk);
+    default: return factor_group<Eigen::Dynamic>(r, a, b, w, dinv, P, dmax, dmin, kk);
   }
 }
 
@@ -247,32 +295,146 @@ void backward_group(const QBlocks::Group& g, double* x, Vec6& t) {
 }  // namespace
 
 bool QBlocks::factor(const SolverOptions& opt, const Eigen::MatrixXd& G, double* condition) {
-  // the diagnostic first (the full factor overwrites A_g): the reduced Q's pivots, every group
-  // (one without a nominal direction as it is: P carries the others' reductions)
-  double ratio_red = 1.0;
-  if (has_nominal) {
-    P.setIdentity();
-    double dmax = 0.0, dmin = HUGE_VAL;
-    for (Group& g : groups) {
-      if (g.rows == 6) reduce_group<6>(g, G);
-      else reduce_group<Eigen::Dynamic>(g, G);
-      if (!factor_any(g.red_rows, g.Ar.data(), g.Br.data(), g.Wr.data(), g.dinvr.data(), P, dmax, dmin)) return false;
-    }
-    ratio_red = dmin * dmin / (dmax * dmax);
-    if (!(ratio_red >= opt.fast_tol)) return false;
-  }
+  if (has_nominal) return factor_nominal_last(opt, G, condition);
   P.setIdentity();
   double dmax = 0.0, dmin = HUGE_VAL;
   for (Group& g : groups)
     if (!factor_any(g.rows, g.A.data(), g.B.data(), g.W.data(), g.dinv.data(), P, dmax, dmin)) return false;
   const double ratio = dmin * dmin / (dmax * dmax);
   if (!(ratio >= opt.fast_tol)) return false;
-  *condition = 1.0 / (has_nominal ? ratio_red : ratio);
+  *condition = 1.0 / ratio;
+  return true;
+}
+
+namespace {
+
+// The group's columns of L_dr (q_blocks.h), after its reduced factor: Ad <- L_g^-1 Ad,
+// Y_g = K_g Z + Ad in the group's own columns (stored as Yt = Y_g^T, N x red_rows), Z <- Z - W_g^T Y_g,
+// and S <- S - Y_g^T Y_g, over the first np rows of Zt, Yt and S (np >= N: the rows beyond N are zero
+// in Zt, so in Yt, and S's are not read). R: the reduced rows, NP: np, each fixed or Eigen::Dynamic.
+template <int R, int NP>
+void nominal_columns(QBlocks::Group& g, int np, Eigen::MatrixXd& Zt, Eigen::MatrixXd& S) {
+  const int r = g.red_rows;
+  for (int c = 0; c < g.nd; ++c)
+    for (int i = 0; i < r; ++i) {
+      double s = g.Ad(i, c);
+      for (int k = 0; k < i; ++k) s -= g.Ar(i, k) * g.Ad(k, c);
+      g.Ad(i, c) = s * g.dinvr[i];
+    }
+  using Stride = Eigen::OuterStride<>;
+  Eigen::Map<Eigen::Matrix<double, NP, R>, 0, Stride> Y(g.Yt.data(), np, r, Stride(g.Yt.outerStride()));
+  Eigen::Map<Eigen::Matrix<double, NP, 6>, 0, Stride> Z(Zt.data(), np, 6, Stride(Zt.outerStride()));
+  Eigen::Map<Eigen::Matrix<double, NP, NP>, 0, Stride> Sm(S.data(), np, np, Stride(S.outerStride()));
+  Eigen::Map<const MatR6<R>> K(g.Kr.data(), r, 6), W(g.Wr.data(), r, 6);
+  Y.noalias() = Z.lazyProduct(K.transpose());
+  for (int c = 0; c < g.nd; ++c)
+    for (int i = 0; i < r; ++i) Y(g.d0 + c, i) += g.Ad(i, c);
+  Z.noalias() -= Y.lazyProduct(W);
+  Sm.noalias() -= Y.lazyProduct(Y.transpose());
+}
+
+void nominal_columns_any(QBlocks::Group& g, int np, Eigen::MatrixXd& Zt, Eigen::MatrixXd& S) {
+  if (g.red_rows == 5 && np == 4) return nominal_columns<5, 4>(g, np, Zt, S);
+  if (g.red_rows == 5 && np == 8) return nominal_columns<5, 8>(g, np, Zt, S);
+  nominal_columns<Eigen::Dynamic, Eigen::Dynamic>(g, np, Zt, S);
+}
+
+// The solve's group steps on the reduced rows y (q_blocks.h), R and NP as in nominal_columns:
+// forward y <- L_g^-1 (y - Br_g z), z += Wr_g^T y, xd -= Y_g^T y
+template <int R, int NP>
+void nominal_forward(const QBlocks::Group& g, int np, double* y, Vec6& z, double* xd) {
+  const int r = g.red_rows;
+  using Stride = Eigen::OuterStride<>;
+  Eigen::Map<const MatR<R>> L(g.Ar.data(), r, r);
+  Eigen::Map<const MatR6<R>> B(g.Br.data(), r, 6), W(g.Wr.data(), r, 6);
+  Eigen::Map<const Eigen::Matrix<double, NP, R>, 0, Stride> Y(g.Yt.data(), np, r, Stride(g.Yt.outerStride()));
+  Eigen::Map<VecR<R>> yv(y, r);
+  Eigen::Map<Eigen::Matrix<double, NP, 1>> d(xd, np);
+  yv -= B.lazyProduct(z);
+  for (int i = 0; i < r; ++i) {
+    double s = yv[i];
+    for (int k = 0; k < i; ++k) s -= L(i, k) * yv[k];
+    yv[i] = s * g.dinvr[i];
+  }
+  z.noalias() += W.transpose().lazyProduct(yv);
+  d.noalias() -= Y.lazyProduct(yv);
+}
+
+// backward y <- L_g^-T (y - Wr_g t - Y_g xd), t += Br_g^T y
+template <int R, int NP>
+void nominal_backward(const QBlocks::Group& g, int np, double* y, Vec6& t, const double* xd) {
+  const int r = g.red_rows;
+  using Stride = Eigen::OuterStride<>;
+  Eigen::Map<const MatR<R>> L(g.Ar.data(), r, r);
+  Eigen::Map<const MatR6<R>> B(g.Br.data(), r, 6), W(g.Wr.data(), r, 6);
+  Eigen::Map<const Eigen::Matrix<double, NP, R>, 0, Stride> Y(g.Yt.data(), np, r, Stride(g.Yt.outerStride()));
+  Eigen::Map<VecR<R>> yv(y, r);
+  Eigen::Map<const Eigen::Matrix<double, NP, 1>> d(xd, np);
+  yv -= W.lazyProduct(t) + Y.transpose().lazyProduct(d);
+  for (int i = r - 1; i >= 0; --i) {
+    double s = yv[i];
+    for (int k = i + 1; k < r; ++k) s -= L(k, i) * yv[k];
+    yv[i] = s * g.dinvr[i];
+  }
+  t.noalias() += B.transpose().lazyProduct(yv);
+}
+
+// Cholesky of the leading n x n of S in place (lower), dinv = 1 / its diagonal; dmax, dmin the extreme
+// diagonals so far. False on a pivot that is not positive.
+bool factor_schur(Eigen::MatrixXd& S, Eigen::VectorXd& dinv, int n, double& dmax, double& dmin) {
+  for (int j = 0; j < n; ++j) {
+    double d = S(j, j);
+    for (int k = 0; k < j; ++k) d -= S(j, k) * S(j, k);
+    if (!(d > 0.0)) return false;
+    const double rd = 1.0 / d, ljj = std::sqrt(d);
+    S(j, j) = ljj;
+    const double inv = ljj * rd;
+    dinv[j] = inv;
+    dmax = std::max(dmax, ljj);
+    dmin = std::min(dmin, ljj);
+    for (int i = j + 1; i < n; ++i) {
+      double sum = S(i, j);
+      for (int k = 0; k < j; ++k) sum -= S(i, k) * S(j, k);
+      S(i, j) = sum * inv;
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+bool QBlocks::factor_nominal_last(const SolverOptions& opt, const Eigen::MatrixXd& G, double* condition) {
+  // R Q R^T's parts: the reduced groups, the dropped rows' block of H A H (into S) and of H B (into Zt)
+  nd = 0;
+  Zt.setZero();  // the padding rows stay 0
+  S.setZero();   // the entries beyond the dropped rows' blocks start at 0
+  for (Group& g : groups) {
+    if (g.rows == 6) reduce_group<6>(g, G, nd, Zt, S);
+    else reduce_group<Eigen::Dynamic>(g, G, nd, Zt, S);
+    nd += g.nd;
+  }
+  np = nominal_width(nd);
+  // S = Q_dd = blkdiag(H A_g H (dropped)) + Bd Bd^T (lower triangle)
+  for (int b = 0; b < nd; ++b)
+    for (int a = b; a < nd; ++a) S(a, b) += Zt.row(a).dot(Zt.row(b));
+  // the reduced rows' block Cholesky, and the columns of L_dr with the Schur complement group by group
+  P.setIdentity();
+  double dmax = 0.0, dmin = HUGE_VAL;
+  for (Group& g : groups) {
+    if (!factor_any(g.red_rows, g.Ar.data(), g.Br.data(), g.Wr.data(), g.dinvr.data(), P, dmax, dmin, g.Kr.data()))
+      return false;
+    nominal_columns_any(g, np, Zt, S);
+  }
+  const double ratio_red = dmin * dmin / (dmax * dmax);
+  if (!factor_schur(S, sdinv, nd, dmax, dmin)) return false;
+  if (!(dmin * dmin / (dmax * dmax) >= opt.fast_tol)) return false;
+  *condition = 1.0 / ratio_red;
   return true;
 }
 
 void QBlocks::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
   x.resize(b.size());  // no-op at the right size
+  if (has_nominal) return solve_nominal_last(b, x);
   Vec6 z = Vec6::Zero();
   for (const Group& g : groups) {
     if (g.rows == 6) forward_group<6>(g, b.data() + g.row0, x.data() + g.row0, z);
@@ -282,6 +444,59 @@ void QBlocks::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
   for (auto it = groups.rbegin(); it != groups.rend(); ++it) {
     if (it->rows == 6) backward_group<6>(*it, x.data() + it->row0, t);
     else backward_group<Eigen::Dynamic>(*it, x.data() + it->row0, t);
+  }
+}
+
+// x = R^T (R Q R^T)^-1 R b through the single factor (q_blocks.h)
+void QBlocks::solve_nominal_last(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
+  // R b: per group its rows reflected, the kept ones into xr (at the group's rows), the dropped into xd
+  xd.setZero();  // the padding entries stay 0
+  for (const Group& g : groups) {
+    GVec v = b.segment(g.row0, g.rows);
+    for (size_t n = 0; n < g.nominal.size(); ++n) {
+      const Vec6& w = g.hw[n];
+      const int o = g.nominal[n].second;
+      v.segment<6>(o) -= w.dot(v.segment<6>(o)) * w;  // w = 0 where there is no reflection
+    }
+    for (int c = 0; c < g.red_rows; ++c) xr[g.row0 + c] = v[g.kept_idx[c]];
+    for (int c = 0; c < g.nd; ++c) xd[g.d0 + c] = v[g.drop_idx[c]];
+  }
+  // forward: y_g = L_g^-1 (b_g - Br_g z), z += Wr_g^T y_g, b_d -= Y_g^T y_g; then y_d = L_S^-1 b_d
+  Vec6 z = Vec6::Zero();
+  for (const Group& g : groups) {
+    if (g.red_rows == 5 && np == 4) nominal_forward<5, 4>(g, np, xr.data() + g.row0, z, xd.data());
+    else if (g.red_rows == 5 && np == 8) nominal_forward<5, 8>(g, np, xr.data() + g.row0, z, xd.data());
+    else nominal_forward<Eigen::Dynamic, Eigen::Dynamic>(g, np, xr.data() + g.row0, z, xd.data());
+  }
+  for (int i = 0; i < nd; ++i) {
+    double s = xd[i];
+    for (int k = 0; k < i; ++k) s -= S(i, k) * xd[k];
+    xd[i] = s * sdinv[i];
+  }
+  for (int i = nd - 1; i >= 0; --i) {  // x_d = L_S^-T y_d
+    double s = xd[i];
+    for (int k = i + 1; k < nd; ++k) s -= S(k, i) * xd[k];
+    xd[i] = s * sdinv[i];
+  }
+  // backward: x_g = L_g^-T (y_g - Wr_g t - Y_g x_d), t += Br_g^T x_g
+  Vec6 t = Vec6::Zero();
+  for (auto it = groups.rbegin(); it != groups.rend(); ++it) {
+    const Group& g = *it;
+    if (g.red_rows == 5 && np == 4) nominal_backward<5, 4>(g, np, xr.data() + g.row0, t, xd.data());
+    else if (g.red_rows == 5 && np == 8) nominal_backward<5, 8>(g, np, xr.data() + g.row0, t, xd.data());
+    else nominal_backward<Eigen::Dynamic, Eigen::Dynamic>(g, np, xr.data() + g.row0, t, xd.data());
+  }
+  // x = R^T [x_r; x_d]
+  for (const Group& g : groups) {
+    GVec v(g.rows);
+    for (int c = 0; c < g.red_rows; ++c) v[g.kept_idx[c]] = xr[g.row0 + c];
+    for (int c = 0; c < g.nd; ++c) v[g.drop_idx[c]] = xd[g.d0 + c];
+    for (size_t n = 0; n < g.nominal.size(); ++n) {
+      const Vec6& w = g.hw[n];
+      const int o = g.nominal[n].second;
+      v.segment<6>(o) -= w.dot(v.segment<6>(o)) * w;
+    }
+    x.segment(g.row0, g.rows) = v;
   }
 }
 

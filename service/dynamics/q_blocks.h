@@ -21,9 +21,22 @@
 // that of Q with each nominal direction eliminated (constrained_dynamics.cc,
 // condition_without_nominal): a Householder reflection H of the base weld's six rows, Q <- H Q H,
 // and one row dropped. The weld's rows lie in one group, so H Q H = blkdiag(H A_g H) + (H B)(H B)^T
-// keeps the structure: factor() also factors that reduced Q by the same block Cholesky (its pivots
-// are those of the dense unpivoted factor of the reduced Q) and reports its pivot ratio; where
-// that ratio fails the fast-path test, the caller takes the dense path.
+// keeps the structure. factor() then factors Q once, as QSolver::factor_nominal_last factors the
+// dense Q (q_solve.h): R Q R^T with the reduced rows of every group first (in row order) and the N
+// dropped (nominal) rows last, so the leading pivots are the reduced Q's (the condition) and the
+// whole factor solves Q. The reduced part is the block Cholesky above on the reduced groups (Ar_g,
+// Br_g: H A_g H and H B_g without the dropped rows). The last N rows need L_dr = Q_dr L_rr^-T and
+// the N x N Schur complement S = Q_dd - L_dr L_dr^T. With K_g = L_g^-1 Br_g and a_g the dropped
+// rows' columns of H A_g H on the group's kept rows, the block forward solve of Q_rd gives the
+// columns of L_dr^T in group g as
+//   Y_g = K_g Z + L_g^-1 a_g E_g,   Z <- Z - W_g^T Y_g,   Z (6 x N) starting at Bd^T,
+// (Bd: the dropped rows of H B, E_g: the group's dropped rows among the N), and
+//   S = blkdiag(dropped rows of H A_g H) + Bd Bd^T - sum_g Y_g^T Y_g,   L_S L_S^T = S.
+// The fast-path test reads every pivot of R Q R^T (the reduced ones and L_S's), as the dense
+// factor_nominal_last does; where it fails, the caller takes the dense path. Solve: b <- R b, the
+// block forward solve on the reduced rows with y_d = L_S^-1 (b_d - sum_g Y_g^T y_g), x_d = L_S^-T y_d,
+// the block backward solve of y_r - L_dr^T x_d, x <- R^T x. Each group then also costs O(N^2) for
+// its S update; N is padded to 4 or 8 with zero rows so that those updates run at fixed sizes.
 //
 // Where the structure does not hold (fewer than two groups, a group's rows not contiguous in the
 // spec order, more than 6 common DOFs or 12 rows in a group) plan() leaves it unusable; where Q is
@@ -59,6 +72,14 @@ struct QBlocks {
     GBMat Br, Wr;          // (red_rows x 6) H B_g without the dropped rows; L_g^-1 B_g P_g of the reduced factor
     GVec dinvr;            // (red_rows) 1 / diag of the reduced factor
     GVec keep;             // (rows) 1 for a row kept in the reduced Q, else 0
+    // the single factor with the nominal rows last (has_nominal)
+    int nd = 0;            // the group's dropped rows this evaluation (at most nominal.size())
+    int d0 = 0;            // the first of them among the N dropped rows of Q
+    std::vector<Vec6> hw;  // (nominal.size()) H = I - w w^T on the weld's rows (w = 0: none)
+    int kept_idx[kMaxGroupRows] = {}, drop_idx[kMaxGroupRows] = {};  // local rows kept, dropped
+    GMat Ad;               // (red_rows x nd) H A_g H (kept, dropped); then L_g^-1 of it
+    GBMat Kr;              // (red_rows x 6) K_g = L_g^-1 Br_g
+    Eigen::MatrixXd Yt;    // (P_max x kMaxGroupRows) Y_g^T: column i is reduced row i's N entries of L_dr
     // pairs of specs s <= t of the group with the ranges [first, first + second) of own DOFs both reach
     struct Pair {
       int s, t;
@@ -84,10 +105,22 @@ struct QBlocks {
   void solve(const Eigen::VectorXd& b, Eigen::VectorXd& x);
 
   bool usable = false;
-  bool has_nominal = false;  // some group has a nominal direction
+  bool has_nominal = false;  // some group has a nominal direction: the single factor with them last
   std::vector<int> common;  // the DOFs every spec reaches, ascending
   std::vector<Group> groups;
   Mat6 P;
+  // the single factor with the nominal rows last (has_nominal), N_max = the nominal directions
+  int nd = 0;              // N: the dropped rows this evaluation
+  int np = 0;              // N padded to the width of the fixed kernels (4, 8, else N)
+  Eigen::MatrixXd S;       // (P_max x P_max, P_max = N_max padded as np) Schur complement of the dropped rows; then L_S (lower)
+  Eigen::VectorXd sdinv;   // (N_max) 1 / diag(L_S)
+  Eigen::MatrixXd Zt;      // (P_max x 6) Z^T of the factorization; Bd first
+  Eigen::VectorXd xd;      // (P_max) the dropped rows' part of a solve
+  Eigen::VectorXd xr;      // (rows of Q) the reduced rows' part of a solve, group by group
+
+ private:
+  bool factor_nominal_last(const SolverOptions& opt, const Eigen::MatrixXd& G, double* condition);
+  void solve_nominal_last(const Eigen::VectorXd& b, Eigen::VectorXd& x);
 };
 
 template <class YBlock>

@@ -184,7 +184,15 @@ void blocks_solve_rows(QBlocks& qb, WrenchSigmaData& sd, int nc) {
 // columns at once, the rank-revealing solve (over-constrained systems) column by column
 void q_solve_rows(Workspace& ws, WrenchSigmaData& sd, int nc) {
   const int m = ws.qs.m;
-  if (ws.q_blocks_active) return blocks_solve_rows(ws.qb, sd, nc);
+  if (ws.q_blocks_active && !ws.qb.has_nominal) return blocks_solve_rows(ws.qb, sd, nc);
+  if (ws.q_blocks_active) {  // the single block factor with the nominal rows last: column by column
+    for (int j = 0; j < nc; ++j) {
+      sd.col_b = sd.Rhs.col(j);
+      ws.qb.solve(sd.col_b, sd.col_x);
+      sd.Lam.col(j) = sd.col_x;
+    }
+    return;
+  }
   if (ws.qs.fast_path) {  // U = L^T, column i of U is row i of L
     const double* u = ws.qs.Lq.data();
     const Eigen::Index ld = ws.qs.Lq.outerStride();

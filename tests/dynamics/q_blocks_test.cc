@@ -93,8 +93,9 @@ TEST(QBlocks, ArmsOnOneLoadEqualDense) {
 }
 
 // Arms whose joint 1 has no armature (System::nominal_bases): the PUMAs with every armature removed,
-// 1-8 on one box. The block path factors Q as it is and, for the condition, Q without the nominal
-// base-link directions; both equal the dense path's. Q itself carries the nominal direction's
+// 1-8 on one box. The block path factors Q once with the nominal base-link directions last (the
+// reduced rows of every arm first, then the N x N Schur complement of the dropped rows): its
+// condition (the leading pivots') and its solution equal the dense path's. Q itself carries the nominal direction's
 // eigenvalue (~1 / the nominal inertia, 1e3 above the others), so the two paths' round-off differs
 // more than with armature: 1e-11 relative (measured up to 4.4e-12 on the joint wrenches at 8 arms).
 // And 1-8 KUKA iiwa 14 arms read from their URDF: their joint 1 moves link 0, which has the URDF's
