@@ -39,18 +39,6 @@ void expect_same(const System& sys, const WrenchSigmaData& fast, const WrenchSig
   }
 }
 
-// a state near the scene's initial one: v0 + 0.3 U(-1, 1), tau 2 U(-1, 1) (the same draw every call)
-void random_v_tau(const System& sys, Eigen::VectorXd& v, Eigen::VectorXd& tau) {
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<double> U(-1.0, 1.0);
-  v = sys.v0;
-  tau = Eigen::VectorXd::Zero(sys.model.nv());
-  for (int i = 0; i < sys.model.nv(); ++i) {
-    v[i] += 0.3 * U(rng);
-    tau[i] = 2.0 * U(rng);
-  }
-}
-
 TEST(WrenchSigmaFast, EqualsThePreviousDefinitionOnEveryShippedScene) {
   int compared = 0;
   for (const char* name : kScenes) {
@@ -65,7 +53,7 @@ TEST(WrenchSigmaFast, EqualsThePreviousDefinitionOnEveryShippedScene) {
       Workspace ws(sys);
       WrenchSigmaData fast(sys), ref(sys);
       Eigen::VectorXd v, tau;
-      random_v_tau(sys, v, tau);
+      reference::random_v_tau(sys, 3, v, tau);
       if (evaluate(sys, ws, sys.q0, v, tau).status == Status::kError) continue;
       compute_wrench_sigma(sys, ws, fast);  // simulate mode: torque noise
       reference::compute_wrench_sigma(sys, ws, ref);
@@ -95,7 +83,7 @@ TEST(WrenchSigmaFast, EqualsThePreviousDefinitionWithNominalBaseLinks) {
     Workspace ws(sys);
     WrenchSigmaData fast(sys), ref(sys);
     Eigen::VectorXd v, tau;
-    random_v_tau(sys, v, tau);
+    reference::random_v_tau(sys, 3, v, tau);
     ASSERT_NE(evaluate(sys, ws, sys.q0, v, tau).status, Status::kError);
     ASSERT_TRUE(ws.qs.nominal_active);
     ASSERT_FALSE(ws.q_blocks_active);

@@ -5,6 +5,7 @@
 #include "tests/dynamics/wrench_sigma_reference.h"
 
 #include <cmath>
+#include <random>
 
 #include "service/algorithms/kinematics.h"
 #include "service/algorithms/rnea.h"
@@ -451,6 +452,17 @@ void compute_wrench_sigma(const System& sys, Workspace& ws, WrenchSigmaData& sd,
   propagate(sys, ws, sd, nc);
   if (nq + nv > 0) sd.C.block(0, na, sd.C.rows(), nq + nv) += sd.Cd.leftCols(nq + nv);
   finish(sd);
+}
+
+void random_v_tau(const System& sys, unsigned seed, Eigen::VectorXd& v, Eigen::VectorXd& tau) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  v = sys.v0;
+  tau = Eigen::VectorXd::Zero(sys.model.nv());
+  for (int i = 0; i < sys.model.nv(); ++i) {
+    v[i] += 0.3 * U(rng);
+    tau[i] = 2.0 * U(rng);
+  }
 }
 
 }  // namespace coopdyn::reference

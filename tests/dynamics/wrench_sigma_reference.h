@@ -19,4 +19,8 @@ void compute_wrench_sigma(const System& sys, Workspace& ws, WrenchSigmaData& sd)
 void compute_wrench_sigma(const System& sys, Workspace& ws, WrenchSigmaData& sd, const Eigen::VectorXd& q,
                           const Eigen::VectorXd& v, const Eigen::VectorXd& tau);
 
+// A test state near the scene's initial one, the same draw for the same seed: v = v0 + 0.3 U(-1, 1),
+// tau = 2 U(-1, 1) on every DOF.
+void random_v_tau(const System& sys, unsigned seed, Eigen::VectorXd& v, Eigen::VectorXd& tau);
+
 }  // namespace coopdyn::reference

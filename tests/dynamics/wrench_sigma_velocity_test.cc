@@ -23,16 +23,6 @@ System noisy(const std::string& name, const std::string& extra = "") {
   return load_scene_string(t + "\nreactions: all\nnoise: {tau: 0.2, q: 1e-3, v: 1e-2}\n" + extra, scene_path(name));
 }
 
-void random_v_tau(const System& sys, unsigned seed, Eigen::VectorXd& v, Eigen::VectorXd& tau) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> U(-1.0, 1.0);
-  v = sys.v0;
-  tau = Eigen::VectorXd::Zero(sys.model.nv());
-  for (int i = 0; i < sys.model.nv(); ++i) {
-    v[i] += 0.3 * U(rng);
-    tau[i] = 2.0 * U(rng);
-  }
-}
 
 // the largest difference of the velocity columns of X0, Gm and Cd, relative to each matrix's
 // largest entry over those columns
@@ -79,7 +69,7 @@ TEST(WrenchSigmaVelocity, EqualCentralDifferencesOfAnyStep) {
     Workspace ws(sys);
     WrenchSigmaData fast(sys), ref(sys);
     Eigen::VectorXd v, tau;
-    random_v_tau(sys, 3, v, tau);
+    reference::random_v_tau(sys, 3, v, tau);
     ASSERT_NE(evaluate(sys, ws, sys.q0, v, tau).status, Status::kError);
     compute_wrench_sigma(sys, ws, fast, sys.q0, v, tau);
     ASSERT_TRUE(fast.valid);
@@ -113,7 +103,7 @@ TEST(WrenchSigmaVelocity, EqualThePreviousForwardDifferencesWithinTheirTruncatio
     Workspace ws(sys);
     WrenchSigmaData fast(sys), ref(sys);
     Eigen::VectorXd v, tau;
-    random_v_tau(sys, 3, v, tau);
+    reference::random_v_tau(sys, 3, v, tau);
     ASSERT_NE(evaluate(sys, ws, sys.q0, v, tau).status, Status::kError);
     compute_wrench_sigma(sys, ws, fast, sys.q0, v, tau);
     reference::velocity_step = -1.0;
