@@ -191,13 +191,14 @@ void report_input(const char* what) {
   put(e, "\n=== end of input\n");
 }
 
+#if defined(__SANITIZE_ADDRESS__)
+void on_sanitizer_death() { report_input("sanitizer report above"); }
+#else
 void on_crash(int sig) {
   report_input(sig == SIGSEGV ? "SIGSEGV" : sig == SIGABRT ? "SIGABRT" : sig == SIGFPE ? "SIGFPE" : "signal");
   signal(sig, SIG_DFL);
   raise(sig);
 }
-#if defined(__SANITIZE_ADDRESS__)
-void on_sanitizer_death() { report_input("sanitizer report above"); }
 #endif
 
 void install_reporters() {
