@@ -21,11 +21,13 @@ struct LcmBus::Subscription {
   Handler handler;
 };
 
-long long monotonic_ns() {
+long long clock_ns(clockid_t id) {
   timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
+  if (clock_gettime(id, &ts) != 0) return -1;
   return static_cast<long long>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
 }
+
+long long monotonic_ns() { return clock_ns(CLOCK_MONOTONIC); }
 
 long long wall_us() {
   timespec ts;

@@ -10,6 +10,8 @@
 // touches lcm_handle.
 #pragma once
 
+#include <time.h>
+
 #include <atomic>
 #include <functional>
 #include <memory>
@@ -61,6 +63,8 @@ class LcmBus : public Bus {
   std::thread thread_;
 };
 
+// clock id's time in ns, -1 if it cannot be read (a CPU-time clock of a process or thread gone)
+long long clock_ns(clockid_t id);
 long long monotonic_ns();  // CLOCK_MONOTONIC
 long long wall_us();       // CLOCK_REALTIME, microseconds since the epoch (LCM's utime)
 

@@ -119,25 +119,17 @@ void IsolatedReceiver::spawn() {
   }
 }
 
-namespace {
-long long cpu_clock_ns(clockid_t id) {
-  timespec ts;
-  if (clock_gettime(id, &ts) != 0) return -1;
-  return static_cast<long long>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
-}
-}  // namespace
-
 long long IsolatedReceiver::child_cpu_ns() const {
   const pid_t p = pid_.load();
   clockid_t id;
   if (p <= 0 || clock_getcpuclockid(p, &id) != 0) return -1;
-  return cpu_clock_ns(id);
+  return clock_ns(id);
 }
 
 long long IsolatedReceiver::thread_cpu_ns() const {
   clockid_t id;
   if (tid_.load() == 0 || pthread_getcpuclockid(const_cast<std::thread&>(thread_).native_handle(), &id) != 0) return -1;
-  return cpu_clock_ns(id);
+  return clock_ns(id);
 }
 
 bool IsolatedReceiver::other_cpus(cpu_set_t* set) const {

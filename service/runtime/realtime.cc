@@ -77,22 +77,10 @@ bool runs_fifo() {
   return pthread_getschedparam(pthread_self(), &policy, &p) == 0 && policy == SCHED_FIFO;
 }
 
-bool demote_to_other() {
-  sched_param p{};
-  p.sched_priority = 0;
-  return pthread_setschedparam(pthread_self(), SCHED_OTHER, &p) == 0;
-}
-
 bool demote_to_other(int pid) {
   sched_param p{};
   p.sched_priority = 0;
-  return sched_setscheduler(pid, SCHED_OTHER, &p) == 0;
-}
-
-bool set_fifo(int pid, int priority) {
-  sched_param p{};
-  p.sched_priority = priority;
-  return sched_setscheduler(pid, SCHED_FIFO, &p) == 0;
+  return sched_setscheduler(pid, SCHED_OTHER, &p) == 0;  // Linux: pid 0 is the calling thread
 }
 
 }  // namespace coopdyn::runtime

@@ -19,11 +19,8 @@ std::vector<RealtimeResult> apply_realtime(const RealtimeOptions& o);
 
 // The calling thread's scheduling policy is SCHED_FIFO (one system call).
 bool runs_fifo();
-// The calling thread (or process pid, tid) to SCHED_OTHER, nice 0: the guard's step down
+// Thread or process pid (0: the calling thread) to SCHED_OTHER: the guard's step down
 // (fifo_guard.h). No allocation, no lock, no throw; false if the kernel refused.
-bool demote_to_other();
-bool demote_to_other(int pid);
-// SCHED_FIFO at priority for process or thread pid (0: the caller); false if refused.
-bool set_fifo(int pid, int priority);
+bool demote_to_other(int pid = 0);
 
 }  // namespace coopdyn::runtime

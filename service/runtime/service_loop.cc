@@ -1,5 +1,4 @@
 #include "service/runtime/service_loop.h"
-#include "service/runtime/realtime.h"
 
 #include <time.h>
 
@@ -9,6 +8,7 @@
 #include <cstdio>
 
 #include "service/io/lcm_bus.h"
+#include "service/runtime/realtime.h"
 
 namespace coopdyn::runtime {
 
@@ -498,15 +498,6 @@ void ServiceLoop::record_timing(long long lateness_ns, long long compute_ns) {
   comp_all_.record(compute_ns);
 }
 
-namespace {
-// CPU time of the calling thread, ns (a system call: once per guard window)
-long long thread_cpu_ns() {
-  timespec ts;
-  if (clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts) != 0) return 0;
-  return static_cast<long long>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
-}
-}  // namespace
-
 // The guard's busy time: the thread's CPU time over the window (all it did: ticks, a spin, a flood
 // read on its thread with receive_in_loop), or with busy_poll, whose polling is meant to take its
 // CPU, the ticks' compute time alone.
@@ -515,13 +506,13 @@ void ServiceLoop::watch_fifo(long long now, long long compute_ns) {
   if (guard_start_ns_ < 0) {
     guard_start_ns_ = now;
     guard_overruns0_ = overruns();
-    guard_cpu0_ns_ = thread_cpu_ns();
+    guard_cpu0_ns_ = io::clock_ns(CLOCK_THREAD_CPUTIME_ID);  // a system call: once per window
   }
   guard_busy_ns_ += compute_ns;
   ++guard_ticks_;
   const long long window = now - guard_start_ns_;
   if (window < static_cast<long long>(cfg_.stats_period_s * 1e9)) return;
-  const long long cpu = thread_cpu_ns();
+  const long long cpu = io::clock_ns(CLOCK_THREAD_CPUTIME_ID);
   if (!cfg_.realtime.busy_poll) guard_busy_ns_ = cpu - guard_cpu0_ns_;
   guard_cpu0_ns_ = cpu;
   const FifoGuard::Verdict v = guard_.window(window, guard_busy_ns_, guard_ticks_, overruns() - guard_overruns0_);
