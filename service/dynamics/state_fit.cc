@@ -188,15 +188,27 @@ void fit_position_step(const System& sys, const StateFitPlan& plan, StateFitWork
   *dx = -ws.x;
 }
 
-void fit_velocity_change(const StateFitPlan& plan, StateFitWorkspace& ws, const Eigen::MatrixXd& G, Eigen::VectorXd& dv) {
-  const int nu = static_cast<int>(plan.fit_v.size()), rows = static_cast<int>(G.rows());
-  if (nu == 0) return;
-  for (int d : plan.fit_v) dv[d] = 0.0;
-  ws.r.head(rows).noalias() = G * dv;
+namespace {
+
+// The fitted velocities: with ws.r (rows) the constraint rows' velocity of the measured ones (the
+// fitted ones zero in v), the least squares over the fitted columns of G, written into v.
+void solve_fitted_velocities(const StateFitPlan& plan, StateFitWorkspace& ws, const Eigen::MatrixXd& G, int rows,
+                             Eigen::VectorXd& v) {
+  const int nu = static_cast<int>(plan.fit_v.size());
   for (int r = 0; r < rows; ++r)
     for (int k = 0; k < nu; ++k) ws.Gu(r, k) = G(r, plan.fit_v[k]);
   least_squares(ws, rows);
-  for (int k = 0; k < nu; ++k) dv[plan.fit_v[k]] = -ws.x[k];
+  for (int k = 0; k < nu; ++k) v[plan.fit_v[k]] = -ws.x[k];
+}
+
+}  // namespace
+
+void fit_velocity_change(const StateFitPlan& plan, StateFitWorkspace& ws, const Eigen::MatrixXd& G, Eigen::VectorXd& dv) {
+  const int rows = static_cast<int>(G.rows());
+  if (plan.fit_v.empty()) return;
+  for (int d : plan.fit_v) dv[d] = 0.0;
+  ws.r.head(rows).noalias() = G * dv;
+  solve_fitted_velocities(plan, ws, G, rows, dv);
 }
 
 const Closure& fit_state(const System& sys, const StateFitPlan& plan, StateFitWorkspace& ws, bool fit_q, bool fit_v,
@@ -248,12 +260,8 @@ const Closure& fit_state(const System& sys, const StateFitPlan& plan, StateFitWo
     for (int d : plan.fit_v) v[d] = 0.0;
     forward_kinematics(m, ws.data, q, v);
     constraint_rows(m, ws.data, set, q, v, ws.cd);  // cd.Gv = G_m v_m
-    for (int r = 0; r < set.rows; ++r) {
-      for (int k = 0; k < nu; ++k) ws.Gu(r, k) = ws.cd.G(r, plan.fit_v[k]);
-      ws.r[r] = ws.cd.Gv[r];
-    }
-    least_squares(ws, set.rows);
-    for (int k = 0; k < nu; ++k) v[plan.fit_v[k]] = -ws.x[k];
+    ws.r.head(set.rows) = ws.cd.Gv.head(set.rows);
+    solve_fitted_velocities(plan, ws, ws.cd.G, set.rows, v);
   }
   forward_kinematics(m, ws.data, q, v);
   constraint_rows(m, ws.data, set, q, v, ws.cd);
