@@ -107,7 +107,7 @@ TEST(WrenchSigmaPosition, EqualFivePointCentralDifferencesOfSeveralSteps) {
       EXPECT_GT(couplings, 0);  // the gripper's mimic joints
     }
     for (double h : {1e-2, 1e-3, 1e-4}) {
-      reference::position_step = h;
+      const reference::ScopedStep step(reference::position_step, h);
       reference::compute_wrench_sigma(sys, ws, ref, sys.q0, v, tau);
       const Diff d = position_columns_diff(fast, ref, na, nq, 1);
       EXPECT_EQ(d.columns, c.tangents);
@@ -121,7 +121,6 @@ TEST(WrenchSigmaPosition, EqualFivePointCentralDifferencesOfSeveralSteps) {
       compared += d.columns;
     }
   }
-  reference::position_step = 1e-3;
   EXPECT_EQ(compared, 3 * (12 * 3 + 14 + 10 + 3 + 30 + 15));
 }
 
@@ -138,9 +137,10 @@ TEST(WrenchSigmaPosition, EqualThePreviousForwardDifferencesWithinTheirTruncatio
     reference::random_v_tau(sys, 3, v, tau);
     ASSERT_NE(evaluate(sys, ws, sys.q0, v, tau).status, Status::kError);
     compute_wrench_sigma(sys, ws, fast, sys.q0, v, tau);
-    reference::position_step = -1.0;
-    reference::compute_wrench_sigma(sys, ws, ref, sys.q0, v, tau);
-    reference::position_step = 1e-3;
+    {
+      const reference::ScopedStep step(reference::position_step, -1.0);
+      reference::compute_wrench_sigma(sys, ws, ref, sys.q0, v, tau);
+    }
     const int na = static_cast<int>(fast.dofs.size()), nv = static_cast<int>(fast.v_dofs.size());
     const Diff d = position_columns_diff(fast, ref, na, fast.ncols - na - nv, 1);
     EXPECT_LT(std::max({d.x0, d.gm, d.cd}), 1e-5);

@@ -77,7 +77,7 @@ TEST(WrenchSigmaVelocity, EqualCentralDifferencesOfAnyStep) {
     const int nq = fast.ncols - na - nv;
     ASSERT_GT(nv, 0);
     for (double h : {1e-1, 1e-2, 1e-3, 1e-4}) {
-      reference::velocity_step = h;
+      const reference::ScopedStep step(reference::velocity_step, h);
       reference::compute_wrench_sigma(sys, ws, ref, sys.q0, v, tau);
       const Diff d = velocity_columns_diff(fast, ref, na, nq, nv);
       EXPECT_LT(d.x0, 1e-11 / h) << "generalized forces, step " << h;
@@ -86,7 +86,6 @@ TEST(WrenchSigmaVelocity, EqualCentralDifferencesOfAnyStep) {
       ++compared;
     }
   }
-  reference::velocity_step = 1e-2;
   EXPECT_EQ(compared, 32);
 }
 
@@ -106,9 +105,10 @@ TEST(WrenchSigmaVelocity, EqualThePreviousForwardDifferencesWithinTheirTruncatio
     reference::random_v_tau(sys, 3, v, tau);
     ASSERT_NE(evaluate(sys, ws, sys.q0, v, tau).status, Status::kError);
     compute_wrench_sigma(sys, ws, fast, sys.q0, v, tau);
-    reference::velocity_step = -1.0;
-    reference::compute_wrench_sigma(sys, ws, ref, sys.q0, v, tau);
-    reference::velocity_step = 1e-2;
+    {
+      const reference::ScopedStep step(reference::velocity_step, -1.0);
+      reference::compute_wrench_sigma(sys, ws, ref, sys.q0, v, tau);
+    }
     const int na = static_cast<int>(fast.dofs.size()), nv = static_cast<int>(fast.v_dofs.size());
     const Diff d = velocity_columns_diff(fast, ref, na, fast.ncols - na - nv, nv);
     EXPECT_LT(std::max({d.x0, d.gm, d.cd}), 5e-4);
