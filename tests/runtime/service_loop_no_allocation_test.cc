@@ -315,6 +315,21 @@ TEST(LoopNoAllocation, RunThroughThePublisherThread) {
 
 namespace {
 
+// Waits until the publisher thread has handed on `handed` messages (published, dropped or failed).
+// The 30 s limit only turns a stuck thread into a failure instead of a hang; nothing is timed (the
+// thread takes microseconds per message even on a loaded machine).
+::testing::AssertionResult wait_handed_on(const runtime::PublisherThread& pub, int64_t handed) {
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (pub.published() + pub.dropped() + pub.failed() < handed) {
+    if (std::chrono::steady_clock::now() > give_up)
+      return ::testing::AssertionFailure() << "the publisher thread handed on " << pub.published() + pub.dropped() + pub.failed()
+                                           << " of " << handed << " messages in 30 s (published " << pub.published()
+                                           << ", dropped " << pub.dropped() << ", failed " << pub.failed() << ")";
+    std::this_thread::yield();
+  }
+  return ::testing::AssertionSuccess();
+}
+
 // Behind the loop, a bus that refuses every fourth message (publish() -1, as lcm_publish failing does
 // where the loop publishes itself), and remembers how many it had refused when it took the last
 // loop_stats_t. Fixed storage: publish() never allocates.
@@ -391,9 +406,7 @@ TEST(LoopNoAllocation, CountsWhatAStuckPublisherThreadDrops) {
   pub.start();
   runtime::ServiceLoop loop(sys, cfg, pub);
   const auto handed = [&] { return static_cast<int64_t>(loop.ticks() + loop.ticks() / 50); };  // outputs + stats
-  const auto drained = [&] {
-    while (pub.published() + pub.dropped() + pub.failed() < handed()) std::this_thread::yield();
-  };
+  const auto drained = [&] { return wait_handed_on(pub, handed()); };
   long allocations = 0;
   for (int k = 0; k < 60; ++k) {  // 60 outputs and the stats of tick 50 while the thread is stuck
     AllocationCounter c;
@@ -404,12 +417,12 @@ TEST(LoopNoAllocation, CountsWhatAStuckPublisherThreadDrops) {
   EXPECT_EQ(loop.outputs_dropped(), pub.dropped());
   inner.hold.store(false);
   for (int k = 60; k < 100; ++k) {  // the thread runs again: each message waited for before the next
-    drained();
+    ASSERT_TRUE(drained()) << "tick " << k;
     AllocationCounter c;
     loop.tick(k * 1000000LL);
     allocations += c.count();
   }
-  drained();
+  ASSERT_TRUE(drained());
   pub.stop();
   EXPECT_EQ(allocations, 0);
   EXPECT_EQ(loop.outputs_dropped(), 61 - runtime::PublisherThread::kSlots);
@@ -440,8 +453,7 @@ TEST(LoopNoAllocation, CountsWhatThePublisherThreadFailsToSend) {
     AllocationCounter c;
     loop.tick(k * 1000000LL);
     allocations += c.count();
-    const int64_t handed = loop.ticks() + loop.ticks() / 50;  // outputs + stats
-    while (pub.published() + pub.dropped() + pub.failed() < handed) std::this_thread::yield();
+    ASSERT_TRUE(wait_handed_on(pub, loop.ticks() + loop.ticks() / 50)) << "tick " << k;  // outputs + stats
   }
   pub.stop();
   EXPECT_EQ(allocations, 0);
