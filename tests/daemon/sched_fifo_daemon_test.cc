@@ -5,10 +5,10 @@
 // daemon's log.
 //   - auto (the default) runs the loop thread at SCHED_FIFO `priority`, and with receive_priority the
 //     receive thread and process at SCHED_FIFO below it; false leaves all of them SCHED_OTHER.
-//   - auto steps a loop too heavy for its period down to SCHED_OTHER (tiago_pro_box at 10 kHz: a tick
-//     takes some 0.3 ms): the test waits for the daemon's report of it, then reads the thread's policy.
-//     The loop hogs a CPU at most one stats window (0.1 s) before it steps down: no other test
-//     starves.
+//   - auto steps a loop too heavy for its period down to SCHED_OTHER (tiago_pro_box with a period a
+//     quarter of its tick measured in the test, tests/support/heavy_loop.h): the test waits for the
+//     daemon's report of it, then reads the thread's policy. The loop hogs a CPU at most one stats
+//     window (0.1 s) before it steps down: no other test starves.
 #include <gtest/gtest.h>
 #include <dirent.h>
 #include <sched.h>
@@ -24,6 +24,7 @@
 
 #include "tests/support/child_process.h"
 #include "tests/support/daemon_test_util.h"
+#include "tests/support/heavy_loop.h"
 
 using namespace coopdyn;
 using namespace coopdyn::daemon_test;
@@ -192,11 +193,19 @@ INSTANTIATE_TEST_SUITE_P(Config, DaemonSchedFifo, ::testing::ValuesIn(kExpected)
                          [](const ::testing::TestParamInfo<Expected>& i) { return std::string(i.param.name); });
 
 TEST_F(DaemonSchedFifo, AutoStepsALoopTooHeavyForItsPeriodDownToSchedOther) {
-  const std::string cfg = config_file("heavy.yaml", "rate_hz: 10000\nstats_period_s: 0.1\n");
+  // the period a quarter of the scene's shortest warm tick here: every tick overruns by construction
+  const System sys = load_scene(scene_path("tiago_pro_box"));
+  const long long tick_ns = shortest_warm_tick_ns(sys, runtime::ServiceConfig());
+  const double rate_hz = std::min(heavy_rate_hz(tick_ns), runtime::kMaxRateHz);
+  if (tick_ns < 2e9 / rate_hz)
+    GTEST_SKIP() << "a tiago_pro_box tick takes " << tick_ns / 1000.0 << " us here, less than twice the shortest period "
+                 << "the daemon accepts (rate_hz " << runtime::kMaxRateHz << "): no period makes it too heavy";
+  const std::string cfg = config_file("heavy.yaml", "rate_hz: " + std::to_string(rate_hz) + "\nstats_period_s: 0.1\n");
   Child d({COOPDYND_PATH, "--scene", scene_path("tiago_pro_box"), "--config", cfg, "--lcm-url", private_udpm_url(9),
            "--duration", "60"},
           "heavy");
-  ASSERT_TRUE(log_says(d, "the loop stepped down from SCHED_FIFO to SCHED_OTHER", 60s)) << slurp(d.err);
+  ASSERT_TRUE(log_says(d, "the loop stepped down from SCHED_FIFO to SCHED_OTHER", 60s))
+      << "a tick of " << tick_ns / 1000.0 << " us at rate_hz " << rate_hz << ":\n" << slurp(d.err);
   const auto loop = threads_named(d.pid, "coopdynd-loop");
   ASSERT_EQ(loop.size(), 1u);
   EXPECT_EQ(policy_of(loop[0]).policy, SCHED_OTHER);
