@@ -77,16 +77,6 @@ Policy policy_of(pid_t tid) {
   return p;
 }
 
-// waits (at most `limit`) until the daemon's log holds `what`
-bool log_says(const Child& d, const std::string& what, std::chrono::seconds limit) {
-  const auto end = std::chrono::steady_clock::now() + limit;
-  while (std::chrono::steady_clock::now() < end) {
-    if (slurp(d.err).find(what) != std::string::npos) return true;
-    std::this_thread::sleep_for(20ms);
-  }
-  return false;
-}
-
 std::string config_file(const std::string& name, const std::string& yaml) {
   const std::string path = tmp_path(name);
   std::ofstream(path) << yaml;
@@ -123,7 +113,7 @@ void run_daemon(const std::string& yaml, Running* r) {
   Child d({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", cfg, "--lcm-url", private_udpm_url(8),
            "--duration", "30"},
           "fifo");
-  ASSERT_TRUE(log_says(d, "running; SIGINT or SIGTERM stops", 30s)) << slurp(d.err);
+  ASSERT_TRUE(log_says(d, kDaemonRunning, 30s)) << slurp(d.err);
   // each thread names itself as it starts: wait until all are there
   std::vector<pid_t> loop, rx, kids;
   for (int i = 0; i < 1000 && (loop.size() != 1 || rx.size() != 1 || kids.size() != 1); ++i) {
