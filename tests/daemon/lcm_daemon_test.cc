@@ -792,7 +792,6 @@ TEST_F(DaemonProcess, HostileFragmentsAreRefusedWhileCommandsAreApplied) {
     std::this_thread::sleep_until(next);
   }
   hostile.join();
-  ASSERT_EQ(crafted.load(), 300);
   EXPECT_TRUE(sink.wait_for([](const io::DecodedOutput& o) {
     return o.input == static_cast<int>(io::Input::kCommand) && o.input_seq >= 297; }, 5s)) << slurp(d->err);
   // the refusals reach loop_stats_t (every hostile datagram sent is malformed)
