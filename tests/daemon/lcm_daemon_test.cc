@@ -739,7 +739,7 @@ void EstimateReplay::replay_and_compare(bool joints_only) {
 // Hostile datagrams on the inputs (README "What the daemon guarantees"). liblcm 1.3.1 writes out of
 // bounds on a crafted LC03 fragment (offset 0xFFFFFF00) and dies; the daemon's receive process
 // parses LCM's wire format itself (service/io/lcm_wire.h), so the fragment is refused and counted
-// (inputs_malformed) and nothing restarts: one such fragment every 10 ms for 3 s while 300 valid
+// (inputs_malformed) and nothing restarts: 300 such fragments, one every 10 ms, while 300 valid
 // commands arrive at 100 Hz, and at least 99 % of them are applied. Inputs on their own group and
 // port: the hostile datagrams never reach another test's liblcm subscribers (ctest runs tests in
 // parallel), and this test's own subscriber (the outputs) never sees them.
@@ -770,11 +770,13 @@ TEST_F(DaemonProcess, HostileFragmentsAreRefusedWhileCommandsAreApplied) {
   for (; random_sent < 300; ++random_sent)  // random fragments first, some on the channel
     raw.send(lc03(U(rng), U(rng) % 100000, U(rng), static_cast<uint16_t>(U(rng) % 4), static_cast<uint16_t>(1 + U(rng) % 4),
                   random_sent % 2 ? "COOPDYN_COMMAND" : "X", 20 + U(rng) % 1400));
-  std::atomic<bool> done{false};
+  // the crafted fragment every 10 ms, 300 of them, beside the valid commands: a count fixed in
+  // advance, not the fragments a thread got sent before the commands ended (fewer when it waited
+  // for a CPU on a loaded machine)
   std::atomic<int> crafted{0};
-  std::thread hostile([&] {  // the crafted fragment every 10 ms
+  std::thread hostile([&] {
     auto next = std::chrono::steady_clock::now();
-    while (!done.load()) {
+    for (int k = 0; k < 300; ++k) {
       raw.send(lc03(1, 100, 0xFFFFFF00u, 0, 2, "COOPDYN_COMMAND", 324));
       crafted.fetch_add(1);
       next += 10ms;
@@ -789,9 +791,7 @@ TEST_F(DaemonProcess, HostileFragmentsAreRefusedWhileCommandsAreApplied) {
     next += 10ms;
     std::this_thread::sleep_until(next);
   }
-  done = true;
   hostile.join();
-  EXPECT_GE(crafted.load(), 290);
   EXPECT_TRUE(sink.wait_for([](const io::DecodedOutput& o) {
     return o.input == static_cast<int>(io::Input::kCommand) && o.input_seq >= 297; }, 5s)) << slurp(d->err);
   // the refusals reach loop_stats_t (every hostile datagram sent is malformed)

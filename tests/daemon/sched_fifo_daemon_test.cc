@@ -1,19 +1,22 @@
-// realtime.sched_fifo against build/bin/coopdynd, as root (SCHED_FIFO needs root or CAP_SYS_NICE;
-// the tests skip otherwise, saying so): the policy of each thread read from the kernel
+// realtime.sched_fifo against build/bin/coopdynd where the kernel grants SCHED_FIFO (root or
+// CAP_SYS_NICE, and real-time CPU time: the tests probe it on a throwaway thread and skip otherwise,
+// saying why): the policy of each thread read from the kernel
 // (sched_getscheduler of the thread, found by its name in /proc/PID/task/*/comm), not from the
 // daemon's log.
 //   - auto (the default) runs the loop thread at SCHED_FIFO `priority`, and with receive_priority the
 //     receive thread and process at SCHED_FIFO below it; false leaves all of them SCHED_OTHER.
-//   - auto steps a loop too heavy for its period down to SCHED_OTHER (tiago_pro_box at 10 kHz: a tick
-//     takes some 0.3 ms): the test waits for the daemon's report of it, then reads the thread's policy.
-//     The loop hogs a CPU at most one stats window (0.1 s) before it steps down: no other test
-//     starves.
+//   - auto steps a loop too heavy for its period down to SCHED_OTHER (tiago_pro_box with a period a
+//     quarter of its tick measured in the test, tests/support/heavy_loop.h): the test waits for the
+//     daemon's report of it, then reads the thread's policy. The loop hogs a CPU at most one stats
+//     window (0.1 s) before it steps down: no other test starves.
 #include <gtest/gtest.h>
 #include <dirent.h>
 #include <sched.h>
 #include <signal.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <string>
 #include <thread>
@@ -21,6 +24,7 @@
 
 #include "tests/support/child_process.h"
 #include "tests/support/daemon_test_util.h"
+#include "tests/support/heavy_loop.h"
 
 using namespace coopdyn;
 using namespace coopdyn::daemon_test;
@@ -73,25 +77,30 @@ Policy policy_of(pid_t tid) {
   return p;
 }
 
-// waits (at most `limit`) until the daemon's log holds `what`
-bool log_says(const Child& d, const std::string& what, std::chrono::seconds limit) {
-  const auto end = std::chrono::steady_clock::now() + limit;
-  while (std::chrono::steady_clock::now() < end) {
-    if (slurp(d.err).find(what) != std::string::npos) return true;
-    std::this_thread::sleep_for(20ms);
-  }
-  return false;
-}
-
 std::string config_file(const std::string& name, const std::string& yaml) {
   const std::string path = tmp_path(name);
   std::ofstream(path) << yaml;
   return path;
 }
 
-bool may_take_fifo() { return geteuid() == 0; }
-const char* kNoFifo = "SCHED_FIFO needs root (or CAP_SYS_NICE): this test checks the policy the kernel gives the "
-                      "daemon's threads and runs as root only";
+// What the tests need of the kernel, probed: SCHED_FIFO at the daemon's priority (80) granted to a
+// throwaway thread, and real-time threads given CPU time. "" if so, else why not (root without
+// CAP_SYS_NICE, an RLIMIT_RTPRIO below 80, a container without a real-time budget all refuse it).
+std::string fifo_unavailable() {
+  if (read_line("/proc/sys/kernel/sched_rt_runtime_us") == "0")
+    return "kernel.sched_rt_runtime_us is 0: real-time threads get no CPU time";
+  std::string why;
+  std::thread([&why] {
+    sched_param sp{};
+    sp.sched_priority = 80;
+    const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+    if (rc != 0) why = std::string("SCHED_FIFO priority 80 refused to a thread of this test: ") + std::strerror(rc);
+    else if (sched_getscheduler(0) != SCHED_FIFO) why = "SCHED_FIFO granted but the thread does not run under it";
+  }).join();
+  return why.empty() ? why
+                     : why + " (needs root or CAP_SYS_NICE and a real-time budget): this test checks the policy "
+                             "the kernel gives the daemon's threads";
+}
 
 // The daemon with config `yaml` on two_puma_load until its loop runs; the policies of its loop
 // thread, receive thread and receive process.
@@ -104,7 +113,7 @@ void run_daemon(const std::string& yaml, Running* r) {
   Child d({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", cfg, "--lcm-url", private_udpm_url(8),
            "--duration", "30"},
           "fifo");
-  ASSERT_TRUE(log_says(d, "running; SIGINT or SIGTERM stops", 30s)) << slurp(d.err);
+  ASSERT_TRUE(log_says(d, kDaemonRunning, 30s)) << slurp(d.err);
   // each thread names itself as it starts: wait until all are there
   std::vector<pid_t> loop, rx, kids;
   for (int i = 0; i < 1000 && (loop.size() != 1 || rx.size() != 1 || kids.size() != 1); ++i) {
@@ -125,52 +134,68 @@ void run_daemon(const std::string& yaml, Running* r) {
   std::remove(cfg.c_str());
 }
 
+// A config and the policy (and priority, where FIFO) the kernel must report for the loop thread,
+// the receive thread and the receive process.
+struct Expected {
+  const char* name;
+  const char* yaml;
+  Policy loop, rx_thread, rx_child;
+};
+// auto with receive_priority: the loop at FIFO 80, the receive path at FIFO 70 below it; the
+// default config (receive_priority 0): the loop alone at FIFO; false: every thread SCHED_OTHER.
+const Expected kExpected[] = {
+    {"AutoRunsTheLoopAtFifoAndTheReceivePathBelowIt", "realtime: {priority: 80, receive_priority: 70}\n",
+     {SCHED_FIFO, 80}, {SCHED_FIFO, 70}, {SCHED_FIFO, 70}},
+    {"DefaultConfigRunsOnlyTheLoopAtFifo", "", {SCHED_FIFO, 80}, {SCHED_OTHER, 0}, {SCHED_OTHER, 0}},
+    {"FalseLeavesEveryThreadSchedOther", "realtime: {sched_fifo: false, receive_priority: 70}\n", {SCHED_OTHER, 0},
+     {SCHED_OTHER, 0}, {SCHED_OTHER, 0}},
+};
+
+// Every test here: skipped, saying why, where the kernel does not grant SCHED_FIFO.
+class DaemonSchedFifo : public ::testing::TestWithParam<Expected> {
+ protected:
+  void SetUp() override {
+    const std::string why = fifo_unavailable();
+    if (!why.empty()) GTEST_SKIP() << why;
+  }
+};
+
+void expect_policy(const Policy& got, const Policy& want, const char* what, const std::string& log) {
+  EXPECT_EQ(got.policy, want.policy) << what << "\n" << log;
+  EXPECT_EQ(got.priority, want.priority) << what;  // SCHED_OTHER's is 0
+}
+
 }  // namespace
 
-TEST(DaemonSchedFifo, AutoRunsTheLoopAtFifoAndTheReceivePathBelowIt) {
-  if (!may_take_fifo()) GTEST_SKIP() << kNoFifo;
+// And an idle loop keeps its priority: nothing stepped down.
+TEST_P(DaemonSchedFifo, ThreadsRunAsConfigured) {
+  const Expected& e = GetParam();
   Running r;
-  run_daemon("realtime: {priority: 80, receive_priority: 70}\n", &r);
+  run_daemon(e.yaml, &r);
   if (HasFatalFailure()) return;
-  EXPECT_EQ(r.loop.policy, SCHED_FIFO) << r.log;
-  EXPECT_EQ(r.loop.priority, 80);
-  EXPECT_EQ(r.rx_thread.policy, SCHED_FIFO);
-  EXPECT_EQ(r.rx_thread.priority, 70);
-  EXPECT_EQ(r.rx_child.policy, SCHED_FIFO);
-  EXPECT_EQ(r.rx_child.priority, 70);
-  EXPECT_NE(r.summary.find("SCHED_FIFO stepped down: loop 0, receive 0"), std::string::npos)
-      << "an idle loop keeps its priority: " << r.summary;
+  expect_policy(r.loop, e.loop, "the loop thread", r.log);
+  expect_policy(r.rx_thread, e.rx_thread, "the receive thread", r.log);
+  expect_policy(r.rx_child, e.rx_child, "the receive process", r.log);
+  EXPECT_NE(r.summary.find("SCHED_FIFO stepped down: loop 0, receive 0"), std::string::npos) << r.summary;
 }
 
-// The default config (receive_priority 0): the loop at FIFO, the receive path SCHED_OTHER.
-TEST(DaemonSchedFifo, DefaultConfigRunsOnlyTheLoopAtFifo) {
-  if (!may_take_fifo()) GTEST_SKIP() << kNoFifo;
-  Running r;
-  run_daemon("", &r);
-  if (HasFatalFailure()) return;
-  EXPECT_EQ(r.loop.policy, SCHED_FIFO) << r.log;
-  EXPECT_EQ(r.loop.priority, 80);
-  EXPECT_EQ(r.rx_thread.policy, SCHED_OTHER);
-  EXPECT_EQ(r.rx_child.policy, SCHED_OTHER);
-}
+INSTANTIATE_TEST_SUITE_P(Config, DaemonSchedFifo, ::testing::ValuesIn(kExpected),
+                         [](const ::testing::TestParamInfo<Expected>& i) { return std::string(i.param.name); });
 
-TEST(DaemonSchedFifo, FalseLeavesEveryThreadSchedOther) {
-  if (!may_take_fifo()) GTEST_SKIP() << kNoFifo;
-  Running r;
-  run_daemon("realtime: {sched_fifo: false, receive_priority: 70}\n", &r);
-  if (HasFatalFailure()) return;
-  EXPECT_EQ(r.loop.policy, SCHED_OTHER) << r.log;
-  EXPECT_EQ(r.rx_thread.policy, SCHED_OTHER);
-  EXPECT_EQ(r.rx_child.policy, SCHED_OTHER);
-}
-
-TEST(DaemonSchedFifo, AutoStepsALoopTooHeavyForItsPeriodDownToSchedOther) {
-  if (!may_take_fifo()) GTEST_SKIP() << kNoFifo;
-  const std::string cfg = config_file("heavy.yaml", "rate_hz: 10000\nstats_period_s: 0.1\n");
+TEST_F(DaemonSchedFifo, AutoStepsALoopTooHeavyForItsPeriodDownToSchedOther) {
+  // the period a quarter of the scene's shortest warm tick here: every tick overruns by construction
+  const System sys = load_scene(scene_path("tiago_pro_box"));
+  const long long tick_ns = shortest_warm_tick_ns(sys, runtime::ServiceConfig());
+  const double rate_hz = std::min(heavy_rate_hz(tick_ns), runtime::kMaxRateHz);
+  if (tick_ns < 2e9 / rate_hz)
+    GTEST_SKIP() << "a tiago_pro_box tick takes " << tick_ns / 1000.0 << " us here, less than twice the shortest period "
+                 << "the daemon accepts (rate_hz " << runtime::kMaxRateHz << "): no period makes it too heavy";
+  const std::string cfg = config_file("heavy.yaml", "rate_hz: " + std::to_string(rate_hz) + "\nstats_period_s: 0.1\n");
   Child d({COOPDYND_PATH, "--scene", scene_path("tiago_pro_box"), "--config", cfg, "--lcm-url", private_udpm_url(9),
            "--duration", "60"},
           "heavy");
-  ASSERT_TRUE(log_says(d, "the loop stepped down from SCHED_FIFO to SCHED_OTHER", 60s)) << slurp(d.err);
+  ASSERT_TRUE(log_says(d, "the loop stepped down from SCHED_FIFO to SCHED_OTHER", 60s))
+      << "a tick of " << tick_ns / 1000.0 << " us at rate_hz " << rate_hz << ":\n" << slurp(d.err);
   const auto loop = threads_named(d.pid, "coopdynd-loop");
   ASSERT_EQ(loop.size(), 1u);
   EXPECT_EQ(policy_of(loop[0]).policy, SCHED_OTHER);

@@ -137,7 +137,24 @@ TEST(StateFit, VelocityChangeIsTheFitOfTheChange) {
       if (!fitted) EXPECT_EQ(change[i], dv[i]) << "measured: untouched";
       else EXPECT_NEAR(change[i], v1[i] - v0[i], 1e-12 * (1 + v1.cwiseAbs().maxCoeff())) << i;
     }
-    EXPECT_GT((v1 - v0).cwiseAbs().maxCoeff(), 0.1);
+    // the fit's own condition: the fitted entries of the change minimize |G change| with the
+    // measured ones fixed, so G_u^T G change = 0 (G_u: G's fitted columns), to round-off of the
+    // products' terms (measured 1e-15 of their largest, 5 to 7); and they are the fit's, neither
+    // dv's (which the fit ignores) nor zero (measured 0.13 |dv| at least, 0.46 |dv| from dv's)
+    const Eigen::MatrixXd& G = cd.G;
+    Eigen::MatrixXd Gu(G.rows(), static_cast<Eigen::Index>(plan.fit_v.size()));
+    Eigen::VectorXd fitted_change(Gu.cols()), fitted_dv(Gu.cols());
+    for (Eigen::Index k = 0; k < Gu.cols(); ++k) {
+      const int d = plan.fit_v[static_cast<size_t>(k)];
+      Gu.col(k) = G.col(d);
+      fitted_change[k] = v1[d] - v0[d];
+      fitted_dv[k] = dv[d];
+    }
+    const Eigen::VectorXd normal = Gu.transpose() * (G * (v1 - v0));
+    const double terms = (Gu.cwiseAbs().transpose() * (G.cwiseAbs() * (v1 - v0).cwiseAbs())).maxCoeff();
+    EXPECT_LE(normal.cwiseAbs().maxCoeff(), 1e-12 * terms) << "G_u^T G (v1 - v0) = 0";
+    EXPECT_GT(fitted_change.norm(), 1e-2 * dv.norm()) << "the fitted entries change with the measured ones";
+    EXPECT_GT((fitted_change - fitted_dv).norm(), 1e-2 * dv.norm()) << "the fitted entries are the fit's, not dv's";
   }
 }
 

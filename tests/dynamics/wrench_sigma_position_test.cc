@@ -8,17 +8,11 @@
 #include <random>
 
 #include "service/dynamics/wrench_sigma.h"
-#include "tests/dynamics/wrench_sigma_reference.h"
+#include "tests/dynamics/wrench_sigma_case.h"
 #include "tests/support/test_util.h"
 
 namespace coopdyn::testing {
 namespace {
-
-System noisy(const std::string& name, const std::string& extra = "") {
-  return load_scene_string(without_reactions(scene_text(name)) + "\nreactions: all\nnoise: {tau: 0.2, q: 1e-3, v: 1e-2}\n" + extra,
-                           scene_path(name));
-}
-
 
 // the largest difference of the position columns a with tangent[a] == want of X0, Gm and Cd,
 // relative to each matrix's largest entry over those columns
@@ -26,7 +20,9 @@ struct Diff {
   double x0 = 0, gm = 0, cd = 0;
   int columns = 0;
 };
-Diff position_columns_diff(const WrenchSigmaData& a, const WrenchSigmaData& b, int na, int nq, char want) {
+Diff position_columns_diff(const SigmaCase& c, char want) {
+  const WrenchSigmaData &a = c.fast, &b = c.ref;
+  const int na = c.na, nq = c.nq;
   Diff d;
   double s[3] = {1e-300, 1e-300, 1e-300}, e[3] = {0, 0, 0};
   for (int j = 0; j < nq; ++j) {
@@ -66,7 +62,7 @@ const Scene kScenes[] = {
 };
 
 System scene_of(const Scene& c) {
-  System sys = noisy(c.name, c.extra);
+  System sys = noisy_scene(c.name, c.extra);
   if (c.friction)
     for (Body& b : sys.model.bodies)
       if (b.joint.nv == 1 && !b.joint.pseudo) b.joint.friction = 2.0;
@@ -84,38 +80,31 @@ TEST(WrenchSigmaPosition, EqualFivePointCentralDifferencesOfSeveralSteps) {
   int compared = 0;
   for (const Scene& c : kScenes) {
     SCOPED_TRACE(std::string(c.name) + " " + c.extra + (c.friction ? " friction" : ""));
-    const System sys = scene_of(c);
-    Workspace ws(sys);
-    WrenchSigmaData fast(sys), ref(sys);
-    Eigen::VectorXd v, tau;
-    reference::random_v_tau(sys, 3, v, tau);
-    ASSERT_NE(evaluate(sys, ws, sys.q0, v, tau).status, Status::kError);
-    ASSERT_EQ(ws.diag.indeterminate, 0);
+    SigmaCase s(scene_of(c));
+    ASSERT_TRUE(s.evaluated && s.fast.valid);
+    ASSERT_EQ(s.ws.diag.indeterminate, 0);
     if (c.friction) {
-      ASSERT_GT(ws.friction_dofs.size(), 0u);
+      ASSERT_GT(s.ws.friction_dofs.size(), 0u);
     }
-    compute_wrench_sigma(sys, ws, fast, sys.q0, v, tau);
-    ASSERT_TRUE(fast.valid);
-    const int na = static_cast<int>(fast.dofs.size()), nv = static_cast<int>(fast.v_dofs.size());
-    const int nq = fast.ncols - na - nv;
+    const int nq = s.nq;
     ASSERT_GT(nq, 0);
     int couplings = 0;
     for (int a = 0; a < nq; ++a)
-      for (int s : fast.qt_specs[static_cast<size_t>(a)])
-        couplings += fast.qt_tangent[static_cast<size_t>(a)] && sys.constraints.specs[static_cast<size_t>(s)].kind == ConstraintKind::kCouple;
+      for (int k : s.fast.qt_specs[static_cast<size_t>(a)])
+        couplings += s.fast.qt_tangent[static_cast<size_t>(a)] && s.sys.constraints.specs[static_cast<size_t>(k)].kind == ConstraintKind::kCouple;
     if (std::string(c.name) == "pr2_box") {
       EXPECT_GT(couplings, 0);  // the gripper's mimic joints
     }
     for (double h : {1e-2, 1e-3, 1e-4}) {
       const reference::ScopedStep step(reference::position_step, h);
-      reference::compute_wrench_sigma(sys, ws, ref, sys.q0, v, tau);
-      const Diff d = position_columns_diff(fast, ref, na, nq, 1);
+      s.compute_reference();
+      const Diff d = position_columns_diff(s, 1);
       EXPECT_EQ(d.columns, c.tangents);
       const double tol = h * h * h * h + 1e-13 / h;
       EXPECT_LT(d.x0, tol) << "generalized forces, step " << h;
       EXPECT_LT(d.gm, tol) << "constraint right-hand side, step " << h;
       EXPECT_LT(d.cd, tol) << "wrenches, step " << h;
-      const Diff e = position_columns_diff(fast, ref, na, nq, 0);
+      const Diff e = position_columns_diff(s, 0);
       EXPECT_EQ(e.columns, nq - c.tangents);
       EXPECT_LT(std::max({e.x0, e.gm, e.cd}), 1e-12);
       compared += d.columns;
@@ -130,19 +119,13 @@ TEST(WrenchSigmaPosition, EqualFivePointCentralDifferencesOfSeveralSteps) {
 TEST(WrenchSigmaPosition, EqualThePreviousForwardDifferencesWithinTheirTruncation) {
   for (const Scene& c : kScenes) {
     SCOPED_TRACE(std::string(c.name) + " " + c.extra + (c.friction ? " friction" : ""));
-    const System sys = scene_of(c);
-    Workspace ws(sys);
-    WrenchSigmaData fast(sys), ref(sys);
-    Eigen::VectorXd v, tau;
-    reference::random_v_tau(sys, 3, v, tau);
-    ASSERT_NE(evaluate(sys, ws, sys.q0, v, tau).status, Status::kError);
-    compute_wrench_sigma(sys, ws, fast, sys.q0, v, tau);
+    SigmaCase s(scene_of(c));
+    ASSERT_TRUE(s.evaluated && s.fast.valid);
     {
       const reference::ScopedStep step(reference::position_step, -1.0);
-      reference::compute_wrench_sigma(sys, ws, ref, sys.q0, v, tau);
+      s.compute_reference();
     }
-    const int na = static_cast<int>(fast.dofs.size()), nv = static_cast<int>(fast.v_dofs.size());
-    const Diff d = position_columns_diff(fast, ref, na, fast.ncols - na - nv, 1);
+    const Diff d = position_columns_diff(s, 1);
     EXPECT_LT(std::max({d.x0, d.gm, d.cd}), 1e-5);
   }
 }

@@ -24,6 +24,7 @@
 #include "service/runtime/service_loop.h"
 #include "tests/support/child_process.h"
 #include "tests/support/daemon_test_util.h"
+#include "tests/support/heavy_loop.h"
 
 using namespace coopdyn;
 using namespace coopdyn::daemon_test;
@@ -249,14 +250,18 @@ TEST(LoopNoAllocation, RunWithDeadlineSleeps) {
 }
 
 // realtime.sched_fifo auto's guard (fifo_guard.h) in run(): a scene too heavy for the period
-// (tiago_pro_box at 10 kHz, every tick overrunning) is stepped down, once, with an event for the daemon's log, and neither the watch nor the step down allocates. (The
-// test's thread runs SCHED_OTHER: the step down is then a no-op the kernel accepts.)
+// (tiago_pro_box with a period a quarter of its shortest warm tick measured here: every tick
+// overruns by construction, tests/support/heavy_loop.h) is stepped down, once, with an event for the
+// daemon's log, and neither the watch nor the step down allocates. A stats window of 200 periods
+// holds at most 50 ticks: the 400 ticks make 8 windows or more, as many as the guard needs however
+// fast the machine. (The test's thread runs SCHED_OTHER: the step down is then a no-op the kernel
+// accepts.)
 TEST(LoopNoAllocation, RunStepsATooHeavyLoopDownOnce) {
   if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
   const System sys = load_scene(scene_path("tiago_pro_box"));
   runtime::ServiceConfig cfg;
-  cfg.rate_hz = 10000;
-  cfg.stats_period_s = 0.02;
+  cfg.rate_hz = heavy_rate_hz(shortest_warm_tick_ns(sys, cfg));
+  cfg.stats_period_s = 200.0 / cfg.rate_hz;
   FakeBus bus;
   runtime::ServiceLoop loop(sys, cfg, bus);
   loop.guard_fifo(true);
@@ -268,7 +273,8 @@ TEST(LoopNoAllocation, RunStepsATooHeavyLoopDownOnce) {
     allocations = c.count();
   }
   EXPECT_EQ(allocations, 0);
-  EXPECT_EQ(loop.fifo_demotions(), 1);
+  EXPECT_EQ(loop.fifo_demotions(), 1) << "rate_hz " << cfg.rate_hz << ", " << loop.ticks() << " ticks, " << loop.overruns()
+                                      << " overruns";
   runtime::Event e;
   int demoted = 0;
   while (loop.events().pop(&e))
@@ -314,6 +320,21 @@ TEST(LoopNoAllocation, RunThroughThePublisherThread) {
 }
 
 namespace {
+
+// Waits until the publisher thread has handed on `handed` messages (published, dropped or failed).
+// The 30 s limit only turns a stuck thread into a failure instead of a hang; nothing is timed (the
+// thread takes microseconds per message even on a loaded machine).
+::testing::AssertionResult wait_handed_on(const runtime::PublisherThread& pub, int64_t handed) {
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (pub.published() + pub.dropped() + pub.failed() < handed) {
+    if (std::chrono::steady_clock::now() > give_up)
+      return ::testing::AssertionFailure() << "the publisher thread handed on " << pub.published() + pub.dropped() + pub.failed()
+                                           << " of " << handed << " messages in 30 s (published " << pub.published()
+                                           << ", dropped " << pub.dropped() << ", failed " << pub.failed() << ")";
+    std::this_thread::yield();
+  }
+  return ::testing::AssertionSuccess();
+}
 
 // Behind the loop, a bus that refuses every fourth message (publish() -1, as lcm_publish failing does
 // where the loop publishes itself), and remembers how many it had refused when it took the last
@@ -391,9 +412,7 @@ TEST(LoopNoAllocation, CountsWhatAStuckPublisherThreadDrops) {
   pub.start();
   runtime::ServiceLoop loop(sys, cfg, pub);
   const auto handed = [&] { return static_cast<int64_t>(loop.ticks() + loop.ticks() / 50); };  // outputs + stats
-  const auto drained = [&] {
-    while (pub.published() + pub.dropped() + pub.failed() < handed()) std::this_thread::yield();
-  };
+  const auto drained = [&] { return wait_handed_on(pub, handed()); };
   long allocations = 0;
   for (int k = 0; k < 60; ++k) {  // 60 outputs and the stats of tick 50 while the thread is stuck
     AllocationCounter c;
@@ -404,12 +423,12 @@ TEST(LoopNoAllocation, CountsWhatAStuckPublisherThreadDrops) {
   EXPECT_EQ(loop.outputs_dropped(), pub.dropped());
   inner.hold.store(false);
   for (int k = 60; k < 100; ++k) {  // the thread runs again: each message waited for before the next
-    drained();
+    ASSERT_TRUE(drained()) << "tick " << k;
     AllocationCounter c;
     loop.tick(k * 1000000LL);
     allocations += c.count();
   }
-  drained();
+  ASSERT_TRUE(drained());
   pub.stop();
   EXPECT_EQ(allocations, 0);
   EXPECT_EQ(loop.outputs_dropped(), 61 - runtime::PublisherThread::kSlots);
@@ -440,8 +459,7 @@ TEST(LoopNoAllocation, CountsWhatThePublisherThreadFailsToSend) {
     AllocationCounter c;
     loop.tick(k * 1000000LL);
     allocations += c.count();
-    const int64_t handed = loop.ticks() + loop.ticks() / 50;  // outputs + stats
-    while (pub.published() + pub.dropped() + pub.failed() < handed) std::this_thread::yield();
+    ASSERT_TRUE(wait_handed_on(pub, loop.ticks() + loop.ticks() / 50)) << "tick " << k;  // outputs + stats
   }
   pub.stop();
   EXPECT_EQ(allocations, 0);

@@ -90,6 +90,21 @@ struct Child {
   }
 };
 
+// Waits (at most `limit`, a bound that only turns a hang into a failure) until the child's stderr
+// holds `what`: a daemon's log line saying it has reached a state the test needs.
+inline bool log_says(const Child& c, const std::string& what, std::chrono::milliseconds limit) {
+  const auto end = std::chrono::steady_clock::now() + limit;
+  while (std::chrono::steady_clock::now() < end) {
+    if (slurp(c.err).find(what) != std::string::npos) return true;
+    std::this_thread::sleep_for(20ms);
+  }
+  return false;
+}
+
+// coopdynd logs this once its receive process is subscribed (it waits up to 2 s for it) and its
+// loop runs: inputs sent after it are received.
+inline const char* const kDaemonRunning = "running; SIGINT or SIGTERM stops";
+
 // A command run to its end (at most 60 s): its exit status and what it printed.
 struct Result {
   int rc;
