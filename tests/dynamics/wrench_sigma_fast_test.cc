@@ -72,7 +72,7 @@ TEST(WrenchSigmaFast, EqualsThePreviousDefinitionOnEveryShippedScene) {
 
 // Arms without joint-1 armature on the dense path (1 and 2 PUMAs, bench/scenes): Q is factored
 // with the nominal directions last (q_solve.h), and the fast row solve goes through that basis;
-// the reference solves column by column through QSolver::solve.
+// the reference solves the dense Q with Eigen's LDLT.
 TEST(WrenchSigmaFast, EqualsThePreviousDefinitionWithNominalBaseLinks) {
   for (int n : {1, 2}) {
     const std::string path = std::string(COOPDYN_SOURCE_DIR) + "/bench/scenes/pumas_" + std::to_string(n) + "_no_armature.yaml";
