@@ -5,7 +5,6 @@
 #include "service/algorithms/kinematics.h"
 #include "service/algorithms/rnea.h"
 #include "service/algorithms/tree_cholesky.h"
-#include "service/dynamics/wrench_sigma_arms.h"
 #include "service/dynamics/wrench_sigma_position.h"
 #include "service/dynamics/wrench_sigma_rows.h"
 #include "service/dynamics/wrench_sigma_velocity.h"
@@ -99,10 +98,7 @@ WrenchSigmaData::WrenchSigmaData(const System& sys) {
     pFs.assign(sys.constraints.specs.size(), Vec6::Zero());
     position_tangent_plan(sys, *this);
   }
-  arms = plan_sigma_arms(sys, *this);
 }
-
-WrenchSigmaData::~WrenchSigmaData() = default;
 
 namespace {
 
@@ -541,7 +537,6 @@ void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
 
 // valid: noise declared and an evaluation that succeeded
 bool start(Workspace& ws, WrenchSigmaData& sd, int nc) {
-  sd.by_arms = false;
   // joints at rest: their friction is free within its bound (friction_bound.h reports that
   // interval); the noise's spread is the response with it left free, the one computed here
   sd.valid = sd.declared && nc > 0 && ws.diag.status != Status::kError;
@@ -570,19 +565,6 @@ void propagate(const System& sys, Workspace& ws, WrenchSigmaData& sd, int nc) {
   batch_outputs(sys, ws, sd, nc);
 }
 
-// Torque columns arm by arm (wrench_sigma_arms.h), after batch_setup: the 6 columns of unit forces
-// on the common DOFs through the full path, then each arm's own; false: not applicable here
-bool arms_torque(const System& sys, Workspace& ws, WrenchSigmaData& sd) {
-  if (!sd.arms || !ws.q_blocks_active) return false;
-  SigmaArms& sa = *sd.arms;
-  sd.X0.leftCols(6).setZero();
-  sd.Gm.leftCols(6).setZero();
-  for (int c = 0; c < 6; ++c) sd.X0(sa.common[static_cast<size_t>(c)], c) = 1.0;
-  propagate(sys, ws, sd, 6);
-  tau_columns(sd);
-  return sigma_arms_torque(sys, ws, sd, sa);
-}
-
 void finish(WrenchSigmaData& sd) {
   for (size_t k = 0; k < sd.sigma.size(); ++k)
     for (int c = 0; c < 6; ++c) sd.sigma[k][c] = sd.C.row(6 * static_cast<Eigen::Index>(k) + c).head(sd.ncols).norm();
@@ -594,12 +576,9 @@ void compute_wrench_sigma(const System& sys, Workspace& ws, WrenchSigmaData& sd)
   const int na = static_cast<int>(sd.dofs.size());
   if (!start(ws, sd, na)) return;
   sd.source = WrenchSigmaData::kTau;
+  tau_columns(sd);
   batch_setup(sys, ws, sd);
-  sd.by_arms = arms_torque(sys, ws, sd);
-  if (!sd.by_arms) {
-    tau_columns(sd);
-    propagate(sys, ws, sd, na);
-  }
+  propagate(sys, ws, sd, na);
   finish(sd);
 }
 

@@ -77,15 +77,12 @@ struct StateRefit {
 // propagates it (mobile_platform, classic): the outputs carry sigma.
 bool wrench_sigma_supported(const System& sys);
 
-struct SigmaArms;
-
 struct WrenchSigmaData {
   using RowMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   // what a sigma contains (bits, output_t SIGMA_*)
   static constexpr int kTau = 1, kQ = 2, kV = 4;
 
   explicit WrenchSigmaData(const System& sys);
-  ~WrenchSigmaData();
 
   bool declared = false;  // wrench_sigma_supported(sys)
   bool valid = false;     // the last compute_wrench_sigma() filled sigma
@@ -121,10 +118,7 @@ struct WrenchSigmaData {
   std::unique_ptr<WrenchData> wd0, wd1;
   Eigen::VectorXd qp, vp, tau_id, r0_tau, r_tau;  // (nq), (nv), (nv), (nv), (nv)
   Eigen::VectorXd r0_g, r_g;                       // (rows)
-  StateRefit* refit = nullptr;
-  // torque noise arm by arm where Q has the block structure (wrench_sigma_arms.h; null: not planned)
-  std::unique_ptr<SigmaArms> arms;
-  bool by_arms = false;  // the last sigma's torque columns went arm by arm  // estimate mode: refits the fitted coordinates per column (not owned)
+  StateRefit* refit = nullptr;  // estimate mode: refits the fitted coordinates per column (not owned)
 
   // measurement noise, velocity columns: the tangent along a velocity change (wrench_sigma_velocity.h)
   Eigen::VectorXd tv;                 // (nv) the velocity change of the column (a unit, refitted)
