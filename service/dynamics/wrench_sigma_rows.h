@@ -1,4 +1,4 @@
-// Row kernels of each wrench's sigma (wrench_sigma.cc, wrench_sigma_arms.cc): operations on rows of
+// Row kernels of each wrench's sigma (wrench_sigma.cc): operations on rows of
 // row-major blocks of columns (one column per noise source), contiguous so that they vectorize.
 // Internal to the sigma; allocation-free.
 #pragma once
