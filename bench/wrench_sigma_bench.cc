@@ -1,6 +1,7 @@
 // Cost of each reported wrench's sigma (service/dynamics/wrench_sigma.h) next to the evaluation it
-// comes from. Per scene (the shipped scenes whose formulation propagates noise, then 1, 2, 4 and 8
-// PUMAs holding a load: bench/scenes/pumas_N.yaml; every joint reaction reported,
+// comes from. Per scene (the shipped scenes whose formulation propagates noise, then 1, 2, 3, 4 and 8
+// PUMAs holding a load: bench/scenes/pumas_N.yaml, and 3, 4 and 8 without joint armature, whose Q
+// is factored with the nominal rows last: pumas_N_no_armature.yaml; every joint reaction reported,
 // `noise: {tau: 0.1, q: 1e-4, v: 1e-3}` on every actuated / measured joint), interleaved in one process (a shared machine's load drifts
 // between separate runs): per repetition a block of evaluate() calls, then compute_wrenches(), then
 // compute_wrench_sigma() with the torque noise (simulate mode), then with the torque, position and
@@ -53,7 +54,9 @@ int main(int argc, char** argv) {
   for (const char* n : {"four_bar", "four_wheel_car", "planar_arms_load", "pr2_box", "tiago_pro_box", "trike", "two_5dof_arms_load",
                         "two_iiwa_load", "two_puma_load", "two_wheel_vehicle", "unicycle"})
     scenes.push_back(dir + "/config/scenes/" + n + ".yaml");
-  for (const char* n : {"pumas_1", "pumas_2", "pumas_4", "pumas_8"}) scenes.push_back(dir + "/bench/scenes/" + n + ".yaml");
+  for (const char* n : {"pumas_1", "pumas_2", "pumas_3", "pumas_4", "pumas_8", "pumas_3_no_armature", "pumas_4_no_armature",
+                        "pumas_8_no_armature"})
+    scenes.push_back(dir + "/bench/scenes/" + n + ".yaml");
   std::printf("%-22s %4s %4s %4s %5s %5s %8s %9s %8s %10s %8s %10s %8s %8s %8s %10s\n", "scene", "nv", "rows", "out", "tau", "q+v",
               "eval_us", "wrench_us", "sigma_us", "sigma/eval", "est_us", "est/eval", "q_us", "v_us", "fit_us", "fit/eval");
   for (const std::string& path : scenes) {

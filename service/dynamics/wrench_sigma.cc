@@ -6,12 +6,14 @@
 #include "service/algorithms/rnea.h"
 #include "service/algorithms/tree_cholesky.h"
 #include "service/dynamics/wrench_sigma_position.h"
+#include "service/dynamics/wrench_sigma_rows.h"
 #include "service/dynamics/wrench_sigma_velocity.h"
 
 namespace coopdyn {
 
 namespace {
 using RowMat = WrenchSigmaData::RowMat;
+using namespace sigma_rows;
 
 bool positive(const Eigen::VectorXd& x) { return x.size() > 0 && x.maxCoeff() > 0.0; }
 
@@ -63,6 +65,7 @@ WrenchSigmaData::WrenchSigmaData(const System& sys) {
   I_fix.assign(nb, RigidInertia());
   T_spec.assign(sys.constraints.specs.size(), Mat6::Zero());
   unit.setZero(m);
+  qrow.assign(static_cast<size_t>(m), 0);
   col_b.setZero(m);
   col_x.setZero(m);
   X_WF.assign(no, Transform());
@@ -98,23 +101,6 @@ WrenchSigmaData::WrenchSigmaData(const System& sys) {
 }
 
 namespace {
-
-// row a -= f * row b over nc entries (row-major rows: contiguous, vectorized)
-inline void axpy_row(double* __restrict a, const double* __restrict b, double f, int nc) {
-  for (int c = 0; c < nc; ++c) a[c] -= f * b[c];
-}
-// the first nc entries of 6 rows of stride ld
-inline void copy_rows(const double* __restrict from, double* __restrict to, Eigen::Index ld, int nc) {
-  for (int r = 0; r < 6; ++r)
-    for (int c = 0; c < nc; ++c) to[r * ld + c] = from[r * ld + c];
-}
-inline void zero_rows(double* a, Eigen::Index ld, int nc) {
-  for (int r = 0; r < 6; ++r)
-    for (int c = 0; c < nc; ++c) a[r * ld + c] = 0.0;
-}
-inline void scale_row(double* a, double f, int nc) {
-  for (int c = 0; c < nc; ++c) a[c] *= f;
-}
 
 // X(:, 0:nc) <- L^-T X, every column at once (tree_solve_Lt on rows)
 void rows_solve_Lt(const Model& model, const Data& data, RowMat& X, int nc) {
@@ -180,19 +166,98 @@ void blocks_solve_rows(QBlocks& qb, WrenchSigmaData& sd, int nc) {
   }
 }
 
-// Lam = Q^-1 Rhs with the evaluation's factorization of Q: the block or dense Cholesky on all
+// H = I - w w^T on the 6 rows at x (stride ld), nc columns; w = 0: none
+void reflect6(const Vec6& w, double* x, Eigen::Index ld, int nc) {
+  if (w.isZero(0.0)) return;
+  for (int c = 0; c < nc; ++c) {
+    double t = 0.0;
+    for (int k = 0; k < 6; ++k) t += w[k] * x[k * ld + c];
+    for (int k = 0; k < 6; ++k) x[k * ld + c] -= t * w[k];
+  }
+}
+
+// Lam = R Rhs (q_blocks.h, the single factor with the nominal rows last): per group its weld rows
+// reflected (in Rhs, scratch), the kept rows to Lam's rows row0.., the dropped after them; sd.qrow
+// = the row of Lam of each of the N dropped rows
+void nominal_rows_in(const QBlocks& qb, WrenchSigmaData& sd, int nc) {
+  const Eigen::Index lr = sd.Rhs.outerStride();
+  for (const QBlocks::Group& g : qb.groups) {
+    for (size_t n = 0; n < g.nominal.size(); ++n) reflect6(g.hw[n], sd.Rhs.data() + (g.row0 + g.nominal[n].second) * lr, lr, nc);
+    for (int c = 0; c < g.red_rows; ++c) row(sd.Lam, g.row0 + c, nc) = row(sd.Rhs, g.row0 + g.kept_idx[c], nc);
+    for (int c = 0; c < g.nd; ++c) {
+      sd.qrow[static_cast<size_t>(g.d0 + c)] = g.row0 + g.red_rows + c;
+      row(sd.Lam, g.row0 + g.red_rows + c, nc) = row(sd.Rhs, g.row0 + g.drop_idx[c], nc);
+    }
+  }
+}
+
+// Rhs = R^T Lam, then Lam = Rhs (the inverse of nominal_rows_in)
+void nominal_rows_out(const QBlocks& qb, WrenchSigmaData& sd, int nc) {
+  const Eigen::Index lr = sd.Rhs.outerStride();
+  for (const QBlocks::Group& g : qb.groups) {
+    for (int c = 0; c < g.red_rows; ++c) row(sd.Rhs, g.row0 + g.kept_idx[c], nc) = row(sd.Lam, g.row0 + c, nc);
+    for (int c = 0; c < g.nd; ++c) row(sd.Rhs, g.row0 + g.drop_idx[c], nc) = row(sd.Lam, g.row0 + g.red_rows + c, nc);
+    for (size_t n = 0; n < g.nominal.size(); ++n) reflect6(g.hw[n], sd.Rhs.data() + (g.row0 + g.nominal[n].second) * lr, lr, nc);
+  }
+  sd.Lam.leftCols(nc) = sd.Rhs.leftCols(nc);
+}
+
+// Lam = Q^-1 Rhs through the single block factor with the nominal rows last (QBlocks::solve_nominal_last,
+// every column at once, as row operations): y_g = L_g^-1 (b_g - Br_g z), z += Wr_g^T y_g,
+// b_d -= Y_g^T y_g; x_d = L_S^-T L_S^-1 b_d; x_g = L_g^-T (y_g - Wr_g t - Y_g x_d), t += Br_g^T x_g
+void nominal_solve_rows(const QBlocks& qb, WrenchSigmaData& sd, int nc) {
+  nominal_rows_in(qb, sd, nc);
+  double* z = sd.Tmp.data();  // (6 x nc) z, then t
+  double* lam = sd.Lam.data();
+  const Eigen::Index lz = sd.Tmp.outerStride(), ll = sd.Lam.outerStride();
+  auto xd = [&](int d) { return lam + sd.qrow[static_cast<size_t>(d)] * ll; };
+  zero_rows(z, lz, nc);
+  for (const QBlocks::Group& g : qb.groups) {
+    for (int i = 0; i < g.red_rows; ++i) {
+      double* y = lam + (g.row0 + i) * ll;
+      for (int k = 0; k < QBlocks::kMaxCommon; ++k) axpy_row(y, z + k * lz, g.Br(i, k), nc);
+      for (int k = 0; k < i; ++k) axpy_row(y, lam + (g.row0 + k) * ll, g.Ar(i, k), nc);
+      scale_row(y, g.dinvr[i], nc);
+    }
+    for (int i = 0; i < g.red_rows; ++i) {
+      const double* y = lam + (g.row0 + i) * ll;
+      for (int k = 0; k < QBlocks::kMaxCommon; ++k) axpy_row(z + k * lz, y, -g.Wr(i, k), nc);
+      for (int d = 0; d < qb.nd; ++d) axpy_row(xd(d), y, g.Yt(d, i), nc);
+    }
+  }
+  for (int i = 0; i < qb.nd; ++i) {  // L_S^-1, then L_S^-T
+    for (int k = 0; k < i; ++k) axpy_row(xd(i), xd(k), qb.S(i, k), nc);
+    scale_row(xd(i), qb.sdinv[i], nc);
+  }
+  for (int i = qb.nd - 1; i >= 0; --i) {
+    for (int k = i + 1; k < qb.nd; ++k) axpy_row(xd(i), xd(k), qb.S(k, i), nc);
+    scale_row(xd(i), qb.sdinv[i], nc);
+  }
+  zero_rows(z, lz, nc);
+  for (auto it = qb.groups.rbegin(); it != qb.groups.rend(); ++it) {
+    const QBlocks::Group& g = *it;
+    for (int i = 0; i < g.red_rows; ++i) {
+      double* x = lam + (g.row0 + i) * ll;
+      for (int k = 0; k < QBlocks::kMaxCommon; ++k) axpy_row(x, z + k * lz, g.Wr(i, k), nc);
+      for (int d = 0; d < qb.nd; ++d) axpy_row(x, xd(d), g.Yt(d, i), nc);
+    }
+    for (int i = g.red_rows - 1; i >= 0; --i) {
+      double* x = lam + (g.row0 + i) * ll;
+      for (int k = i + 1; k < g.red_rows; ++k) axpy_row(x, lam + (g.row0 + k) * ll, g.Ar(k, i), nc);
+      scale_row(x, g.dinvr[i], nc);
+    }
+    for (int i = 0; i < g.red_rows; ++i)
+      for (int k = 0; k < QBlocks::kMaxCommon; ++k) axpy_row(z + k * lz, lam + (g.row0 + i) * ll, -g.Br(i, k), nc);
+  }
+  nominal_rows_out(qb, sd, nc);
+}
+
+// Lam = Q^-1 Rhs with the evaluation's factorization of Q: the block (either form) or dense Cholesky on all
 // columns at once, the rank-revealing solve (over-constrained systems) column by column
 void q_solve_rows(Workspace& ws, WrenchSigmaData& sd, int nc) {
   const int m = ws.qs.m;
   if (ws.q_blocks_active && !ws.qb.has_nominal) return blocks_solve_rows(ws.qb, sd, nc);
-  if (ws.q_blocks_active) {  // the single block factor with the nominal rows last: column by column
-    for (int j = 0; j < nc; ++j) {
-      sd.col_b = sd.Rhs.col(j);
-      ws.qb.solve(sd.col_b, sd.col_x);
-      sd.Lam.col(j) = sd.col_x;
-    }
-    return;
-  }
+  if (ws.q_blocks_active) return nominal_solve_rows(ws.qb, sd, nc);
   if (ws.qs.fast_path) {  // U = L^T, column i of U is row i of L
     const double* u = ws.qs.Lq.data();
     const Eigen::Index ld = ws.qs.Lq.outerStride();
@@ -302,57 +367,6 @@ void batch_setup(const System& sys, const Workspace& ws, WrenchSigmaData& sd) {
   }
   for (size_t k = 0; k < set.outputs.size(); ++k)
     if (set.outputs[k].spec < 0) sd.X_WF[k] = wrench_frame_pose(sys, data, static_cast<int>(k));
-}
-
-// Row r, columns 0:nc, of a row-major matrix: contiguous, so that the sums of rows below vectorize.
-template <class Mat>
-inline auto row(Mat& M, Eigen::Index r, int nc) {
-  return M.row(r).head(nc);
-}
-
-// N (+)= I A for a rigid inertia on 6 rows of nc columns (row r of A at a + r la, of N at
-// n + r ln): n = Io w + h x v, f = m v - h x w (the 6 x 6 inertia matrix without its zeros and
-// repeats: 24 multiply-adds a column instead of 36). ivdep here and in to_frame: the rows never
-// overlap, and without it GCC leaves these loops scalar (a quarter slower at 48 columns).
-template <bool kAdd>
-void inertia_times(const RigidInertia& I, const double* __restrict a, Eigen::Index la, double* __restrict n,
-                   Eigen::Index ln, int nc) {
-  const double m = I.m, hx = I.h.x(), hy = I.h.y(), hz = I.h.z();
-  const double j00 = I.Io(0, 0), j01 = I.Io(0, 1), j02 = I.Io(0, 2), j10 = I.Io(1, 0), j11 = I.Io(1, 1), j12 = I.Io(1, 2),
-               j20 = I.Io(2, 0), j21 = I.Io(2, 1), j22 = I.Io(2, 2);
-#pragma GCC ivdep
-  for (int c = 0; c < nc; ++c) {
-    const double wx = a[c], wy = a[la + c], wz = a[2 * la + c], vx = a[3 * la + c], vy = a[4 * la + c], vz = a[5 * la + c];
-    const double x0 = j00 * wx + j01 * wy + j02 * wz + hy * vz - hz * vy;
-    const double x1 = j10 * wx + j11 * wy + j12 * wz + hz * vx - hx * vz;
-    const double x2 = j20 * wx + j21 * wy + j22 * wz + hx * vy - hy * vx;
-    const double x3 = m * vx - (hy * wz - hz * wy), x4 = m * vy - (hz * wx - hx * wz), x5 = m * vz - (hx * wy - hy * wx);
-    if constexpr (kAdd) {
-      n[c] += x0, n[ln + c] += x1, n[2 * ln + c] += x2, n[3 * ln + c] += x3, n[4 * ln + c] += x4, n[5 * ln + c] += x5;
-    } else {
-      n[c] = x0, n[ln + c] = x1, n[2 * ln + c] = x2, n[3 * ln + c] = x3, n[4 * ln + c] = x4, n[5 * ln + c] = x5;
-    }
-  }
-}
-
-// C = [Rt (n - p x f); Rt f] for D = [n; f] on 6 rows of nc columns (row r of D at d + r ld, of C
-// at o + r lo)
-void to_frame(const Mat3& Rt, const Vec3& p, const double* __restrict d, Eigen::Index ld, double* __restrict o,
-              Eigen::Index lo, int nc) {
-  const double px = p.x(), py = p.y(), pz = p.z();
-  const double r00 = Rt(0, 0), r01 = Rt(0, 1), r02 = Rt(0, 2), r10 = Rt(1, 0), r11 = Rt(1, 1), r12 = Rt(1, 2), r20 = Rt(2, 0),
-               r21 = Rt(2, 1), r22 = Rt(2, 2);
-#pragma GCC ivdep
-  for (int j = 0; j < nc; ++j) {
-    const double f0 = d[3 * ld + j], f1 = d[4 * ld + j], f2 = d[5 * ld + j];
-    const double n0 = d[j] - (py * f2 - pz * f1), n1 = d[ld + j] - (pz * f0 - px * f2), n2 = d[2 * ld + j] - (px * f1 - py * f0);
-    o[j] = r00 * n0 + r01 * n1 + r02 * n2;
-    o[lo + j] = r10 * n0 + r11 * n1 + r12 * n2;
-    o[2 * lo + j] = r20 * n0 + r21 * n1 + r22 * n2;
-    o[3 * lo + j] = r00 * f0 + r01 * f1 + r02 * f2;
-    o[4 * lo + j] = r10 * f0 + r11 * f1 + r12 * f2;
-    o[5 * lo + j] = r20 * f0 + r21 * f1 + r22 * f2;
-  }
 }
 
 // Rb: the joint reactions' change (world, at p_ref) for the accelerations' change X, without the

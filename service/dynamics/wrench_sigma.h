@@ -109,6 +109,8 @@ struct WrenchSigmaData {
   std::vector<RigidInertia> I_lin, I_fix;  // per body: the reaction's inertia on its acceleration
   std::vector<Mat6> T_spec;              // per spec: world force at p_ref per unit of each row
   Eigen::VectorXd unit, col_b, col_x;    // (rows)
+  std::vector<int> qrow;                 // (rows) the block Q solve with the nominal rows last: the
+                                         // row of Lam holding each dropped (nominal) row
   std::vector<Transform> X_WF;           // per output: its report frame
 
   // measurement noise: the perturbed residuals (allocated when q or v noise is declared)

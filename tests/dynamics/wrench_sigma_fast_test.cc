@@ -72,7 +72,7 @@ TEST(WrenchSigmaFast, EqualsThePreviousDefinitionOnEveryShippedScene) {
 
 // Arms without joint-1 armature on the dense path (1 and 2 PUMAs, bench/scenes): Q is factored
 // with the nominal directions last (q_solve.h), and the fast row solve goes through that basis;
-// the reference solves column by column through QSolver::solve.
+// the reference solves the dense Q with Eigen's LDLT.
 TEST(WrenchSigmaFast, EqualsThePreviousDefinitionWithNominalBaseLinks) {
   for (int n : {1, 2}) {
     const std::string path = std::string(COOPDYN_SOURCE_DIR) + "/bench/scenes/pumas_" + std::to_string(n) + "_no_armature.yaml";
@@ -96,6 +96,48 @@ TEST(WrenchSigmaFast, EqualsThePreviousDefinitionWithNominalBaseLinks) {
     ASSERT_TRUE(fast.valid);
     expect_same(sys, fast, ref);
   }
+}
+
+// From 3 arms on Q is factored by blocks (q_blocks.h), and without joint-1 armature as one factor
+// with the nominal rows last (has_nominal); the reference solves Q densely (Eigen's LDLT of
+// G M^-1 G^T). 3, 4 and 8 PUMAs (bench/scenes) with and without armature, both formulations, both
+// modes, at two states.
+TEST(WrenchSigmaFast, EqualsTheDenseSolveWithTheBlockFactorOfQ) {
+  int with_nominal = 0;
+  for (int n : {3, 4, 8})
+    for (const char* suffix : {"", "_no_armature"})
+      for (const bool classic : {false, true}) {
+        const std::string path =
+            std::string(COOPDYN_SOURCE_DIR) + "/bench/scenes/pumas_" + std::to_string(n) + suffix + ".yaml";
+        SCOPED_TRACE(path + (classic ? " classic" : ""));
+        SceneOverrides ov;
+        if (classic) ov.formulation = Formulation::kClassic;
+        const System sys =
+            load_scene_string(without_reactions(slurp(path)) + "\nreactions: all\nnoise: {tau: 0.2, q: 1e-3, v: 1e-2}\n", path, ov);
+        ASSERT_TRUE(wrench_sigma_supported(sys));
+        Workspace ws(sys);
+        WrenchSigmaData fast(sys), ref(sys);
+        for (unsigned seed : {3u, 11u}) {
+          Eigen::VectorXd v, tau;
+          reference::random_v_tau(sys, seed, v, tau);
+          ASSERT_NE(evaluate(sys, ws, sys.q0, v, tau).status, Status::kError);
+          ASSERT_TRUE(ws.q_blocks_active);
+          EXPECT_EQ(ws.qb.has_nominal, !sys.nominal_bases.empty());
+          if (!classic) {  // the classic form has no nominal base links
+            EXPECT_EQ(ws.qb.has_nominal, std::string(suffix) != "");
+          }
+          with_nominal += ws.qb.has_nominal;
+          compute_wrench_sigma(sys, ws, fast);
+          reference::compute_wrench_sigma(sys, ws, ref);
+          ASSERT_TRUE(fast.valid);
+          expect_same(sys, fast, ref);
+          compute_wrench_sigma(sys, ws, fast, sys.q0, v, tau);
+          reference::compute_wrench_sigma(sys, ws, ref, sys.q0, v, tau);
+          ASSERT_TRUE(fast.valid);
+          expect_same(sys, fast, ref);
+        }
+      }
+  EXPECT_GT(with_nominal, 0);
 }
 
 }  // namespace

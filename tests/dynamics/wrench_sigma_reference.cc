@@ -1,11 +1,14 @@
 // The definition of each wrench's sigma before its fast path (service/dynamics/wrench_sigma.cc as it
-// was): every noise source a column propagated through the evaluation's factors and a reaction pass
-// on 6 x columns blocks with dense 6 x 6 inertias and frame transforms. Kept as the reference the
+// was): every noise source a column propagated through the evaluation's factor of M, a dense solve
+// of Q independent of the evaluation's factors of it (q_solve_rows below), and a reaction pass on
+// 6 x columns blocks with dense 6 x 6 inertias and frame transforms. Kept as the reference the
 // fast path is tested against (wrench_sigma_fast_test.cc); not linked into the service.
 #include "tests/dynamics/wrench_sigma_reference.h"
 
 #include <cmath>
 #include <random>
+
+#include <Eigen/Cholesky>
 
 #include "service/algorithms/kinematics.h"
 #include "service/algorithms/rnea.h"
@@ -81,71 +84,27 @@ void rows_solve_L(const Model& model, const Data& data, RowMat& X, int nc) {
   }
 }
 
-// Lam = Q^-1 Rhs through the block factor (QBlocks::solve, every column at once)
-void blocks_solve_rows(QBlocks& qb, WrenchSigmaData& sd, int nc) {
-  auto Z = sd.Tmp.leftCols(nc);
-  auto T = sd.Tmp2.leftCols(nc);
-  Z.setZero();
-  for (QBlocks::Group& g : qb.groups) {  // forward: y_g = L_g^-1 (b_g - B_g z)
-    for (int i = 0; i < g.rows; ++i) {
-      auto y = sd.Lam.row(g.row0 + i).head(nc);
-      y = sd.Rhs.row(g.row0 + i).head(nc);
-      y.noalias() -= g.B.row(i) * Z;
-      for (int k = 0; k < i; ++k) y -= g.A(i, k) * sd.Lam.row(g.row0 + k).head(nc);
-      y *= g.dinv[i];
-    }
-    for (int i = 0; i < g.rows; ++i) Z.noalias() += g.W.row(i).transpose() * sd.Lam.row(g.row0 + i).head(nc);
-  }
-  T.setZero();
-  for (auto it = qb.groups.rbegin(); it != qb.groups.rend(); ++it) {  // backward: x_g = L_g^-T (y_g - W_g t)
-    QBlocks::Group& g = *it;
-    for (int i = 0; i < g.rows; ++i) sd.Lam.row(g.row0 + i).head(nc).noalias() -= g.W.row(i) * T;
-    for (int i = g.rows - 1; i >= 0; --i) {
-      auto x = sd.Lam.row(g.row0 + i).head(nc);
-      for (int k = i + 1; k < g.rows; ++k) x -= g.A(k, i) * sd.Lam.row(g.row0 + k).head(nc);
-      x *= g.dinv[i];
-    }
-    for (int i = 0; i < g.rows; ++i) T.noalias() += g.B.row(i).transpose() * sd.Lam.row(g.row0 + i).head(nc);
-  }
-}
-
-// Lam = Q^-1 Rhs with the evaluation's factorization of Q: the block or dense Cholesky on all
-// columns at once, the rank-revealing solve (over-constrained systems) and the factor with the
-// nominal directions last (QSolver::factor_nominal_last) column by column through QSolver::solve
-void q_solve_rows(Workspace& ws, WrenchSigmaData& sd, int nc) {
-  const int m = ws.qs.m;
-  if (ws.q_blocks_active && !ws.qb.has_nominal) return blocks_solve_rows(ws.qb, sd, nc);
-  if (ws.q_blocks_active) {  // the single block factor with the nominal rows last: column by column
+// Lam = Q^-1 Rhs. Where the evaluation factored Q positive definite (its fast path: the dense
+// Cholesky, the block Cholesky of q_blocks.h, either with the nominal rows last), independently of
+// those factors: Q = G M^-1 G^T assembled densely from the constraint rows and the tree solve of M,
+// then Eigen's LDLT of it. An over-constrained evaluation (the rank-revealing solve, whose
+// redundancy rule picks the indeterminate part) column by column through QSolver::solve, the
+// definition of that rule. Allocates (test code).
+void q_solve_rows(const System& sys, Workspace& ws, WrenchSigmaData& sd, int nc) {
+  if (!ws.qs.fast_path) {
     for (int j = 0; j < nc; ++j) {
       sd.col_b = sd.Rhs.col(j);
-      ws.qb.solve(sd.col_b, sd.col_x);
+      ws.qs.solve(sd.col_b, sd.col_x);
       sd.Lam.col(j) = sd.col_x;
     }
     return;
   }
-  if (ws.qs.fast_path && !ws.qs.nominal_active) {  // U = L^T, column i of U is row i of L
-    const double* u = ws.qs.Lq.data();
-    const Eigen::Index ld = ws.qs.Lq.outerStride();
-    sd.Lam.leftCols(nc) = sd.Rhs.leftCols(nc);
-    double* x = sd.Lam.data();
-    const Eigen::Index lx = sd.Lam.outerStride();
-    for (int i = 0; i < m; ++i) {
-      const double* ui = u + i * ld;
-      for (int k = 0; k < i; ++k) axpy_row(x + i * lx, x + k * lx, ui[k], nc);
-      scale_row(x + i * lx, ws.qs.dinv_q[i], nc);
-    }
-    for (int i = m - 1; i >= 0; --i) {
-      const double* ui = u + i * ld;
-      scale_row(x + i * lx, ws.qs.dinv_q[i], nc);
-      for (int k = 0; k < i; ++k) axpy_row(x + k * lx, x + i * lx, ui[k], nc);
-    }
-    return;
-  }
-  for (int j = 0; j < nc; ++j) {
-    sd.col_b = sd.Rhs.col(j);
-    ws.qs.solve(sd.col_b, sd.col_x);
-    sd.Lam.col(j) = sd.col_x;
-  }
+  const Eigen::MatrixXd& G = ws.cd.G;  // (rows x nv)
+  Eigen::MatrixXd MinvGt = G.transpose();
+  for (int r = 0; r < MinvGt.cols(); ++r) tree_solve_M(sys.model, ws.data, MinvGt.col(r));
+  const Eigen::MatrixXd Q = G * MinvGt;
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(Q);
+  sd.Lam.leftCols(nc) = ldlt.solve(Eigen::MatrixXd(sd.Rhs.leftCols(nc)));
 }
 
 // Lam and X (the accelerations' change) for the generalized-force changes X0 and the constraint
@@ -180,7 +139,7 @@ void batch_response(const System& sys, Workspace& ws, WrenchSigmaData& sd, int n
       for (int d : ws.y_support[static_cast<size_t>(s)])
         for (int k = 0; k < nk; ++k) axpy_row(rhs + (r0 + k) * lr, x + d * lx, y[6 * d + k], nc);
     }
-    q_solve_rows(ws, sd, nc);
+    q_solve_rows(sys, ws, sd, nc);
     if (it > 0) {
       const double step = (sd.Lam.leftCols(nc) - sd.Lam_prev.leftCols(nc)).cwiseAbs().maxCoeff();
       if (!(step > 1e-14 * sd.Lam.leftCols(nc).cwiseAbs().maxCoeff())) break;

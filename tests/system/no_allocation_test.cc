@@ -235,16 +235,18 @@ TEST(NoAllocation, EvaluateStepAndHoldOfTheRealRobots) {
 
 TEST(NoAllocation, WrenchSigmaOfNoisyScenes) {
   // each wrench's sigma from declared torque noise and from q and v noise (wrench_sigma.h): closed chains on both fast
-  // paths (Cholesky, the block solve of 4 arms), the planar pair (rank path), the car with rolling
+  // paths (Cholesky, the block solve of 4 arms, with and without armature: the nominal rows last),
+  // the planar pair (rank path), the car with rolling
   // resistance (the fixed point), every joint reaction
   if (!kCountingAvailable) GTEST_SKIP() << "the counting heap is unavailable under AddressSanitizer";
   const std::string arms = std::string(COOPDYN_SOURCE_DIR) + "/bench/scenes/pumas_4.yaml";
+  const std::string nominal = std::string(COOPDYN_SOURCE_DIR) + "/bench/scenes/pumas_4_no_armature.yaml";
   struct Case {
     std::string path, extra;
     std::optional<Formulation> f;
   };
   for (const Case& c : {Case{scene_path("two_puma_load"), "", std::nullopt}, Case{scene_path("two_puma_load"), "", Formulation::kClassic},
-                        Case{scene_path("planar_arms_load"), "", std::nullopt}, Case{arms, "", std::nullopt},
+                        Case{scene_path("planar_arms_load"), "", std::nullopt}, Case{arms, "", std::nullopt}, Case{nominal, "", std::nullopt},
                         Case{scene_path("four_wheel_car"), "mu: 0.85, rolling_resistance: 0.02}", std::nullopt}}) {
     SCOPED_TRACE(c.path);
     SceneOverrides ov;
@@ -269,6 +271,9 @@ TEST(NoAllocation, WrenchSigmaOfNoisyScenes) {
       EXPECT_EQ(cnt.count(), 0);
     }
     EXPECT_TRUE(sd.valid);
+    if (c.path == nominal) {
+      EXPECT_TRUE(ws.q_blocks_active && ws.qb.has_nominal);
+    }
     // (over-constrained evaluations have no position columns: wrench_sigma.h)
     EXPECT_EQ(sd.source, WrenchSigmaData::kTau | WrenchSigmaData::kV | (ws.diag.indeterminate > 0 ? 0 : WrenchSigmaData::kQ));
   }
