@@ -497,7 +497,7 @@ void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
     const int iq = sd.q_index[static_cast<size_t>(a)];
     const int root = sd.refit ? -1 : sys.model.dof_body[sd.q_dofs[static_cast<size_t>(a)]];
     sd.qp[iq] = q[iq] + h;
-    if (sd.refit) sd.refit->refit(sd.qp, sd.vp, true);
+    if (sd.refit) sd.refit->refit(sd.qp, sd.vp);
     residual(sys, ws, sd, v, tau, sd.r_tau, sd.r_g, *sd.wd1, root);
     sd.qp = q;
     sd.vp = v;
@@ -506,17 +506,18 @@ void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
   }
   if (sd.v_dofs.empty()) return;
   velocity_tangent_setup(sys, ws, sd);
+  const FitResponse* fit = sd.refit ? sd.refit->linearize(ws.cd.G) : nullptr;
   for (int a = 0; a < static_cast<int>(sd.v_dofs.size()); ++a) {
     const int d = sd.v_dofs[static_cast<size_t>(a)];
     sd.tv.setZero();
     sd.tv[d] = 1.0;
     sd.tv_nz.assign(1, d);
-    if (sd.refit) {
-      sd.refit->refit_velocity_change(ws.cd.G, sd.tv);
-      sd.tv_nz.clear();
-      for (int i = 0; i < sd.tv.size(); ++i)
-        if (sd.tv[i] != 0.0) sd.tv_nz.push_back(i);
-    }
+    if (fit && fit->velocities)
+      for (size_t k = 0; k < fit->dofs.size(); ++k) {
+        const double x = fit->Kv(static_cast<Eigen::Index>(k), d);
+        sd.tv[fit->dofs[k]] = x;
+        if (x != 0.0) sd.tv_nz.push_back(fit->dofs[k]);
+      }
     velocity_column(sys, ws, sd, v, na + nq + a, nq + a, sd.Sv[a]);
   }
 }

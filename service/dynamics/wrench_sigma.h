@@ -62,15 +62,26 @@
 namespace coopdyn {
 
 // Estimate mode: the coordinates of a measured state that were fitted from the others (state_fit.h),
-// set again from a perturbed measurement (state_fit_sigma.h).
+// their first-order response to the measured ones, and a refit at a perturbed measurement
+// (state_fit_sigma.h).
+struct FitResponse {
+  std::vector<int> dofs;  // (n_fit) velocity indices of the fitted coordinates
+  bool positions = false, velocities = false;  // what the evaluated state had fitted
+  Eigen::MatrixXd Kq;  // (n_fit x nv) positions: the fitted coordinates' tangent change per unit
+                       // change of each measured position (zero columns at the fitted DOFs)
+  Eigen::MatrixXd Kv;  // (n_fit x nv) velocities: the fitted velocities' change per unit change of
+                       // each measured velocity (zero columns at the fitted DOFs)
+  Eigen::MatrixXd Pv;  // (n_fit x rows) velocities: the fitted velocities change by -Pv c for a change
+                       // c of the constraint rows' velocity G v (a position change at fixed v)
+};
 struct StateRefit {
   virtual ~StateRefit() = default;
-  // (q, v): the evaluated state with one measured coordinate moved (a position when q_moved, else a
-  // velocity); sets the fitted ones from it
-  virtual void refit(Eigen::VectorXd& q, Eigen::VectorXd& v, bool q_moved) = 0;
-  // dv: a change of the measured velocities at the evaluated state, G (rows x nv) the constraint
-  // rows' Jacobian there; sets the fitted velocities' change with it (the velocity fit is linear)
-  virtual void refit_velocity_change(const Eigen::MatrixXd& G, Eigen::VectorXd& dv) = 0;
+  // (q, v): the evaluated state with one measured position moved; sets the fitted coordinates
+  // from it (the columns that are differences)
+  virtual void refit(Eigen::VectorXd& q, Eigen::VectorXd& v) = 0;
+  // The response at the evaluated state, G (rows x nv) its constraint rows' Jacobian there;
+  // nullptr when nothing was fitted
+  virtual const FitResponse* linearize(const Eigen::MatrixXd& G) = 0;
 };
 
 // The scene declares noise (torque, or joint position or velocity) on some DOF and its formulation
