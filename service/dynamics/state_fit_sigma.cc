@@ -7,7 +7,6 @@ FitRefit::FitRefit(const System& sys, const StateFitPlan& plan)
       dx0_(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(plan.fit_v.size()))), dx_(dx0_),
       dv_(Eigen::VectorXd::Zero(sys.model.nv())), q_try_(sys.q0) {
   const Eigen::Index nu = static_cast<Eigen::Index>(plan.fit_v.size()), nv = sys.model.nv();
-  response_.dofs = plan.fit_v;
   response_.Kq.setZero(nu, nv);
   response_.Kv.setZero(nu, nv);
   response_.Pv.setZero(nu, sys.constraints.rows);
