@@ -505,10 +505,12 @@ void fitted_velocity_tangents(const System& sys, const Workspace& ws, WrenchSigm
 }
 
 // K's first nq + nv columns: the fitted coordinates' first-order change per column (a position
-// column that is a difference refits them itself: zero). A measured position moves the fitted pose
+// column that is a difference refits them itself: zero; positions: the fitted positions' tangents
+// were computed). A measured position moves the fitted pose
 // by Kq, and with it the rows' velocity G v (its own tangent's and the pose's, Gv); the velocity fit
 // answers that change with -Pv; a measured velocity moves the fitted twist by Kv.
-void fitted_weights(WrenchSigmaData& sd, const FitResponse& fit, int nq, const std::vector<char>& tangent) {
+void fitted_weights(WrenchSigmaData& sd, const FitResponse& fit, int nq, const std::vector<char>& tangent,
+                    bool positions) {
   const int nf = static_cast<int>(sd.float_dofs.size()), nv = static_cast<int>(sd.v_dofs.size());
   const int nq_all = static_cast<int>(sd.q_dofs.size());
   sd.K.leftCols(nq + nv).setZero();
@@ -517,10 +519,10 @@ void fitted_weights(WrenchSigmaData& sd, const FitResponse& fit, int nq, const s
       sd.Gv.col(a).setZero();
       continue;
     }
-    if (fit.positions) sd.K.col(a).head(nf) = fit.Kq.col(sd.q_dofs[static_cast<size_t>(a)]) * sd.Sq[a];
+    if (positions) sd.K.col(a).head(nf) = fit.Kq.col(sd.q_dofs[static_cast<size_t>(a)]) * sd.Sq[a];
   }
   if (!fit.velocities) return;
-  if (fit.positions) sd.Gv.leftCols(nq).noalias() += sd.Gv.middleCols(nq_all, nf) * sd.K.topLeftCorner(nf, nq);
+  if (positions) sd.Gv.leftCols(nq).noalias() += sd.Gv.middleCols(nq_all, nf) * sd.K.topLeftCorner(nf, nq);
   sd.K.bottomLeftCorner(nf, nq).noalias() = -fit.Pv * sd.Gv.leftCols(nq);
   for (int a = 0; a < nq; ++a)
     if (!tangent[static_cast<size_t>(a)]) sd.K.col(a).tail(nf).setZero();
@@ -556,8 +558,10 @@ void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
     tangent[static_cast<size_t>(a)] = carried && sd.qt_tangent[static_cast<size_t>(a)];
     (tangent[static_cast<size_t>(a)] ? any_tangent : any_difference) = true;
   }
-  if (any_tangent || (fit && carried && fit->positions)) position_tangent_setup(sys, ws, sd);
-  if (fit && carried) fitted_position_tangents(sys, ws, sd, v, *fit);
+  // the floating joints' position tangents: only for position columns (none when over-constrained)
+  const bool fitted_positions = fit && carried && fit->positions && any_tangent;
+  if (any_tangent) position_tangent_setup(sys, ws, sd);
+  if (fitted_positions) fitted_position_tangents(sys, ws, sd, v, *fit);
   if (any_difference) {
     sd.qp = q;
     sd.vp = v;
@@ -597,7 +601,7 @@ void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
     velocity_column(sys, ws, sd, v, na + nq + a, nq + a, sd.Sv[a]);
   }
   if (!fit) return;
-  fitted_weights(sd, *fit, nq, tangent);
+  fitted_weights(sd, *fit, nq, tangent, fitted_positions);
   add_fitted(sd, na, nq + nv);
 }
 
