@@ -5,8 +5,9 @@
 // `noise: {tau: 0.1, q: 1e-4, v: 1e-3}` on every actuated / measured joint), interleaved in one process (a shared machine's load drifts
 // between separate runs): per repetition a block of evaluate() calls, then compute_wrenches(), then
 // compute_wrench_sigma() with the torque noise (simulate mode), then with the torque, position and
-// velocity noise (estimate mode), then the same with the load's pose and twist refitted per column
-// (state_fit_sigma.h: estimate mode when a state omits them; scenes with a load), each block ~0.3 ms; printed per scene: the medians over REPS
+// velocity noise (estimate mode), then the same with the load's pose and twist refitted (their response
+// carried in every column, state_fit_sigma.h: estimate mode when a state omits them; scenes with a
+// load, at the initial state), each block ~0.3 ms; printed per scene: the medians over REPS
 // (default 31) repetitions of each per-call time and of the ratios sigma / evaluate within one
 // repetition. q_us and v_us: estimate mode with the torque noise and only the position (only the
 // velocity) noise declared, what each kind of measurement-noise column adds to sigma_us. Goal: the sigma of every reported wrench under 25 % of an evaluation.

@@ -105,6 +105,8 @@ StateFitWorkspace::StateFitWorkspace(const System& sys, const StateFitPlan& plan
   x.setZero(nu);
   dv.setZero(sys.model.nv());
   q_try = sys.q0;
+  Pq.setZero(nu, rows);
+  Pv.setZero(nu, rows);
 }
 
 void closure_residual(const ConstraintSet& set, const StateFitPlan& plan, const ConstraintData& cd, Closure* out) {
@@ -201,14 +203,61 @@ void solve_fitted_velocities(const StateFitPlan& plan, StateFitWorkspace& ws, co
   for (int k = 0; k < nu; ++k) v[plan.fit_v[k]] = -ws.x[k];
 }
 
+// P's first `rows` columns = (A^T A)^+ A^T for A = ws.Gu's first rows: least_squares' factorization
+// (Cholesky when well conditioned, else the Jacobi pseudo-inverse), every right-hand side at once
+void pseudo_inverse(StateFitWorkspace& ws, int rows, Eigen::MatrixXd& P) {
+  const int nu = static_cast<int>(ws.N.rows());
+  const auto A = ws.Gu.topRows(rows);
+  auto X = P.leftCols(rows);
+  ws.N.noalias() = A.transpose() * A;
+  X = A.transpose();
+  ws.llt.compute(ws.N);
+  if (ws.llt.info() == Eigen::Success) {
+    const auto d = ws.llt.matrixLLT().diagonal();
+    const double dmin = d.minCoeff(), dmax = d.maxCoeff();
+    if (dmin > 0 && dmin * dmin > 1e-10 * dmax * dmax) {
+      ws.llt.solveInPlace(X);
+      return;
+    }
+  }
+  ws.N.noalias() = A.transpose() * A;
+  jacobi_eigen(ws.N, ws.w, ws.V);
+  const double wmax = nu ? std::max(ws.w[nu - 1], 0.0) : 0.0;
+  for (int i = 0; i < nu; ++i) ws.b[i] = wmax > 0 && ws.w[i] > 1e-12 * wmax ? 1.0 / ws.w[i] : 0.0;
+  for (int i = 0; i < nu; ++i)  // N = V diag(b) V^T, the pseudo-inverse of A^T A
+    for (int j = 0; j < nu; ++j) {
+      double s = 0.0;
+      for (int k = 0; k < nu; ++k) s += ws.V(i, k) * ws.b[k] * ws.V(j, k);
+      ws.N(i, j) = s;
+    }
+  X.noalias() = ws.N * A.transpose();
+}
+
 }  // namespace
 
-void fit_velocity_change(const StateFitPlan& plan, StateFitWorkspace& ws, const Eigen::MatrixXd& G, Eigen::VectorXd& dv) {
-  const int rows = static_cast<int>(G.rows());
-  if (plan.fit_v.empty()) return;
-  for (int d : plan.fit_v) dv[d] = 0.0;
-  ws.r.head(rows).noalias() = G * dv;
-  solve_fitted_velocities(plan, ws, G, rows, dv);
+void fit_operators(const StateFitPlan& plan, StateFitWorkspace& ws, const Eigen::MatrixXd& G, bool positions,
+                   bool velocities) {
+  const int nu = static_cast<int>(plan.fit_v.size()), rows = static_cast<int>(G.rows());
+  if (nu == 0) return;
+  if (positions) {
+    for (int r = 0, h = 0; r < rows; ++r)
+      if (plan.holonomic[r]) {
+        for (int k = 0; k < nu; ++k) ws.Gu(h, k) = G(r, plan.fit_v[k]);
+        ++h;
+      }
+    pseudo_inverse(ws, ws.n_hol, ws.Pq);
+    // the holonomic rows' columns to their row indices (descending: a column is read before it
+    // is overwritten, its index h <= r)
+    for (int r = rows - 1, h = ws.n_hol - 1; r >= 0; --r) {
+      if (plan.holonomic[r]) ws.Pq.col(r) = ws.Pq.col(h--);
+      else ws.Pq.col(r).setZero();
+    }
+  }
+  if (velocities) {
+    for (int r = 0; r < rows; ++r)
+      for (int k = 0; k < nu; ++k) ws.Gu(r, k) = G(r, plan.fit_v[k]);
+    pseudo_inverse(ws, rows, ws.Pv);
+  }
 }
 
 const Closure& fit_state(const System& sys, const StateFitPlan& plan, StateFitWorkspace& ws, bool fit_q, bool fit_v,

@@ -89,6 +89,7 @@ struct StateFitWorkspace {
   Eigen::VectorXd w, b, x;  // (n_fit)
   Eigen::VectorXd dv;       // (nv) tangent step
   Eigen::VectorXd q_try;    // (nq)
+  Eigen::MatrixXd Pq, Pv;   // (n_fit x rows) the fits' operators (fit_operators)
   Closure closure;
 };
 
@@ -105,11 +106,19 @@ const Closure& fit_state(const System& sys, const StateFitPlan& plan, StateFitWo
 void fit_position_step(const System& sys, const StateFitPlan& plan, StateFitWorkspace& ws, const Eigen::VectorXd& q,
                        const Eigen::VectorXd& v, Eigen::VectorXd* dx);
 
-// The velocity fit's response to a change dv of the measured velocities (dv's fitted entries are
-// ignored on input and set): -(G_u^T G_u)^+ G_u^T (G dv), G (rows x nv) the constraint rows'
-// Jacobian at the configuration (the fit is linear and homogeneous in the measured velocities, so
-// this is fit_state's velocity fit of dv, without its kinematics). Allocation-free.
-void fit_velocity_change(const StateFitPlan& plan, StateFitWorkspace& ws, const Eigen::MatrixXd& G, Eigen::VectorXd& dv);
+// The fits' linear operators at a configuration, G (rows x nv) the constraint rows' Jacobian there:
+// one factorization of each least squares (Cholesky or the rank-safe pseudo-inverse, as the fit),
+// every right-hand side at once.
+//   Pq = (G_u^T G_u)^+ G_u^T over the holonomic rows (zero columns at the others), when positions:
+//        a change c of the holonomic rows' position error moves the fitted coordinates by the
+//        tangent step -Pq c, so a measured position change dq moves them by -Pq G dq to first
+//        order (the position fit's response; its terms in the closure residual left over are
+//        second order, residual times dq, and dropped);
+//   Pv = the same over all rows, when velocities: the fitted velocities are -Pv (G_m v_m) (the
+//        velocity fit, exactly linear), so a change c of the rows' velocity G v moves them by -Pv c.
+// Allocation-free.
+void fit_operators(const StateFitPlan& plan, StateFitWorkspace& ws, const Eigen::MatrixXd& G, bool positions,
+                   bool velocities);
 
 // The closure residual of cd (constraint_rows at the state), rows classified by plan.
 void closure_residual(const ConstraintSet& set, const StateFitPlan& plan, const ConstraintData& cd, Closure* out);

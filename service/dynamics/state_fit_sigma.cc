@@ -5,18 +5,25 @@ namespace coopdyn {
 FitRefit::FitRefit(const System& sys, const StateFitPlan& plan)
     : sys_(sys), plan_(plan), fws_(sys, plan), start_(sys.q0), v0_(Eigen::VectorXd::Zero(sys.model.nv())),
       dx0_(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(plan.fit_v.size()))), dx_(dx0_),
-      dv_(Eigen::VectorXd::Zero(sys.model.nv())), q_try_(sys.q0) {}
+      dv_(Eigen::VectorXd::Zero(sys.model.nv())), q_try_(sys.q0) {
+  const Eigen::Index nu = static_cast<Eigen::Index>(plan.fit_v.size()), nv = sys.model.nv();
+  response_.Kq.setZero(nu, nv);
+  response_.Kv.setZero(nu, nv);
+  response_.Pv.setZero(nu, sys.constraints.rows);
+}
 
 void FitRefit::set(const Eigen::VectorXd& q, bool fit_q, bool fit_v) {
   start_ = q;
   fit_q_ = fit_q && plan_.q_fittable;
   fit_v_ = fit_v && plan_.v_fittable;
-  if (fit_q_ && !plan_.fit_v.empty()) fit_position_step(sys_, plan_, fws_, start_, v0_, &dx0_);
+  have_dx0_ = false;
 }
 
-void FitRefit::refit(Eigen::VectorXd& q, Eigen::VectorXd& v, bool q_moved) {
+void FitRefit::refit(Eigen::VectorXd& q, Eigen::VectorXd& v) {
   if (!active()) return;
-  if (q_moved && fit_q_) {
+  if (fit_q_) {
+    if (!have_dx0_) fit_position_step(sys_, plan_, fws_, start_, v0_, &dx0_);
+    have_dx0_ = true;
     for (int i : plan_.fit_q) q[i] = start_[i];
     fit_position_step(sys_, plan_, fws_, q, v0_, &dx_);
     dv_.setZero();
@@ -28,8 +35,21 @@ void FitRefit::refit(Eigen::VectorXd& q, Eigen::VectorXd& v, bool q_moved) {
   if (fit_v_) fit_state(sys_, plan_, fws_, false, true, q, v);
 }
 
-void FitRefit::refit_velocity_change(const Eigen::MatrixXd& G, Eigen::VectorXd& dv) {
-  if (active() && fit_v_) fit_velocity_change(plan_, fws_, G, dv);
+const FitResponse* FitRefit::linearize(const Eigen::MatrixXd& G) {
+  if (!active()) return nullptr;
+  fit_operators(plan_, fws_, G, fit_q_, fit_v_);
+  response_.positions = fit_q_;
+  response_.velocities = fit_v_;
+  if (fit_q_) response_.Kq.noalias() = -fws_.Pq * G;
+  if (fit_v_) {
+    response_.Kv.noalias() = -fws_.Pv * G;
+    response_.Pv = fws_.Pv;
+  }
+  for (size_t k = 0; k < plan_.fit_v.size(); ++k) {  // a fitted coordinate is not a measured one
+    response_.Kq.col(plan_.fit_v[k]).setZero();
+    response_.Kv.col(plan_.fit_v[k]).setZero();
+  }
+  return &response_;
 }
 
 }  // namespace coopdyn

@@ -46,15 +46,23 @@ WrenchSigmaData::WrenchSigmaData(const System& sys) {
   for (int j = 0; j < nq; ++j) Sq[j] = sys.q_noise[q_dofs[static_cast<size_t>(j)]];
   for (int j = 0; j < nv; ++j) Sv[j] = sys.v_noise[v_dofs[static_cast<size_t>(j)]];
   const int nc = std::max(1, na + nq + nv);
+  if (nq + nv > 0)  // a refit fits the floating joints (state_fit.h): their tangents are columns too
+    for (const Body& b : model.bodies)
+      if (b.joint.type == JointType::kFloating)
+        for (int k = 0; k < b.joint.nv; ++k) float_dofs.push_back(b.joint.idx_v + k);
+  const int nf = static_cast<int>(float_dofs.size());
   sigma.assign(no, Vec6::Zero());
   C.setZero(6 * static_cast<Eigen::Index>(no), nc);
-  Cd.setZero(6 * static_cast<Eigen::Index>(no), std::max(1, nq + nv));
+  Cd.setZero(6 * static_cast<Eigen::Index>(no), std::max(1, nq + nv) + 2 * nf);
   X.setZero(n, nc);
-  X0.setZero(n, nc);
+  X0.setZero(n, nc + 2 * nf);
   Lam.setZero(m, nc);
   Lam_prev.setZero(m, nc);
   Rhs.setZero(m, nc);
-  Gm.setZero(m, nc);
+  Gm.setZero(m, nc + 2 * nf);
+  Gv.setZero(m, nq + nf);
+  t_column.assign(static_cast<size_t>(nq), 0);
+  K.setZero(2 * nf, nq + nv);
   A.setZero(6 * static_cast<Eigen::Index>(nb), nc);
   Rb.setZero(6 * static_cast<Eigen::Index>(nb), nc);
   Acc.setZero(6 * static_cast<Eigen::Index>(nb), nc);
@@ -475,20 +483,99 @@ void residual(const System& sys, const Workspace& ws, WrenchSigmaData& sd, const
   compute_wrenches(sys, wp, wd);
 }
 
+// A refit (state_fit_sigma.h) whose fitted coordinates the tangents carry: positions not fitted,
+// or each floating-joint DOF a tangent (wrench_sigma_position.h). No refit: nothing to carry.
+bool fit_carried(const WrenchSigmaData& sd, const FitResponse* fit) {
+  if (!fit) return true;
+  const size_t nq = sd.q_dofs.size();
+  for (size_t k = 0; fit->positions && k < sd.float_dofs.size(); ++k)
+    if (!sd.qt_tangent[nq + k]) return false;
+  return true;
+}
+
+// The floating joints' tangents per unit, in the last 2 nf columns of X0, Gm and Cd: their
+// position tangents when positions were fitted (and in Gv's last nf columns their G v change when
+// velocities were), then their velocity tangents when velocities were. Position tangents first:
+// the velocity tangents' pass leaves its bodies' marks (wrench_sigma_velocity.h).
+void fitted_position_tangents(const System& sys, const Workspace& ws, WrenchSigmaData& sd, const Eigen::VectorXd& v,
+                              const FitResponse& fit) {
+  const int nf = static_cast<int>(sd.float_dofs.size()), nq = static_cast<int>(sd.q_dofs.size());
+  const int c0 = static_cast<int>(sd.X0.cols()) - 2 * nf, d0 = static_cast<int>(sd.Cd.cols()) - 2 * nf;
+  if (!fit.positions) return;
+  for (int k = 0; k < nf; ++k) position_column(sys, ws, sd, v, nq + k, c0 + k, d0 + k, fit.velocities ? nq + k : -1, 1.0);
+}
+void fitted_velocity_tangents(const System& sys, const Workspace& ws, WrenchSigmaData& sd, const Eigen::VectorXd& v,
+                              const FitResponse& fit) {
+  const int nf = static_cast<int>(sd.float_dofs.size());
+  const int c0 = static_cast<int>(sd.X0.cols()) - 2 * nf, d0 = static_cast<int>(sd.Cd.cols()) - 2 * nf;
+  if (!fit.velocities) return;
+  for (int k = 0; k < nf; ++k) {
+    const int d = sd.float_dofs[static_cast<size_t>(k)];
+    sd.tv.setZero();
+    sd.tv[d] = 1.0;
+    sd.tv_nz.assign(1, d);
+    velocity_column(sys, ws, sd, v, c0 + nf + k, d0 + nf + k, 1.0);
+  }
+}
+
+// K's first nq + nv columns: the fitted coordinates' first-order change per column (a position
+// column that is a difference refits them itself: zero; positions: the fitted positions' tangents
+// were computed). A measured position moves the fitted pose
+// by Kq, and with it the rows' velocity G v (its own tangent's and the pose's, Gv); the velocity fit
+// answers that change with -Pv; a measured velocity moves the fitted twist by Kv.
+void fitted_weights(WrenchSigmaData& sd, const FitResponse& fit, int nq, const std::vector<char>& tangent,
+                    bool positions) {
+  const int nf = static_cast<int>(sd.float_dofs.size()), nv = static_cast<int>(sd.v_dofs.size());
+  const int nq_all = static_cast<int>(sd.q_dofs.size());
+  sd.K.leftCols(nq + nv).setZero();
+  for (int a = 0; a < nq; ++a) {
+    if (!tangent[static_cast<size_t>(a)]) {
+      sd.Gv.col(a).setZero();
+      continue;
+    }
+    if (positions) sd.K.col(a).head(nf) = fit.Kq.col(sd.q_dofs[static_cast<size_t>(a)]) * sd.Sq[a];
+  }
+  if (!fit.velocities) return;
+  if (positions) sd.Gv.leftCols(nq).noalias() += sd.Gv.middleCols(nq_all, nf) * sd.K.topLeftCorner(nf, nq);
+  sd.K.bottomLeftCorner(nf, nq).noalias() = -fit.Pv * sd.Gv.leftCols(nq);
+  for (int a = 0; a < nq; ++a)
+    if (!tangent[static_cast<size_t>(a)]) sd.K.col(a).tail(nf).setZero();
+  for (int a = 0; a < nv; ++a) sd.K.col(nq + a).tail(nf) = fit.Kv.col(sd.v_dofs[static_cast<size_t>(a)]) * sd.Sv[a];
+}
+
+// The columns na.. of X0 and Gm and 0.. of Cd plus the floating joints' tangents weighted by K
+void add_fitted(WrenchSigmaData& sd, int na, int n) {
+  const Eigen::Index nf2 = sd.K.rows();
+  const auto K = sd.K.leftCols(n);
+  sd.X0.middleCols(na, n).noalias() += sd.X0.rightCols(nf2) * K;
+  sd.Gm.middleCols(na, n).noalias() += sd.Gm.rightCols(nf2) * K;
+  sd.Cd.leftCols(n).noalias() += sd.Cd.rightCols(nf2) * K;
+}
+
 // Columns na.. of X0 and Gm (the residuals' change per one standard deviation of each measured
 // coordinate) and of Cd (the wrenches' own change at fixed vdot, lambda). Positions: the tangent
-// along the joint's motion (wrench_sigma_position.h), else forward differences. Velocities: the tangent of the velocity recursion (wrench_sigma_velocity.h), along
-// the unit change of the joint's velocity and, with a refit, the fitted velocities' change (the
-// velocity fit is linear in the measured velocities: fit_velocity_change of state_fit.h).
+// along the joint's motion (wrench_sigma_position.h), else forward differences. Velocities: the
+// tangent of the velocity recursion (wrench_sigma_velocity.h) along the joint's velocity. With a
+// refit, each column adds the fitted coordinates' response (fitted_weights) through the floating
+// joints' tangents, or (a position column whose tangents do not apply) is a difference of the
+// refitted state.
 void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, const Eigen::VectorXd& q,
                    const Eigen::VectorXd& v, const Eigen::VectorXd& tau, int nq) {
   constexpr double h = 1e-7;  // rad, m
-  const int na = static_cast<int>(sd.dofs.size());
+  const int na = static_cast<int>(sd.dofs.size()), nv = static_cast<int>(sd.v_dofs.size());
   const size_t no = sys.wrenches.outputs.size();
-  auto tangent = [&](int a) { return !sd.refit && sd.qt_tangent[static_cast<size_t>(a)]; };
+  const FitResponse* fit = sd.refit ? sd.refit->linearize(ws.cd.G) : nullptr;
+  const bool carried = fit_carried(sd, fit);
+  std::vector<char>& tangent = sd.t_column;
   bool any_tangent = false, any_difference = false;
-  for (int a = 0; a < nq; ++a) (tangent(a) ? any_tangent : any_difference) = true;
+  for (int a = 0; a < nq; ++a) {
+    tangent[static_cast<size_t>(a)] = carried && sd.qt_tangent[static_cast<size_t>(a)];
+    (tangent[static_cast<size_t>(a)] ? any_tangent : any_difference) = true;
+  }
+  // the floating joints' position tangents: only for position columns (none when over-constrained)
+  const bool fitted_positions = fit && carried && fit->positions && any_tangent;
   if (any_tangent) position_tangent_setup(sys, ws, sd);
+  if (fitted_positions) fitted_position_tangents(sys, ws, sd, v, *fit);
   if (any_difference) {
     sd.qp = q;
     sd.vp = v;
@@ -502,37 +589,34 @@ void state_columns(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
         sd.Cd(6 * static_cast<Eigen::Index>(k) + c, j) = (sd.wd1->W[k][c] - sd.wd0->W[k][c]) * scale;
   };
   for (int a = 0; a < nq; ++a) {
-    if (tangent(a)) {
-      position_column(sys, ws, sd, v, a, na + a, a, sd.Sq[a]);
+    if (tangent[static_cast<size_t>(a)]) {
+      position_column(sys, ws, sd, v, a, na + a, a, fit && fit->velocities ? a : -1, sd.Sq[a]);
       continue;
     }
     // without a refit only the joint's subtree moves: its kinematics alone are redone, and
     // undone after the column
     const int iq = sd.q_index[static_cast<size_t>(a)];
-    const int root = sd.refit ? -1 : sys.model.dof_body[sd.q_dofs[static_cast<size_t>(a)]];
+    const int root = fit ? -1 : sys.model.dof_body[sd.q_dofs[static_cast<size_t>(a)]];
     sd.qp[iq] = q[iq] + h;
-    if (sd.refit) sd.refit->refit(sd.qp, sd.vp, true);
+    if (fit) sd.refit->refit(sd.qp, sd.vp);
     residual(sys, ws, sd, v, tau, sd.r_tau, sd.r_g, *sd.wd1, root);
     sd.qp = q;
     sd.vp = v;
     if (root >= 0) forward_kinematics_subtree(sys.model, sd.wp->data, q, v, root);
     column(a, sd.Sq[a] / h);
   }
-  if (sd.v_dofs.empty()) return;
-  velocity_tangent_setup(sys, ws, sd);
-  for (int a = 0; a < static_cast<int>(sd.v_dofs.size()); ++a) {
+  if (nv > 0 || (fit && fit->velocities)) velocity_tangent_setup(sys, ws, sd);
+  if (fit) fitted_velocity_tangents(sys, ws, sd, v, *fit);
+  for (int a = 0; a < nv; ++a) {
     const int d = sd.v_dofs[static_cast<size_t>(a)];
     sd.tv.setZero();
     sd.tv[d] = 1.0;
     sd.tv_nz.assign(1, d);
-    if (sd.refit) {
-      sd.refit->refit_velocity_change(ws.cd.G, sd.tv);
-      sd.tv_nz.clear();
-      for (int i = 0; i < sd.tv.size(); ++i)
-        if (sd.tv[i] != 0.0) sd.tv_nz.push_back(i);
-    }
     velocity_column(sys, ws, sd, v, na + nq + a, nq + a, sd.Sv[a]);
   }
+  if (!fit) return;
+  fitted_weights(sd, *fit, nq, tangent, fitted_positions);
+  add_fitted(sd, na, nq + nv);
 }
 
 // valid: noise declared and an evaluation that succeeded

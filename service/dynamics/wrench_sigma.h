@@ -21,8 +21,8 @@
 // columns: exact tangents too (wrench_sigma_position.h: a joint's motion carries its subtree as one
 // rigid body; the inverse dynamics, the welds' rows and the reactions change over that subtree and
 // its path to the root only), equal to five-point central differences to round-off. Where that
-// does not hold (a refit per column, the first body's joint, a rolling contact in the subtree, a
-// weld in it under Baumgarte position feedback) a column is a directional difference of the
+// does not hold (the first body's 1-DOF joint, a rolling contact in the subtree, a weld in it under
+// Baumgarte position feedback) a column is a directional difference of the
 // residual (kinematics of the joint's subtree, inverse dynamics, constraint rows and the wrench
 // pass, no factorization) with a forward step h = 1e-7 (rad, m), truncation error O(h). The
 // linearization error is second order in the noise (a wrench's curvature in q times S_q^2);
@@ -30,7 +30,10 @@
 // relative above 1) on the shipped scenes
 // (tests/dynamics/wrench_sigma_test.cc). A load pose and twist fitted from the
 // joints (state_fit.h) are held unless WrenchSigmaData::refit is set (state_fit_sigma.h): then each
-// column refits them at the perturbed measurement, as the estimator does. Joint friction is held at the evaluation's (set-valued at rest, its sign constant
+// column adds their first-order response to the measured coordinate (the fit's, from one
+// factorization), through the floating joints' own position and velocity tangents (computed once
+// per evaluation, per unit); where a floating joint's position tangent does not apply, the position
+// columns are differences of the refitted state. Joint friction is held at the evaluation's (set-valued at rest, its sign constant
 // while sliding); damping follows v.
 //
 // All columns (torque, then q, then v) are propagated together: one pass of each factor over a
@@ -62,15 +65,27 @@
 namespace coopdyn {
 
 // Estimate mode: the coordinates of a measured state that were fitted from the others (state_fit.h),
-// set again from a perturbed measurement (state_fit_sigma.h).
+// their first-order response to the measured ones, and a refit at a perturbed measurement
+// (state_fit_sigma.h).
+// The fitted coordinates are the floating joints' (plan_state_fit), n_fit = their DOFs, in the
+// model's order (WrenchSigmaData::float_dofs).
+struct FitResponse {
+  bool positions = false, velocities = false;  // what the evaluated state had fitted
+  Eigen::MatrixXd Kq;  // (n_fit x nv) positions: the fitted coordinates' tangent change per unit
+                       // change of each measured position (zero columns at the fitted DOFs)
+  Eigen::MatrixXd Kv;  // (n_fit x nv) velocities: the fitted velocities' change per unit change of
+                       // each measured velocity (zero columns at the fitted DOFs)
+  Eigen::MatrixXd Pv;  // (n_fit x rows) velocities: the fitted velocities change by -Pv c for a change
+                       // c of the constraint rows' velocity G v (a position change at fixed v)
+};
 struct StateRefit {
   virtual ~StateRefit() = default;
-  // (q, v): the evaluated state with one measured coordinate moved (a position when q_moved, else a
-  // velocity); sets the fitted ones from it
-  virtual void refit(Eigen::VectorXd& q, Eigen::VectorXd& v, bool q_moved) = 0;
-  // dv: a change of the measured velocities at the evaluated state, G (rows x nv) the constraint
-  // rows' Jacobian there; sets the fitted velocities' change with it (the velocity fit is linear)
-  virtual void refit_velocity_change(const Eigen::MatrixXd& G, Eigen::VectorXd& dv) = 0;
+  // (q, v): the evaluated state with one measured position moved; sets the fitted coordinates
+  // from it (the columns that are differences)
+  virtual void refit(Eigen::VectorXd& q, Eigen::VectorXd& v) = 0;
+  // The response at the evaluated state, G (rows x nv) its constraint rows' Jacobian there;
+  // nullptr when nothing was fitted
+  virtual const FitResponse* linearize(const Eigen::MatrixXd& G) = 0;
 };
 
 // The scene declares noise (torque, or joint position or velocity) on some DOF and its formulation
@@ -101,7 +116,8 @@ struct WrenchSigmaData {
   RowMat C;  // (6 outputs x (na + nq + nv))
   RowMat Cd;  // (6 outputs x (nq + nv)) the wrenches' own change at fixed vdot, lambda (scratch)
 
-  // scratch (columns: every noise source)
+  // scratch (columns: every noise source; X0, Gm and Cd then 2 nf more with measurement noise:
+  // the floating joints' position tangents, then their velocity tangents, per unit, for a refit)
   RowMat X, X0, Lam, Lam_prev, Rhs, Gm;  // (nv), (nv), (rows), (rows), (rows), (rows) x columns
   RowMat A, Rb, Acc;                     // (6 bodies x columns): accelerations, reactions, subtree sums
   RowMat dF;                             // (6 pass specs x columns)
@@ -130,18 +146,28 @@ struct WrenchSigmaData {
   Eigen::VectorXd tGdot;              // (rows) the change of Gdot v
   std::vector<double> trr;            // per spec: the change of a rolling spec's rr_arm
 
-  // measurement noise, position columns: the tangent along a joint's motion (wrench_sigma_position.h)
-  std::vector<char> qt_tangent;                  // (q_dofs) the column is a tangent (else a difference)
-  std::vector<std::vector<int>> qt_bodies;       // (q_dofs) the joint's subtree, ascending
-  std::vector<std::vector<int>> qt_path;         // (q_dofs) the DOFs above the joint
-  std::vector<std::vector<int>> qt_specs;        // (q_dofs) the welds, couplings and locks it moves
-  std::vector<std::vector<int>> qt_outputs;      // (q_dofs) the reactions it moves
+  // measurement noise, position columns: the tangent along a joint's motion (wrench_sigma_position.h),
+  // per q_dofs entry, then per floating-joint DOF (float_dofs: the coordinates a refit fits)
+  std::vector<int> float_dofs;                   // (nf) the floating joints' velocity indices
+  std::vector<int> qt_dof;                       // (q_dofs + nf) the DOF the tangent moves
+  std::vector<char> qt_tangent;                  // (q_dofs + nf) the column is a tangent (else a difference)
+  std::vector<std::vector<int>> qt_bodies;       // (q_dofs + nf) the joint's subtree, ascending
+  std::vector<std::vector<int>> qt_path;         // (q_dofs + nf) the DOFs above the joint
+  std::vector<std::vector<int>> qt_specs;        // (q_dofs + nf) the welds, couplings and locks it moves
+  std::vector<std::vector<int>> qt_outputs;      // (q_dofs + nf) the reactions it moves
   std::vector<std::vector<signed char>> qt_side;  // per weld, per support DOF: +1 it moves frame A,
                                                   // -1 frame B, 0 both (G's column is X_A^-1 S_k times it)
   std::vector<RigidInertia> I_own;               // per body: its own inertia (world, at p_ref)
   std::vector<Vec6> pa, pAt, pP, pF;             // per body: vdot-linear and total acceleration,
                                                  // momentum, subtree sum of the body forces
   std::vector<Vec6> pFs;                         // per spec (welds, rolling): its force (spec_force)
+
+  // measurement noise with a refit (state_fit_sigma.h): the fitted coordinates' part of each column
+  Eigen::MatrixXd Gv;  // (rows x (q_dofs + nf)) the change of the constraint rows' velocity G v at
+                       // fixed v along each position tangent
+  std::vector<char> t_column;  // (q_dofs) the last compute's position column was a tangent
+  Eigen::MatrixXd K;   // (2 nf x (q_dofs + v_dofs)) per column: the fitted positions' tangent change,
+                       // then the fitted velocities' change (the weights of the floating tangents)
 };
 
 // Torque noise only (simulate mode: the state is exact). Fills sd.sigma and sd.C for the

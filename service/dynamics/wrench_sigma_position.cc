@@ -90,7 +90,7 @@ void carry_up(const Model& model, const Data& data, WrenchSigmaData& sd, const s
 
 // a weld's change: its generalized force in X0's column, its rows in Gm's (header)
 void weld_change(const System& sys, const Workspace& ws, WrenchSigmaData& sd, const Eigen::VectorXd& v, int s,
-                 const Vec6& delta, int col, double scale) {
+                 const Vec6& delta, int col, int gv_col, double scale) {
   const Model& model = sys.model;
   const ConstraintSet& cs = sys.constraints;
   const Data& data = ws.data;
@@ -125,6 +125,13 @@ void weld_change(const System& sys, const Workspace& ws, WrenchSigmaData& sd, co
     const int ax = cs.row_axis[static_cast<size_t>(s)][k];
     sd.Gm(r0 + k, col) = -scale * (dGdot[ax] + w[ax]);
   }
+  if (gv_col < 0) return;
+  // G v = X_A^-1 (V_a - V_b): its change at fixed v (frame A turns with delta when it moves)
+  Vec6 dv = Vec6::Zero();
+  if (Am) dv += sd.tV[A] - cross_motion(delta, Va - Vb);
+  if (Bm) dv -= sd.tV[B];
+  const Vec6 dGv = X_RA.inv_act(dv);
+  for (int k = 0; k < cs.row_count[static_cast<size_t>(s)]; ++k) sd.Gv(r0 + k, gv_col) = scale * dGv[cs.row_axis[static_cast<size_t>(s)][k]];
 }
 
 // a coupling's or lock's row: its position error moves with the joint (Baumgarte feedback only)
@@ -162,14 +169,32 @@ void reaction_changes(const System& sys, const Workspace& ws, WrenchSigmaData& s
 
 }  // namespace
 
+namespace {
+
+// entry a of the plan: the tangent along DOF `dof` of body b's joint, when it can be one
+void plan_column(const System& sys, WrenchSigmaData& sd, size_t a, int dof, int b) {
+  const Model& model = sys.model;
+  sd.qt_dof[a] = dof;
+  if (!plan_specs(sys, b, dof, sd.qt_specs[a])) return;
+  plan_outputs(sys, b, sd.qt_specs[a], sd.qt_outputs[a]);
+  for (int i = b; i < model.nbodies(); ++i)
+    if (model.is_ancestor(b, i)) sd.qt_bodies[a].push_back(i);
+  for (int d : model.support_dofs(b))
+    if (model.dof_body[d] != b) sd.qt_path[a].push_back(d);
+  sd.qt_tangent[a] = 1;
+}
+
+}  // namespace
+
 void position_tangent_plan(const System& sys, WrenchSigmaData& sd) {
   const Model& model = sys.model;
-  const size_t nq = sd.q_dofs.size();
-  sd.qt_tangent.assign(nq, 0);
-  sd.qt_bodies.assign(nq, {});
-  sd.qt_path.assign(nq, {});
-  sd.qt_specs.assign(nq, {});
-  sd.qt_outputs.assign(nq, {});
+  const size_t nq = sd.q_dofs.size(), n = nq + sd.float_dofs.size();
+  sd.qt_dof.assign(n, -1);
+  sd.qt_tangent.assign(n, 0);
+  sd.qt_bodies.assign(n, {});
+  sd.qt_path.assign(n, {});
+  sd.qt_specs.assign(n, {});
+  sd.qt_outputs.assign(n, {});
   const ConstraintSet& cs = sys.constraints;
   sd.qt_side.assign(cs.specs.size(), {});
   for (size_t s = 0; s < cs.specs.size(); ++s) {
@@ -184,15 +209,15 @@ void position_tangent_plan(const System& sys, WrenchSigmaData& sd) {
   for (size_t a = 0; a < nq; ++a) {
     const int dof = sd.q_dofs[a], b = model.dof_body[dof];
     const JointType t = model.bodies[b].joint.type;
+    sd.qt_dof[a] = dof;
     if (b == 0 || model.bodies[b].joint.nv != 1 || (t != JointType::kRevolute && t != JointType::kPrismatic)) continue;
-    if (!plan_specs(sys, b, dof, sd.qt_specs[a])) continue;
-    plan_outputs(sys, b, sd.qt_specs[a], sd.qt_outputs[a]);
-    for (int i = b; i < model.nbodies(); ++i)
-      if (model.is_ancestor(b, i)) sd.qt_bodies[a].push_back(i);
-    for (int d : model.support_dofs(b))
-      if (model.dof_body[d] != b) sd.qt_path[a].push_back(d);
-    sd.qt_tangent[a] = 1;
+    plan_column(sys, sd, a, dof, b);
   }
+  // a floating joint's DOF moves its body along its own (body-fixed) motion subspace column: the
+  // subtree is carried with the joint's other columns (the first body's included: every quantity
+  // is then carried about the evaluation's p_ref, and what the columns report is frame-free)
+  for (size_t k = 0; k < sd.float_dofs.size(); ++k)
+    plan_column(sys, sd, nq + k, sd.float_dofs[k], model.dof_body[sd.float_dofs[k]]);
 }
 
 void position_tangent_setup(const System& sys, const Workspace& ws, WrenchSigmaData& sd) {
@@ -220,21 +245,22 @@ void position_tangent_setup(const System& sys, const Workspace& ws, WrenchSigmaD
 }
 
 void position_column(const System& sys, const Workspace& ws, WrenchSigmaData& sd, const Eigen::VectorXd& v, int a,
-                     int col, int cd_col, double scale) {
+                     int col, int cd_col, int gv_col, double scale) {
   const Model& model = sys.model;
   const size_t ua = static_cast<size_t>(a);
-  const int dof = sd.q_dofs[ua];
+  const int dof = sd.qt_dof[ua];
   const std::vector<int>& bodies = sd.qt_bodies[ua];
   const int b = bodies.front();
   const Vec6 delta = ws.data.S_W.col(dof);
   sd.X0.col(col).setZero();
   sd.Gm.col(col).setZero();
   sd.Cd.col(cd_col).setZero();
+  if (gv_col >= 0) sd.Gv.col(gv_col).setZero();
   carry_down(model, ws.data, sd, bodies, delta, model.bodies[b].parent);
   carry_up(model, ws.data, sd, bodies, sd.qt_path[ua], delta, col, scale);  // X0's entries set, then added to
   for (int s : sd.qt_specs[ua]) {
     if (sys.constraints.specs[static_cast<size_t>(s)].kind == ConstraintKind::kWeld)
-      weld_change(sys, ws, sd, v, s, delta, col, scale);
+      weld_change(sys, ws, sd, v, s, delta, col, gv_col, scale);
     else
       error_change(sys.constraints, sd, s, dof, col, scale);
   }

@@ -21,8 +21,12 @@
 // a column costs the joint's subtree, not an evaluation. Exact (no step): equal to central
 // differences of the residuals in the limit of their step (tests/dynamics/wrench_sigma_position_test.cc).
 //
-// Not covered, the column then being a difference of the whole residual (wrench_sigma.cc): a state
-// refitted per column (state_fit_sigma.h), the first body's joint (it sets p_ref), a rolling
+// A floating joint's DOF (what a refit fits, state_fit_sigma.h) is a tangent the same way: its
+// motion subspace is body-fixed, so its own other columns are carried too; the first body's
+// floating joint included (every quantity carried about the evaluation's p_ref; the columns are
+// generalized forces, rows in frame A and wrenches in their report frames, free of it).
+// Not covered, the column then being a difference of the whole residual (wrench_sigma.cc): the
+// first body's 1-DOF joint (it sets p_ref; not tried as a tangent), a rolling
 // contact in the subtree (its contact frame is not carried: it turns with the wheel's tilt), a weld
 // in it under Baumgarte position feedback (its pose error's logarithm). Allocation-free; never throws.
 #pragma once
@@ -31,18 +35,20 @@
 
 namespace coopdyn {
 
-// At construction (topology only): per position column, whether it is a tangent and what it
-// visits (sd.qt_*).
+// At construction (topology only): per position column, then per floating-joint DOF (what a refit
+// fits), whether it is a tangent and what it visits (sd.qt_*).
 void position_tangent_plan(const System& sys, WrenchSigmaData& sd);
 
 // Per evaluation, before the columns: each body's own world inertia, vdot-linear and total
 // acceleration, momentum, body force and subtree sum, each weld's constraint force (sd.p*).
 void position_tangent_setup(const System& sys, const Workspace& ws, WrenchSigmaData& sd);
 
-// Column `col` of sd.X0 and sd.Gm and column `cd_col` of sd.Cd (as velocity_column) for position
-// column a (sd.q_dofs[a], sd.qt_tangent[a] set), times `scale`. ws: the evaluation at (q, v);
+// Column `col` of sd.X0 and sd.Gm and column `cd_col` of sd.Cd (as velocity_column) for the
+// tangent a of the plan (along sd.qt_dof[a], sd.qt_tangent[a] set), times `scale`; with gv_col >=
+// 0 also column gv_col of sd.Gv, the change of the constraint rows' velocity G v at fixed v (the
+// velocity fit's right-hand side, state_fit_sigma.h). ws: the evaluation at (q, v);
 // position_tangent_setup and batch_setup (sd.X_WF) done for it.
 void position_column(const System& sys, const Workspace& ws, WrenchSigmaData& sd, const Eigen::VectorXd& v, int a,
-                     int col, int cd_col, double scale);
+                     int col, int cd_col, int gv_col, double scale);
 
 }  // namespace coopdyn

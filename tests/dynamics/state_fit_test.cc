@@ -109,8 +109,8 @@ TEST(StateFit, JointsOnlyGiveTheTrueLoadPoseAndTwist) {
   }
 }
 
-// fit_velocity_change: the fit is linear and homogeneous in the measured velocities, so the change
-// of the fitted twist for a change dv of them is the fit of dv itself (and the difference of two
+// fit_operators' velocity operator: the fit is linear and homogeneous in the measured velocities,
+// so the change of the fitted twist for a change dv of them is -Pv G dv (and the difference of two
 // fits at v + dv and v): from the constraint Jacobian alone, to round-off of both.
 TEST(StateFit, VelocityChangeIsTheFitOfTheChange) {
   for (const Case& c : kCases) {
@@ -128,14 +128,15 @@ TEST(StateFit, VelocityChangeIsTheFitOfTheChange) {
     std::uniform_real_distribution<double> U(-1.0, 1.0);
     Eigen::VectorXd dv = Eigen::VectorXd::Zero(sys.model.nv());
     for (int i = 0; i < dv.size(); ++i) dv[i] = U(rng);
-    Eigen::VectorXd v0 = v, v1 = v + dv, change = dv;
+    Eigen::VectorXd v0 = v, v1 = v + dv, measured = dv;
     fit_state(sys, plan, ws, false, true, q, v0);
     fit_state(sys, plan, ws, false, true, q, v1);
-    fit_velocity_change(plan, ws, cd.G, change);
-    for (int i = 0; i < dv.size(); ++i) {
-      const bool fitted = std::find(plan.fit_v.begin(), plan.fit_v.end(), i) != plan.fit_v.end();
-      if (!fitted) EXPECT_EQ(change[i], dv[i]) << "measured: untouched";
-      else EXPECT_NEAR(change[i], v1[i] - v0[i], 1e-12 * (1 + v1.cwiseAbs().maxCoeff())) << i;
+    for (int i : plan.fit_v) measured[i] = 0.0;
+    fit_operators(plan, ws, cd.G, false, true);
+    const Eigen::VectorXd change = -ws.Pv * (cd.G * measured);
+    for (size_t k = 0; k < plan.fit_v.size(); ++k) {
+      const int i = plan.fit_v[k];
+      EXPECT_NEAR(change[static_cast<Eigen::Index>(k)], v1[i] - v0[i], 1e-12 * (1 + v1.cwiseAbs().maxCoeff())) << i;
     }
     // the fit's own condition: the fitted entries of the change minimize |G change| with the
     // measured ones fixed, so G_u^T G change = 0 (G_u: G's fitted columns), to round-off of the
@@ -155,6 +156,64 @@ TEST(StateFit, VelocityChangeIsTheFitOfTheChange) {
     EXPECT_LE(normal.cwiseAbs().maxCoeff(), 1e-12 * terms) << "G_u^T G (v1 - v0) = 0";
     EXPECT_GT(fitted_change.norm(), 1e-2 * dv.norm()) << "the fitted entries change with the measured ones";
     EXPECT_GT((fitted_change - fitted_dv).norm(), 1e-2 * dv.norm()) << "the fitted entries are the fit's, not dv's";
+  }
+}
+
+// fit_operators' position operator: a measured joint moved by h moves the fitted pose by -Pq G h
+// to first order. On a closed state (closure residual below 5e-14: the fit's response terms in
+// the residual vanish) against central differences of the whole iterative fit (warm-started at the
+// centre), step 1e-4: truncation O(h^2), measured 2e-10-8e-10 (it is 100x that at 1e-3); the fit's
+// own tolerance (~1e-12 in the pose) / 2h stays below it here and dominates from 1e-5 down
+// (3e-7 there). Asserted 1e-8 (absolute: m and rad per rad or m of the joint, O(1)).
+TEST(StateFit, PositionResponseIsTheDerivativeOfTheFit) {
+  for (const Case& c : kCases) {
+    SCOPED_TRACE(std::string(c.scene) + " " + formulation_name(c.f));
+    const System sys = load(c.scene, c.f);
+    const StateFitPlan plan = plan_state_fit(sys);
+    ASSERT_TRUE(plan.q_fittable);
+    StateFitWorkspace ws(sys, plan);
+    std::mt19937 rng(9);
+    Eigen::VectorXd q, v;
+    closed_state(sys, rng, 0.2, q, v);
+    Data d(sys.model);
+    ConstraintData cd(sys.model, sys.constraints);
+    forward_kinematics(sys.model, d, q, v);
+    constraint_rows(sys.model, d, sys.constraints, q, v, cd);
+    fit_operators(plan, ws, cd.G, true, false);
+    const Eigen::MatrixXd K = -ws.Pq * cd.G;
+    const double h = 1e-4;
+    int compared = 0;
+    for (const Body& b : sys.model.bodies) {
+      if (b.joint.nv != 1 || b.joint.type == JointType::kFloating) continue;
+      Eigen::VectorXd qp = q, qm = q, vp = v, vm = v;
+      qp[b.joint.idx_q] += h;
+      qm[b.joint.idx_q] -= h;
+      ws.q_start = q;
+      fit_state(sys, plan, ws, true, false, qp, vp);
+      ws.q_start = q;
+      fit_state(sys, plan, ws, true, false, qm, vm);
+      // each floating joint's pose: d p / dq_j = R u, d R / dq_j = R [w]x for its tangent change
+      // [w; u] (body frame, as integrate()), against central differences of p and R
+      for (const Body& fb : sys.model.bodies) {
+        if (fb.joint.type != JointType::kFloating) continue;
+        const int iq = fb.joint.idx_q, iv = fb.joint.idx_v;
+        auto rot = [&](const Eigen::VectorXd& x) { return Quat(x[iq + 3], x[iq + 4], x[iq + 5], x[iq + 6]).normalized().toRotationMatrix(); };
+        Vec3 w, u;
+        for (size_t k = 0; k < plan.fit_v.size(); ++k) {
+          const int f = plan.fit_v[k] - iv;
+          if (f >= 0 && f < 3) w[f] = K(static_cast<Eigen::Index>(k), b.joint.idx_v);
+          if (f >= 3 && f < 6) u[f - 3] = K(static_cast<Eigen::Index>(k), b.joint.idx_v);
+        }
+        const Mat3 R = rot(q);
+        const Vec3 dp = (qp.segment<3>(iq) - qm.segment<3>(iq)) / (2 * h);
+        const Mat3 dR = (rot(qp) - rot(qm)) / (2 * h);
+        EXPECT_LT((dp - R * u).cwiseAbs().maxCoeff(), 1e-8) << b.name;
+        EXPECT_LT((dR - R * skew(w)).cwiseAbs().maxCoeff(), 1e-8) << b.name;
+        EXPECT_GT(w.norm() + u.norm(), 1e-3) << b.name << ": the joint moves the fit";
+      }
+      ++compared;
+    }
+    EXPECT_GT(compared, 0);
   }
 }
 
