@@ -63,10 +63,10 @@ inline void fixed_joint(BodyPass& s) {
   s.pose_set();
 }
 
-inline void revolute_joint(const Joint& j, double q, double qd, BodyPass& s) {
+// sn, cs: the sine and cosine of the joint angle (joint_sines)
+inline void revolute_joint(const Joint& j, double sn, double cs, double qd, BodyPass& s) {
   const Transform& X_WJ = s.X_WJ;
   Transform& X_WB = s.X_WB;
-  const double sn = std::sin(q), cs = std::cos(q);
   X_WB.p = X_WJ.p;
   Vec3 w;
   if (j.axis_z != 0) {
@@ -166,7 +166,7 @@ inline void body_kinematics(const Model& model, Data& data, const Eigen::VectorX
   start_from_parent(data, b, s);
   switch (j.type) {
     case JointType::kFixed: fixed_joint(s); break;
-    case JointType::kRevolute: revolute_joint(j, q[j.idx_q], v[j.idx_v], s); break;
+    case JointType::kRevolute: revolute_joint(j, data.sin_q[j.idx_v], data.cos_q[j.idx_v], v[j.idx_v], s); break;
     case JointType::kPrismatic: prismatic_joint(j, q[j.idx_q], v[j.idx_v], s); break;
     case JointType::kRevolute2: revolute2_joint(j, q, v, s); break;
     case JointType::kFloating: floating_joint(j, q, v, s); break;
@@ -174,10 +174,25 @@ inline void body_kinematics(const Model& model, Data& data, const Eigen::VectorX
   store_body_motion(data, i, s);
 }
 
+// The sine and cosine of every revolute joint in the subtree of body root (0: all), taken before the
+// pass over the bodies: the calls then run back to back, off the chain of poses, and the pass makes
+// no call that would spill its registers. The same calls as inside the pass: bit for bit the same
+// rotations.
+void joint_sines(const Model& model, Data& data, const Eigen::VectorXd& q, int root) {
+  for (int i = root; i < model.nbodies(); ++i) {
+    const Joint& j = model.bodies[i].joint;
+    if (j.type != JointType::kRevolute || (root > 0 && !model.is_ancestor(root, i))) continue;
+    const double a = q[j.idx_q];
+    data.sin_q[j.idx_v] = std::sin(a);
+    data.cos_q[j.idx_v] = std::cos(a);
+  }
+}
+
 }  // namespace
 
 void forward_kinematics(const Model& model, Data& data, const Eigen::VectorXd& q, const Eigen::VectorXd& v) {
   const int nb = model.nbodies();
+  joint_sines(model, data, q, 0);
   Vec3 p_ref = Vec3::Zero();  // kept in a register; stored in data.p_ref at the end
   for (int i = 0; i < nb; ++i) body_kinematics(model, data, q, v, i, p_ref);
   data.p_ref = p_ref;
@@ -187,6 +202,7 @@ void forward_kinematics_subtree(const Model& model, Data& data, const Eigen::Vec
                                 int root) {
   if (root <= 0) return forward_kinematics(model, data, q, v);
   Vec3 p_ref = data.p_ref;
+  joint_sines(model, data, q, root);
   for (int i = root; i < model.nbodies(); ++i)
     if (model.is_ancestor(root, i)) body_kinematics(model, data, q, v, i, p_ref);
 }

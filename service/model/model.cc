@@ -187,6 +187,8 @@ Data::Data(const Model& model) {
   S_W.setZero(6, nv);
   V_W.assign(nb, Vec6::Zero());
   A0_W.assign(nb, Vec6::Zero());
+  sin_q.setZero(nv);
+  cos_q.setZero(nv);
   for (int i = 0; i < nb; ++i) I_B.push_back(RigidInertia(model.bodies[i].inertia));
   I_Bm = I_B;
   for (int i = nb - 1; i >= 0; --i) {  // children come after their parents: chains of welds fold up

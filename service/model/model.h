@@ -143,6 +143,8 @@ struct Data {
   std::vector<Vec6> V_W;        // body spatial velocity
   std::vector<Vec6> A0_W;       // body spatial acceleration at vdot = 0, no gravity: the velocity-
                                 // product term every Jdot*v is read from
+  Eigen::VectorXd sin_q, cos_q;  // (nv) sine and cosine of each revolute joint's angle, at its
+                                 // velocity index (forward_kinematics; other entries unused)
 
   // dynamics
   std::vector<RigidInertia> I_B;   // body inertias in B (constant, from the model)
