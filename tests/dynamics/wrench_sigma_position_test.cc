@@ -60,7 +60,7 @@ const Scene kScenes[] = {
     {"two_5dof_arms_load", "", 10},
     {"four_bar", "", 4},        // classic, welds between two arms; the first body's joint a tangent too
     {"two_puma_load", "", 12, false, Formulation::kClassic},  // classic: the first arm's first joint is body 0's
-    {"two_iiwa_load", "", 14, false, Formulation::kClassic},
+    {"two_iiwa_load", "", 14, false, Formulation::kClassic},  // classic, the first body a fixed base
     {"pr2_box", "", 30},        // a mobile base, mimic couplings
     {"pr2_box", "stabilization: {baumgarte: {alpha: 20, beta: 100}}\n", 15},  // a coupling's position error
 };
