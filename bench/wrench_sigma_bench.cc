@@ -12,9 +12,10 @@
 // repetition. q_us and v_us: estimate mode with the torque noise and only the position (only the
 // velocity) noise declared, what each kind of measurement-noise column adds to sigma_us. Goal: the sigma of every reported wrench under 25 % of an evaluation.
 //
-//   wrench_sigma_bench [REPS] [SCENE] [REACTIONS]   (SCENE: only the scenes whose file name contains it;
-//   REACTIONS: the joint reactions reported, `all` (the default) or `none`: the scene's end-effector,
-//   base, tip and axle wrenches only)
+//   wrench_sigma_bench [REPS] [SCENE] [REACTIONS] [FORMULATION]   (SCENE: only the scenes whose file
+//   name contains it; REACTIONS: the joint reactions reported, `all` (the default) or `none`: the
+//   scene's end-effector, base, tip and axle wrenches only; FORMULATION: replaces each scene's, e.g.
+//   `classic`)
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -38,6 +39,7 @@ using coopdyn::bench::per_call_us;
 namespace {
 
 std::string reactions = "all";
+SceneOverrides overrides;
 
 System load(const std::string& path, const char* noise = "{tau: 0.1, q: 1e-4, v: 1e-3}") {
   std::ifstream f(path);
@@ -46,7 +48,7 @@ System load(const std::string& path, const char* noise = "{tau: 0.1, q: 1e-4, v:
   std::string text = ss.str();
   const auto p = text.find("\nreactions:");
   if (p != std::string::npos) text.erase(p, text.find('\n', p + 1) - p);
-  return load_scene_string(text + "\nreactions: " + reactions + "\nnoise: " + noise + "\n", path);
+  return load_scene_string(text + "\nreactions: " + reactions + "\nnoise: " + noise + "\n", path, overrides);
 }
 
 }  // namespace
@@ -55,6 +57,13 @@ int main(int argc, char** argv) {
   const int reps = argc > 1 ? std::atoi(argv[1]) : 31;
   const std::string only = argc > 2 ? argv[2] : "";
   if (argc > 3) reactions = argv[3];
+  if (Formulation f; argc > 4) {
+    if (!parse_formulation(argv[4], &f)) {
+      std::fprintf(stderr, "wrench_sigma_bench: unknown formulation '%s'\n", argv[4]);
+      return 2;
+    }
+    overrides.formulation = f;
+  }
   const std::string dir = std::string(COOPDYN_SOURCE_DIR);
   std::vector<std::string> scenes;
   for (const char* n : {"four_bar", "four_wheel_car", "planar_arms_load", "pr2_box", "tiago_pro_box", "trike", "two_5dof_arms_load",

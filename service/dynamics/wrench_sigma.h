@@ -21,7 +21,7 @@
 // columns: exact tangents too (wrench_sigma_position.h: a joint's motion carries its subtree as one
 // rigid body; the inverse dynamics, the welds' rows and the reactions change over that subtree and
 // its path to the root only), equal to five-point central differences to round-off. Where that
-// does not hold (the first body's 1-DOF joint, a rolling contact in the subtree, a weld in it under
+// does not hold (a rolling contact in the subtree, a weld in it under
 // Baumgarte position feedback) a column is a directional difference of the
 // residual (kinematics of the joint's subtree, inverse dynamics, constraint rows and the wrench
 // pass, no factorization) with a forward step h = 1e-7 (rad, m), truncation error O(h). The

@@ -210,12 +210,13 @@ void position_tangent_plan(const System& sys, WrenchSigmaData& sd) {
     const int dof = sd.q_dofs[a], b = model.dof_body[dof];
     const JointType t = model.bodies[b].joint.type;
     sd.qt_dof[a] = dof;
-    if (b == 0 || model.bodies[b].joint.nv != 1 || (t != JointType::kRevolute && t != JointType::kPrismatic)) continue;
+    if (model.bodies[b].joint.nv != 1 || (t != JointType::kRevolute && t != JointType::kPrismatic)) continue;
     plan_column(sys, sd, a, dof, b);
   }
   // a floating joint's DOF moves its body along its own (body-fixed) motion subspace column: the
-  // subtree is carried with the joint's other columns (the first body's included: every quantity
-  // is then carried about the evaluation's p_ref, and what the columns report is frame-free)
+  // subtree is carried with the joint's other columns (the first body's, like its 1-DOF joint
+  // above: every quantity is carried about the evaluation's p_ref, and what the columns report is
+  // free of it)
   for (size_t k = 0; k < sd.float_dofs.size(); ++k)
     plan_column(sys, sd, nq + k, sd.float_dofs[k], model.dof_body[sd.float_dofs[k]]);
 }

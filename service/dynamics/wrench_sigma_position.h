@@ -22,11 +22,11 @@
 // differences of the residuals in the limit of their step (tests/dynamics/wrench_sigma_position_test.cc).
 //
 // A floating joint's DOF (what a refit fits, state_fit_sigma.h) is a tangent the same way: its
-// motion subspace is body-fixed, so its own other columns are carried too; the first body's
-// floating joint included (every quantity carried about the evaluation's p_ref; the columns are
-// generalized forces, rows in frame A and wrenches in their report frames, free of it).
-// Not covered, the column then being a difference of the whole residual (wrench_sigma.cc): the
-// first body's 1-DOF joint (it sets p_ref; not tried as a tangent), a rolling
+// motion subspace is body-fixed, so its own other columns are carried too. The first body's joint
+// (1-DOF or floating) is one as well: it moves p_ref, but every quantity is carried about the
+// evaluation's p_ref and what the columns are (generalized forces, rows in frame A, wrenches in
+// their report frames) is free of it.
+// Not covered, the column then being a difference of the whole residual (wrench_sigma.cc): a rolling
 // contact in the subtree (its contact frame is not carried: it turns with the wheel's tilt), a weld
 // in it under Baumgarte position feedback (its pose error's logarithm). Allocation-free; never throws.
 #pragma once

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <optional>
 #include <random>
 
 #include "service/dynamics/wrench_sigma.h"
@@ -44,6 +45,7 @@ struct Scene {
   std::string extra;  // appended to the scene
   int tangents;       // position columns that are tangents (the others: differences)
   bool friction = false;  // Coulomb friction 2 N m on every measured joint (some stuck, some sliding)
+  std::optional<Formulation> f = std::nullopt;  // replaces the scene's formulation
 };
 // (The wheeled scenes are over-constrained at these states, so without position columns: a rolling
 // contact below a joint makes its column a difference, the forward one wrench_sigma_fast_test.cc
@@ -56,13 +58,15 @@ const Scene kScenes[] = {
     {"two_puma_load", "stabilization: {baumgarte: {alpha: 20, beta: 100}}\n", 0},  // a weld's pose error: differences
     {"two_iiwa_load", "", 14},  // URDF damping
     {"two_5dof_arms_load", "", 10},
-    {"four_bar", "", 3},        // classic, welds between two arms; the first body's joint a difference
+    {"four_bar", "", 4},        // classic, welds between two arms; the first body's joint a tangent too
+    {"two_puma_load", "", 12, false, Formulation::kClassic},  // classic: the first arm's first joint is body 0's
+    {"two_iiwa_load", "", 14, false, Formulation::kClassic},  // classic, the first body a fixed base
     {"pr2_box", "", 30},        // a mobile base, mimic couplings
     {"pr2_box", "stabilization: {baumgarte: {alpha: 20, beta: 100}}\n", 15},  // a coupling's position error
 };
 
 System scene_of(const Scene& c) {
-  System sys = noisy_scene(c.name, c.extra);
+  System sys = noisy_scene(c.name, c.extra, SceneOverrides{c.f});
   if (c.friction)
     for (Body& b : sys.model.bodies)
       if (b.joint.nv == 1 && !b.joint.pseudo) b.joint.friction = 2.0;
@@ -71,7 +75,7 @@ System scene_of(const Scene& c) {
 
 // The tangents are exact; a five-point central difference of step h has a truncation error
 // O(h^4) and round-off ~eps |r| / h. So they must agree at every step from 1e-2 to 1e-4, better
-// as the step shrinks towards ~1e-3: measured at most 3.6e-9 at 1e-2 (the iiwa pair), 3.3e-12 at
+// as the step shrinks towards ~1e-3: measured at most 5.9e-9 at 1e-2 (the classic iiwa pair), 3.3e-12 at
 // 1e-3, 5.2e-11 at 1e-4 (the PR2), relative to each matrix's largest entry over the columns;
 // asserted below h^4 + 1e-13 / h. A missing term shows at every step (the torque of a link's
 // rotational inertia without mass, left out, was 8e-3). The columns that stay differences equal
@@ -110,7 +114,7 @@ TEST(WrenchSigmaPosition, EqualFivePointCentralDifferencesOfSeveralSteps) {
       compared += d.columns;
     }
   }
-  EXPECT_EQ(compared, 3 * (12 * 3 + 14 + 10 + 3 + 30 + 15));
+  EXPECT_EQ(compared, 3 * (12 * 3 + 14 + 10 + 4 + 12 + 14 + 30 + 15));
 }
 
 // The former definition, forward differences of step 1e-7 for every column, within its truncation
