@@ -28,6 +28,18 @@ void closed_state(const System& sys, std::mt19937& rng, double spread, Eigen::Ve
   for (int k = 0; k < 3; ++k) project_state(s2, st2, q, v);
 }
 
+// A closed state drawn from rng and the constraint rows there (G, err) for the fit's operators.
+struct ClosedRows {
+  Eigen::VectorXd q, v;
+  Data d;
+  ConstraintData cd;
+  ClosedRows(const System& sys, std::mt19937& rng) : d(sys.model), cd(sys.model, sys.constraints) {
+    closed_state(sys, rng, 0.2, q, v);
+    forward_kinematics(sys.model, d, q, v);
+    constraint_rows(sys.model, d, sys.constraints, q, v, cd);
+  }
+};
+
 double closure_max(const Closure& c) {
   double m = 0;
   for (double x : c.value) m = std::max(m, x);
@@ -119,12 +131,10 @@ TEST(StateFit, VelocityChangeIsTheFitOfTheChange) {
     const StateFitPlan plan = plan_state_fit(sys);
     StateFitWorkspace ws(sys, plan);
     std::mt19937 rng(5);
-    Eigen::VectorXd q, v;
-    closed_state(sys, rng, 0.2, q, v);
-    Data d(sys.model);
-    ConstraintData cd(sys.model, sys.constraints);
-    forward_kinematics(sys.model, d, q, v);
-    constraint_rows(sys.model, d, sys.constraints, q, v, cd);
+    ClosedRows at(sys, rng);
+    Eigen::VectorXd& q = at.q;  // fit_state takes it writable (it fits no position here)
+    const Eigen::VectorXd& v = at.v;
+    const ConstraintData& cd = at.cd;
     std::uniform_real_distribution<double> U(-1.0, 1.0);
     Eigen::VectorXd dv = Eigen::VectorXd::Zero(sys.model.nv());
     for (int i = 0; i < dv.size(); ++i) dv[i] = U(rng);
@@ -173,12 +183,10 @@ TEST(StateFit, PositionResponseIsTheDerivativeOfTheFit) {
     ASSERT_TRUE(plan.q_fittable);
     StateFitWorkspace ws(sys, plan);
     std::mt19937 rng(9);
-    Eigen::VectorXd q, v;
-    closed_state(sys, rng, 0.2, q, v);
-    Data d(sys.model);
-    ConstraintData cd(sys.model, sys.constraints);
-    forward_kinematics(sys.model, d, q, v);
-    constraint_rows(sys.model, d, sys.constraints, q, v, cd);
+    const ClosedRows at(sys, rng);
+    const Eigen::VectorXd& q = at.q;
+    const Eigen::VectorXd& v = at.v;
+    const ConstraintData& cd = at.cd;
     fit_operators(plan, ws, cd.G, true, false);
     const Eigen::MatrixXd K = -ws.Pq * cd.G;
     const double h = 1e-4;

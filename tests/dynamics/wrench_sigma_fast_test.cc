@@ -39,6 +39,21 @@ void expect_same(const System& sys, const WrenchSigmaData& fast, const WrenchSig
   }
 }
 
+// at the evaluated state: the simulate-mode (torque noise) and the estimate-mode (torque, position,
+// velocity noise) sigma against the reference's
+void expect_same_in_both_modes(const System& sys, Workspace& ws, WrenchSigmaData& fast, WrenchSigmaData& ref,
+                               const Eigen::VectorXd& v, const Eigen::VectorXd& tau) {
+  compute_wrench_sigma(sys, ws, fast);
+  reference::compute_wrench_sigma(sys, ws, ref);
+  ASSERT_TRUE(fast.valid);
+  expect_same(sys, fast, ref);
+  compute_wrench_sigma(sys, ws, fast, sys.q0, v, tau);
+  reference::compute_wrench_sigma(sys, ws, ref, sys.q0, v, tau);
+  ASSERT_TRUE(fast.valid);
+  EXPECT_TRUE(fast.source & WrenchSigmaData::kV);
+  expect_same(sys, fast, ref);
+}
+
 TEST(WrenchSigmaFast, EqualsThePreviousDefinitionOnEveryShippedScene) {
   int compared = 0;
   for (const char* name : kScenes) {
@@ -55,15 +70,7 @@ TEST(WrenchSigmaFast, EqualsThePreviousDefinitionOnEveryShippedScene) {
       Eigen::VectorXd v, tau;
       reference::random_v_tau(sys, 3, v, tau);
       if (evaluate(sys, ws, sys.q0, v, tau).status == Status::kError) continue;
-      compute_wrench_sigma(sys, ws, fast);  // simulate mode: torque noise
-      reference::compute_wrench_sigma(sys, ws, ref);
-      ASSERT_TRUE(fast.valid);
-      expect_same(sys, fast, ref);
-      compute_wrench_sigma(sys, ws, fast, sys.q0, v, tau);  // estimate mode: torque, position, velocity
-      reference::compute_wrench_sigma(sys, ws, ref, sys.q0, v, tau);
-      ASSERT_TRUE(fast.valid);
-      EXPECT_TRUE(fast.source & WrenchSigmaData::kV);
-      expect_same(sys, fast, ref);
+      expect_same_in_both_modes(sys, ws, fast, ref, v, tau);
       ++compared;
     }
   }
@@ -87,14 +94,7 @@ TEST(WrenchSigmaFast, EqualsThePreviousDefinitionWithNominalBaseLinks) {
     ASSERT_NE(evaluate(sys, ws, sys.q0, v, tau).status, Status::kError);
     ASSERT_TRUE(ws.qs.nominal_active);
     ASSERT_FALSE(ws.q_blocks_active);
-    compute_wrench_sigma(sys, ws, fast);
-    reference::compute_wrench_sigma(sys, ws, ref);
-    ASSERT_TRUE(fast.valid);
-    expect_same(sys, fast, ref);
-    compute_wrench_sigma(sys, ws, fast, sys.q0, v, tau);
-    reference::compute_wrench_sigma(sys, ws, ref, sys.q0, v, tau);
-    ASSERT_TRUE(fast.valid);
-    expect_same(sys, fast, ref);
+    expect_same_in_both_modes(sys, ws, fast, ref, v, tau);
   }
 }
 
@@ -127,14 +127,7 @@ TEST(WrenchSigmaFast, EqualsTheDenseSolveWithTheBlockFactorOfQ) {
             EXPECT_EQ(ws.qb.has_nominal, std::string(suffix) != "");
           }
           with_nominal += ws.qb.has_nominal;
-          compute_wrench_sigma(sys, ws, fast);
-          reference::compute_wrench_sigma(sys, ws, ref);
-          ASSERT_TRUE(fast.valid);
-          expect_same(sys, fast, ref);
-          compute_wrench_sigma(sys, ws, fast, sys.q0, v, tau);
-          reference::compute_wrench_sigma(sys, ws, ref, sys.q0, v, tau);
-          ASSERT_TRUE(fast.valid);
-          expect_same(sys, fast, ref);
+          expect_same_in_both_modes(sys, ws, fast, ref, v, tau);
         }
       }
   EXPECT_GT(with_nominal, 0);
