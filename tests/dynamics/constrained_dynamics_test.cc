@@ -459,6 +459,7 @@ NominalRun run_with_nominal(const System& base, double I_n) {
   r.d = evaluate(sys, ws, e.q, e.v, e.tau);
   r.vdot = ws.vdot;
   r.lambda = ws.lambda;
+  form_dense_q(sys, ws);  // the solve may have factored R Q R^T only
   // Q's eigenvalues, and those of Q on the complement of the joint-1 columns of G (QR of them)
   const int m = sys.constraints.rows;
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(ws.Q);
