@@ -321,6 +321,8 @@ void reflected_q_from_yb(const System& sys, Workspace& ws, const Eigen::MatrixXd
 // dense path first tries the fast path on Q with the nominal directions last (one factor for the
 // solve and the condition); where that fails (a pivot or the ratio of all pivots), ws.qs factors
 // Q as it is, as without nominal bases, and the condition comes from condition_without_nominal.
+// Where build_q formed R Q R^T only (ws.q_reflected), that factor is tried on it as it stands and
+// the dense Q is formed only where it fails.
 void solve_q(const System& sys, Workspace& ws, const Eigen::VectorXd& b, Eigen::VectorXd& x, bool factor) {
   if (factor && ws.q_reflected) {  // build_q formed R Q R^T only
     double condition = 1.0;
