@@ -11,6 +11,8 @@
 #include <algorithm>
 #include <random>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -84,6 +86,32 @@ void BM_QSolver(benchmark::State& state) {
   state.counters["fast_path"] = qs.fast_path;
 }
 
+// QSolver::factor_nominal_last + solve: one nominal direction per 6 rows (an arm without armature
+// on each weld), G's column of joint 1 of each weld random.
+void BM_QSolverNominal(benchmark::State& state) {
+  const int m = static_cast<int>(state.range(0)), nd = m / 6;
+  const Eigen::MatrixXd Q = random_psd(m, 0, 1);
+  const Eigen::VectorXd b = Q * random_vec(m, 2);
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(m, nd);
+  std::vector<std::pair<int, int>> rows;
+  for (int a = 0; a < nd; ++a) {
+    G.block(6 * a, a, 6, 1) = random_vec(6, 3 + a);
+    rows.emplace_back(a, 6 * a);
+  }
+  const SolverOptions opt;
+  QSolver qs(m);
+  qs.plan_nominal(rows);
+  Eigen::VectorXd x(m);
+  double condition = 0.0;
+  bool ok = true;
+  for (auto _ : state) {
+    ok = qs.factor_nominal_last(Q, G, opt, &condition);
+    qs.solve(b, x);
+    benchmark::DoNotOptimize(x.data());
+  }
+  state.counters["fast_path"] = ok;
+}
+
 void BM_Evaluate(benchmark::State& state, const std::string& name) {
   const System sys = load_scene(std::string(COOPDYN_SOURCE_DIR) + "/config/scenes/" + name + ".yaml");
   Workspace ws(sys);
@@ -103,6 +131,7 @@ int register_all() {
       benchmark::RegisterBenchmark("QSolve/qsolver", BM_QSolver)->Args({m, k});
     }
   for (int m : {6, 12}) benchmark::RegisterBenchmark("QSolve/qsolver", BM_QSolver)->Args({m, 0});
+  for (int m : {6, 12, 24}) benchmark::RegisterBenchmark("QSolve/nominal_last", BM_QSolverNominal)->Args({m});
   for (const char* s : {"two_wheel_vehicle", "unicycle", "planar_arms_load"})
     benchmark::RegisterBenchmark((std::string("Evaluate/") + s).c_str(), BM_Evaluate, std::string(s));
   return 0;

@@ -162,8 +162,13 @@ Workspace::Workspace(const System& sys)
   eig_w.setZero(m);
   tmp_m.setZero(m);
   tmp_m2.setZero(m);
+  spec_nominal.assign(cs.specs.size(), -1);
   for (const System::NominalBase& nb : sys.nominal_bases)  // joint 1 reversed: one DOF, a 6-row weld
-    if (cs.row_count[nb.spec] == 6) nominal_rows.emplace_back(sys.model.bodies[nb.body].joint.idx_v, cs.row_offset[nb.spec]);
+    if (cs.row_count[nb.spec] == 6) {
+      spec_nominal[nb.spec] = static_cast<int>(nominal_rows.size());
+      nominal_rows.emplace_back(sys.model.bodies[nb.body].joint.idx_v, cs.row_offset[nb.spec]);
+    }
+  for (size_t s = 0; s < cs.specs.size(); ++s) Yr.push_back(spec_nominal[s] >= 0 ? YBlock::Zero(n, 6) : YBlock());
   if (sys.options.formulation == Formulation::kMobilePlatform || sys.options.formulation == Formulation::kClassic) {
     qb.plan(sys, y_support, nominal_rows);
     use_q_blocks = qb.usable && static_cast<int>(qb.groups.size()) >=
@@ -308,6 +313,7 @@ double condition_without_nominal(const System& sys, Workspace& ws) {
 }
 
 void dense_q_from_yb(const System& sys, Workspace& ws);
+void reflected_q_from_yb(const System& sys, Workspace& ws, const Eigen::MatrixXd& G);
 
 // Solves Q x = b through ws.qs; with factor, factors ws.Q first and records rank and condition.
 // With the block structure (ws.use_q_blocks, build_q formed the blocks only) the block Cholesky is
@@ -315,7 +321,26 @@ void dense_q_from_yb(const System& sys, Workspace& ws);
 // dense path first tries the fast path on Q with the nominal directions last (one factor for the
 // solve and the condition); where that fails (a pivot or the ratio of all pivots), ws.qs factors
 // Q as it is, as without nominal bases, and the condition comes from condition_without_nominal.
+// Where build_q formed R Q R^T only (ws.q_reflected), that factor is tried on it as it stands and
+// the dense Q is formed only where it fails.
 void solve_q(const System& sys, Workspace& ws, const Eigen::VectorXd& b, Eigen::VectorXd& x, bool factor) {
+  if (factor && ws.q_reflected) {  // build_q formed R Q R^T only
+    double condition = 1.0;
+    ws.q_blocks_active = false;
+    if (ws.qs.factor_nominal_formed(sys.options, &condition)) {
+      ws.diag.rank = ws.qs.m;
+      ws.diag.condition = condition;
+      ws.qs.solve(b, x);
+      return;
+    }
+    dense_q_from_yb(sys, ws);  // as factor_nominal_last failing below: Q as it is
+    ws.q_reflected = false;
+    const QFactorInfo fi = ws.qs.factor(ws.Q, sys.options, sys.constraints.row_compliance);
+    ws.diag.rank = fi.rank;
+    ws.diag.condition = condition_without_nominal(sys, ws);
+    ws.qs.solve(b, x);
+    return;
+  }
   if (factor) {
     ws.q_blocks_active = false;
     if (ws.use_q_blocks) {
@@ -388,8 +413,52 @@ void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G, bool de
     for (int s = 0; s < ns; ++s)
       for (int d : ws.y_support[s])
         for (int k = 0; k < cs.row_count[s]; ++k) ws.Yt(d, cs.row_offset[s] + k) = ws.Yb[s](d, k);
+  ws.q_reflected = false;
   if (ws.use_q_blocks && !dense_yt) ws.qb.assemble(sys, ws.Yb);  // solve_q forms the dense Q if it needs it
+  else if (!dense_yt && !ws.nominal_rows.empty()) reflected_q_from_yb(sys, ws, G);
   else dense_q_from_yb(sys, ws);
+}
+
+// R Q R^T's upper triangle into ws.qs.Nq (q_solve.h, after prepare_nominal): each nominal weld's
+// rows of Y reflected (Yr: H Y, per DOF one 6-vector), then the sums of dense_q_from_yb over the
+// reflected rows, H Q H = (H Y)(H Y)^T, each entry written to its place in the order R. Against
+// factor_nominal_last on the dense Q (Q, then a copy reflected from both sides, then permuted) this
+// reflects 6-vectors of Y instead of Q's rows and columns and writes the factored matrix once.
+void reflected_q_from_yb(const System& sys, Workspace& ws, const Eigen::MatrixXd& G) {
+  const ConstraintSet& cs = sys.constraints;
+  const int ns = static_cast<int>(cs.specs.size());
+  QSolver& qs = ws.qs;
+  qs.prepare_nominal(G);
+  for (int s = 0; s < ns; ++s) {
+    const int a = ws.spec_nominal[s];
+    if (a < 0) continue;
+    const Vec6 w = qs.nominal_w[a];
+    const double* y = ws.Yb[s].data();
+    double* yr = ws.Yr[s].data();
+    for (int d : ws.y_support[s]) {
+      const Vec6 yd = Eigen::Map<const Vec6>(y + 6 * d);
+      double t = 0.0;
+      for (int k = 0; k < 6; ++k) t += w[k] * yd[k];
+      for (int k = 0; k < 6; ++k) yr[6 * d + k] = yd[k] - t * w[k];
+    }
+  }
+  const int* ip = qs.nominal_iperm.data();
+  for (int s = 0; s < ns; ++s)
+    for (int t = s; t < ns; ++t) {
+      const Workspace::YBlock& ys = ws.spec_nominal[s] >= 0 ? ws.Yr[s] : ws.Yb[s];
+      const Workspace::YBlock& yt = ws.spec_nominal[t] >= 0 ? ws.Yr[t] : ws.Yb[t];
+      Mat6 acc = Mat6::Zero();
+      for (const auto& rg : ws.pair_ranges[s * ns + t])
+        for (int d = rg.first, e = rg.first + rg.second; d < e; ++d) acc.noalias() += ys.row(d).transpose() * yt.row(d);
+      const int rs = cs.row_offset[s], rt = cs.row_offset[t], ks = cs.row_count[s], kt = cs.row_count[t];
+      for (int l = 0; l < kt; ++l)
+        for (int k = 0; k < ks; ++k) {
+          const int i = ip[rs + k], j = ip[rt + l];
+          if (i <= j) qs.Nq(i, j) = acc(k, l);
+          else qs.Nq(j, i) = acc(k, l);
+        }
+    }
+  ws.q_reflected = true;
 }
 
 // Q_st = sum over the DOFs both specs reach of outer products of 6-vectors
@@ -806,5 +875,7 @@ Vec6 tip_wrench(const System& sys, const Workspace& ws, int spec, unsigned* inde
   if (indeterminate) *indeterminate = mask;
   return w;
 }
+
+void form_dense_q(const System& sys, Workspace& ws) { dense_q_from_yb(sys, ws); }
 
 }  // namespace coopdyn

@@ -134,6 +134,12 @@ struct Workspace {
   // the condition without the nominal base-link directions (System::nominal_bases)
   std::vector<std::pair<int, int>> nominal_rows;  // (velocity index of joint 1, first row of the weld)
   Eigen::MatrixXd Qn;                             // (rows x rows) work copy of Q (the rank path's condition)
+  // The dense path with nominal bases (mobile_platform and classic): build_q forms R Q R^T (q_solve.h)
+  // straight into qs.Nq from the reflected rows of Y, H Q H = (H Y)(H Y)^T, and Q itself only where
+  // the fast path fails (q_reflected then false). Y itself (Yb) stays as it is for every reader.
+  std::vector<int> spec_nominal;  // (specs) the nominal direction whose weld the spec is, or -1
+  std::vector<YBlock> Yr;         // per spec: H Y's rows as Yb's (nominal welds only; others empty)
+  bool q_reflected = false;       // the last build_q formed R Q R^T only (ws.Q not formed)
   Eigen::MatrixXd eig_A, eig_V;  // (rows x rows) SVD baseline's eigen-decomposition of Q_r
   Eigen::VectorXd eig_w;         // (rows)
   Eigen::VectorXd tmp_m, tmp_m2;  // (rows)
@@ -169,6 +175,9 @@ const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::Vecto
 // (q, v) is not valid or M is singular. Once it succeeded, finish_evaluation() completes the
 // evaluation for tau (any number of times): the result is bit for bit evaluate(sys, ws, q, v, tau).
 bool begin_evaluation(const System& sys, Workspace& ws, const Eigen::VectorXd& q, const Eigen::VectorXd& v);
+// ws.Q = G M^-1 G^T from the last evaluation's rows of Y, where the solve did not form it (the block
+// path, or the dense path with nominal bases that factored R Q R^T directly).
+void form_dense_q(const System& sys, Workspace& ws);
 const Diagnostics& finish_evaluation(const System& sys, Workspace& ws, const Eigen::VectorXd& v, const Eigen::VectorXd& tau);
 
 // Wrench [moment; force] on the tip of weld spec s, in the tip frame; unconstrained axes are 0.

@@ -313,6 +313,7 @@ void QSolver::plan_nominal(const std::vector<std::pair<int, int>>& rows) {
   nominal_rows = rows;
   nominal_w.assign(rows.size(), Eigen::Matrix<double, 6, 1>::Zero());
   nominal_perm.assign(m, 0);
+  nominal_iperm.assign(m, 0);
   nominal_kept.assign(m, 1);
   nominal_lead = m;
   nominal_active = false;
@@ -347,6 +348,7 @@ int QSolver::prepare_nominal(const Eigen::MatrixXd& G) {
   nominal_lead = k;
   for (int i = 0; i < m; ++i)
     if (!nominal_kept[i]) nominal_perm[k++] = i;
+  for (int i = 0; i < m; ++i) nominal_iperm[nominal_perm[i]] = i;
   return nominal_lead;
 }
 
@@ -388,11 +390,20 @@ bool QSolver::factor_nominal_last(const Eigen::MatrixXd& Q, const Eigen::MatrixX
   nominal_active = false;
   use_compliance = false;
   if (m == 0) return false;
-  const int lead = prepare_nominal(G);
+  prepare_nominal(G);
   Lp = Q;  // H Q H in Lp, then R Q R^T's upper triangle in Nq (both the rank path's, free here)
   reflect_symmetric(Lp.data());
   for (int j = 0; j < m; ++j)
     for (int i = 0; i <= j; ++i) Nq(i, j) = Lp(nominal_perm[i], nominal_perm[j]);
+  return factor_nominal_formed(opt, condition);
+}
+
+bool QSolver::factor_nominal_formed(const SolverOptions& opt, double* condition) {
+  fast_path = false;
+  nominal_active = false;
+  use_compliance = false;
+  if (m == 0) return false;
+  const int lead = nominal_lead;
   if (!small_cholesky_upper(Nq, Lq, dinv_q, m)) return false;
   double dmax = Lq(0, 0), dmin = Lq(0, 0), lmax = 0.0, lmin = HUGE_VAL;
   for (int i = 0; i < m; ++i) {

@@ -91,6 +91,9 @@ struct QSolver {
   // ratio (the reduced Q's); solve() then works through it (nominal_active). False: nothing
   // usable is left, factor() decides. Q: both triangles.
   bool factor_nominal_last(const Eigen::MatrixXd& Q, const Eigen::MatrixXd& G, const SolverOptions& opt, double* condition);
+  // The same on R Q R^T already in Nq's upper triangle (the caller formed it after prepare_nominal,
+  // row i of R Q R^T being row nominal_perm[i] of H Q H; nominal_iperm the inverse order).
+  bool factor_nominal_formed(const SolverOptions& opt, double* condition);
 
   int m = 0;
   bool fast_path = true;
@@ -102,6 +105,7 @@ struct QSolver {
   std::vector<std::pair<int, int>> nominal_rows;  // (velocity index of joint 1, first weld row)
   std::vector<Eigen::Matrix<double, 6, 1>> nominal_w;  // H = I - w w^T on rows r0..r0+5 (w = 0: none)
   std::vector<int> nominal_perm;  // (rows) row i of R Q R^T is row nominal_perm[i] of H Q H
+  std::vector<int> nominal_iperm;  // (rows) row i of H Q H is row nominal_iperm[i] of R Q R^T
   std::vector<unsigned char> nominal_kept;  // (rows) 1 for a row of the reduced Q
   int nominal_lead = 0;           // rows of the reduced Q
   bool nominal_active = false;    // the fast-path factor Lq is of R Q R^T (factor_nominal_last)

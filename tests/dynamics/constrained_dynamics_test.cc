@@ -459,6 +459,7 @@ NominalRun run_with_nominal(const System& base, double I_n) {
   r.d = evaluate(sys, ws, e.q, e.v, e.tau);
   r.vdot = ws.vdot;
   r.lambda = ws.lambda;
+  form_dense_q(sys, ws);  // the solve may have factored R Q R^T only
   // Q's eigenvalues, and those of Q on the complement of the joint-1 columns of G (QR of them)
   const int m = sys.constraints.rows;
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(ws.Q);
@@ -522,6 +523,16 @@ TEST(ConstrainedDynamics, ConditionDoesNotDependOnTheNominalBaseInertia) {
     ASSERT_EQ(sys.nominal_bases.size(), 2u);
     const NominalRun a = run_with_nominal(sys, 1e-3), b = run_with_nominal(sys, 1e-6), c = run_with_nominal(sys, 1.0);
     ASSERT_NE(a.d.status, Status::kError);
+    // where the factor with the nominal directions last fails the fast-path test (forced: fast_tol 1),
+    // Q itself is formed and the rank path solves it: the same rank and solution (the minimum-norm
+    // one where Q is singular, the planar arms; the unique one for the PUMAs)
+    System forced = sys;
+    forced.options.fast_tol = 1.0;
+    const NominalRun f = run_with_nominal(forced, 1e-3);
+    EXPECT_EQ(f.d.rank, a.d.rank);
+    EXPECT_LT((f.vdot - a.vdot).cwiseAbs().maxCoeff(), 1e-9 * (1 + a.vdot.cwiseAbs().maxCoeff()));
+    EXPECT_LT((f.lambda - a.lambda).cwiseAbs().maxCoeff(), 1e-9 * (1 + a.lambda.cwiseAbs().maxCoeff()));
+    EXPECT_TRUE(std::isfinite(f.d.condition) && f.d.condition >= 1.0);
     // the results do not depend on I_n ...
     EXPECT_LT((a.vdot - b.vdot).cwiseAbs().maxCoeff(), 1e-6 * (1 + a.vdot.cwiseAbs().maxCoeff()));
     EXPECT_LT((a.lambda - c.lambda).cwiseAbs().maxCoeff(), 1e-6 * (1 + a.lambda.cwiseAbs().maxCoeff()));
