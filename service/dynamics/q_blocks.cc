@@ -138,6 +138,30 @@ using MatR6 = Eigen::Matrix<double, R, 6, 0, R == Eigen::Dynamic ? QBlocks::kMax
 template <int R>
 using VecR = Eigen::Matrix<double, R, 1, 0, R == Eigen::Dynamic ? QBlocks::kMaxGroupRows : R, 1>;
 
+// Cholesky of the leading n x n of A in place (lower), dinv = 1 / its diagonal; dmax, dmin the extreme
+// diagonals so far. False on a pivot that is not positive. One kernel for a group's fixed-size block
+// and the dynamic Schur complement (each instantiation unrolls as its matrix type allows).
+template <class Mat>
+bool cholesky_lower(Mat& A, double* dinv, int n, double& dmax, double& dmin) {
+  for (int j = 0; j < n; ++j) {
+    double d = A(j, j);
+    for (int k = 0; k < j; ++k) d -= A(j, k) * A(j, k);
+    if (!(d > 0.0)) return false;
+    const double rd = 1.0 / d, ljj = std::sqrt(d);  // side by side on the critical path (q_solve.cc)
+    A(j, j) = ljj;
+    const double inv = ljj * rd;
+    dinv[j] = inv;
+    dmax = std::max(dmax, ljj);
+    dmin = std::min(dmin, ljj);
+    for (int i = j + 1; i < n; ++i) {
+      double sum = A(i, j);
+      for (int k = 0; k < j; ++k) sum -= A(i, k) * A(j, k);
+      A(i, j) = sum * inv;
+    }
+  }
+  return true;
+}
+
 // One group of the block Cholesky (q_blocks.h) on r rows: A's lower triangle <- L_g of
 // A_g + B_g P B_g^T, W = L_g^-1 B_g P, P -= W^T W, dinv = 1 / diag(L_g); dmax, dmin the extreme
 // diagonals so far. False on a pivot that is not positive.
@@ -151,23 +175,7 @@ bool factor_group(int r, double* a, const double* b, double* w, double* dinv, Ma
   // BP = B_g P (kept in W until W = L_g^-1 BP below); C = A_g + BP B_g^T (both triangles; the lower read)
   W.noalias() = B.lazyProduct(P);
   A.noalias() += W.lazyProduct(B.transpose());
-  // Cholesky of C in place (lower)
-  for (int j = 0; j < r; ++j) {
-    double d = A(j, j);
-    for (int k = 0; k < j; ++k) d -= A(j, k) * A(j, k);
-    if (!(d > 0.0)) return false;
-    const double rd = 1.0 / d, ljj = std::sqrt(d);  // side by side on the critical path (q_solve.cc)
-    A(j, j) = ljj;
-    const double inv = ljj * rd;
-    dinv[j] = inv;
-    dmax = std::max(dmax, ljj);
-    dmin = std::min(dmin, ljj);
-    for (int i = j + 1; i < r; ++i) {
-      double sum = A(i, j);
-      for (int k = 0; k < j; ++k) sum -= A(i, k) * A(j, k);
-      A(i, j) = sum * inv;
-    }
-  }
+  if (!cholesky_lower(A, dinv, r, dmax, dmin)) return false;  // of C, in place
   // W = L_g^-1 BP (forward substitution, the 6 columns at once)
   for (int i = 0; i < r; ++i) {
     for (int k = 0; k < i; ++k) W.row(i) -= A(i, k) * W.row(k);
@@ -379,27 +387,6 @@ void nominal_backward(const QBlocks::Group& g, int np, double* y, Vec6& t, const
   t.noalias() += B.transpose().lazyProduct(yv);
 }
 
-// Cholesky of the leading n x n of S in place (lower), dinv = 1 / its diagonal; dmax, dmin the extreme
-// diagonals so far. False on a pivot that is not positive.
-bool factor_schur(Eigen::MatrixXd& S, Eigen::VectorXd& dinv, int n, double& dmax, double& dmin) {
-  for (int j = 0; j < n; ++j) {
-    double d = S(j, j);
-    for (int k = 0; k < j; ++k) d -= S(j, k) * S(j, k);
-    if (!(d > 0.0)) return false;
-    const double rd = 1.0 / d, ljj = std::sqrt(d);
-    S(j, j) = ljj;
-    const double inv = ljj * rd;
-    dinv[j] = inv;
-    dmax = std::max(dmax, ljj);
-    dmin = std::min(dmin, ljj);
-    for (int i = j + 1; i < n; ++i) {
-      double sum = S(i, j);
-      for (int k = 0; k < j; ++k) sum -= S(i, k) * S(j, k);
-      S(i, j) = sum * inv;
-    }
-  }
-  return true;
-}
 
 }  // namespace
 
@@ -426,7 +413,7 @@ bool QBlocks::factor_nominal_last(const SolverOptions& opt, const Eigen::MatrixX
     nominal_columns_any(g, np, Zt, S);
   }
   const double ratio_red = dmin * dmin / (dmax * dmax);
-  if (!factor_schur(S, sdinv, nd, dmax, dmin)) return false;
+  if (!cholesky_lower(S, sdinv.data(), nd, dmax, dmin)) return false;
   if (!(dmin * dmin / (dmax * dmax) >= opt.fast_tol)) return false;
   *condition = 1.0 / ratio_red;
   return true;
