@@ -141,6 +141,17 @@ void rows_solve_L(const Model& model, const Data& data, RowMat& X, int nc) {
 }
 
 // Lam = Q^-1 Rhs through the block factor (QBlocks::solve, every column at once, as row operations)
+// rows x_0..x_{n-1} (stride ll, nc columns) <- L^-T x, L lower with 1 / diag(L) in dinv: a group's
+// backward step, on its full or its reduced factor
+template <class Mat, class Vec>
+void back_substitute_rows(double* x0, int ll, const Mat& L, const Vec& dinv, int n, int nc) {
+  for (int i = n - 1; i >= 0; --i) {
+    double* x = x0 + i * ll;
+    for (int k = i + 1; k < n; ++k) axpy_row(x, x0 + k * ll, L(k, i), nc);
+    scale_row(x, dinv[i], nc);
+  }
+}
+
 void blocks_solve_rows(QBlocks& qb, WrenchSigmaData& sd, int nc) {
   double* z = sd.Tmp.data();  // (6 x nc) the common-DOF sums z, then t
   const Eigen::Index lz = sd.Tmp.outerStride(), ll = sd.Lam.outerStride(), lr = sd.Rhs.outerStride();
@@ -164,11 +175,7 @@ void blocks_solve_rows(QBlocks& qb, WrenchSigmaData& sd, int nc) {
     QBlocks::Group& g = *it;
     for (int i = 0; i < g.rows; ++i)
       for (int k = 0; k < QBlocks::kMaxCommon; ++k) axpy_row(lam + (g.row0 + i) * ll, z + k * lz, g.W(i, k), nc);
-    for (int i = g.rows - 1; i >= 0; --i) {
-      double* x = lam + (g.row0 + i) * ll;
-      for (int k = i + 1; k < g.rows; ++k) axpy_row(x, lam + (g.row0 + k) * ll, g.A(k, i), nc);
-      scale_row(x, g.dinv[i], nc);
-    }
+    back_substitute_rows(lam + g.row0 * ll, ll, g.A, g.dinv, g.rows, nc);
     for (int i = 0; i < g.rows; ++i)
       for (int k = 0; k < QBlocks::kMaxCommon; ++k) axpy_row(z + k * lz, lam + (g.row0 + i) * ll, -g.B(i, k), nc);
   }
@@ -249,11 +256,7 @@ void nominal_solve_rows(const QBlocks& qb, WrenchSigmaData& sd, int nc) {
       for (int k = 0; k < QBlocks::kMaxCommon; ++k) axpy_row(x, z + k * lz, g.Wr(i, k), nc);
       for (int d = 0; d < qb.nd; ++d) axpy_row(x, xd(d), g.Yt(d, i), nc);
     }
-    for (int i = g.red_rows - 1; i >= 0; --i) {
-      double* x = lam + (g.row0 + i) * ll;
-      for (int k = i + 1; k < g.red_rows; ++k) axpy_row(x, lam + (g.row0 + k) * ll, g.Ar(k, i), nc);
-      scale_row(x, g.dinvr[i], nc);
-    }
+    back_substitute_rows(lam + g.row0 * ll, ll, g.Ar, g.dinvr, g.red_rows, nc);
     for (int i = 0; i < g.red_rows; ++i)
       for (int k = 0; k < QBlocks::kMaxCommon; ++k) axpy_row(z + k * lz, lam + (g.row0 + i) * ll, -g.Br(i, k), nc);
   }
