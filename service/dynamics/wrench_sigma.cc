@@ -1,6 +1,7 @@
 #include "service/dynamics/wrench_sigma.h"
 
 #include <cmath>
+#include <type_traits>
 
 #include "service/algorithms/kinematics.h"
 #include "service/algorithms/rnea.h"
@@ -111,7 +112,8 @@ WrenchSigmaData::WrenchSigmaData(const System& sys) {
 namespace {
 
 // X(:, 0:nc) <- L^-T X, every column at once (tree_solve_Lt on rows)
-void rows_solve_Lt(const Model& model, const Data& data, RowMat& X, int nc) {
+template <class Nc>
+void rows_solve_Lt(const Model& model, const Data& data, RowMat& X, Nc nc) {
   const int* path = model.dof_path.data();
   double* x = X.data();
   const Eigen::Index ld = X.outerStride();
@@ -126,7 +128,8 @@ void rows_solve_Lt(const Model& model, const Data& data, RowMat& X, int nc) {
 }
 
 // X(:, 0:nc) <- L^-1 X (tree_solve_L on rows)
-void rows_solve_L(const Model& model, const Data& data, RowMat& X, int nc) {
+template <class Nc>
+void rows_solve_L(const Model& model, const Data& data, RowMat& X, Nc nc) {
   const int* path = model.dof_path.data();
   double* x = X.data();
   const Eigen::Index ld = X.outerStride();
@@ -143,8 +146,8 @@ void rows_solve_L(const Model& model, const Data& data, RowMat& X, int nc) {
 // Lam = Q^-1 Rhs through the block factor (QBlocks::solve, every column at once, as row operations)
 // rows x_0..x_{n-1} (stride ll, nc columns) <- L^-T x, L lower with 1 / diag(L) in dinv: a group's
 // backward step, on its full or its reduced factor
-template <class Mat, class Vec>
-void back_substitute_rows(double* x0, int ll, const Mat& L, const Vec& dinv, int n, int nc) {
+template <class Mat, class Vec, class Nc>
+void back_substitute_rows(double* x0, int ll, const Mat& L, const Vec& dinv, int n, Nc nc) {
   for (int i = n - 1; i >= 0; --i) {
     double* x = x0 + i * ll;
     for (int k = i + 1; k < n; ++k) axpy_row(x, x0 + k * ll, L(k, i), nc);
@@ -152,7 +155,8 @@ void back_substitute_rows(double* x0, int ll, const Mat& L, const Vec& dinv, int
   }
 }
 
-void blocks_solve_rows(QBlocks& qb, WrenchSigmaData& sd, int nc) {
+template <class Nc>
+void blocks_solve_rows(QBlocks& qb, WrenchSigmaData& sd, Nc nc) {
   double* z = sd.Tmp.data();  // (6 x nc) the common-DOF sums z, then t
   const Eigen::Index lz = sd.Tmp.outerStride(), ll = sd.Lam.outerStride(), lr = sd.Rhs.outerStride();
   double* lam = sd.Lam.data();
@@ -182,7 +186,8 @@ void blocks_solve_rows(QBlocks& qb, WrenchSigmaData& sd, int nc) {
 }
 
 // H = I - w w^T on the 6 rows at x (stride ld), nc columns; w = 0: none
-void reflect6(const Vec6& w, double* x, Eigen::Index ld, int nc) {
+template <class Nc>
+void reflect6(const Vec6& w, double* x, Eigen::Index ld, Nc nc) {
   if (w.isZero(0.0)) return;
   for (int c = 0; c < nc; ++c) {
     double t = 0.0;
@@ -194,7 +199,8 @@ void reflect6(const Vec6& w, double* x, Eigen::Index ld, int nc) {
 // Lam = R Rhs (q_blocks.h, the single factor with the nominal rows last): per group its weld rows
 // reflected (in Rhs, scratch), the kept rows to Lam's rows row0.., the dropped after them; sd.qrow
 // = the row of Lam of each of the N dropped rows
-void nominal_rows_in(const QBlocks& qb, WrenchSigmaData& sd, int nc) {
+template <class Nc>
+void nominal_rows_in(const QBlocks& qb, WrenchSigmaData& sd, Nc nc) {
   const Eigen::Index lr = sd.Rhs.outerStride();
   for (const QBlocks::Group& g : qb.groups) {
     for (size_t n = 0; n < g.nominal.size(); ++n) reflect6(g.hw[n], sd.Rhs.data() + (g.row0 + g.nominal[n].second) * lr, lr, nc);
@@ -207,7 +213,8 @@ void nominal_rows_in(const QBlocks& qb, WrenchSigmaData& sd, int nc) {
 }
 
 // Rhs = R^T Lam, then Lam = Rhs (the inverse of nominal_rows_in)
-void nominal_rows_out(const QBlocks& qb, WrenchSigmaData& sd, int nc) {
+template <class Nc>
+void nominal_rows_out(const QBlocks& qb, WrenchSigmaData& sd, Nc nc) {
   const Eigen::Index lr = sd.Rhs.outerStride();
   for (const QBlocks::Group& g : qb.groups) {
     for (int c = 0; c < g.red_rows; ++c) row(sd.Rhs, g.row0 + g.kept_idx[c], nc) = row(sd.Lam, g.row0 + c, nc);
@@ -220,7 +227,8 @@ void nominal_rows_out(const QBlocks& qb, WrenchSigmaData& sd, int nc) {
 // Lam = Q^-1 Rhs through the single block factor with the nominal rows last (QBlocks::solve_nominal_last,
 // every column at once, as row operations): y_g = L_g^-1 (b_g - Br_g z), z += Wr_g^T y_g,
 // b_d -= Y_g^T y_g; x_d = L_S^-T L_S^-1 b_d; x_g = L_g^-T (y_g - Wr_g t - Y_g x_d), t += Br_g^T x_g
-void nominal_solve_rows(const QBlocks& qb, WrenchSigmaData& sd, int nc) {
+template <class Nc>
+void nominal_solve_rows(const QBlocks& qb, WrenchSigmaData& sd, Nc nc) {
   nominal_rows_in(qb, sd, nc);
   double* z = sd.Tmp.data();  // (6 x nc) z, then t
   double* lam = sd.Lam.data();
@@ -265,7 +273,8 @@ void nominal_solve_rows(const QBlocks& qb, WrenchSigmaData& sd, int nc) {
 
 // Lam = Q^-1 Rhs with the evaluation's factorization of Q: the block (either form) or dense Cholesky on all
 // columns at once, the rank-revealing solve (over-constrained systems) column by column
-void q_solve_rows(Workspace& ws, WrenchSigmaData& sd, int nc) {
+template <class Nc>
+void q_solve_rows(Workspace& ws, WrenchSigmaData& sd, Nc nc) {
   const int m = ws.qs.m;
   if (ws.q_blocks_active && !ws.qb.has_nominal) return blocks_solve_rows(ws.qb, sd, nc);
   if (ws.q_blocks_active) return nominal_solve_rows(ws.qb, sd, nc);
@@ -309,7 +318,8 @@ void q_solve_rows(Workspace& ws, WrenchSigmaData& sd, int nc) {
 // right-hand side changes Gm of every column, through the evaluation's factors of M and Q
 // (schur_solve of constrained_dynamics.cc). With rolling resistance the wheels' moments (linear in
 // their normal forces) are iterated to the same fixed point as the evaluation's.
-void batch_response(const System& sys, Workspace& ws, WrenchSigmaData& sd, int nc) {
+template <class Nc>
+void batch_response(const System& sys, Workspace& ws, WrenchSigmaData& sd, Nc nc) {
   const Model& model = sys.model;
   const ConstraintSet& cs = sys.constraints;
   const int ns = static_cast<int>(cs.specs.size());
@@ -382,7 +392,8 @@ void batch_setup(const System& sys, const Workspace& ws, WrenchSigmaData& sd) {
 
 // Rb: the joint reactions' change (world, at p_ref) for the accelerations' change X, without the
 // constraint forces (added per output): joint_reactions' vdot-linear part on 6 x nc blocks
-void batch_reactions(const System& sys, const Workspace& ws, WrenchSigmaData& sd, int nc) {
+template <class Nc>
+void batch_reactions(const System& sys, const Workspace& ws, WrenchSigmaData& sd, Nc nc) {
   const Model& model = sys.model;
   const std::vector<int>& pass = sys.wrenches.pass;
   const int last = pass.front();
@@ -413,7 +424,8 @@ void batch_reactions(const System& sys, const Workspace& ws, WrenchSigmaData& sd
 
 // C(:, 0:nc): each output's change per column (tips: their rows of Lam; joint reactions: Rb minus
 // the subtree sum of the constraint-force change, in the output's report frame)
-void batch_outputs(const System& sys, const Workspace& ws, WrenchSigmaData& sd, int nc) {
+template <class Nc>
+void batch_outputs(const System& sys, const Workspace& ws, WrenchSigmaData& sd, Nc nc) {
   const ConstraintSet& cs = sys.constraints;
   const WrenchSet& set = sys.wrenches;
   for (size_t t = 0; t < set.pass_specs.size(); ++t) {  // dF = T_spec Lam, row by row
@@ -645,11 +657,28 @@ void tau_columns(WrenchSigmaData& sd) {
   for (int j = 0; j < na; ++j) sd.X0(sd.dofs[static_cast<size_t>(j)], j) = sd.S[j];
 }
 
-// after batch_setup
-void propagate(const System& sys, Workspace& ws, WrenchSigmaData& sd, int nc) {
+// after batch_setup; nc a compile-time column count (std::integral_constant) or int
+template <class Nc>
+void propagate_cols(const System& sys, Workspace& ws, WrenchSigmaData& sd, Nc nc) {
   batch_response(sys, ws, sd, nc);
   if (!sys.wrenches.pass.empty()) batch_reactions(sys, ws, sd, nc);
   batch_outputs(sys, ws, sd, nc);
+}
+
+// The common column counts (6 per arm's joints, and the estimate mode's 3 kinds of columns) at
+// compile time: the row operations then unroll into whole vector registers without loop set-up.
+template <int K>
+using Cols = std::integral_constant<int, K>;
+void propagate(const System& sys, Workspace& ws, WrenchSigmaData& sd, int nc) {
+  switch (nc) {
+    case 6: return propagate_cols(sys, ws, sd, Cols<6>{});
+    case 12: return propagate_cols(sys, ws, sd, Cols<12>{});
+    case 18: return propagate_cols(sys, ws, sd, Cols<18>{});
+    case 24: return propagate_cols(sys, ws, sd, Cols<24>{});
+    case 36: return propagate_cols(sys, ws, sd, Cols<36>{});
+    case 48: return propagate_cols(sys, ws, sd, Cols<48>{});
+    default: return propagate_cols(sys, ws, sd, nc);
+  }
 }
 
 void finish(WrenchSigmaData& sd) {
