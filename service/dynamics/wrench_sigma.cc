@@ -324,8 +324,15 @@ void batch_response(const System& sys, Workspace& ws, WrenchSigmaData& sd, Nc nc
   const ConstraintSet& cs = sys.constraints;
   const int ns = static_cast<int>(cs.specs.size());
   const bool rr = cs.rolling_resistance;
+  const bool tau_only = sd.source == WrenchSigmaData::kTau;  // X0: the torques' unit columns, Gm: zero
+  const int na = static_cast<int>(sd.dofs.size());
   for (int it = 0; it < (rr ? 50 : 1); ++it) {
-    sd.X.leftCols(nc) = sd.X0.leftCols(nc);
+    if (tau_only) {
+      zero_block(sd.X.data(), sd.X.outerStride(), model.nv(), nc);
+      for (int j = 0; j < na; ++j) sd.X(sd.dofs[static_cast<size_t>(j)], j) = sd.S[j];
+    } else {
+      copy_block(sd.X0.data(), sd.X0.outerStride(), sd.X.data(), sd.X.outerStride(), model.nv(), nc);
+    }
     if (it > 0) {
       for (int s = 0; s < ns; ++s) {
         const double arm = ws.cd.rr_arm[static_cast<size_t>(s)];
@@ -337,7 +344,8 @@ void batch_response(const System& sys, Workspace& ws, WrenchSigmaData& sd, Nc nc
       sd.Lam_prev.leftCols(nc) = sd.Lam.leftCols(nc);
     }
     rows_solve_Lt(model, ws.data, sd.X, nc);
-    sd.Rhs.leftCols(nc) = sd.Gm.leftCols(nc);
+    if (tau_only) zero_block(sd.Rhs.data(), sd.Rhs.outerStride(), cs.rows, nc);
+    else copy_block(sd.Gm.data(), sd.Gm.outerStride(), sd.Rhs.data(), sd.Rhs.outerStride(), cs.rows, nc);
     double* rhs = sd.Rhs.data();
     const double* x = sd.X.data();
     const Eigen::Index lr = sd.Rhs.outerStride(), lx = sd.X.outerStride();
@@ -665,25 +673,32 @@ void propagate_cols(const System& sys, Workspace& ws, WrenchSigmaData& sd, Nc nc
   batch_outputs(sys, ws, sd, nc);
 }
 
-// The common column counts (6 per arm's joints, and the estimate mode's 3 kinds of columns) at
-// compile time: the row operations then unroll into whole vector registers without loop set-up.
-template <int K>
-using Cols = std::integral_constant<int, K>;
-void propagate(const System& sys, Workspace& ws, WrenchSigmaData& sd, int nc) {
+// f(nc) with the common column counts (6 per arm's joints, and the estimate mode's 3 kinds of
+// columns) at compile time (std::integral_constant): the row operations then run as fixed-size
+// rows, whole vector registers without loop set-up; any other count as an int.
+template <class F>
+void with_cols(int nc, F&& f) {
   switch (nc) {
-    case 6: return propagate_cols(sys, ws, sd, Cols<6>{});
-    case 12: return propagate_cols(sys, ws, sd, Cols<12>{});
-    case 18: return propagate_cols(sys, ws, sd, Cols<18>{});
-    case 24: return propagate_cols(sys, ws, sd, Cols<24>{});
-    case 36: return propagate_cols(sys, ws, sd, Cols<36>{});
-    case 48: return propagate_cols(sys, ws, sd, Cols<48>{});
-    default: return propagate_cols(sys, ws, sd, nc);
+    case 6: return f(std::integral_constant<int, 6>{});
+    case 12: return f(std::integral_constant<int, 12>{});
+    case 18: return f(std::integral_constant<int, 18>{});
+    case 24: return f(std::integral_constant<int, 24>{});
+    case 36: return f(std::integral_constant<int, 36>{});
+    case 48: return f(std::integral_constant<int, 48>{});
+    default: return f(nc);
   }
 }
+void propagate(const System& sys, Workspace& ws, WrenchSigmaData& sd, int nc) {
+  with_cols(nc, [&](auto n) { propagate_cols(sys, ws, sd, n); });
+}
 
-void finish(WrenchSigmaData& sd) {
+template <class Nc>
+void finish_cols(WrenchSigmaData& sd, Nc nc) {
   for (size_t k = 0; k < sd.sigma.size(); ++k)
-    for (int c = 0; c < 6; ++c) sd.sigma[k][c] = sd.C.row(6 * static_cast<Eigen::Index>(k) + c).head(sd.ncols).norm();
+    for (int c = 0; c < 6; ++c) sd.sigma[k][c] = row(sd.C, 6 * static_cast<Eigen::Index>(k) + c, nc).norm();
+}
+void finish(WrenchSigmaData& sd) {
+  with_cols(sd.ncols, [&](auto nc) { finish_cols(sd, nc); });
 }
 
 }  // namespace
@@ -691,8 +706,7 @@ void finish(WrenchSigmaData& sd) {
 void compute_wrench_sigma(const System& sys, Workspace& ws, WrenchSigmaData& sd) {
   const int na = static_cast<int>(sd.dofs.size());
   if (!start(ws, sd, na)) return;
-  sd.source = WrenchSigmaData::kTau;
-  tau_columns(sd);
+  sd.source = WrenchSigmaData::kTau;  // batch_response writes the torques' columns itself
   batch_setup(sys, ws, sd);
   propagate(sys, ws, sd, na);
   finish(sd);

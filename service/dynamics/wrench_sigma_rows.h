@@ -56,6 +56,26 @@ inline void scale_row(double* a, double f, Nc nc) {
   }
 }
 
+// rows 0:n, columns 0:nc: to = from, or a = 0 (strides lf, lt, ld)
+template <class Nc>
+inline void copy_block(const double* __restrict from, Eigen::Index lf, double* __restrict to, Eigen::Index lt, int n, Nc nc) {
+  for (int r = 0; r < n; ++r)
+    if constexpr (std::is_same_v<Nc, int>) {
+      for (int c = 0; c < nc; ++c) to[r * lt + c] = from[r * lf + c];
+    } else {
+      FixedRow<Nc>(to + r * lt) = ConstFixedRow<Nc>(from + r * lf);
+    }
+}
+template <class Nc>
+inline void zero_block(double* a, Eigen::Index ld, int n, Nc nc) {
+  for (int r = 0; r < n; ++r)
+    if constexpr (std::is_same_v<Nc, int>) {
+      for (int c = 0; c < nc; ++c) a[r * ld + c] = 0.0;
+    } else {
+      FixedRow<Nc>(a + r * ld).setZero();
+    }
+}
+
 // Row r, columns 0:nc, of a row-major matrix: contiguous, so that the sums of rows below vectorize.
 template <class Mat, class Nc>
 inline auto row(Mat& M, Eigen::Index r, Nc nc) {
