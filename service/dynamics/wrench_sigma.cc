@@ -1,6 +1,7 @@
 #include "service/dynamics/wrench_sigma.h"
 
 #include <cmath>
+#include <type_traits>
 
 #include "service/algorithms/kinematics.h"
 #include "service/algorithms/rnea.h"
@@ -16,6 +17,46 @@ using RowMat = WrenchSigmaData::RowMat;
 using namespace sigma_rows;
 
 bool positive(const Eigen::VectorXd& x) { return x.size() > 0 && x.maxCoeff() > 0.0; }
+
+// j is b or below it (bodies are numbered parents first)
+bool in_subtree(const Model& model, int j, int b) {
+  while (j > b) j = model.bodies[j].parent;
+  return j == b;
+}
+
+// Each reaction's DOFs for the composite form (WrenchSigmaData::composite) and whether it takes
+// far fewer multiply-adds a column than the pass (what both share, the specs' forces and the frame,
+// left out)
+void composite_plan(const System& sys, WrenchSigmaData& sd) {
+  const Model& model = sys.model;
+  const WrenchSet& set = sys.wrenches;
+  const size_t no = set.outputs.size();
+  sd.out_up.assign(no, {});
+  sd.out_down.assign(no, {});
+  sd.U.assign(no, Eigen::Matrix<double, 6, Eigen::Dynamic>());
+  long pass_cost = 0, composite_cost = 0;
+  for (int i : set.pass) {  // accelerations, inertia, subtree sum, copies
+    const Body& b = model.bodies[i];
+    pass_cost += 6 * b.joint.nv + 24 + 6 + 6 + 6 + 6 + (b.joint.type == JointType::kFixed && b.parent >= 0 ? 24 : 0);
+  }
+  for (size_t k = 0; k < no; ++k) {
+    const int b = set.outputs[k].body;
+    if (set.outputs[k].spec >= 0) continue;
+    for (int i = b; i >= 0; i = model.bodies[i].parent)
+      for (int c = 0; c < model.bodies[i].joint.nv; ++c) sd.out_up[k].push_back(model.bodies[i].joint.idx_v + c);
+    for (int j = b + 1; j < model.nbodies(); ++j)
+      if (in_subtree(model, j, b))
+        for (int c = 0; c < model.bodies[j].joint.nv; ++c) sd.out_down[k].push_back(model.bodies[j].joint.idx_v + c);
+    sd.U[k].setZero(6, static_cast<Eigen::Index>(sd.out_up[k].size()));
+    composite_cost += 6 * static_cast<long>(sd.out_up[k].size() + sd.out_down[k].size()) - 6;
+  }
+  // measured (compute_wrench_sigma, simulate mode): the composite form's per-term overhead and its
+  // per-evaluation coefficients make it pay only well below the pass's count (PUMAs without joint
+  // reactions: 1/6 of it, 20-30 % faster; planar arms with every reaction: 0.8 of it, 25 % slower)
+  sd.composite = !set.pass.empty() && 4 * composite_cost <= pass_cost;
+  sd.Ic.assign(static_cast<size_t>(model.nbodies()), RigidInertia());
+  sd.F_dof.setZero(6, model.nv());
+}
 
 }  // namespace
 
@@ -106,12 +147,14 @@ WrenchSigmaData::WrenchSigmaData(const System& sys) {
     pFs.assign(sys.constraints.specs.size(), Vec6::Zero());
     position_tangent_plan(sys, *this);
   }
+  composite_plan(sys, *this);
 }
 
 namespace {
 
 // X(:, 0:nc) <- L^-T X, every column at once (tree_solve_Lt on rows)
-void rows_solve_Lt(const Model& model, const Data& data, RowMat& X, int nc) {
+template <class Nc>
+void rows_solve_Lt(const Model& model, const Data& data, RowMat& X, Nc nc) {
   const int* path = model.dof_path.data();
   double* x = X.data();
   const Eigen::Index ld = X.outerStride();
@@ -126,7 +169,8 @@ void rows_solve_Lt(const Model& model, const Data& data, RowMat& X, int nc) {
 }
 
 // X(:, 0:nc) <- L^-1 X (tree_solve_L on rows)
-void rows_solve_L(const Model& model, const Data& data, RowMat& X, int nc) {
+template <class Nc>
+void rows_solve_L(const Model& model, const Data& data, RowMat& X, Nc nc) {
   const int* path = model.dof_path.data();
   double* x = X.data();
   const Eigen::Index ld = X.outerStride();
@@ -143,8 +187,8 @@ void rows_solve_L(const Model& model, const Data& data, RowMat& X, int nc) {
 // Lam = Q^-1 Rhs through the block factor (QBlocks::solve, every column at once, as row operations)
 // rows x_0..x_{n-1} (stride ll, nc columns) <- L^-T x, L lower with 1 / diag(L) in dinv: a group's
 // backward step, on its full or its reduced factor
-template <class Mat, class Vec>
-void back_substitute_rows(double* x0, int ll, const Mat& L, const Vec& dinv, int n, int nc) {
+template <class Mat, class Vec, class Nc>
+void back_substitute_rows(double* x0, int ll, const Mat& L, const Vec& dinv, int n, Nc nc) {
   for (int i = n - 1; i >= 0; --i) {
     double* x = x0 + i * ll;
     for (int k = i + 1; k < n; ++k) axpy_row(x, x0 + k * ll, L(k, i), nc);
@@ -152,7 +196,8 @@ void back_substitute_rows(double* x0, int ll, const Mat& L, const Vec& dinv, int
   }
 }
 
-void blocks_solve_rows(QBlocks& qb, WrenchSigmaData& sd, int nc) {
+template <class Nc>
+void blocks_solve_rows(QBlocks& qb, WrenchSigmaData& sd, Nc nc) {
   double* z = sd.Tmp.data();  // (6 x nc) the common-DOF sums z, then t
   const Eigen::Index lz = sd.Tmp.outerStride(), ll = sd.Lam.outerStride(), lr = sd.Rhs.outerStride();
   double* lam = sd.Lam.data();
@@ -182,7 +227,8 @@ void blocks_solve_rows(QBlocks& qb, WrenchSigmaData& sd, int nc) {
 }
 
 // H = I - w w^T on the 6 rows at x (stride ld), nc columns; w = 0: none
-void reflect6(const Vec6& w, double* x, Eigen::Index ld, int nc) {
+template <class Nc>
+void reflect6(const Vec6& w, double* x, Eigen::Index ld, Nc nc) {
   if (w.isZero(0.0)) return;
   for (int c = 0; c < nc; ++c) {
     double t = 0.0;
@@ -194,7 +240,8 @@ void reflect6(const Vec6& w, double* x, Eigen::Index ld, int nc) {
 // Lam = R Rhs (q_blocks.h, the single factor with the nominal rows last): per group its weld rows
 // reflected (in Rhs, scratch), the kept rows to Lam's rows row0.., the dropped after them; sd.qrow
 // = the row of Lam of each of the N dropped rows
-void nominal_rows_in(const QBlocks& qb, WrenchSigmaData& sd, int nc) {
+template <class Nc>
+void nominal_rows_in(const QBlocks& qb, WrenchSigmaData& sd, Nc nc) {
   const Eigen::Index lr = sd.Rhs.outerStride();
   for (const QBlocks::Group& g : qb.groups) {
     for (size_t n = 0; n < g.nominal.size(); ++n) reflect6(g.hw[n], sd.Rhs.data() + (g.row0 + g.nominal[n].second) * lr, lr, nc);
@@ -207,7 +254,8 @@ void nominal_rows_in(const QBlocks& qb, WrenchSigmaData& sd, int nc) {
 }
 
 // Rhs = R^T Lam, then Lam = Rhs (the inverse of nominal_rows_in)
-void nominal_rows_out(const QBlocks& qb, WrenchSigmaData& sd, int nc) {
+template <class Nc>
+void nominal_rows_out(const QBlocks& qb, WrenchSigmaData& sd, Nc nc) {
   const Eigen::Index lr = sd.Rhs.outerStride();
   for (const QBlocks::Group& g : qb.groups) {
     for (int c = 0; c < g.red_rows; ++c) row(sd.Rhs, g.row0 + g.kept_idx[c], nc) = row(sd.Lam, g.row0 + c, nc);
@@ -220,7 +268,8 @@ void nominal_rows_out(const QBlocks& qb, WrenchSigmaData& sd, int nc) {
 // Lam = Q^-1 Rhs through the single block factor with the nominal rows last (QBlocks::solve_nominal_last,
 // every column at once, as row operations): y_g = L_g^-1 (b_g - Br_g z), z += Wr_g^T y_g,
 // b_d -= Y_g^T y_g; x_d = L_S^-T L_S^-1 b_d; x_g = L_g^-T (y_g - Wr_g t - Y_g x_d), t += Br_g^T x_g
-void nominal_solve_rows(const QBlocks& qb, WrenchSigmaData& sd, int nc) {
+template <class Nc>
+void nominal_solve_rows(const QBlocks& qb, WrenchSigmaData& sd, Nc nc) {
   nominal_rows_in(qb, sd, nc);
   double* z = sd.Tmp.data();  // (6 x nc) z, then t
   double* lam = sd.Lam.data();
@@ -265,7 +314,8 @@ void nominal_solve_rows(const QBlocks& qb, WrenchSigmaData& sd, int nc) {
 
 // Lam = Q^-1 Rhs with the evaluation's factorization of Q: the block (either form) or dense Cholesky on all
 // columns at once, the rank-revealing solve (over-constrained systems) column by column
-void q_solve_rows(Workspace& ws, WrenchSigmaData& sd, int nc) {
+template <class Nc>
+void q_solve_rows(Workspace& ws, WrenchSigmaData& sd, Nc nc) {
   const int m = ws.qs.m;
   if (ws.q_blocks_active && !ws.qb.has_nominal) return blocks_solve_rows(ws.qb, sd, nc);
   if (ws.q_blocks_active) return nominal_solve_rows(ws.qb, sd, nc);
@@ -309,13 +359,21 @@ void q_solve_rows(Workspace& ws, WrenchSigmaData& sd, int nc) {
 // right-hand side changes Gm of every column, through the evaluation's factors of M and Q
 // (schur_solve of constrained_dynamics.cc). With rolling resistance the wheels' moments (linear in
 // their normal forces) are iterated to the same fixed point as the evaluation's.
-void batch_response(const System& sys, Workspace& ws, WrenchSigmaData& sd, int nc) {
+template <class Nc>
+void batch_response(const System& sys, Workspace& ws, WrenchSigmaData& sd, Nc nc) {
   const Model& model = sys.model;
   const ConstraintSet& cs = sys.constraints;
   const int ns = static_cast<int>(cs.specs.size());
   const bool rr = cs.rolling_resistance;
+  const bool tau_only = sd.source == WrenchSigmaData::kTau;  // X0: the torques' unit columns, Gm: zero
+  const int na = static_cast<int>(sd.dofs.size());
   for (int it = 0; it < (rr ? 50 : 1); ++it) {
-    sd.X.leftCols(nc) = sd.X0.leftCols(nc);
+    if (tau_only) {
+      zero_block(sd.X.data(), sd.X.outerStride(), model.nv(), nc);
+      for (int j = 0; j < na; ++j) sd.X(sd.dofs[static_cast<size_t>(j)], j) = sd.S[j];
+    } else {
+      copy_block(sd.X0.data(), sd.X0.outerStride(), sd.X.data(), sd.X.outerStride(), model.nv(), nc);
+    }
     if (it > 0) {
       for (int s = 0; s < ns; ++s) {
         const double arm = ws.cd.rr_arm[static_cast<size_t>(s)];
@@ -327,7 +385,8 @@ void batch_response(const System& sys, Workspace& ws, WrenchSigmaData& sd, int n
       sd.Lam_prev.leftCols(nc) = sd.Lam.leftCols(nc);
     }
     rows_solve_Lt(model, ws.data, sd.X, nc);
-    sd.Rhs.leftCols(nc) = sd.Gm.leftCols(nc);
+    if (tau_only) zero_block(sd.Rhs.data(), sd.Rhs.outerStride(), cs.rows, nc);
+    else copy_block(sd.Gm.data(), sd.Gm.outerStride(), sd.Rhs.data(), sd.Rhs.outerStride(), cs.rows, nc);
     double* rhs = sd.Rhs.data();
     const double* x = sd.X.data();
     const Eigen::Index lr = sd.Rhs.outerStride(), lx = sd.X.outerStride();
@@ -355,6 +414,31 @@ void batch_response(const System& sys, Workspace& ws, WrenchSigmaData& sd, int n
   rows_solve_L(model, ws.data, sd.X, nc);
 }
 
+// The composite form's coefficients (WrenchSigmaData::composite): each subtree's inertia, each
+// DOF's Ic S, each reaction's (Ic_b [+ I_fix_b]) S on its path. After the pass's inertias (batch_setup).
+void composite_setup(const System& sys, const Workspace& ws, WrenchSigmaData& sd) {
+  const Model& model = sys.model;
+  const Data& data = ws.data;
+  const WrenchSet& set = sys.wrenches;
+  for (int i : set.pass) sd.Ic[i] = data.has_inertia[i] ? sd.I_lin[i] : RigidInertia();
+  for (int i : set.pass) {  // children first
+    const int p = model.bodies[i].parent;
+    if (p >= 0 && set.in_pass[p]) sd.Ic[p] += sd.Ic[i];
+  }
+  for (int i : set.pass)
+    for (int c = 0; c < model.bodies[i].joint.nv; ++c) {
+      const int d = model.bodies[i].joint.idx_v + c;
+      sd.F_dof.col(d) = sd.Ic[i] * data.S_W.col(d);
+    }
+  for (size_t k = 0; k < set.outputs.size(); ++k) {
+    if (set.outputs[k].spec >= 0) continue;
+    const int b = set.outputs[k].body;
+    RigidInertia I = sd.Ic[b];
+    if (model.bodies[b].joint.type == JointType::kFixed && model.bodies[b].parent >= 0) I += sd.I_fix[b];
+    for (size_t t = 0; t < sd.out_up[k].size(); ++t) sd.U[k].col(static_cast<Eigen::Index>(t)) = I * data.S_W.col(sd.out_up[k][t]);
+  }
+}
+
 // The state-dependent matrices of the pass: each reaction's inertia on its body's acceleration
 // (joint_reactions.h: the body's I_W, and for a fixed joint the welded group's I_Bw), each pass
 // spec's force per unit of its rows (spec_force), each output's report frame.
@@ -378,11 +462,13 @@ void batch_setup(const System& sys, const Workspace& ws, WrenchSigmaData& sd) {
   }
   for (size_t k = 0; k < set.outputs.size(); ++k)
     if (set.outputs[k].spec < 0) sd.X_WF[k] = wrench_frame_pose(sys, data, static_cast<int>(k));
+  if (sd.composite) composite_setup(sys, ws, sd);
 }
 
 // Rb: the joint reactions' change (world, at p_ref) for the accelerations' change X, without the
 // constraint forces (added per output): joint_reactions' vdot-linear part on 6 x nc blocks
-void batch_reactions(const System& sys, const Workspace& ws, WrenchSigmaData& sd, int nc) {
+template <class Nc>
+void batch_reactions(const System& sys, const Workspace& ws, WrenchSigmaData& sd, Nc nc) {
   const Model& model = sys.model;
   const std::vector<int>& pass = sys.wrenches.pass;
   const int last = pass.front();
@@ -411,9 +497,39 @@ void batch_reactions(const System& sys, const Workspace& ws, WrenchSigmaData& sd
   }
 }
 
+// Tmp(0:6, 0:nc) = output k's reaction without its specs' forces (world, at p_ref) in the composite form
+template <class Nc>
+void composite_reaction(WrenchSigmaData& sd, size_t k, Nc nc) {
+  const std::vector<int>& up = sd.out_up[k];
+  const std::vector<int>& down = sd.out_down[k];
+  const auto& U = sd.U[k];
+  const double* x = sd.X.data();
+  const Eigen::Index lx = sd.X.outerStride(), lt = sd.Tmp.outerStride();
+  double* tmp = sd.Tmp.data();
+  if constexpr (std::is_same_v<Nc, int>) {
+    zero_rows(tmp, lt, nc);
+    for (size_t t = 0; t < up.size(); ++t)
+      for (int c = 0; c < 6; ++c) axpy_row(tmp + c * lt, x + up[t] * lx, -U(c, static_cast<Eigen::Index>(t)), nc);
+    for (int d : down)
+      for (int c = 0; c < 6; ++c) axpy_row(tmp + c * lt, x + d * lx, -sd.F_dof(c, d), nc);
+  } else {  // the 6 rows held in registers
+    using Row = Eigen::Matrix<double, 1, Nc::value>;
+    Row a0 = Row::Zero(), a1 = Row::Zero(), a2 = Row::Zero(), a3 = Row::Zero(), a4 = Row::Zero(), a5 = Row::Zero();
+    auto add = [&](const double* w, const double* r) {
+      const ConstFixedRow<Nc> xr(r);
+      a0 += w[0] * xr, a1 += w[1] * xr, a2 += w[2] * xr, a3 += w[3] * xr, a4 += w[4] * xr, a5 += w[5] * xr;
+    };
+    for (size_t t = 0; t < up.size(); ++t) add(U.data() + 6 * t, x + up[t] * lx);
+    for (int d : down) add(sd.F_dof.data() + 6 * d, x + d * lx);
+    FixedRow<Nc> o0(tmp), o1(tmp + lt), o2(tmp + 2 * lt), o3(tmp + 3 * lt), o4(tmp + 4 * lt), o5(tmp + 5 * lt);
+    o0 = a0, o1 = a1, o2 = a2, o3 = a3, o4 = a4, o5 = a5;
+  }
+}
+
 // C(:, 0:nc): each output's change per column (tips: their rows of Lam; joint reactions: Rb minus
 // the subtree sum of the constraint-force change, in the output's report frame)
-void batch_outputs(const System& sys, const Workspace& ws, WrenchSigmaData& sd, int nc) {
+template <class Nc>
+void batch_outputs(const System& sys, const Workspace& ws, WrenchSigmaData& sd, Nc nc) {
   const ConstraintSet& cs = sys.constraints;
   const WrenchSet& set = sys.wrenches;
   for (size_t t = 0; t < set.pass_specs.size(); ++t) {  // dF = T_spec Lam, row by row
@@ -436,9 +552,10 @@ void batch_outputs(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
         row(sd.C, c0 + 1, nc) = ws.cd.rr_arm[static_cast<size_t>(o.spec)] * row(sd.C, c0 + 5, nc);
       continue;
     }
+    if (sd.composite) composite_reaction(sd, k, nc);
     for (int c = 0; c < 6; ++c) {
       auto d = row(sd.Tmp, c, nc);
-      d = row(sd.Rb, 6 * o.body + c, nc);
+      if (!sd.composite) d = row(sd.Rb, 6 * o.body + c, nc);
       for (int t = set.out_spec_begin[k]; t < set.out_spec_begin[k + 1]; ++t)
         d += static_cast<double>(set.out_spec[t].second) * row(sd.dF, 6 * set.out_spec[t].first + c, nc);
     }
@@ -645,16 +762,40 @@ void tau_columns(WrenchSigmaData& sd) {
   for (int j = 0; j < na; ++j) sd.X0(sd.dofs[static_cast<size_t>(j)], j) = sd.S[j];
 }
 
-// after batch_setup
-void propagate(const System& sys, Workspace& ws, WrenchSigmaData& sd, int nc) {
+// after batch_setup; nc a compile-time column count (std::integral_constant) or int
+template <class Nc>
+void propagate_cols(const System& sys, Workspace& ws, WrenchSigmaData& sd, Nc nc) {
   batch_response(sys, ws, sd, nc);
-  if (!sys.wrenches.pass.empty()) batch_reactions(sys, ws, sd, nc);
+  if (!sys.wrenches.pass.empty() && !sd.composite) batch_reactions(sys, ws, sd, nc);
   batch_outputs(sys, ws, sd, nc);
 }
 
-void finish(WrenchSigmaData& sd) {
+// f(nc) with the common column counts (6 per arm's joints, and the estimate mode's 3 kinds of
+// columns) at compile time (std::integral_constant): the row operations then run as fixed-size
+// rows, whole vector registers without loop set-up; any other count as an int.
+template <class F>
+void with_cols(int nc, F&& f) {
+  switch (nc) {
+    case 6: return f(std::integral_constant<int, 6>{});
+    case 12: return f(std::integral_constant<int, 12>{});
+    case 18: return f(std::integral_constant<int, 18>{});
+    case 24: return f(std::integral_constant<int, 24>{});
+    case 36: return f(std::integral_constant<int, 36>{});
+    case 48: return f(std::integral_constant<int, 48>{});
+    default: return f(nc);
+  }
+}
+void propagate(const System& sys, Workspace& ws, WrenchSigmaData& sd, int nc) {
+  with_cols(nc, [&](auto n) { propagate_cols(sys, ws, sd, n); });
+}
+
+template <class Nc>
+void finish_cols(WrenchSigmaData& sd, Nc nc) {
   for (size_t k = 0; k < sd.sigma.size(); ++k)
-    for (int c = 0; c < 6; ++c) sd.sigma[k][c] = sd.C.row(6 * static_cast<Eigen::Index>(k) + c).head(sd.ncols).norm();
+    for (int c = 0; c < 6; ++c) sd.sigma[k][c] = row(sd.C, 6 * static_cast<Eigen::Index>(k) + c, nc).norm();
+}
+void finish(WrenchSigmaData& sd) {
+  with_cols(sd.ncols, [&](auto nc) { finish_cols(sd, nc); });
 }
 
 }  // namespace
@@ -662,8 +803,7 @@ void finish(WrenchSigmaData& sd) {
 void compute_wrench_sigma(const System& sys, Workspace& ws, WrenchSigmaData& sd) {
   const int na = static_cast<int>(sd.dofs.size());
   if (!start(ws, sd, na)) return;
-  sd.source = WrenchSigmaData::kTau;
-  tau_columns(sd);
+  sd.source = WrenchSigmaData::kTau;  // batch_response writes the torques' columns itself
   batch_setup(sys, ws, sd);
   propagate(sys, ws, sd, na);
   finish(sd);

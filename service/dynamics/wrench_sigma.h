@@ -129,6 +129,17 @@ struct WrenchSigmaData {
                                          // row of Lam holding each dropped (nominal) row
   std::vector<Transform> X_WF;           // per output: its report frame
 
+  // The reactions by composite inertias, where that takes fewer multiply-adds a column than the
+  // pass over the bodies (composite, chosen at construction): the reaction at body b is linear in
+  // the DOFs' accelerations X_d, sum over d on b's path of (Ic_b [+ I_fix_b]) S_d X_d plus over d
+  // strictly below b of Ic_body(d) S_d X_d (Ic: a subtree's inertia, world, at p_ref), then its
+  // specs' forces and its frame as in the pass: no body accelerations, one small product per output.
+  bool composite = false;
+  std::vector<std::vector<int>> out_up, out_down;        // per output: the DOFs on its body's path, below it
+  std::vector<RigidInertia> Ic;                          // per body of the pass: its subtree's inertia
+  Eigen::Matrix<double, 6, Eigen::Dynamic> F_dof;        // (6 x nv) Ic_body(d) S_d
+  std::vector<Eigen::Matrix<double, 6, Eigen::Dynamic>> U;  // per output: (6 x out_up) (Ic_b [+ I_fix_b]) S_d
+
   // measurement noise: the perturbed residuals (allocated when q or v noise is declared)
   std::unique_ptr<Workspace> wp;
   std::unique_ptr<WrenchData> wd0, wd1;

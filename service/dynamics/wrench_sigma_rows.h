@@ -3,6 +3,8 @@
 // Internal to the sigma; allocation-free.
 #pragma once
 
+#include <type_traits>
+
 #include <Eigen/Core>
 
 #include "service/spatial/spatial.h"
@@ -10,26 +12,84 @@
 namespace coopdyn::sigma_rows {
 
 // row a -= f * row b over nc entries (row-major rows: contiguous, vectorized)
-inline void axpy_row(double* __restrict a, const double* __restrict b, double f, int nc) {
-  for (int c = 0; c < nc; ++c) a[c] -= f * b[c];
+// A compile-time column count (std::integral_constant): the row as a fixed-size vector, whose
+// operations Eigen writes as whole vector registers (a plain loop of a known short count GCC
+// unrolls into scalar operations before it vectorizes).
+template <class Nc>
+using FixedRow = Eigen::Map<Eigen::Matrix<double, 1, Nc::value>>;
+template <class Nc>
+using ConstFixedRow = Eigen::Map<const Eigen::Matrix<double, 1, Nc::value>>;
+// f(offset, count) over a row of K columns in parts whose count Eigen runs at its widest vectors:
+// the multiples of 8, then the rest (Eigen runs a fixed row of 12 or 18 at the widest width that
+// divides it: 4 or 2)
+template <int K, class F>
+inline void in_parts(F&& f) {
+  constexpr int head = K - K % 8;
+  if constexpr (head > 0) f(std::integral_constant<int, 0>{}, std::integral_constant<int, head>{});
+  if constexpr (K % 8 > 0) f(std::integral_constant<int, head>{}, std::integral_constant<int, K % 8>{});
+}
+
+template <class Nc>
+inline void axpy_row(double* __restrict a, const double* __restrict b, double f, Nc nc) {
+  if constexpr (std::is_same_v<Nc, int>) {
+    for (int c = 0; c < nc; ++c) a[c] -= f * b[c];
+  } else {
+    in_parts<Nc::value>([&](auto o, auto n) { FixedRow<decltype(n)>(a + o) -= f * ConstFixedRow<decltype(n)>(b + o); });
+  }
 }
 // the first nc entries of 6 rows of stride ld
-inline void copy_rows(const double* __restrict from, double* __restrict to, Eigen::Index ld, int nc) {
+template <class Nc>
+inline void copy_rows(const double* __restrict from, double* __restrict to, Eigen::Index ld, Nc nc) {
   for (int r = 0; r < 6; ++r)
-    for (int c = 0; c < nc; ++c) to[r * ld + c] = from[r * ld + c];
+    if constexpr (std::is_same_v<Nc, int>) {
+      for (int c = 0; c < nc; ++c) to[r * ld + c] = from[r * ld + c];
+    } else {
+      FixedRow<Nc>(to + r * ld) = ConstFixedRow<Nc>(from + r * ld);
+    }
 }
-inline void zero_rows(double* a, Eigen::Index ld, int nc) {
+template <class Nc>
+inline void zero_rows(double* a, Eigen::Index ld, Nc nc) {
   for (int r = 0; r < 6; ++r)
-    for (int c = 0; c < nc; ++c) a[r * ld + c] = 0.0;
+    if constexpr (std::is_same_v<Nc, int>) {
+      for (int c = 0; c < nc; ++c) a[r * ld + c] = 0.0;
+    } else {
+      FixedRow<Nc>(a + r * ld).setZero();
+    }
 }
-inline void scale_row(double* a, double f, int nc) {
-  for (int c = 0; c < nc; ++c) a[c] *= f;
+template <class Nc>
+inline void scale_row(double* a, double f, Nc nc) {
+  if constexpr (std::is_same_v<Nc, int>) {
+    for (int c = 0; c < nc; ++c) a[c] *= f;
+  } else {
+    in_parts<Nc::value>([&](auto o, auto n) { FixedRow<decltype(n)>(a + o) *= f; });
+  }
+}
+
+// rows 0:n, columns 0:nc: to = from, or a = 0 (strides lf, lt, ld)
+template <class Nc>
+inline void copy_block(const double* __restrict from, Eigen::Index lf, double* __restrict to, Eigen::Index lt, int n, Nc nc) {
+  for (int r = 0; r < n; ++r)
+    if constexpr (std::is_same_v<Nc, int>) {
+      for (int c = 0; c < nc; ++c) to[r * lt + c] = from[r * lf + c];
+    } else {
+      FixedRow<Nc>(to + r * lt) = ConstFixedRow<Nc>(from + r * lf);
+    }
+}
+template <class Nc>
+inline void zero_block(double* a, Eigen::Index ld, int n, Nc nc) {
+  for (int r = 0; r < n; ++r)
+    if constexpr (std::is_same_v<Nc, int>) {
+      for (int c = 0; c < nc; ++c) a[r * ld + c] = 0.0;
+    } else {
+      FixedRow<Nc>(a + r * ld).setZero();
+    }
 }
 
 // Row r, columns 0:nc, of a row-major matrix: contiguous, so that the sums of rows below vectorize.
-template <class Mat>
-inline auto row(Mat& M, Eigen::Index r, int nc) {
-  return M.row(r).head(nc);
+template <class Mat, class Nc>
+inline auto row(Mat& M, Eigen::Index r, Nc nc) {
+  if constexpr (std::is_same_v<Nc, int>) return M.row(r).head(nc);
+  else return M.row(r).template head<Nc::value>();
 }
 
 // N (+)= I A for a rigid inertia on 6 rows of nc columns (row r of A at a + r la, of N at

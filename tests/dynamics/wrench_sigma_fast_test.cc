@@ -77,6 +77,41 @@ TEST(WrenchSigmaFast, EqualsThePreviousDefinitionOnEveryShippedScene) {
   EXPECT_GE(compared, 12);  // how many pairs (scene, formulation) propagate noise
 }
 
+// Without the joint reactions (`reactions: none`: the end-effector, base, tip and axle wrenches) the
+// reactions left (the bases) are read off composite inertias where that is far cheaper than the pass
+// over the bodies (WrenchSigmaData::composite): every shipped scene, both formulations, and 1, 2
+// and 4 PUMAs, both modes, against the reference's pass.
+TEST(WrenchSigmaFast, EqualsThePreviousDefinitionWithCompositeReactions) {
+  std::vector<std::pair<std::string, std::string>> scenes;  // (text, path)
+  for (const char* name : kScenes) scenes.emplace_back(scene_text(name), scene_path(name));
+  for (int n : {1, 2, 4}) {
+    const std::string path = std::string(COOPDYN_SOURCE_DIR) + "/bench/scenes/pumas_" + std::to_string(n) + ".yaml";
+    scenes.emplace_back(slurp(path), path);
+  }
+  int composite = 0, compared = 0;
+  for (const auto& [scene, path] : scenes) {
+    for (const bool classic : {false, true}) {
+      SCOPED_TRACE(path + (classic ? " classic" : ""));
+      SceneOverrides ov;
+      if (classic) ov.formulation = Formulation::kClassic;
+      const std::string text = without_reactions(scene) + "\nreactions: none\nnoise: {tau: 0.2, q: 1e-3, v: 1e-2}\n";
+      if (classic && text.find("\nload:") == std::string::npos) continue;
+      const System sys = load_scene_string(text, path, ov);
+      if (!wrench_sigma_supported(sys)) continue;
+      Workspace ws(sys);
+      WrenchSigmaData fast(sys), ref(sys);
+      Eigen::VectorXd v, tau;
+      reference::random_v_tau(sys, 5, v, tau);
+      if (evaluate(sys, ws, sys.q0, v, tau).status == Status::kError) continue;
+      expect_same_in_both_modes(sys, ws, fast, ref, v, tau);
+      composite += fast.composite;
+      ++compared;
+    }
+  }
+  EXPECT_GE(compared, 15);
+  EXPECT_GE(composite, 8);  // the arms' bases: the PUMAs, the iiwas, the planar and 5-DOF arms
+}
+
 // Arms without joint-1 armature on the dense path (1 and 2 PUMAs, bench/scenes): Q is factored
 // with the nominal directions last (q_solve.h), and the fast row solve goes through that basis;
 // the reference solves the dense Q with Eigen's LDLT.
