@@ -135,7 +135,7 @@ Workspace::Workspace(const System& sys)
     for (int d = 0; d < n; ++d)
       if (touch[s][d]) y_support[s].push_back(d);
   }
-  for (int s = 0; s < ns; ++s) Yb.push_back(YBlock::Zero(n, 6));
+  for (int s = 0; s < ns; ++s) Yb.push_back(YBlock::Zero(n, kYStride));
   for (const auto& [k, j] : sys.model.dof_elim_steps)
     for (int s = 0; s < ns; ++s) {
       if (touch[s][k]) y_sweep.push_back({s, k, j});
@@ -168,7 +168,7 @@ Workspace::Workspace(const System& sys)
       spec_nominal[nb.spec] = static_cast<int>(nominal_rows.size());
       nominal_rows.emplace_back(sys.model.bodies[nb.body].joint.idx_v, cs.row_offset[nb.spec]);
     }
-  for (size_t s = 0; s < cs.specs.size(); ++s) Yr.push_back(spec_nominal[s] >= 0 ? YBlock::Zero(n, 6) : YBlock());
+  for (size_t s = 0; s < cs.specs.size(); ++s) Yr.push_back(spec_nominal[s] >= 0 ? YBlock::Zero(n, kYStride) : YBlock());
   if (sys.options.formulation == Formulation::kMobilePlatform || sys.options.formulation == Formulation::kClassic) {
     qb.plan(sys, y_support, nominal_rows);
     use_q_blocks = qb.usable && static_cast<int>(qb.groups.size()) >=
@@ -371,24 +371,27 @@ void solve_q(const System& sys, Workspace& ws, const Eigen::VectorXd& b, Eigen::
   else ws.qs.solve(b, x);
 }
 
-// One step of the L^-T solve of a spec's rows (y: its Yb, row-major, DOF i's 6 entries at y + 6 i):
+// One step of the L^-T solve of a spec's rows (y: its Yb, row-major, DOF i's entries at y + kYStride i):
 // DOF k, then its parent j (Model::dof_elim_steps) in the same pass over their ancestors, each
 // ancestor's two updates in that order (the arithmetic of k's step, then j's).
 void y_sweep_step(const Model& model, const Data& data, const Workspace::YStep& st, double* y) {
+  using YRow = Eigen::Matrix<double, Workspace::kYStride, 1>;  // a DOF's row of Yb
+  using Row = Eigen::Map<YRow>;
+  constexpr int S = Workspace::kYStride;
   const int k = st.k, d = model.dof_depth[k];
   const double* rk = tree_factor_row(model, data, k);
   const int* pk = model.dof_path.data() + model.dof_path_offset[k];
-  const Vec6 yk = Eigen::Map<const Vec6>(y + 6 * k) * data.Ld_inv[k];
-  Eigen::Map<Vec6>(y + 6 * k) = yk;
+  const YRow yk = Row(y + S * k) * data.Ld_inv[k];
+  Row(y + S * k) = yk;
   if (st.j < 0) {
-    for (int p = 0; p < d; ++p) Eigen::Map<Vec6>(y + 6 * pk[p]) -= rk[p] * yk;
+    for (int p = 0; p < d; ++p) Row(y + S * pk[p]) -= rk[p] * yk;
     return;
   }
   const double* rj = tree_factor_row(model, data, st.j);  // j's path: k's first d - 1 entries
-  const Vec6 yj = (Eigen::Map<const Vec6>(y + 6 * st.j) - rk[d - 1] * yk) * data.Ld_inv[st.j];
-  Eigen::Map<Vec6>(y + 6 * st.j) = yj;
+  const YRow yj = (Row(y + S * st.j) - rk[d - 1] * yk) * data.Ld_inv[st.j];
+  Row(y + S * st.j) = yj;
   for (int p = 0; p < d - 1; ++p) {
-    Eigen::Map<Vec6> ya(y + 6 * pk[p]);
+    Row ya(y + S * pk[p]);
     ya = ya - rk[p] * yk - rj[p] * yj;
   }
 }
@@ -419,6 +422,38 @@ void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G, bool de
   else dense_q_from_yb(sys, ws);
 }
 
+// Q_st's 6 x 6 block: the sum over the DOFs both specs reach (ranges) of the outer products
+// ys.row(d)^T yt.row(d), each entry's multiply-adds in the order of d. Kept by rows 0-3 and 4-5 (a
+// 4-wide and a 2-wide vector per column, where a 6-vector is three 2-wide ones); for a spec with
+// itself (same) only rows 4-5's last two columns besides rows 0-3, the rest of rows 4-5 mirrored
+// from rows 0-3's last two columns (the same products: fma(x, y, z) = fma(y, x, z)). Bit for bit
+// the plain 6 x 6 sums.
+Mat6 pair_block(const Workspace::YBlock& ys, const Workspace::YBlock& yt, const std::vector<std::pair<int, int>>& ranges,
+                bool same) {
+  using Row6 = Eigen::Matrix<double, 1, 6>;
+  constexpr int S = Workspace::kYStride;
+  Eigen::Matrix<double, 4, 6> top = Eigen::Matrix<double, 4, 6>::Zero();
+  Eigen::Matrix<double, 2, 6> bot = Eigen::Matrix<double, 2, 6>::Zero();
+  Eigen::Matrix2d corner = Eigen::Matrix2d::Zero();
+  for (const auto& rg : ranges)
+    for (int d = rg.first, e = rg.first + rg.second; d < e; ++d) {
+      const double* a = ys.data() + S * d;
+      const double* b = yt.data() + S * d;
+      top.noalias() += Eigen::Map<const Eigen::Vector4d>(a) * Eigen::Map<const Row6>(b);
+      if (same) corner.noalias() += Eigen::Map<const Eigen::Vector2d>(a + 4) * Eigen::Map<const Eigen::RowVector2d>(b + 4);
+      else bot.noalias() += Eigen::Map<const Eigen::Vector2d>(a + 4) * Eigen::Map<const Row6>(b);
+    }
+  Mat6 acc;
+  acc.topRows<4>() = top;
+  if (same) {
+    acc.bottomLeftCorner<2, 4>() = top.rightCols<2>().transpose();
+    acc.bottomRightCorner<2, 2>() = corner;
+  } else {
+    acc.bottomRows<2>() = bot;
+  }
+  return acc;
+}
+
 // R Q R^T's upper triangle into ws.qs.Nq (q_solve.h, after prepare_nominal): each nominal weld's
 // rows of Y reflected (Yr: H Y, per DOF one 6-vector), then the sums of dense_q_from_yb over the
 // reflected rows, H Q H = (H Y)(H Y)^T, each entry written to its place in the order R. Against
@@ -436,10 +471,10 @@ void reflected_q_from_yb(const System& sys, Workspace& ws, const Eigen::MatrixXd
     const double* y = ws.Yb[s].data();
     double* yr = ws.Yr[s].data();
     for (int d : ws.y_support[s]) {
-      const Vec6 yd = Eigen::Map<const Vec6>(y + 6 * d);
+      const Vec6 yd = Eigen::Map<const Vec6>(y + Workspace::kYStride * d);
       double t = 0.0;
       for (int k = 0; k < 6; ++k) t += w[k] * yd[k];
-      for (int k = 0; k < 6; ++k) yr[6 * d + k] = yd[k] - t * w[k];
+      for (int k = 0; k < 6; ++k) yr[Workspace::kYStride * d + k] = yd[k] - t * w[k];
     }
   }
   const int* ip = qs.nominal_iperm.data();
@@ -447,9 +482,7 @@ void reflected_q_from_yb(const System& sys, Workspace& ws, const Eigen::MatrixXd
     for (int t = s; t < ns; ++t) {
       const Workspace::YBlock& ys = ws.spec_nominal[s] >= 0 ? ws.Yr[s] : ws.Yb[s];
       const Workspace::YBlock& yt = ws.spec_nominal[t] >= 0 ? ws.Yr[t] : ws.Yb[t];
-      Mat6 acc = Mat6::Zero();
-      for (const auto& rg : ws.pair_ranges[s * ns + t])
-        for (int d = rg.first, e = rg.first + rg.second; d < e; ++d) acc.noalias() += ys.row(d).transpose() * yt.row(d);
+      const Mat6 acc = pair_block(ys, yt, ws.pair_ranges[s * ns + t], s == t);
       const int rs = cs.row_offset[s], rt = cs.row_offset[t], ks = cs.row_count[s], kt = cs.row_count[t];
       for (int l = 0; l < kt; ++l)
         for (int k = 0; k < ks; ++k) {
@@ -467,10 +500,7 @@ void dense_q_from_yb(const System& sys, Workspace& ws) {
   const int ns = static_cast<int>(cs.specs.size());
   for (int s = 0; s < ns; ++s)
     for (int t = s; t < ns; ++t) {
-      Mat6 acc = Mat6::Zero();
-      for (const auto& rg : ws.pair_ranges[s * ns + t])
-        for (int d = rg.first, e = rg.first + rg.second; d < e; ++d)
-          acc.noalias() += ws.Yb[s].row(d).transpose() * ws.Yb[t].row(d);
+      const Mat6 acc = pair_block(ws.Yb[s], ws.Yb[t], ws.pair_ranges[s * ns + t], s == t);
       const int rs = cs.row_offset[s], rt = cs.row_offset[t], ks = cs.row_count[s], kt = cs.row_count[t];
       ws.Q.block(rs, rt, ks, kt) = acc.topLeftCorner(ks, kt);
       if (s != t) ws.Q.block(rt, rs, kt, ks) = acc.topLeftCorner(ks, kt).transpose();
@@ -489,7 +519,7 @@ void schur_solve(const System& sys, Workspace& ws, bool factor) {
   for (int s = 0; s < ns; ++s) {
     const double* y = ws.Yb[s].data();
     Vec6 acc = Vec6::Zero();
-    for (int d : ws.y_support[s]) acc += ws.u[d] * Eigen::Map<const Vec6>(y + 6 * d);
+    for (int d : ws.y_support[s]) acc += ws.u[d] * Eigen::Map<const Vec6>(y + Workspace::kYStride * d);
     const int r0 = cs.row_offset[s];
     for (int k = 0; k < cs.row_count[s]; ++k) ws.rhs[r0 + k] -= acc[k];
   }
@@ -500,7 +530,7 @@ void schur_solve(const System& sys, Workspace& ws, bool factor) {
     Vec6 lam = Vec6::Zero();  // Y's unused columns (specs of fewer than 6 rows) are zero
     const int r0 = cs.row_offset[s];
     for (int k = 0; k < cs.row_count[s]; ++k) lam[k] = ws.lambda[r0 + k];
-    for (int d : ws.y_support[s]) ws.vdot[d] += Eigen::Map<const Vec6>(y + 6 * d).dot(lam);
+    for (int d : ws.y_support[s]) ws.vdot[d] += Eigen::Map<const Vec6>(y + Workspace::kYStride * d).dot(lam);
   }
   tree_solve_L(model, ws.data, ws.vdot);
 }

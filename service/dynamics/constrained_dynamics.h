@@ -107,8 +107,11 @@ struct Workspace {
   // sparsity of Y = G L^-1: the DOFs each spec's rows touch after the L^-T solve (ancestor-closed),
   // and for each pair of specs s <= t the contiguous ranges of DOFs both touch (where Q_st sums)
   std::vector<std::vector<int>> y_support;
-  using YBlock = Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::RowMajor>;
-  std::vector<YBlock> Yb;  // per spec: (nv x 6) its rows of Y as columns, one DOF per row
+  // a DOF's row of YBlock: the spec's (up to) 6 rows of Y at that DOF, then zeros to kYStride
+  // doubles (one 64-byte row: each step of the L^-T sweep one 8-wide multiply-add, not three 2-wide)
+  static constexpr int kYStride = 8;
+  using YBlock = Eigen::Matrix<double, Eigen::Dynamic, kYStride, Eigen::RowMajor>;
+  std::vector<YBlock> Yb;  // per spec: (nv x kYStride) its rows of Y as columns, one DOF per row
   // (spec, DOF k, its parent j or -1) in model.dof_elim_steps, specs interleaved: j is eliminated
   // with k where the step pairs them (the spec reaches j whenever it reaches k: its support is
   // ancestor-closed)

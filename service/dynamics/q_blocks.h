@@ -132,13 +132,13 @@ void QBlocks::assemble(const System& sys, const std::vector<YBlock>& Yb) {
       const int o = cs.row_offset[s] - g.row0;
       const double* y = Yb[s].data();
       for (int k = 0; k < cs.row_count[s]; ++k)
-        for (int c = 0; c < nc; ++c) g.B(o + k, c) = y[6 * common[c] + k];
+        for (int c = 0; c < nc; ++c) g.B(o + k, c) = y[YBlock::ColsAtCompileTime * common[c] + k];
     }
     for (const Group::Pair& p : g.pairs) {
       Mat6 acc = Mat6::Zero();
       for (const auto& rg : p.ranges)
         for (int d = rg.first, e = rg.first + rg.second; d < e; ++d)
-          acc.noalias() += Yb[p.s].row(d).transpose() * Yb[p.t].row(d);
+          acc.noalias() += Yb[p.s].row(d).template head<6>().transpose() * Yb[p.t].row(d).template head<6>();
       const int rs = cs.row_offset[p.s] - g.row0, rt = cs.row_offset[p.t] - g.row0;
       const int ks = cs.row_count[p.s], kt = cs.row_count[p.t];
       for (int i = 0; i < ks; ++i)

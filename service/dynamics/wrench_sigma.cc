@@ -394,7 +394,7 @@ void batch_response(const System& sys, Workspace& ws, WrenchSigmaData& sd, Nc nc
       const double* y = ws.Yb[static_cast<size_t>(s)].data();
       const int r0 = cs.row_offset[s], nk = cs.row_count[s];
       for (int d : ws.y_support[static_cast<size_t>(s)])
-        for (int k = 0; k < nk; ++k) axpy_row(rhs + (r0 + k) * lr, x + d * lx, y[6 * d + k], nc);
+        for (int k = 0; k < nk; ++k) axpy_row(rhs + (r0 + k) * lr, x + d * lx, y[Workspace::kYStride * d + k], nc);
     }
     q_solve_rows(ws, sd, nc);
     if (it > 0) {
@@ -409,7 +409,7 @@ void batch_response(const System& sys, Workspace& ws, WrenchSigmaData& sd, Nc nc
     const double* y = ws.Yb[static_cast<size_t>(s)].data();
     const int r0 = cs.row_offset[s], nk = cs.row_count[s];
     for (int d : ws.y_support[static_cast<size_t>(s)])
-      for (int k = 0; k < nk; ++k) axpy_row(x + d * lx, lam + (r0 + k) * ll, -y[6 * d + k], nc);
+      for (int k = 0; k < nk; ++k) axpy_row(x + d * lx, lam + (r0 + k) * ll, -y[Workspace::kYStride * d + k], nc);
   }
   rows_solve_L(model, ws.data, sd.X, nc);
 }
