@@ -38,13 +38,33 @@ struct BodyPass {
   }
 };
 
+// R_WJ = R_WP R_PJ without the products by the exact zeros of R_PJ's form (Body::placement_rotation):
+// each remaining entry the sum of the remaining products in the order of the full product, so the
+// same bits (up to the sign of an entry that is exactly zero)
+inline void joint_frame_rotation(const Mat3& R_WP, const Body& b, Mat3& R_WJ) {
+  const Mat3& R_PJ = b.X_PJ.R;
+  switch (b.placement_rotation) {
+    case PlacementRotation::kIdentity: R_WJ = R_WP; return;
+    case PlacementRotation::kAboutX:
+      R_WJ.col(0) = R_WP.col(0);
+      for (int c = 1; c < 3; ++c)
+        for (int r = 0; r < 3; ++r) R_WJ(r, c) = std::fma(R_WP(r, 2), R_PJ(2, c), R_WP(r, 1) * R_PJ(1, c));
+      return;
+    case PlacementRotation::kGeneral: R_WJ.noalias() = R_WP * R_PJ; return;
+  }
+}
+
 // X_WJ, V and A0 from the parent's (zero at a root)
 void start_from_parent(const Data& data, const Body& b, BodyPass& s) {
   if (b.parent >= 0) {
     const Transform& X_WP = data.X_WB[b.parent];
-    s.X_WJ.R.noalias() = X_WP.R * b.X_PJ.R;
-    s.X_WJ.p.noalias() = X_WP.R * b.X_PJ.p;
-    s.X_WJ.p += X_WP.p;
+    joint_frame_rotation(X_WP.R, b, s.X_WJ.R);
+    if (b.placement_at_origin) {
+      s.X_WJ.p = X_WP.p;
+    } else {
+      s.X_WJ.p.noalias() = X_WP.R * b.X_PJ.p;
+      s.X_WJ.p += X_WP.p;
+    }
     s.Vw = data.V_W[b.parent].head<3>();
     s.Vv = data.V_W[b.parent].tail<3>();
     s.Aw = data.A0_W[b.parent].head<3>();
@@ -150,7 +170,7 @@ void store_body_motion(Data& data, int i, const BodyPass& s) {
   data.V_W[i].tail<3>() = s.Vv;
   data.A0_W[i].head<3>() = s.Aw;
   data.A0_W[i].tail<3>() = s.Av;
-  if (data.has_inertia[i]) data.I_W[i] = data.I_Bm[i].transformed(s.X_WB.R, s.rel(s.X_WB.p));
+  if (data.has_inertia[i]) data.I_Bm[i].transform_into(s.X_WB.R, s.rel(s.X_WB.p), data.I_W[i]);
 }
 
 }  // namespace

@@ -6,6 +6,17 @@
 
 namespace coopdyn {
 
+namespace {
+
+PlacementRotation placement_rotation(const Mat3& R) {
+  if (R == Mat3::Identity()) return PlacementRotation::kIdentity;
+  if (R(0, 0) == 1.0 && R(0, 1) == 0.0 && R(0, 2) == 0.0 && R(1, 0) == 0.0 && R(2, 0) == 0.0)
+    return PlacementRotation::kAboutX;
+  return PlacementRotation::kGeneral;
+}
+
+}  // namespace
+
 int joint_nq(JointType t) {
   switch (t) {
     case JointType::kFixed: return 0;
@@ -130,7 +141,7 @@ int Model::add_body(const std::string& name, int parent, const Transform& X_PJ, 
   }
   nq_ += joint.nq;
   nv_ += joint.nv;
-  bodies.push_back(Body{name, parent, X_PJ, joint, I});
+  bodies.push_back(Body{name, parent, X_PJ, joint, I, placement_rotation(X_PJ.R), X_PJ.p.isZero(0.0)});
   body_support.push_back(support_dofs(body_id));
   return body_id;
 }

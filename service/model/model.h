@@ -51,12 +51,19 @@ struct Joint {
   int idx_q = 0, idx_v = 0;  // first coordinate in q and in v
 };
 
+// The form of a joint placement's rotation, for forward_kinematics to skip its exact zeros: the
+// identity, a rotation about x (a Denavit-Hartenberg link twist: R(0, 0) = 1 and the rest of row
+// and column 0 zero), or any rotation.
+enum class PlacementRotation { kGeneral, kIdentity, kAboutX };
+
 struct Body {
   std::string name;
   int parent = -1;
   Transform X_PJ;  // joint placement in the parent body frame
   Joint joint;
   Inertia inertia;  // in the body frame
+  PlacementRotation placement_rotation = PlacementRotation::kGeneral;  // X_PJ.R's form (add_body sets it)
+  bool placement_at_origin = false;                                     // X_PJ.p exactly zero
 };
 
 // An operational frame rigidly attached to a body (a tip, a grasp point, a contact frame).

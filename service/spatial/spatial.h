@@ -224,9 +224,17 @@ struct RigidInertia {
   // the same with X = (R, p) given by parts
   RigidInertia transformed(const Mat3& R, const Vec3& p) const {
     RigidInertia r;
+    transform_into(R, p, r);
+    return r;
+  }
+  // the same written into r entry by entry (r must not be this): no temporary to copy
+  void transform_into(const Mat3& R, const Vec3& p, RigidInertia& r) const {
     const Vec3 hR = R * h;
     r.m = m;
-    r.h = hR + m * p;
+    const Vec3 rh = hR + m * p;
+    r.h.x() = rh.x();
+    r.h.y() = rh.y();
+    r.h.z() = rh.z();
     const Vec3 g = hR + (0.5 * m) * p;
     const double c = 2.0 * g.dot(p);
     Mat3 T;
@@ -238,7 +246,6 @@ struct RigidInertia {
         r.Io(i, j) = a;
         r.Io(j, i) = a;
       }
-    return r;
   }
   RigidInertia& operator+=(const RigidInertia& o) {
     m += o.m;

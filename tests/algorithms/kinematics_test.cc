@@ -104,3 +104,54 @@ TEST(Kinematics, SubtreePassEqualsTheWholePass) {
   }
   EXPECT_GT(compared, 3);
 }
+
+// The joint placements forward_kinematics takes by their form (Body::placement_rotation: the
+// identity, a rotation about x as a Denavit-Hartenberg twist, any rotation; and a zero offset)
+// skip only products by exact zeros: each joint frame equals the parent's pose times the
+// placement by the general product, bit for bit. A chain of welds, so that X_WB is X_WJ.
+TEST(Kinematics, PlacementFormsGiveTheGeneralProductBitForBit) {
+  auto about_x = [](double c, double s) {
+    Mat3 R;
+    R << 1, 0, 0, 0, c, -s, 0, s, c;
+    return R;
+  };
+  const double half_pi = 1.5707963267948966;  // as the DH tables write it: cos gives 6.1e-17, not 0
+  const std::vector<std::pair<Transform, PlacementRotation>> placements = {
+      {Transform(about_x(std::cos(half_pi), std::sin(half_pi)), Vec3(0.4318, 0, 0)), PlacementRotation::kAboutX},
+      {Transform(Mat3::Identity(), Vec3::Zero()), PlacementRotation::kIdentity},
+      {Transform(about_x(std::cos(-half_pi), std::sin(-half_pi)), Vec3::Zero()), PlacementRotation::kAboutX},
+      {Transform(exp_so3(Vec3(0.3, -0.7, 0.2)), Vec3(0.1, -0.2, 0.05)), PlacementRotation::kGeneral},
+      {Transform(about_x(std::cos(0.3), std::sin(0.3)), Vec3(0, 0.15005, 0.02)), PlacementRotation::kAboutX},
+      {Transform(Mat3::Identity(), Vec3(-0.0203, 0, 0.1)), PlacementRotation::kIdentity},
+  };
+  Model m;
+  Joint fl;
+  fl.type = JointType::kFloating;
+  int parent = m.add_body("base", -1, Transform(), fl, Inertia(2.0, Vec3(0.1, 0, 0), Mat3::Identity() * 0.1));
+  for (size_t k = 0; k < placements.size(); ++k) {
+    Joint fx;
+    fx.type = JointType::kFixed;
+    parent = m.add_body("w" + std::to_string(k), parent, placements[k].first, fx,
+                        Inertia(0.5, Vec3(0, 0.1, 0), Mat3::Identity() * 0.01));
+    EXPECT_EQ(m.bodies[parent].placement_rotation, placements[k].second) << k;
+    EXPECT_EQ(m.bodies[parent].placement_at_origin, placements[k].first.p.isZero(0.0)) << k;
+  }
+  std::mt19937 rng(3);
+  for (int trial = 0; trial < 4; ++trial) {
+    Eigen::VectorXd q, v;
+    random_qv(m, rng, q, v);
+    Data d(m);
+    forward_kinematics(m, d, q, v);
+    for (int i = 1; i < m.nbodies(); ++i) {
+      const Transform& X_WP = d.X_WB[m.bodies[i].parent];
+      const Transform& X_PJ = m.bodies[i].X_PJ;
+      Mat3 R;
+      R.noalias() = X_WP.R * X_PJ.R;
+      Vec3 p;
+      p.noalias() = X_WP.R * X_PJ.p;
+      p += X_WP.p;
+      EXPECT_EQ(d.X_WB[i].R, R) << i;
+      EXPECT_EQ(d.X_WB[i].p, p) << i;
+    }
+  }
+}
