@@ -17,6 +17,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -248,6 +249,41 @@ TEST_F(DaemonProcess, UdpmSimulateCommandsInWrenchesOutThenSigterm) {
       expect_matches_coopdyn_eval(*it, "sim");
       break;
     }
+}
+
+// The daemon says it runs only once its receive process has subscribed: a command sent the instant
+// `running` is in its log (polled every millisecond) is received and applied, on each of 20 starts.
+// (The command is held 5 s by the watchdog, so the output that carries it comes however late the
+// loop ticks on a loaded machine.)
+TEST_F(DaemonProcess, CommandSentTheInstantItSaysRunningIsReceived) {
+  const std::string cfg_path = tmp_path("instant.yaml");
+  std::ofstream(cfg_path) << "watchdog_ms: 5000\n";
+  OutputSink sink;
+  sink.attach(*bus_);
+  bus_->start();
+  const Eigen::VectorXd tau = some_torque(sys_, 13);
+  constexpr int kStarts = 20;
+  int received = 0;
+  for (int k = 1; k <= kStarts; ++k) {
+    SCOPED_TRACE("start " + std::to_string(k));
+    auto d = start_daemon({"--config", cfg_path}, "instant");
+    ASSERT_TRUE(wait_until([&] { return slurp(d->err).find(kDaemonRunning) != std::string::npos; }, kEventLimit, 1ms))
+        << slurp(d->err);
+    const auto b = io::encode_torque_command(io::wall_us(), k, {}, stdvec(tau));
+    bus_->publish("COOPDYN_COMMAND", b.data(), static_cast<int>(b.size()));
+    const bool applied = sink.wait_for(
+        [k](const io::DecodedOutput& o) { return o.input == static_cast<int>(io::Input::kCommand) && o.input_seq == k; },
+        kEventLimit);
+    d->signal(SIGTERM);
+    EXPECT_EQ(d->wait(), 0) << slurp(d->err);
+    const std::string summary = slurp(d->out);
+    EXPECT_TRUE(applied) << "no output carried the command sent at `running`\n" << slurp(d->err) << summary;
+    EXPECT_NE(summary.find("commands received 1, accepted 1,"), std::string::npos) << summary;
+    received += applied;
+  }
+  bus_->stop();
+  std::printf("commands sent the instant the daemon said running: %d of %d applied\n", received, kStarts);
+  std::remove(cfg_path.c_str());
 }
 
 TEST_F(DaemonProcess, UdpmEstimateMeasuredStateInWrenchesOut) {
@@ -561,6 +597,30 @@ TEST(DaemonStartup, BrokenSceneOrConfigStopsWithAClearMessage) {
   std::remove(bad_in.c_str());
   std::remove(bad_scene.c_str());
   std::remove(bad_cfg.c_str());
+}
+
+// A receive process that cannot subscribe (here: a network namespace with no multicast route, so
+// joining the input group fails) stops the daemon before it says it runs: exit 1, naming the URL
+// and channels that did not come up, after the receive process's own reason.
+TEST(DaemonStartup, ReceiveProcessThatCannotSubscribeStopsTheDaemon) {
+  if (access("/usr/bin/unshare", X_OK) != 0 || std::system("/usr/bin/unshare -n true >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "no network namespace to be had here (unshare -n needs root or user namespaces)";
+  const std::string cfg_path = tmp_path("no_route.yaml");
+  const std::string url_in = private_udpm_url(9);
+  std::ofstream(cfg_path) << "lcm_url_in: \"" << url_in << "\"\n";
+  Child c({"/usr/bin/unshare", "-n", COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", cfg_path,
+           "--lcm-url", "memq://", "--duration", "20"},
+          "no_route");
+  EXPECT_EQ(c.wait(), 1) << slurp(c.err);
+  const std::string err = slurp(c.err);
+  EXPECT_NE(err.find("coopdynd receive process: cannot join"), std::string::npos) << err;
+  EXPECT_NE(err.find("coopdynd: the receive process exited before it subscribed to " + url_in +
+                     " (COOPDYN_COMMAND, COOPDYN_CONTROL)"),
+            std::string::npos)
+      << err;
+  EXPECT_EQ(err.find(kDaemonRunning), std::string::npos) << err;
+  EXPECT_EQ(slurp(c.out).find("coopdynd: stopped"), std::string::npos) << "it never ran";
+  std::remove(cfg_path.c_str());
 }
 
 // lcm-logger records a daemon run driven by `coopdyn send`; `coopdyn log` finds the three channels
