@@ -891,6 +891,4 @@ Vec6 tip_wrench(const System& sys, const Workspace& ws, int spec, unsigned* inde
   return w;
 }
 
-void form_dense_q(const System& sys, Workspace& ws) { dense_q_from_yb(sys, ws); }
-
 }  // namespace coopdyn
