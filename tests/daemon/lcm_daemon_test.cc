@@ -891,12 +891,11 @@ TEST_F(DaemonProcess, HostileFragmentsAreRefusedWhileCommandsAreApplied) {
   // the refusals reach loop_stats_t (every hostile datagram sent is malformed)
   const int64_t hostile_sent = crafted.load() + random_sent;
   io::StatsFrame seen;
-  for (const auto t_end = std::chrono::steady_clock::now() + 5s; std::chrono::steady_clock::now() < t_end;) {
-    std::this_thread::sleep_for(50ms);
+  wait_until([&] {
     std::lock_guard<std::mutex> lk(mu);
     seen = last_stats;
-    if (seen.inputs_malformed >= crafted.load()) break;
-  }
+    return seen.inputs_malformed >= crafted.load();
+  }, kEventLimit, 50ms);
   EXPECT_GE(seen.inputs_malformed, crafted.load()) << "the crafted fragments are counted in loop_stats_t";
   EXPECT_LE(seen.inputs_malformed, hostile_sent);
   EXPECT_EQ(seen.receiver_restarts, 0);
