@@ -178,6 +178,10 @@ The real-time service: runs a scene at a fixed rate; LCM in (torque commands or 
 controls) and out (wrenches, stresses, accelerations, loop statistics). Options override the config
 file ([config.md](config.md)). A broken scene or config stops it at start-up with
 `file:line:col: reason` and a non-zero exit; SIGINT or SIGTERM stops it with one summary line.
+It logs `running; SIGINT or SIGTERM stops` only once its receive process has subscribed to the
+inputs (`receive process PID subscribed to URL (CHANNELS)` before it): an input sent after that line
+is received. A receive process that exits before it subscribes, or has not subscribed within 10 s,
+stops it with exit 1 and a line naming the URL and channels that did not come up.
 [Guide](../guide/service.md).
 
 EOF

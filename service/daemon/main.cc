@@ -15,7 +15,9 @@
 // the loop's event ring into the log and prints the summary line at exit.
 //
 // This file is the orchestration: parse -> load (daemon/options.h) -> start (logging, bus, publisher,
-// loop, receive path: daemon/receive.h) -> run -> report (daemon/reports.h).
+// loop, receive path: daemon/receive.h, which waits for the receive process's subscription) -> run
+// (logs `running; SIGINT or SIGTERM stops`: inputs sent from then on are received) -> report
+// (daemon/reports.h).
 #include <signal.h>
 #include <sys/prctl.h>
 #include <spdlog/spdlog.h>
@@ -106,6 +108,8 @@ std::chrono::steady_clock::time_point run(coopdyn::runtime::ServiceLoop& loop, c
     if (r.ok) spdlog::info("{}", r.line);
     else spdlog::warn("{}", r.line);
   }
+  // after the receive process's subscription (main: wait_for_receiver): an input sent once this line
+  // is out is received
   spdlog::info("running; SIGINT or SIGTERM stops");
 
   const auto t_start = std::chrono::steady_clock::now();
@@ -198,7 +202,12 @@ int main(int argc, char** argv) {
       loop.take_arrivals_from(arrivals.get());
     }
     start_receiving(*isolated, loop, cfg, rejections);
-    wait_for_receiver(*isolated, cfg);
+    if (const std::string why = wait_for_receiver(*isolated, cfg); !why.empty()) {
+      isolated->stop();
+      spdlog::shutdown();
+      std::fprintf(stderr, "coopdynd: %s; not starting\n", why.c_str());
+      return 1;
+    }
     log_receive_priority(*isolated, cfg);
   }
 

@@ -80,6 +80,17 @@ coopdyn::runtime::Offer offer_input(coopdyn::runtime::ServiceLoop& loop, bool si
   return r;
 }
 
+namespace {
+
+// the input URL and the channels the receive process subscribes to, for its log lines
+std::string subscription_text(const coopdyn::runtime::ServiceConfig& cfg) {
+  using coopdyn::runtime::ServiceMode;
+  return fmt::format("{} ({}, {})", cfg.input_url(),
+                     cfg.mode == ServiceMode::kSimulate ? cfg.command_channel : cfg.state_channel, cfg.control_channel);
+}
+
+}  // namespace
+
 void start_receiving(coopdyn::io::IsolatedReceiver& rx, coopdyn::runtime::ServiceLoop& loop,
                      const coopdyn::runtime::ServiceConfig& cfg, RejectionReport& rejections) {
   using namespace coopdyn;
@@ -98,13 +109,25 @@ void start_receiving(coopdyn::io::IsolatedReceiver& rx, coopdyn::runtime::Servic
                         WTERMSIG(status), strsignal(WTERMSIG(status)), restarts);
         else
           spdlog::error("receive process exited with status {}: restart {}", WEXITSTATUS(status), restarts);
+      },
+      [what = subscription_text(cfg)](pid_t pid, long long restarts) {
+        if (restarts == 0) spdlog::info("receive process {} subscribed to {}", pid, what);
+        else spdlog::info("receive process {} back after restart {}: subscribed to {}; inputs resume", pid, restarts, what);
       });
 }
 
-void wait_for_receiver(const coopdyn::io::IsolatedReceiver& rx, const coopdyn::runtime::ServiceConfig& cfg) {
-  for (int i = 0; i < 400 && !rx.child_ready(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  if (!rx.child_ready()) spdlog::warn("the receive process has not subscribed after 2 s; starting anyway");
-  else log_receive_socket(rx, cfg);
+std::string wait_for_receiver(const coopdyn::io::IsolatedReceiver& rx, const coopdyn::runtime::ServiceConfig& cfg) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(kReceiverStartLimitS);
+  while (rx.children_ready() == 0 && rx.restarts() == 0 && std::chrono::steady_clock::now() < end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  if (rx.children_ready() > 0) {
+    log_receive_socket(rx, cfg);
+    return "";
+  }
+  if (rx.restarts() > 0)
+    return "the receive process exited before it subscribed to " + subscription_text(cfg) + ": its reason is above";
+  return fmt::format("the receive process (pid {}) did not subscribe to {} within {:g} s", rx.child_pid(),
+                     subscription_text(cfg), kReceiverStartLimitS);
 }
 
 void ReceiveFifoGuard::check(long long now) {

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <memory>
+#include <string>
 
 #include "service/daemon/reports.h"
 #include "service/io/rx_in_loop.h"
@@ -47,13 +48,19 @@ struct RingArrivals : coopdyn::runtime::ArrivalSource {
 };
 
 // the receive thread: offers each input to the loop's inboxes, counts what is not applied (unless
-// the loop drains the ring itself: then it only supervises); logs the receive process's deaths
+// the loop drains the ring itself: then it only supervises); logs the receive process's deaths, and
+// each subscription of a receive process (the first, and each one back after a restart)
 void start_receiving(coopdyn::io::IsolatedReceiver& rx, coopdyn::runtime::ServiceLoop& loop,
                      const coopdyn::runtime::ServiceConfig& cfg, RejectionReport& rejections);
 
-// outputs start only once inputs are received: waits (bounded) for the receive process to
-// subscribe, then logs what its socket got
-void wait_for_receiver(const coopdyn::io::IsolatedReceiver& rx, const coopdyn::runtime::ServiceConfig& cfg);
+// How long the daemon waits for its first receive process to subscribe before it gives up.
+constexpr double kReceiverStartLimitS = 10.0;
+
+// The loop and the outputs start only once inputs are received: waits until the first receive process
+// has subscribed (its line logged), then logs what its socket got and returns "". Gives up, returning
+// why (naming the URL and channels that did not come up), when it does not within
+// kReceiverStartLimitS or its process exits first (its own message is on stderr before).
+std::string wait_for_receiver(const coopdyn::io::IsolatedReceiver& rx, const coopdyn::runtime::ServiceConfig& cfg);
 
 // The receive process and thread at SCHED_FIFO (realtime.receive_priority), under realtime.sched_fifo
 // auto, under the same guard as the loop (runtime/fifo_guard.h), watched from the main thread: each stats window, the CPU time

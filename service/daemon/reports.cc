@@ -159,6 +159,11 @@ void RejectionReport::flush(bool force, const coopdyn::runtime::ServiceLoop& loo
     malformed_logged[k] = m;
   }
   if (!wire.empty()) what += (what.empty() ? "" : ", ") + std::string("malformed LCM datagrams (") + wire + ")";
+  if (const long long k = rx.socket_drops(); k > socket_drops_logged) {
+    what += (what.empty() ? "" : ", ") + std::to_string(k - socket_drops_logged) +
+            " dropped by the kernel at the receive socket (not coopdyn messages of the input channels, or its buffer full)";
+    socket_drops_logged = k;
+  }
   if (what.empty()) return;
   spdlog::warn("inputs not applied: {}", what);
   last_report = now;

@@ -37,7 +37,7 @@ void log_startup(const coopdyn::System& sys, const coopdyn::runtime::ServiceConf
 struct RejectionReport {
   std::atomic<long long> rejected_by[coopdyn::io::kRejectKinds] = {};
   std::atomic<long long> out_of_order{0};
-  long long missed_logged = 0, filtered_logged = 0;
+  long long missed_logged = 0, filtered_logged = 0, socket_drops_logged = 0;
   long long rx_rejected_logged[coopdyn::io::kRejectKinds] = {};  // by the receive process, before its ring
   long long malformed_logged[coopdyn::io::wire::kWireStatuses] = {};
   std::chrono::steady_clock::time_point last_report = std::chrono::steady_clock::now() - std::chrono::seconds(2);

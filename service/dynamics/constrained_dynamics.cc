@@ -836,11 +836,16 @@ bool begin_evaluation(const System& sys, Workspace& ws, const Eigen::VectorXd& q
   return true;
 }
 
-const Diagnostics& finish_evaluation(const System& sys, Workspace& ws, const Eigen::VectorXd& v, const Eigen::VectorXd& tau) {
+namespace {
+
+bool tau_valid(const System& sys, const Eigen::VectorXd& tau) { return tau.size() == sys.model.nv() && tau.allFinite(); }
+
+// finish_evaluation() for a tau already checked (tau_valid): evaluate() checks it before the
+// kinematics, finish_evaluation() on entry
+const Diagnostics& finish_checked(const System& sys, Workspace& ws, const Eigen::VectorXd& v, const Eigen::VectorXd& tau) {
   Diagnostics& dg = ws.diag;
   const int m = sys.constraints.rows;
   reset_diagnostics(sys, dg);
-  if (tau.size() != sys.model.nv() || !tau.allFinite()) return fail_evaluation(ws, Reason::kNonFiniteInput);
   ws.tau_c = tau - ws.data.h;
   ws.friction_stuck = ws.friction_indeterminate = 0;
   ws.friction_converged = true;
@@ -880,14 +885,24 @@ const Diagnostics& finish_evaluation(const System& sys, Workspace& ws, const Eig
   return dg;
 }
 
+}  // namespace
+
+const Diagnostics& finish_evaluation(const System& sys, Workspace& ws, const Eigen::VectorXd& v, const Eigen::VectorXd& tau) {
+  if (!tau_valid(sys, tau)) {
+    reset_diagnostics(sys, ws.diag);
+    return fail_evaluation(ws, Reason::kNonFiniteInput);
+  }
+  return finish_checked(sys, ws, v, tau);
+}
+
 const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
                             const Eigen::VectorXd& tau) {
-  if (tau.size() != sys.model.nv() || !tau.allFinite()) {
+  if (!tau_valid(sys, tau)) {  // before the kinematics: a bad torque costs nothing
     reset_diagnostics(sys, ws.diag);
     return fail_evaluation(ws, Reason::kNonFiniteInput);
   }
   if (!begin_evaluation(sys, ws, q, v)) return ws.diag;
-  return finish_evaluation(sys, ws, v, tau);
+  return finish_checked(sys, ws, v, tau);
 }
 
 Vec6 tip_wrench(const System& sys, const Workspace& ws, int spec, unsigned* indeterminate) {
@@ -905,7 +920,5 @@ Vec6 tip_wrench(const System& sys, const Workspace& ws, int spec, unsigned* inde
   if (indeterminate) *indeterminate = mask;
   return w;
 }
-
-void form_dense_q(const System& sys, Workspace& ws) { dense_q_from_yb(sys, ws); }
 
 }  // namespace coopdyn

@@ -178,9 +178,6 @@ const Diagnostics& evaluate(const System& sys, Workspace& ws, const Eigen::Vecto
 // (q, v) is not valid or M is singular. Once it succeeded, finish_evaluation() completes the
 // evaluation for tau (any number of times): the result is bit for bit evaluate(sys, ws, q, v, tau).
 bool begin_evaluation(const System& sys, Workspace& ws, const Eigen::VectorXd& q, const Eigen::VectorXd& v);
-// ws.Q = G M^-1 G^T from the last evaluation's rows of Y, where the solve did not form it (the block
-// path, or the dense path with nominal bases that factored R Q R^T directly).
-void form_dense_q(const System& sys, Workspace& ws);
 const Diagnostics& finish_evaluation(const System& sys, Workspace& ws, const Eigen::VectorXd& v, const Eigen::VectorXd& tau);
 
 // Wrench [moment; force] on the tip of weld spec s, in the tip frame; unconstrained axes are 0.

@@ -1,9 +1,33 @@
 #include "service/dynamics/state_fit_sigma.h"
 
+#include <stdexcept>
+#include <string>
+#include <vector>
+
 namespace coopdyn {
 
+namespace {
+
+// The sigma reads row k of the fit's response as the k-th floating-joint DOF in model order
+// (WrenchSigmaData::float_dofs): the plan must fit exactly those, in that order (plan_state_fit does).
+const StateFitPlan& checked(const System& sys, const StateFitPlan& plan) {
+  std::vector<int> q, v;
+  for (const Body& b : sys.model.bodies)
+    if (b.joint.type == JointType::kFloating) {
+      for (int k = 0; k < b.joint.nq; ++k) q.push_back(b.joint.idx_q + k);
+      for (int k = 0; k < b.joint.nv; ++k) v.push_back(b.joint.idx_v + k);
+    }
+  if (plan.fit_q != q || plan.fit_v != v)
+    throw std::invalid_argument("scene '" + sys.name + "': the state fit's plan fits " + std::to_string(plan.fit_v.size()) +
+                                " velocity coordinates that are not the " + std::to_string(v.size()) +
+                                " of its floating joints in model order: the sigma's refit needs exactly those");
+  return plan;
+}
+
+}  // namespace
+
 FitRefit::FitRefit(const System& sys, const StateFitPlan& plan)
-    : sys_(sys), plan_(plan), fws_(sys, plan), start_(sys.q0), v0_(Eigen::VectorXd::Zero(sys.model.nv())),
+    : sys_(sys), plan_(checked(sys, plan)), fws_(sys, plan), start_(sys.q0), v0_(Eigen::VectorXd::Zero(sys.model.nv())),
       dx0_(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(plan.fit_v.size()))), dx_(dx0_),
       dv_(Eigen::VectorXd::Zero(sys.model.nv())), q_try_(sys.q0) {
   const Eigen::Index nu = static_cast<Eigen::Index>(plan.fit_v.size()), nv = sys.model.nv();

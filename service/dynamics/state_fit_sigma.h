@@ -15,7 +15,10 @@
 // the pose by the change of one Gauss-Newton step (fit_position_step) between the moved and the
 // evaluated measurement (the same first order, free of the iterative fit's tolerance, which a 1e-7
 // step would amplify) and refits the twist at the moved state. In a workspace of its own (the
-// daemon's warm start is not touched). Allocation-free after construction; never throws.
+// daemon's warm start is not touched). The constructor allocates, and throws std::invalid_argument
+// naming the scene when the plan does not fit exactly the floating joints' coordinates in model
+// order (what the sigma's columns assume; plan_state_fit's plan does); after it: allocation-free,
+// never throws.
 #pragma once
 
 #include <Eigen/Core>

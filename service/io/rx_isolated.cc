@@ -139,10 +139,11 @@ bool IsolatedReceiver::other_cpus(cpu_set_t* set) const {
   return CPU_COUNT(set) > 0;
 }
 
-void IsolatedReceiver::start(Handler handler, RestartHandler on_restart) {
+void IsolatedReceiver::start(Handler handler, RestartHandler on_restart, ReadyHandler on_ready) {
   if (thread_.joinable()) return;
   handler_ = std::move(handler);
   on_restart_ = std::move(on_restart);
+  on_ready_ = std::move(on_ready);
   stop_ = false;
   spawn();
   thread_ = std::thread([this] {
@@ -186,6 +187,7 @@ void IsolatedReceiver::wait_bell(uint32_t seen, long long deadline_ns) {
 
 void IsolatedReceiver::run() {
   long long started = monotonic_ns(), backoff_ns = 0, respawn_at = 0;
+  pid_t reported = -1;  // the last child reported ready
   pollfd pfd{event_fd_, POLLIN, 0};
   const bool supervise_only = caller_drains();
   while (!stop_.load(std::memory_order_relaxed)) {
@@ -196,6 +198,11 @@ void IsolatedReceiver::run() {
     if (!supervise_only) drain(handler_);  // the child published slots [tail, head)
     // supervision
     const pid_t p = pid_.load();
+    if (p > 0 && p != reported && child_ready()) {  // a new child has subscribed
+      reported = p;
+      if (on_ready_) on_ready_(p, restarts_.load());
+      children_ready_.fetch_add(1);
+    }
     if (p > 0) {
       int status = 0;
       if (waitpid(p, &status, WNOHANG) == p) {
@@ -270,10 +277,18 @@ bool push(ChildRing& c, const uint8_t* data, int len, int64_t t) {
 void serve(ChildRing& c, InputGate& gate, int sock, pid_t parent) {
   long long drops_read = 0;
   c.hdr->alive.store(static_cast<uint64_t>(getpid()));
+  const uint64_t one = 1;
+  (void)!write(c.event_fd, &one, sizeof one);  // the receive thread reports the subscription at once
+  auto read_drops = [&](long long t) {
+    if (t - drops_read <= 50000000LL) return;  // at most 20 reads per second
+    c.hdr->counters.socket_drops.store(kernel_drops(sock), std::memory_order_relaxed);
+    drops_read = t;
+  };
   while (getppid() == parent) {
     pollfd pfd{sock, POLLIN, 0};
     if (sock < 0 || poll(&pfd, 1, 100) <= 0) {
       if (sock < 0) poll(nullptr, 0, 100);
+      else read_drops(monotonic_ns());  // idle: what the kernel's filter dropped is counted too
       continue;
     }
     bool queued = false;
@@ -284,13 +299,9 @@ void serve(ChildRing& c, InputGate& gate, int sock, pid_t parent) {
       if (c.hdr->bell_waiting.load(std::memory_order_seq_cst))
         syscall(SYS_futex, reinterpret_cast<uint32_t*>(&c.hdr->bell), FUTEX_WAKE, 1, nullptr, nullptr, 0);
     } else if (queued) {
-      const uint64_t one = 1;
       (void)!write(c.event_fd, &one, sizeof one);
     }
-    if (t - drops_read > 50000000LL) {  // at most 20 reads per second
-      c.hdr->counters.socket_drops.store(kernel_drops(sock), std::memory_order_relaxed);
-      drops_read = t;
-    }
+    read_drops(t);
   }
 }
 

@@ -17,6 +17,12 @@
 // (malformed_by, `inputs_malformed` in loop_stats_t). The child stays as defence in depth: what
 // parses hostile bytes runs in a process that holds nothing but the ring.
 //
+// Start-up: the child sets `alive` to its pid in the shared header once its socket has joined the
+// group (datagrams sent from then on are queued for it) and rings the eventfd; the receive thread
+// sees it at that wake-up and reports it through the on_ready callback, once per child (the first
+// and each respawned one), and counts it (children_ready). The daemon says it runs only after the
+// first (daemon/receive.h wait_for_receiver).
+//
 // Supervision (the receive thread): the child is watched with waitpid(WNOHANG) at every wake-up
 // (at least every 20 ms); when it dies it is counted, reported through the on_restart callback
 // and respawned at once, then with a backoff doubling from 1 ms to 1 s while it keeps dying within
@@ -97,6 +103,8 @@ class IsolatedReceiver : public ReceiverCounters {
   using Handler = std::function<void(const void* data, int len, long long recv_ns)>;
   // a restart: the child's exit status (wait(2) status) and the restart count so far
   using RestartHandler = std::function<void(int status, long long restarts)>;
+  // a child has subscribed: its pid and the restarts before it (0: the first child)
+  using ReadyHandler = std::function<void(pid_t pid, long long restarts)>;
 
   // exe: the coopdynd binary to exec with --rx-child (normally /proc/self/exe). Throws
   // std::runtime_error if the shared memory cannot be set up.
@@ -137,15 +145,18 @@ class IsolatedReceiver : public ReceiverCounters {
   void wait_bell(uint32_t seen, long long deadline_ns);
   template <class H>
   int drain(H&& h);
-  // Starts the child and the receive thread; handler runs on the receive thread.
-  void start(Handler handler, RestartHandler on_restart);
+  // Starts the child and the receive thread; the handlers run on the receive thread.
+  void start(Handler handler, RestartHandler on_restart, ReadyHandler on_ready = nullptr);
   void stop();  // stops the thread, kills and reaps the child (also done by the destructor)
 
   long long restarts() const override { return restarts_.load(std::memory_order_relaxed); }
   long long child_received() const;
   pid_t child_pid() const { return pid_.load(); }
-  // true once the current child has subscribed (tests wait for it)
+  // true once the current child has subscribed
   bool child_ready() const;
+  // how many children have subscribed and been reported (on_ready returned) so far: >= 1 once the
+  // inputs are received; one more after each restart
+  long long children_ready() const { return children_ready_.load(); }
 
  private:
   void spawn();
@@ -164,11 +175,12 @@ class IsolatedReceiver : public ReceiverCounters {
   RxRingHeader* hdr_ = nullptr;
   unsigned char* base_ = nullptr;
   std::atomic<pid_t> pid_{-1};
-  std::atomic<long long> restarts_{0};
+  std::atomic<long long> restarts_{0}, children_ready_{0};
   std::atomic<bool> stop_{false};
   std::thread thread_;
   Handler handler_;
   RestartHandler on_restart_;
+  ReadyHandler on_ready_;
 };
 
 // The messages the child published, [tail, head), to h(bytes, len, recv_ns), the tail advanced past

@@ -244,7 +244,7 @@ TEST(AuthRoundTrip, MemqForgedUnsignedReplayedRejectedSignedApplied) {
   };
   const auto first = command(1, &key, "COOPDYN_COMMAND");
   send(first);
-  ASSERT_TRUE(sink.wait_output([](const io::DecodedOutput& o) { return o.input_seq == 1; }, 5s));
+  ASSERT_TRUE(sink.wait_output([](const io::DecodedOutput& o) { return o.input_seq == 1; }, kEventLimit));
   send(command(2, nullptr, ""));                         // unsigned
   send(command(3, &wrong, "COOPDYN_COMMAND"));           // another key
   send(command(4, &key, "COOPDYN_CONTROL"));             // signed for another channel
@@ -254,12 +254,12 @@ TEST(AuthRoundTrip, MemqForgedUnsignedReplayedRejectedSignedApplied) {
   send(first);                                           // the accepted one's bytes again
   std::this_thread::sleep_for(5ms);
   send(command(6, &key, "COOPDYN_COMMAND"));
-  ASSERT_TRUE(sink.wait_output([](const io::DecodedOutput& o) { return o.input_seq == 6; }, 5s));
+  ASSERT_TRUE(sink.wait_output([](const io::DecodedOutput& o) { return o.input_seq == 6; }, kEventLimit));
   // controls: a signed PAUSE applied, an unsigned RESUME rejected (the simulation stays paused)
   auto pause = io::encode_control(io::wall_us(), 100, io::ControlAction::kPause);
   io::sign(pause, "COOPDYN_CONTROL", key, io::MessageType::kControl);
   send(pause, "COOPDYN_CONTROL");
-  ASSERT_TRUE(sink.wait_output([](const io::DecodedOutput& o) { return o.control_seq == 100 && o.paused == 1; }, 5s));
+  ASSERT_TRUE(sink.wait_output([](const io::DecodedOutput& o) { return o.control_seq == 100 && o.paused == 1; }, kEventLimit));
   send(io::encode_control(io::wall_us(), 101, io::ControlAction::kResume), "COOPDYN_CONTROL");
   send(pause, "COOPDYN_CONTROL");  // replayed
   auto forged_resume = io::encode_control(io::wall_us(), 102, io::ControlAction::kResume);
@@ -268,7 +268,8 @@ TEST(AuthRoundTrip, MemqForgedUnsignedReplayedRejectedSignedApplied) {
   io::StatsFrame s;
   const bool counted = sink.wait_stats(
       [](const io::StatsFrame& x) { return x.received >= 7 && x.controls_received >= 4; }, 5s, &s);
-  std::this_thread::sleep_for(50ms);
+  // a tick after the one that counted them has taken (or refused) every control
+  EXPECT_TRUE(counted && sink.wait_output([&](const io::DecodedOutput& o) { return o.tick > s.tick + 1; }, kEventLimit));
   stop = true;
   th.join();
   bus.stop();
@@ -320,7 +321,7 @@ TEST(AuthRoundTrip, MemqEstimateSignedStateAppliedUnsignedRejected) {
   state(1, false, "");
   state(2, true, "COOPDYN_COMMAND");  // signed for another channel
   state(3, true, "COOPDYN_STATE");
-  const bool got = sink.wait_output([](const io::DecodedOutput& o) { return o.input_seq == 3; }, 5s);
+  const bool got = sink.wait_output([](const io::DecodedOutput& o) { return o.input_seq == 3; }, kEventLimit);
   stop = true;
   th.join();
   bus.stop();
@@ -347,7 +348,7 @@ TEST(AuthDaemon, UdpmSignedClientsAppliedUnsignedRejected) {
   bus->start();
   Child d({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", config, "--lcm-url", url, "--duration", "20"},
           "auth_daemon");
-  ASSERT_TRUE(sink.wait_output([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d.err);
+  ASSERT_TRUE(sink.wait_output([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d.err);
   auto send = [&](bool with_key, const std::string& name, const char* seq) {
     std::vector<std::string> argv = {COOPDYN_PATH, "send", "--scene", scene_path("two_puma_load"), "--lcm-url", url,
                                      "--rate", "100", "--duration", "0.3", "--torque", "arm1.q1:constant:0.1", "--seq", seq};
@@ -370,7 +371,7 @@ TEST(AuthDaemon, UdpmSignedClientsAppliedUnsignedRejected) {
   EXPECT_EQ(track.wait(), 0) << slurp(track.err);
   EXPECT_TRUE(sink.wait_output(
       [](const io::DecodedOutput& o) { return o.input == static_cast<int>(io::Input::kCommand) && o.input_seq > 1000000000; },
-      2s))
+      kEventLimit))
       << "no output under a command of coopdyn track --key-file";
   auto control = [&](bool with_key, const std::string& name) {
     std::vector<std::string> argv = {COOPDYN_PATH, "control", "--action", "pause", "--lcm-url", url};

@@ -38,7 +38,7 @@ std::string friction_scene() { return std::string(COOPDYN_SOURCE_DIR) + "/bench/
 struct Sink {
   std::mutex mu;
   std::vector<io::DecodedOutput> outs;
-  bool wait_seq(int64_t seq, std::chrono::seconds limit) {
+  bool wait_seq(int64_t seq, std::chrono::milliseconds limit) {
     const auto end = std::chrono::steady_clock::now() + limit;
     while (std::chrono::steady_clock::now() < end) {
       {
@@ -154,7 +154,7 @@ class EstimateFriction : public ::testing::Test {
                   "--seq", std::to_string(first_seq)},
                  "friction_send");
       EXPECT_EQ(send.wait(), 0) << slurp(send.err);
-      EXPECT_TRUE(sink.wait_seq(first_seq + 60, 10s)) << slurp(d.err);
+      EXPECT_TRUE(sink.wait_seq(first_seq + 60, kEventLimit)) << slurp(d.err);
       std::lock_guard<std::mutex> lk(sink.mu);
       for (const io::DecodedOutput& o : sink.outs) seen.emplace(o.q, o);
     }

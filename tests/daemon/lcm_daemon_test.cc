@@ -17,10 +17,12 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <map>
 #include <random>
+#include <regex>
 #include <mutex>
 #include <sstream>
 #include <thread>
@@ -43,10 +45,12 @@ namespace {
 
 // A multicast URL private to this test process (ttl=0: never leaves the machine).
 
-// Collects decoded outputs from a bus.
+// Collects decoded outputs from a bus, and the last loop_stats_t.
 struct OutputSink {
   std::mutex mu;
   std::vector<io::DecodedOutput> outs;
+  io::StatsFrame stats;
+  long stats_frames = 0;
   void attach(io::LcmBus& bus, const std::string& channel = "COOPDYN_OUTPUT") {
     bus.subscribe(channel, [this](const void* d, int n, long long) {
       io::DecodedOutput o;
@@ -54,6 +58,25 @@ struct OutputSink {
       std::lock_guard<std::mutex> lk(mu);
       outs.push_back(std::move(o));
     });
+    bus.subscribe("COOPDYN_STATS", [this](const void* d, int n, long long) {
+      io::StatsFrame f;
+      if (!io::decode_stats(d, n, &f)) return;
+      std::lock_guard<std::mutex> lk(mu);
+      stats = f;
+      ++stats_frames;
+    });
+  }
+  // waits until a loop_stats_t satisfies p (the daemon has counted what the test sent)
+  template <class Pred>
+  bool wait_stats(Pred p, std::chrono::milliseconds limit = kEventLimit) {
+    return wait_until([&] {
+      std::lock_guard<std::mutex> lk(mu);
+      return stats_frames > 0 && p(stats);
+    }, limit);
+  }
+  size_t count() {
+    std::lock_guard<std::mutex> lk(mu);
+    return outs.size();
   }
   // waits until one output satisfies p
   template <class Pred>
@@ -138,7 +161,7 @@ TEST(LcmRoundTrip, MemqCommandsInWrenchesOutEqualOffline) {
     bus.publish(cfg.command_channel.c_str(), b.data(), static_cast<int>(b.size()));
     std::this_thread::sleep_for(5ms);
   }
-  const bool got = sink.wait_for([](const io::DecodedOutput& o) { return o.input_seq == 20; }, 5s);
+  const bool got = sink.wait_for([](const io::DecodedOutput& o) { return o.input_seq == 20; }, kEventLimit);
   stop = true;
   th.join();
   bus.stop();
@@ -203,11 +226,14 @@ class DaemonProcess : public ::testing::Test {
 };
 
 TEST_F(DaemonProcess, UdpmSimulateCommandsInWrenchesOutThenSigterm) {
+  // the last command held until the stop (the summary counts no expiry, however late the stop comes)
+  const std::string cfg_path = tmp_path("sigterm.yaml");
+  std::ofstream(cfg_path) << "watchdog_ms: 600000\nstats_period_s: 0.1\n";
   OutputSink sink;
   sink.attach(*bus_);
   bus_->start();
-  auto d = start_daemon({});
-  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  auto d = start_daemon({"--config", cfg_path});
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   const Eigen::VectorXd tau = some_torque(sys_, 9);
   for (int seq = 1; seq <= 30; ++seq) {
     const auto b = io::encode_torque_command(io::wall_us(), seq, {}, stdvec(tau));
@@ -224,8 +250,9 @@ TEST_F(DaemonProcess, UdpmSimulateCommandsInWrenchesOutThenSigterm) {
     const auto stale = io::encode_torque_command(utime, 40, {}, stdvec(-tau));
     bus_->publish("COOPDYN_COMMAND", stale.data(), static_cast<int>(stale.size()));
   }
-  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.input_seq == 30; }, 5s));
-  std::this_thread::sleep_for(50ms);
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.input_seq == 30; }, kEventLimit));
+  // the four sent after seq 30 counted too
+  EXPECT_TRUE(sink.wait_stats([](const io::StatsFrame& st) { return st.received >= 34; })) << slurp(d->err);
   d->signal(SIGTERM);
   EXPECT_EQ(d->wait(), 0) << slurp(d->err);
   bus_->stop();
@@ -248,6 +275,42 @@ TEST_F(DaemonProcess, UdpmSimulateCommandsInWrenchesOutThenSigterm) {
       expect_matches_coopdyn_eval(*it, "sim");
       break;
     }
+  std::remove(cfg_path.c_str());
+}
+
+// The daemon says it runs only once its receive process has subscribed: a command sent the instant
+// `running` is in its log (polled every millisecond) is received and applied, on each of 20 starts.
+// (The command is held 5 s by the watchdog, so the output that carries it comes however late the
+// loop ticks on a loaded machine.)
+TEST_F(DaemonProcess, CommandSentTheInstantItSaysRunningIsReceived) {
+  const std::string cfg_path = tmp_path("instant.yaml");
+  std::ofstream(cfg_path) << "watchdog_ms: 5000\n";
+  OutputSink sink;
+  sink.attach(*bus_);
+  bus_->start();
+  const Eigen::VectorXd tau = some_torque(sys_, 13);
+  constexpr int kStarts = 20;
+  int received = 0;
+  for (int k = 1; k <= kStarts; ++k) {
+    SCOPED_TRACE("start " + std::to_string(k));
+    auto d = start_daemon({"--config", cfg_path}, "instant");
+    ASSERT_TRUE(wait_until([&] { return slurp(d->err).find(kDaemonRunning) != std::string::npos; }, kEventLimit, 1ms))
+        << slurp(d->err);
+    const auto b = io::encode_torque_command(io::wall_us(), k, {}, stdvec(tau));
+    bus_->publish("COOPDYN_COMMAND", b.data(), static_cast<int>(b.size()));
+    const bool applied = sink.wait_for(
+        [k](const io::DecodedOutput& o) { return o.input == static_cast<int>(io::Input::kCommand) && o.input_seq == k; },
+        kEventLimit);
+    d->signal(SIGTERM);
+    EXPECT_EQ(d->wait(), 0) << slurp(d->err);
+    const std::string summary = slurp(d->out);
+    EXPECT_TRUE(applied) << "no output carried the command sent at `running`\n" << slurp(d->err) << summary;
+    EXPECT_NE(summary.find("commands received 1, accepted 1,"), std::string::npos) << summary;
+    received += applied;
+  }
+  bus_->stop();
+  std::printf("commands sent the instant the daemon said running: %d of %d applied\n", received, kStarts);
+  std::remove(cfg_path.c_str());
 }
 
 TEST_F(DaemonProcess, UdpmEstimateMeasuredStateInWrenchesOut) {
@@ -255,7 +318,7 @@ TEST_F(DaemonProcess, UdpmEstimateMeasuredStateInWrenchesOut) {
   sink.attach(*bus_);
   bus_->start();
   auto d = start_daemon({"--mode", "estimate"});
-  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   Eigen::VectorXd v = sys_.v0;
   for (int i = 0; i < v.size(); ++i) v[i] = 0.05 * std::sin(i + 1.0);
   v = closing_velocity(sys_, sys_.q0, v);
@@ -266,7 +329,7 @@ TEST_F(DaemonProcess, UdpmEstimateMeasuredStateInWrenchesOut) {
     bus_->publish("COOPDYN_STATE", b.data(), static_cast<int>(b.size()));
     std::this_thread::sleep_for(5ms);
   }
-  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.input_seq == 10; }, 5s));
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.input_seq == 10; }, kEventLimit));
   d->signal(SIGINT);
   EXPECT_EQ(d->wait(), 0) << slurp(d->err);
   bus_->stop();
@@ -296,7 +359,7 @@ TEST_F(DaemonProcess, UdpmEstimateOnArrivalOneOutputPerStateEqualOffline) {
   sink.attach(*bus_);
   bus_->start();
   auto d = start_daemon({"--mode", "estimate", "--trigger", "arrival", "--rate", "200"});
-  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   EXPECT_NE(slurp(d->err).find("event-driven"), std::string::npos) << slurp(d->err);
   Eigen::VectorXd v = sys_.v0;
   for (int i = 0; i < v.size(); ++i) v[i] = 0.05 * std::sin(i + 1.0);
@@ -311,7 +374,7 @@ TEST_F(DaemonProcess, UdpmEstimateOnArrivalOneOutputPerStateEqualOffline) {
   // lock-step, as a driver that waits for its wrenches: each state after the previous one's output
   auto send_and_wait = [&](int64_t seq, const Eigen::VectorXd& q, const Eigen::VectorXd& vv) {
     send(seq, io::wall_us(), q, vv);
-    ASSERT_TRUE(sink.wait_for([seq](const io::DecodedOutput& o) { return o.input_seq == seq; }, 5s)) << seq;
+    ASSERT_TRUE(sink.wait_for([seq](const io::DecodedOutput& o) { return o.input_seq == seq; }, kEventLimit)) << seq;
   };
   for (int seq = 1; seq <= 30; ++seq) send_and_wait(seq, seq == 15 ? q_open : sys_.q0, v * seq);
   Eigen::VectorXd v_nan = v;
@@ -319,7 +382,8 @@ TEST_F(DaemonProcess, UdpmEstimateOnArrivalOneOutputPerStateEqualOffline) {
   send(31, io::wall_us(), sys_.q0, v_nan);               // NaN: rejected
   send(32, io::wall_us() - 10'000'000, sys_.q0, v);      // stamped 10 s ago: rejected
   send(5, io::wall_us(), sys_.q0, v);                    // out of order: dropped
-  std::this_thread::sleep_for(20ms);
+  // the three counted before the next state
+  ASSERT_TRUE(sink.wait_stats([](const io::StatsFrame& st) { return st.received >= 33; })) << slurp(d->err);
   for (int seq = 33; seq <= 40; ++seq) send_and_wait(seq, sys_.q0, v * seq);
   // the watchdog (100 ms) expires the last state: the error status follows at the rate (5 of them)
   ASSERT_TRUE(sink.wait_count([](const io::DecodedOutput& o) { return o.input == static_cast<int>(io::Input::kStateExpired); },
@@ -369,7 +433,7 @@ TEST_F(DaemonProcess, UdpmEstimateOnArrivalBusyPollingOneOutputPerStateEqualOffl
   sink.attach(*bus_);
   bus_->start();
   auto d = start_daemon({"--config", cfg_path}, "busy_poll");
-  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   EXPECT_NE(slurp(d->err).find("busy poll: the loop polls for measured states"), std::string::npos) << slurp(d->err);
   Eigen::VectorXd v = sys_.v0;
   for (int i = 0; i < v.size(); ++i) v[i] = 0.05 * std::cos(i + 1.0);
@@ -380,7 +444,7 @@ TEST_F(DaemonProcess, UdpmEstimateOnArrivalBusyPollingOneOutputPerStateEqualOffl
     const auto b = io::encode_measured_state(io::wall_us(), seq, sys_.model.q_names, stdvec(sys_.q0), sys_.model.v_names,
                                              stdvec(vv), stdvec(tau));
     bus_->publish("COOPDYN_STATE", b.data(), static_cast<int>(b.size()));
-    if (!sink.wait_for([seq](const io::DecodedOutput& o) { return o.input_seq == seq; }, 5s)) {
+    if (!sink.wait_for([seq](const io::DecodedOutput& o) { return o.input_seq == seq; }, kEventLimit)) {
       d->signal(SIGTERM);
       d->wait();
       FAIL() << "no output for seq " << seq << "\n" << slurp(d->out) << slurp(d->err);
@@ -429,7 +493,7 @@ TEST_F(DaemonProcess, UdpmEstimateReceivingInTheLoopEqualsTheReceiveProcess) {
     std::ofstream(cfg_path) << "rate_hz: 200\nmode: estimate\ntrigger: arrival\nlcm_url_in: \"" << url_in
                             << "\"\nrealtime: {receive_in_loop: " << (in_loop ? "true" : "false") << "}\n";
     auto d = start_daemon({"--config", cfg_path}, in_loop ? "in_loop" : "ring");
-    ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.input != static_cast<int>(io::Input::kState); }, 10s))
+    ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.input != static_cast<int>(io::Input::kState); }, kEventLimit))
         << slurp(d->err);
     const int base = in_loop ? 100 : 0;
     for (int k = 1; k <= kStates; ++k) {
@@ -448,7 +512,7 @@ TEST_F(DaemonProcess, UdpmEstimateReceivingInTheLoopEqualsTheReceiveProcess) {
                                                stdvec(vv), stdvec(tau));
       in->publish("COOPDYN_STATE", b.data(), static_cast<int>(b.size()));
       const int seq = base + k;
-      if (!sink.wait_for([seq](const io::DecodedOutput& o) { return o.input_seq == seq; }, 5s)) {
+      if (!sink.wait_for([seq](const io::DecodedOutput& o) { return o.input_seq == seq; }, kEventLimit)) {
         d->signal(SIGTERM);
         d->wait();
         FAIL() << "no output for seq " << seq << "\n" << slurp(d->out) << slurp(d->err);
@@ -498,7 +562,7 @@ TEST_F(DaemonProcess, LowestRateStopsAtOnceOnSigtermAndDuration) {
   sink.attach(*bus_);
   bus_->start();
   auto d = start_daemon({"--config", cfg_path}, "slow");
-  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   const auto t0 = std::chrono::steady_clock::now();  // the next deadline is ~1 s away
   d->signal(SIGTERM);
   EXPECT_EQ(d->wait(), 0) << slurp(d->err);
@@ -563,6 +627,30 @@ TEST(DaemonStartup, BrokenSceneOrConfigStopsWithAClearMessage) {
   std::remove(bad_cfg.c_str());
 }
 
+// A receive process that cannot subscribe (here: a network namespace with no multicast route, so
+// joining the input group fails) stops the daemon before it says it runs: exit 1, naming the URL
+// and channels that did not come up, after the receive process's own reason.
+TEST(DaemonStartup, ReceiveProcessThatCannotSubscribeStopsTheDaemon) {
+  if (access("/usr/bin/unshare", X_OK) != 0 || std::system("/usr/bin/unshare -n true >/dev/null 2>&1") != 0)
+    GTEST_SKIP() << "no network namespace to be had here (unshare -n needs root or user namespaces)";
+  const std::string cfg_path = tmp_path("no_route.yaml");
+  const std::string url_in = private_udpm_url(9);
+  std::ofstream(cfg_path) << "lcm_url_in: \"" << url_in << "\"\n";
+  Child c({"/usr/bin/unshare", "-n", COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", cfg_path,
+           "--lcm-url", "memq://", "--duration", "20"},
+          "no_route");
+  EXPECT_EQ(c.wait(), 1) << slurp(c.err);
+  const std::string err = slurp(c.err);
+  EXPECT_NE(err.find("coopdynd receive process: cannot join"), std::string::npos) << err;
+  EXPECT_NE(err.find("coopdynd: the receive process exited before it subscribed to " + url_in +
+                     " (COOPDYN_COMMAND, COOPDYN_CONTROL)"),
+            std::string::npos)
+      << err;
+  EXPECT_EQ(err.find(kDaemonRunning), std::string::npos) << err;
+  EXPECT_EQ(slurp(c.out).find("coopdynd: stopped"), std::string::npos) << "it never ran";
+  std::remove(cfg_path.c_str());
+}
+
 // lcm-logger records a daemon run driven by `coopdyn send`; `coopdyn log` finds the three channels
 // with their types, rates near the configured ones, and writes one CSV row per message.
 TEST_F(DaemonProcess, LcmLoggerRunConvertsToCsv) {
@@ -575,7 +663,7 @@ TEST_F(DaemonProcess, LcmLoggerRunConvertsToCsv) {
   bus_->start();
   Child logger({"/usr/bin/lcm-logger", "--lcm-url=" + url_, "-f", "-q", log_path}, "logger");
   auto d = start_daemon({"--config", cfg_path});
-  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   // the logger records from its subscription on: wait until it has written the daemon's outputs
   // (it flushes every 100 ms) before the first command, however slowly it started
   const auto logging_by = std::chrono::steady_clock::now() + 20s;
@@ -587,7 +675,13 @@ TEST_F(DaemonProcess, LcmLoggerRunConvertsToCsv) {
               "--duration", "0.6", "--torque", sys_.model.v_names[7] + ":pulse:1.0:0.1:0.3"},
              "send");
   EXPECT_EQ(send.wait(), 0) << slurp(send.err);
-  std::this_thread::sleep_for(300ms);
+  // the logger has written a message of each channel (it flushes every 100 ms)
+  EXPECT_TRUE(wait_until([&] {
+    const std::string bytes = slurp(log_path);
+    for (const char* ch : {"COOPDYN_COMMAND", "COOPDYN_OUTPUT", "COOPDYN_STATS"})
+      if (bytes.find(ch) == std::string::npos) return false;
+    return true;
+  }, kEventLimit, 20ms)) << "lcm-logger did not write every channel";
   d->signal(SIGTERM);
   EXPECT_EQ(d->wait(), 0) << slurp(d->err);
   logger.signal(SIGINT);
@@ -701,13 +795,13 @@ void EstimateReplay::replay_and_compare(bool joints_only) {
   sink.attach(*bus_);
   bus_->start();
   auto d = start_daemon({"--mode", "estimate"});
-  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   std::vector<std::string> send_args = {COOPDYN_PATH, "send", "--scene", scene_path("two_puma_load"), "--lcm-url", url_,
                                         "--states", sim_csv, "--rate", "200"};
   if (joints_only) send_args.push_back("--joints-only");
   Child send(send_args, "send_states");
   EXPECT_EQ(send.wait(), 0) << slurp(send.err);
-  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.input_seq >= 61; }, 5s));  // 0.3 s at 200 Hz
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.input_seq >= 61; }, kEventLimit));  // 0.3 s at 200 Hz
   d->signal(SIGTERM);
   EXPECT_EQ(d->wait(), 0) << slurp(d->err);
   bus_->stop();
@@ -762,7 +856,7 @@ TEST_F(DaemonProcess, HostileFragmentsAreRefusedWhileCommandsAreApplied) {
   ASSERT_TRUE(in);
   auto d = start_daemon({"--config", cfg_path}, "hostile");
   // the first output comes once the receive process is listening (the daemon waits for it)
-  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   RawUdp raw(url_in);
   std::mt19937 rng(10);
   std::uniform_int_distribution<uint32_t> U;
@@ -793,16 +887,15 @@ TEST_F(DaemonProcess, HostileFragmentsAreRefusedWhileCommandsAreApplied) {
   }
   hostile.join();
   EXPECT_TRUE(sink.wait_for([](const io::DecodedOutput& o) {
-    return o.input == static_cast<int>(io::Input::kCommand) && o.input_seq >= 297; }, 5s)) << slurp(d->err);
+    return o.input == static_cast<int>(io::Input::kCommand) && o.input_seq >= 297; }, kEventLimit)) << slurp(d->err);
   // the refusals reach loop_stats_t (every hostile datagram sent is malformed)
   const int64_t hostile_sent = crafted.load() + random_sent;
   io::StatsFrame seen;
-  for (const auto t_end = std::chrono::steady_clock::now() + 5s; std::chrono::steady_clock::now() < t_end;) {
-    std::this_thread::sleep_for(50ms);
+  wait_until([&] {
     std::lock_guard<std::mutex> lk(mu);
     seen = last_stats;
-    if (seen.inputs_malformed >= crafted.load()) break;
-  }
+    return seen.inputs_malformed >= crafted.load();
+  }, kEventLimit, 50ms);
   EXPECT_GE(seen.inputs_malformed, crafted.load()) << "the crafted fragments are counted in loop_stats_t";
   EXPECT_LE(seen.inputs_malformed, hostile_sent);
   EXPECT_EQ(seen.receiver_restarts, 0);
@@ -849,12 +942,12 @@ TEST_F(DaemonProcess, CommandLargerThanADatagramIsReassembledAndApplied) {
   auto in = try_bus(url_in);
   ASSERT_TRUE(in);
   Child d({COOPDYND_PATH, "--scene", scene_file, "--config", cfg_path, "--lcm-url", url_, "--duration", "20"}, "long_name");
-  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d.err);
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d.err);
   const auto b = io::encode_torque_command(io::wall_us(), 1, {long_name}, {0.25});
   ASSERT_GT(b.size(), 65499u) << "must not fit one LCM datagram";
   in->publish("COOPDYN_COMMAND", b.data(), static_cast<int>(b.size()));
   EXPECT_TRUE(sink.wait_for([](const io::DecodedOutput& o) {
-    return o.input == static_cast<int>(io::Input::kCommand) && o.input_seq == 1; }, 5s)) << slurp(d.err);
+    return o.input == static_cast<int>(io::Input::kCommand) && o.input_seq == 1; }, kEventLimit)) << slurp(d.err);
   for (const auto& o : sink.snapshot())
     if (o.input == static_cast<int>(io::Input::kCommand)) {
       ASSERT_FALSE(o.tau.empty());
@@ -879,7 +972,7 @@ TEST_F(DaemonProcess, SigintToTheProcessGroupIsNoReceiverRestart) {
   // setsid: the daemon leads its own process group (and this test is not in it)
   Child d({"/usr/bin/setsid", COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--lcm-url", url_, "--duration", "20"},
           "group_sigint");
-  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d.err);
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d.err);
   ASSERT_EQ(getpgid(d.pid), d.pid) << "setsid did not make the daemon a group leader";
   kill(-d.pid, SIGINT);
   EXPECT_EQ(d.wait(), 0) << slurp(d.err);
@@ -892,58 +985,45 @@ TEST_F(DaemonProcess, SigintToTheProcessGroupIsNoReceiverRestart) {
 }
 
 // The supervision itself, without relying on liblcm's bug: the receive process is killed from
-// outside (SIGKILL) twice; each death is counted and a new one takes over.
+// outside (SIGKILL) twice, the second one as soon as it has subscribed (a death within a second of
+// its start: respawned after a backoff); each death is counted, and a new one takes over: the daemon logs its subscription (its pid: the next one
+// killed), and commands sent after that line are applied.
 TEST_F(DaemonProcess, ReceiveProcessIsRestartedWhenKilled) {
   OutputSink sink;
   sink.attach(*bus_);
   bus_->start();
   auto d = start_daemon({}, "killed_rx");
-  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
-  auto rx_pid = [&]() -> pid_t {  // the child of the daemon whose command line has --rx-child
-    for (int tries = 0; tries < 200; ++tries) {
-      DIR* dir = opendir("/proc");
-      while (dirent* e = readdir(dir)) {
-        const pid_t p = static_cast<pid_t>(std::atoi(e->d_name));
-        if (p <= 0) continue;
-        std::ifstream st("/proc/" + std::string(e->d_name) + "/stat");
-        std::string line;
-        std::getline(st, line);
-        const auto rp = line.rfind(')');
-        if (rp == std::string::npos) continue;
-        std::istringstream is(line.substr(rp + 2));
-        char state;
-        pid_t ppid = 0;
-        is >> state >> ppid;
-        if (ppid != d->pid) continue;
-        const std::string cmd = slurp("/proc/" + std::string(e->d_name) + "/cmdline");
-        if (cmd.find("--rx-child") != std::string::npos) {
-          closedir(dir);
-          return p;
-        }
-      }
-      closedir(dir);
-      std::this_thread::sleep_for(10ms);
-    }
-    return -1;
+  // the receive process that subscribed first, or after restart n: its pid, from the daemon's log
+  auto rx_pid = [&](int restart) -> pid_t {
+    const std::regex line(restart == 0 ? std::string(R"(receive process (\d+) subscribed to )")
+                                       : R"(receive process (\d+) back after restart )" + std::to_string(restart) + ":");
+    pid_t pid = -1;
+    wait_until([&] {
+      std::smatch m;
+      const std::string log = slurp(d->err);
+      if (std::regex_search(log, m, line)) pid = static_cast<pid_t>(std::stol(m[1]));
+      return pid > 0;
+    }, kEventLimit, 10ms);
+    return pid;
   };
-  pid_t first = rx_pid();
-  ASSERT_GT(first, 0);
+  auto is_receive_process = [](pid_t p) { return slurp("/proc/" + std::to_string(p) + "/cmdline").find("--rx-child") != std::string::npos; };
+  const pid_t first = rx_pid(0);
+  ASSERT_GT(first, 0) << slurp(d->err);
+  ASSERT_TRUE(is_receive_process(first));
   kill(first, SIGKILL);
-  std::this_thread::sleep_for(300ms);
-  pid_t second = rx_pid();
-  ASSERT_GT(second, 0);
+  const pid_t second = rx_pid(1);
+  ASSERT_GT(second, 0) << slurp(d->err);
   EXPECT_NE(second, first);
+  ASSERT_TRUE(is_receive_process(second));
   kill(second, SIGKILL);
-  std::this_thread::sleep_for(1500ms);  // a second death within a second of the start: backoff
-  ASSERT_GT(rx_pid(), 0);
-  std::this_thread::sleep_for(500ms);
+  ASSERT_GT(rx_pid(2), 0) << slurp(d->err);
   const Eigen::VectorXd tau = some_torque(sys_, 12);
   for (int seq = 1; seq <= 20; ++seq) {
     const auto b = io::encode_torque_command(io::wall_us(), seq, {}, stdvec(tau));
     bus_->publish("COOPDYN_COMMAND", b.data(), static_cast<int>(b.size()));
     std::this_thread::sleep_for(5ms);
   }
-  EXPECT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.input_seq == 20; }, 5s));
+  EXPECT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.input_seq == 20; }, kEventLimit));
   d->signal(SIGTERM);
   EXPECT_EQ(d->wait(), 0) << slurp(d->err);
   bus_->stop();
@@ -958,7 +1038,7 @@ TEST_F(DaemonProcess, ControlRoundTripPauseResumeResetClearFault) {
   sink.attach(*bus_);
   bus_->start();
   auto d = start_daemon({}, "control");
-  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   auto run = [&](const std::string& action) {
     Child c({COOPDYN_PATH, "control", "--action", action, "--lcm-url", url_}, "control_" + action);
     const int rc = c.wait();
@@ -968,15 +1048,27 @@ TEST_F(DaemonProcess, ControlRoundTripPauseResumeResetClearFault) {
   EXPECT_EQ(rc1, 0) << out1;
   EXPECT_NE(out1.find("pause (seq"), std::string::npos) << out1;
   EXPECT_NE(out1.find("ok; the simulation is paused"), std::string::npos) << out1;
-  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.paused == 1; }, 2s));
-  const double t_paused = sink.snapshot().back().sim_time;
-  std::this_thread::sleep_for(100ms);
-  EXPECT_EQ(sink.snapshot().back().sim_time, t_paused) << "paused: simulated time stands still";
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.paused == 1; }, kEventLimit));
+  // paused: simulated time stands still over the next 50 outputs
+  const size_t first_paused = [&] {
+    const auto outs = sink.snapshot();
+    size_t k = 0;
+    while (outs[k].paused != 1) ++k;
+    return k;
+  }();
+  ASSERT_TRUE(wait_until([&] { return sink.count() >= first_paused + 50; }));
+  {
+    const auto outs = sink.snapshot();
+    for (size_t k = first_paused; k < first_paused + 50; ++k) {
+      EXPECT_EQ(outs[k].paused, 1) << "output " << k;
+      EXPECT_EQ(outs[k].sim_time, outs[first_paused].sim_time) << "paused: simulated time stands still, output " << k;
+    }
+  }
+  const double t_paused = sink.snapshot()[first_paused].sim_time;
   auto [rc2, out2] = run("resume");
   EXPECT_EQ(rc2, 0) << out2;
-  std::this_thread::sleep_for(50ms);
-  EXPECT_GT(sink.snapshot().back().sim_time, t_paused);
-  EXPECT_EQ(sink.snapshot().back().paused, 0);
+  // resumed: an output says so, and time moves on from there
+  EXPECT_TRUE(sink.wait_for([&](const io::DecodedOutput& o) { return o.paused == 0 && o.sim_time > t_paused; }, kEventLimit));
   auto [rc3, out3] = run("reset");
   EXPECT_EQ(rc3, 0) << out3;
   auto [rc4, out4] = run("clear_fault");
@@ -995,7 +1087,7 @@ TEST_F(DaemonProcess, SendExitsNonZeroWhenItsCommandsAreRejected) {
   OutputSink sink;
   sink.attach(*bus_);
   bus_->start();
-  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, 10s)) << slurp(d->err);
+  ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   // the four-bar's 6 torques sent to a daemon running two_puma_load (18 DOFs): wrong count
   Child bad({COOPDYN_PATH, "send", "--scene", scene_path("four_bar"), "--lcm-url", url_, "--rate", "100", "--duration",
              "0.3", "--torque", "j1:constant:0.1"},

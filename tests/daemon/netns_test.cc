@@ -86,7 +86,9 @@ TEST(MultiHost, DaemonControllerAndLoggerInSeparateNamespaces) {
   Child logger(lan.in("l", {"/usr/bin/lcm-logger", "--lcm-url=" + url, "--quiet", log}), "lan_logger");
   Child daemon(lan.in("d", {COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--lcm-url", url, "--duration", "20"}),
                "lan_daemon");
-  std::this_thread::sleep_for(500ms);
+  // the controller starts once the daemon receives (its log says so) and the logger has its file
+  ASSERT_TRUE(log_says(daemon, kDaemonRunning, kEventLimit)) << slurp(daemon.err);
+  ASSERT_TRUE(wait_until([&] { return access(log.c_str(), F_OK) == 0; })) << "lcm-logger did not start: " << slurp(logger.err);
   Child track(lan.in("c", {COOPDYN_PATH, "track", "--scene", scene_path("two_puma_load"), "--lcm-url", url, "--duration",
                            "3", "--out", csv}),
               "lan_track");

@@ -459,10 +459,13 @@ NominalRun run_with_nominal(const System& base, double I_n) {
   r.d = evaluate(sys, ws, e.q, e.v, e.tau);
   r.vdot = ws.vdot;
   r.lambda = ws.lambda;
-  form_dense_q(sys, ws);  // the solve may have factored R Q R^T only
+  // Q = G M^-1 G^T at the evaluated state, formed here from the dense M (the solve may have factored
+  // R Q R^T only)
+  crba(sys.model, ws.data);
+  const Eigen::MatrixXd Q = ws.cd.G * ws.data.M.ldlt().solve(ws.cd.G.transpose());
   // Q's eigenvalues, and those of Q on the complement of the joint-1 columns of G (QR of them)
   const int m = sys.constraints.rows;
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(ws.Q);
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Q);
   r.eig_condition_raw = es.eigenvalues();
   Eigen::MatrixXd U = Eigen::MatrixXd::Zero(m, static_cast<Eigen::Index>(ws.nominal_rows.size()));
   for (size_t a = 0; a < ws.nominal_rows.size(); ++a) {
@@ -472,7 +475,7 @@ NominalRun run_with_nominal(const System& base, double I_n) {
   Eigen::HouseholderQR<Eigen::MatrixXd> qr(U);
   const Eigen::MatrixXd Qf = qr.householderQ() * Eigen::MatrixXd::Identity(m, m);
   const Eigen::MatrixXd N = Qf.rightCols(m - U.cols());
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> er(N.transpose() * ws.Q * N);
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> er(N.transpose() * Q * N);
   r.reduced_eigs = er.eigenvalues();
   return r;
 }

@@ -5,10 +5,13 @@
 // measurements, refitted and evaluated, reproduce sigma; holding the fitted pose does not.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <optional>
 #include <random>
+#include <stdexcept>
+#include <string>
 #include <utility>
 
 #include "service/dynamics/integrators.h"
@@ -278,5 +281,33 @@ TEST(WrenchSigmaFit, MonteCarloOfRefittedMeasurementsReproducesSigma) {
     std::printf("%s: lin_err %.3g of max sigma %.3g; worst |var/sigma^2 - 1| %.3f (tol %.3f); held sigma outside: %d of %d\n",
                 scene.c_str(), lin_err, smax, worst, tol, held_outside, compared);
     EXPECT_GT(held_outside, 0) << "holding the fitted load pose should miss some component's spread";
+  }
+}
+
+// The sigma reads the fit's response row by row as the floating joints' DOFs in model order; a plan
+// that fits other coordinates, or the same in another order, is refused at construction, naming
+// the scene; plan_state_fit's own plan is taken.
+TEST(WrenchSigmaFit, RefitRefusesAPlanThatIsNotTheFloatingJointsInModelOrder) {
+  const System sys = noisy("two_puma_load", "{q: 1e-3, v: 1e-2}");
+  const StateFitPlan plan = plan_state_fit(sys);
+  ASSERT_EQ(plan.fit_v.size(), 6u);
+  EXPECT_NO_THROW(FitRefit(sys, plan));
+  StateFitPlan reversed = plan, shorter = plan, other = plan;
+  std::reverse(reversed.fit_v.begin(), reversed.fit_v.end());
+  shorter.fit_q.pop_back();
+  for (int d = 0; d < sys.model.nv(); ++d)  // an arm joint instead of the load's first DOF
+    if (std::find(plan.fit_v.begin(), plan.fit_v.end(), d) == plan.fit_v.end()) {
+      other.fit_v[0] = d;
+      break;
+    }
+  ASSERT_NE(other.fit_v, plan.fit_v);
+  for (const StateFitPlan* bad : {&reversed, &shorter, &other}) {
+    try {
+      FitRefit refit(sys, *bad);
+      ADD_FAILURE() << "a plan not in model order was taken";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("scene '" + sys.name + "'"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("floating joints in model order"), std::string::npos) << e.what();
+    }
   }
 }

@@ -588,8 +588,7 @@ void run_on_arrival_from_the_ring_without_allocation(bool busy_poll) {
   rx.drain_in_caller();
   long handed_to_the_thread = 0;
   rx.start([&](const void*, int, long long) { ++handed_to_the_thread; }, [](int, long long) {});
-  for (int i = 0; i < 400 && !rx.child_ready(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  ASSERT_TRUE(rx.child_ready());
+  ASSERT_TRUE(coopdyn::testing::wait_until([&] { return rx.children_ready() > 0; })) << "the receive process never subscribed";
   RingSource source(rx, loop);
   loop.take_arrivals_from(&source);
   const StateFitPlan plan = plan_state_fit(sys);

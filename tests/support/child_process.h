@@ -21,6 +21,7 @@
 #include "service/io/lcm_bus.h"
 #include "tests/support/files.h"
 #include "tests/support/private_udpm_url.h"
+#include "tests/support/wait.h"
 
 extern char** environ;
 
@@ -31,6 +32,8 @@ using namespace std::chrono_literals;
 using testing::private_udpm_url;
 using testing::scene_path;
 using testing::slurp;
+using testing::wait_until;
+using testing::kEventLimit;
 
 inline std::string tmp_path(const std::string& what) {
   return (::testing::TempDir().empty() ? std::string("/tmp/") : ::testing::TempDir()) + "coopdynd_test_" +
@@ -101,8 +104,8 @@ inline bool log_says(const Child& c, const std::string& what, std::chrono::milli
   return false;
 }
 
-// coopdynd logs this once its receive process is subscribed (it waits up to 2 s for it) and its
-// loop runs: inputs sent after it are received.
+// coopdynd logs this once its receive process has subscribed (it stops, exit 1, if it does not within
+// 10 s) and its loop runs: inputs sent after it are received.
 inline const char* const kDaemonRunning = "running; SIGINT or SIGTERM stops";
 
 // A command run to its end (at most 60 s): its exit status and what it printed.

@@ -6,6 +6,7 @@
 #include <array>
 #include <cstring>
 #include <dirent.h>
+#include <mutex>
 #include <random>
 #include <string>
 #include <vector>
@@ -88,6 +89,33 @@ class FakeBus : public io::Bus {
 
  private:
   Slot slots_[4];
+};
+
+// A FakeBus the test's thread may read while the loop's thread publishes: each publish and each read
+// under a mutex (test scaffolding, allocation-free; the loop's own code locks nothing).
+class SharedFakeBus : public io::Bus {
+ public:
+  int publish(const char* channel, const void* data, int len) override {
+    std::lock_guard<std::mutex> lk(mu_);
+    return bus_.publish(channel, data, len);
+  }
+  long count(const char* channel) const {
+    std::lock_guard<std::mutex> lk(mu_);
+    return bus_.count(channel);
+  }
+  // the last output's input seq, -1 before the first output
+  int64_t last_input_seq(const char* channel = "COOPDYN_OUTPUT") const {
+    std::lock_guard<std::mutex> lk(mu_);
+    return bus_.find(channel) ? bus_.last_output(channel).input_seq : -1;
+  }
+  io::DecodedOutput last_output(const char* channel = "COOPDYN_OUTPUT") const {
+    std::lock_guard<std::mutex> lk(mu_);
+    return bus_.last_output(channel);
+  }
+
+ private:
+  mutable std::mutex mu_;
+  FakeBus bus_;
 };
 
 inline Eigen::VectorXd vec(const std::vector<double>& x) {
