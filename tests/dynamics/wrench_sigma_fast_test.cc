@@ -54,26 +54,34 @@ void expect_same_in_both_modes(const System& sys, Workspace& ws, WrenchSigmaData
   expect_same(sys, fast, ref);
 }
 
+// One scene, in its own formulation or the classic one, with `reactions: R` and noise on every
+// joint: the fast sigma against the reference in both modes. False where the pair does not apply
+// (classic without a load), propagates no noise or fails to evaluate; composite counts the fast
+// path's reactions by composite inertias.
+bool compare_with_reactions(const std::string& scene, const std::string& path, bool classic, const std::string& reactions,
+                            int seed, int* composite = nullptr) {
+  SCOPED_TRACE(path + (classic ? " classic" : "") + ", reactions: " + reactions);
+  SceneOverrides ov;
+  if (classic) ov.formulation = Formulation::kClassic;
+  const std::string text = without_reactions(scene) + "\nreactions: " + reactions + "\nnoise: {tau: 0.2, q: 1e-3, v: 1e-2}\n";
+  if (classic && text.find("\nload:") == std::string::npos) return false;
+  const System sys = load_scene_string(text, path, ov);
+  if (!wrench_sigma_supported(sys)) return false;
+  Workspace ws(sys);
+  WrenchSigmaData fast(sys), ref(sys);
+  Eigen::VectorXd v, tau;
+  reference::random_v_tau(sys, seed, v, tau);
+  if (evaluate(sys, ws, sys.q0, v, tau).status == Status::kError) return false;
+  expect_same_in_both_modes(sys, ws, fast, ref, v, tau);
+  if (composite) *composite += fast.composite;
+  return true;
+}
+
 TEST(WrenchSigmaFast, EqualsThePreviousDefinitionOnEveryShippedScene) {
   int compared = 0;
-  for (const char* name : kScenes) {
-    for (const bool classic : {false, true}) {  // the scene's own formulation; classic where it applies
-      SCOPED_TRACE(std::string(name) + (classic ? " classic" : ""));
-      SceneOverrides ov;
-      if (classic) ov.formulation = Formulation::kClassic;
-      const std::string text = without_reactions(scene_text(name)) + "\nreactions: all\nnoise: {tau: 0.2, q: 1e-3, v: 1e-2}\n";
-      if (classic && text.find("\nload:") == std::string::npos) continue;
-      const System sys = load_scene_string(text, scene_path(name), ov);
-      if (!wrench_sigma_supported(sys)) continue;
-      Workspace ws(sys);
-      WrenchSigmaData fast(sys), ref(sys);
-      Eigen::VectorXd v, tau;
-      reference::random_v_tau(sys, 3, v, tau);
-      if (evaluate(sys, ws, sys.q0, v, tau).status == Status::kError) continue;
-      expect_same_in_both_modes(sys, ws, fast, ref, v, tau);
-      ++compared;
-    }
-  }
+  for (const char* name : kScenes)
+    for (const bool classic : {false, true})  // the scene's own formulation; classic where it applies
+      compared += compare_with_reactions(scene_text(name), scene_path(name), classic, "all", 3);
   EXPECT_GE(compared, 12);  // how many pairs (scene, formulation) propagate noise
 }
 
@@ -89,25 +97,8 @@ TEST(WrenchSigmaFast, EqualsThePreviousDefinitionWithCompositeReactions) {
     scenes.emplace_back(slurp(path), path);
   }
   int composite = 0, compared = 0;
-  for (const auto& [scene, path] : scenes) {
-    for (const bool classic : {false, true}) {
-      SCOPED_TRACE(path + (classic ? " classic" : ""));
-      SceneOverrides ov;
-      if (classic) ov.formulation = Formulation::kClassic;
-      const std::string text = without_reactions(scene) + "\nreactions: none\nnoise: {tau: 0.2, q: 1e-3, v: 1e-2}\n";
-      if (classic && text.find("\nload:") == std::string::npos) continue;
-      const System sys = load_scene_string(text, path, ov);
-      if (!wrench_sigma_supported(sys)) continue;
-      Workspace ws(sys);
-      WrenchSigmaData fast(sys), ref(sys);
-      Eigen::VectorXd v, tau;
-      reference::random_v_tau(sys, 5, v, tau);
-      if (evaluate(sys, ws, sys.q0, v, tau).status == Status::kError) continue;
-      expect_same_in_both_modes(sys, ws, fast, ref, v, tau);
-      composite += fast.composite;
-      ++compared;
-    }
-  }
+  for (const auto& [scene, path] : scenes)
+    for (const bool classic : {false, true}) compared += compare_with_reactions(scene, path, classic, "none", 5, &composite);
   EXPECT_GE(compared, 15);
   EXPECT_GE(composite, 8);  // the arms' bases: the PUMAs, the iiwas, the planar and 5-DOF arms
 }
