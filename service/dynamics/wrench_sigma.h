@@ -37,7 +37,11 @@
 // while sliding); damping follows v.
 //
 // All columns (torque, then q, then v) are propagated together: one pass of each factor over a
-// block of right-hand sides, one block Q solve, one reaction pass over 6 x columns blocks.
+// block of right-hand sides, one block Q solve, one reaction pass over 6 x columns blocks. The row
+// operations run at a compile-time column count where the count is a common one (6, 12, 18, 24, 36,
+// 48: wrench_sigma_rows.h), and where only a few reactions are reported (the bases, with
+// `reactions: none`) each is read off composite inertias instead of the pass (composite, below),
+// both with the same result to round-off.
 //
 // Indeterminate components (WrenchData::indeterminate, an over-constrained system) report the
 // spread of the value the scene's redundancy rule selects (minimum norm or compliance-weighted):
