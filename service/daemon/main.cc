@@ -187,6 +187,7 @@ int main(int argc, char** argv) {
   log_startup(sys, cfg, opt.scene_path);
   install_signal_handlers();
   RejectionReport rejections;
+  rejections.log_socket_drops = cfg.input_url() != cfg.lcm_url;
   std::unique_ptr<runtime::ArrivalSource> arrivals;
   if (in_loop) {
     auto offer = [&loop, &rejections](const void* d, int n, long long t) { offer_input(loop, false, rejections, d, n, t); };

@@ -159,7 +159,7 @@ void RejectionReport::flush(bool force, const coopdyn::runtime::ServiceLoop& loo
     malformed_logged[k] = m;
   }
   if (!wire.empty()) what += (what.empty() ? "" : ", ") + std::string("malformed LCM datagrams (") + wire + ")";
-  if (const long long k = rx.socket_drops(); k > socket_drops_logged) {
+  if (const long long k = rx.socket_drops(); log_socket_drops && k > socket_drops_logged) {
     what += (what.empty() ? "" : ", ") + std::to_string(k - socket_drops_logged) +
             " dropped by the kernel at the receive socket (not coopdyn messages of the input channels, or its buffer full)";
     socket_drops_logged = k;

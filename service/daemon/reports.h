@@ -38,6 +38,10 @@ struct RejectionReport {
   std::atomic<long long> rejected_by[coopdyn::io::kRejectKinds] = {};
   std::atomic<long long> out_of_order{0};
   long long missed_logged = 0, filtered_logged = 0, socket_drops_logged = 0;
+  // the kernel's drops at the receive socket are logged only where the inputs have a URL of their own
+  // (lcm_url_in): on the outputs' URL the daemon's own outputs loop back to that socket and its filter
+  // drops every one, which is no input lost (the count stays in the summary, socket_drops)
+  bool log_socket_drops = true;
   long long rx_rejected_logged[coopdyn::io::kRejectKinds] = {};  // by the receive process, before its ring
   long long malformed_logged[coopdyn::io::wire::kWireStatuses] = {};
   std::chrono::steady_clock::time_point last_report = std::chrono::steady_clock::now() - std::chrono::seconds(2);
