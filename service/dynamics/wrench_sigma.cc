@@ -18,12 +18,6 @@ using namespace sigma_rows;
 
 bool positive(const Eigen::VectorXd& x) { return x.size() > 0 && x.maxCoeff() > 0.0; }
 
-// j is b or below it (bodies are numbered parents first)
-bool in_subtree(const Model& model, int j, int b) {
-  while (j > b) j = model.bodies[j].parent;
-  return j == b;
-}
-
 // Each reaction's DOFs for the composite form (WrenchSigmaData::composite) and whether it takes
 // far fewer multiply-adds a column than the pass (what both share, the specs' forces and the frame,
 // left out)
@@ -45,7 +39,7 @@ void composite_plan(const System& sys, WrenchSigmaData& sd) {
     for (int i = b; i >= 0; i = model.bodies[i].parent)
       for (int c = 0; c < model.bodies[i].joint.nv; ++c) sd.out_up[k].push_back(model.bodies[i].joint.idx_v + c);
     for (int j = b + 1; j < model.nbodies(); ++j)
-      if (in_subtree(model, j, b))
+      if (model.is_ancestor(b, j))
         for (int c = 0; c < model.bodies[j].joint.nv; ++c) sd.out_down[k].push_back(model.bodies[j].joint.idx_v + c);
     sd.U[k].setZero(6, static_cast<Eigen::Index>(sd.out_up[k].size()));
     composite_cost += 6 * static_cast<long>(sd.out_up[k].size() + sd.out_down[k].size()) - 6;

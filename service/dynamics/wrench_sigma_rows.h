@@ -37,25 +37,6 @@ inline void axpy_row(double* __restrict a, const double* __restrict b, double f,
     in_parts<Nc::value>([&](auto o, auto n) { FixedRow<decltype(n)>(a + o) -= f * ConstFixedRow<decltype(n)>(b + o); });
   }
 }
-// the first nc entries of 6 rows of stride ld
-template <class Nc>
-inline void copy_rows(const double* __restrict from, double* __restrict to, Eigen::Index ld, Nc nc) {
-  for (int r = 0; r < 6; ++r)
-    if constexpr (std::is_same_v<Nc, int>) {
-      for (int c = 0; c < nc; ++c) to[r * ld + c] = from[r * ld + c];
-    } else {
-      FixedRow<Nc>(to + r * ld) = ConstFixedRow<Nc>(from + r * ld);
-    }
-}
-template <class Nc>
-inline void zero_rows(double* a, Eigen::Index ld, Nc nc) {
-  for (int r = 0; r < 6; ++r)
-    if constexpr (std::is_same_v<Nc, int>) {
-      for (int c = 0; c < nc; ++c) a[r * ld + c] = 0.0;
-    } else {
-      FixedRow<Nc>(a + r * ld).setZero();
-    }
-}
 template <class Nc>
 inline void scale_row(double* a, double f, Nc nc) {
   if constexpr (std::is_same_v<Nc, int>) {
@@ -83,6 +64,16 @@ inline void zero_block(double* a, Eigen::Index ld, int n, Nc nc) {
     } else {
       FixedRow<Nc>(a + r * ld).setZero();
     }
+}
+
+// the first nc entries of 6 rows of stride ld (a body's or spec's 6 x nc block)
+template <class Nc>
+inline void copy_rows(const double* __restrict from, double* __restrict to, Eigen::Index ld, Nc nc) {
+  copy_block(from, ld, to, ld, 6, nc);
+}
+template <class Nc>
+inline void zero_rows(double* a, Eigen::Index ld, Nc nc) {
+  zero_block(a, ld, 6, nc);
 }
 
 // Row r, columns 0:nc, of a row-major matrix: contiguous, so that the sums of rows below vectorize.
