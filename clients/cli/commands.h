@@ -78,6 +78,7 @@ struct ControlArgs : SceneArgs {
   std::string output_channel = "COOPDYN_OUTPUT";
   std::optional<long long> seq;  // the wall clock in microseconds
   bool no_wait = false;
+  double timeout = 2;  // s
   std::optional<std::string> key_file;
 };
 

@@ -24,6 +24,7 @@ void register_control(Cli& cli) {
   value(c, "--output-channel", a.output_channel, "C", "the daemon's output channel (the acknowledgement)", Default::kShown);
   number(c, "--seq", a.seq, "N", "the control's seq (default: the wall clock in microseconds, so that it keeps increasing)");
   flag(c, "--no-wait", a.no_wait, "send and exit without waiting for the acknowledgement");
+  number(c, "--timeout", a.timeout, "S", "how long to wait for the acknowledgement (s)", Default::kShown);
   value(c, "--key-file", a.key_file, "FILE", kKeyFileHelp);
 }
 
@@ -41,6 +42,10 @@ int cmd_control(const ControlArgs& a) {
     return 2;
   }
   const io::ControlAction action = actions[found].second;
+  if (!(a.timeout > 0.0 && a.timeout <= 3600.0)) {
+    std::fprintf(stderr, "coopdyn control: --timeout must be in (0, 3600] s, got %g\n", a.timeout);
+    return 2;
+  }
   std::optional<io::AuthKey> key;
   if (const int rc = load_cli_key(a.key_file, "control", &key)) return rc;
   std::vector<double> q, v;
@@ -91,7 +96,8 @@ int cmd_control(const ControlArgs& a) {
       std::printf("coopdyn control: %s sent (seq %lld)\n", name.c_str(), static_cast<long long>(seq));
       return 0;
     }
-    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                            std::chrono::duration<double>(a.timeout));
     while (std::chrono::steady_clock::now() < end) {
       {
         std::lock_guard<std::mutex> lk(mu);
@@ -101,8 +107,8 @@ int cmd_control(const ControlArgs& a) {
     }
     std::lock_guard<std::mutex> lk(mu);
     if (result == -2) {
-      std::fprintf(stderr, "coopdyn control: %s (seq %lld): no acknowledgement on %s within 2 s (daemon running? "
-                   "same URL and channels?)\n", name.c_str(), static_cast<long long>(seq), out_channel.c_str());
+      std::fprintf(stderr, "coopdyn control: %s (seq %lld): no acknowledgement on %s within %g s (daemon running? "
+                   "same URL and channels?)\n", name.c_str(), static_cast<long long>(seq), out_channel.c_str(), a.timeout);
       return 1;
     }
     std::printf("coopdyn control: %s (seq %lld): %s%s\n", name.c_str(), static_cast<long long>(seq),

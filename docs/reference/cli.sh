@@ -147,7 +147,7 @@ dropped, clients, queued, buffered).
 ## `coopdyn control`
 
 Send one `control_t` to coopdynd and wait for its acknowledgement. Exit 3 when refused, 1 when none
-comes within 2 s. [Guide](../guide/service.md#6-control-the-simulation).
+comes within `--timeout` (2 s). [Guide](../guide/service.md#6-control-the-simulation).
 
 EOF
 options "$bin/coopdyn" control

@@ -172,7 +172,15 @@ int main(int argc, char** argv) {
   }
   for (const std::string& w : sys.warnings) spdlog::warn("scene: {}", w);
   std::unique_ptr<runtime::PublisherThread> publisher = make_publisher(sys, cfg, *bus);
-  runtime::ServiceLoop loop(sys, cfg, publisher ? static_cast<io::Bus&>(*publisher) : *bus);
+  std::unique_ptr<runtime::ServiceLoop> loop_owner;
+  try {  // a scene the loop's parts refuse at construction (a state fit's plan, an allocation)
+    loop_owner = std::make_unique<runtime::ServiceLoop>(sys, cfg, publisher ? static_cast<io::Bus&>(*publisher) : *bus);
+  } catch (const std::exception& e) {
+    spdlog::shutdown();
+    std::fprintf(stderr, "coopdynd: scene '%s': %s\n", opt.scene_path.c_str(), e.what());
+    return 1;
+  }
+  runtime::ServiceLoop& loop = *loop_owner;
   std::unique_ptr<io::IsolatedReceiver> isolated;
   std::unique_ptr<io::InLoopReceiver> in_loop;
   try {

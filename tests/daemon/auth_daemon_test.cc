@@ -375,7 +375,9 @@ TEST(AuthDaemon, UdpmSignedClientsAppliedUnsignedRejected) {
       << "no output under a command of coopdyn track --key-file";
   auto control = [&](bool with_key, const std::string& name) {
     std::vector<std::string> argv = {COOPDYN_PATH, "control", "--action", "pause", "--lcm-url", url};
-    if (with_key) argv.insert(argv.end(), {"--key-file", key});
+    // signed: wait as long as any event (a loaded machine); unsigned: the default 2 s for an
+    // acknowledgement that must never come
+    if (with_key) argv.insert(argv.end(), {"--key-file", key, "--timeout", std::to_string(std::chrono::duration_cast<std::chrono::seconds>(kEventLimit).count())});
     Child c(argv, name);
     const int rc = c.wait();
     return std::make_pair(rc, slurp(c.out) + slurp(c.err));

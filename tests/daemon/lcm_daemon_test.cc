@@ -1040,7 +1040,8 @@ TEST_F(DaemonProcess, ControlRoundTripPauseResumeResetClearFault) {
   auto d = start_daemon({}, "control");
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   auto run = [&](const std::string& action) {
-    Child c({COOPDYN_PATH, "control", "--action", action, "--lcm-url", url_}, "control_" + action);
+    Child c({COOPDYN_PATH, "control", "--action", action, "--lcm-url", url_, "--timeout", std::to_string(std::chrono::duration_cast<std::chrono::seconds>(kEventLimit).count())},
+            "control_" + action);
     const int rc = c.wait();
     return std::make_pair(rc, slurp(c.out) + slurp(c.err));
   };

@@ -99,6 +99,13 @@ TEST(Cli, AMissingOrMalformedValueIsAnError) {
   const Result ds = run({COOPDYND_PATH, "--duration", "1"}, "no_scene_d");
   EXPECT_EQ(ds.rc, 2);
   EXPECT_TRUE(has(ds.err, "--scene")) << ds.err;
+  // a wait for the acknowledgement that is not a positive number of seconds: refused before sending
+  for (const char* t : {"0", "-1", "nan", "inf"}) {
+    const Result c = run({COOPDYN_PATH, "control", "--action", "pause", "--lcm-url", "memq://", "--timeout", t}, "timeout");
+    EXPECT_EQ(c.rc, 2) << t;
+    EXPECT_TRUE(has(c.err, "--timeout")) << c.err;
+    EXPECT_FALSE(has(c.err, "no acknowledgement")) << "nothing was sent: " << c.err;
+  }
 }
 
 TEST(Cli, EverySubcommandHasHelpOnStdoutWithItsOptionsAndDefaults) {
