@@ -338,6 +338,7 @@ RunResult run(const System& sys, const Scenario& sc, const ForceLayout& layout, 
   Eigen::VectorXd tau = Eigen::VectorXd::Zero(sys.model.nv());
   Stepper st(sys);
   Workspace ws(sys);
+  ws.position_errors = true;  // the drift is read
   Data d(sys.model);
   double cpu = 0, sim = 0;
   Eigen::VectorXd q, v;

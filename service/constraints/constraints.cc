@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "service/algorithms/jacobians.h"
@@ -191,20 +192,21 @@ Transform rolling_contact_frame(const Model& model, const Data& data, const Cons
 namespace {
 
 // A pseudo-joint lock: one row on its DOF, the error from the held target.
-void lock_rows(const ConstraintSpec& c, int s, int r0, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
+void lock_rows(const ConstraintSpec& c, int s, int r0, const Eigen::VectorXd& q, const Eigen::VectorXd& v, bool errors,
                ConstraintData& cd) {
   cd.G(r0, c.dof) = 1.0;
   cd.Gdot_v[r0] = 0.0;
-  cd.err[r0] = q[c.q_index] - cd.lock_target[s];
+  if (errors) cd.err[r0] = q[c.q_index] - cd.lock_target[s];
   cd.Gv[r0] = v[c.dof];
 }
 
 // A coupling q_j = m q_i + o: one row e_j - m e_i, no Gdot v.
-void couple_rows(const ConstraintSpec& c, int r0, const Eigen::VectorXd& q, const Eigen::VectorXd& v, ConstraintData& cd) {
+void couple_rows(const ConstraintSpec& c, int r0, const Eigen::VectorXd& q, const Eigen::VectorXd& v, bool errors,
+                 ConstraintData& cd) {
   cd.G(r0, c.dof) = 1.0;
   cd.G(r0, c.couple_dof) = -c.multiplier;
   cd.Gdot_v[r0] = 0.0;
-  cd.err[r0] = q[c.q_index] - c.multiplier * q[c.couple_q] - c.offset;
+  if (errors) cd.err[r0] = q[c.q_index] - c.multiplier * q[c.couple_q] - c.offset;
   cd.Gv[r0] = v[c.dof] - c.multiplier * v[c.couple_dof];
 }
 
@@ -213,7 +215,7 @@ void couple_rows(const ConstraintSpec& c, int r0, const Eigen::VectorXd& q, cons
 //   d/dt (C^T u) = Cdot^T u + C^T (a_R + alpha x p_RP + w x pdot_RP)
 // with [alpha; a_R] the body's spatial acceleration at vdot = 0 (A0) at R. The geometry is
 // computed relative to R (positions p_R*), the contact height in the world.
-void rolling_rows(const Data& data, const ConstraintSpec& c, int s, int r0, const std::vector<int>& sup,
+void rolling_rows(const Data& data, const ConstraintSpec& c, int s, int r0, const std::vector<int>& sup, bool errors,
                   ConstraintData& cd) {
   const Transform& X_WB = data.X_WB[c.body];
   const Vec6& V_W = data.V_W[c.body];
@@ -237,9 +239,11 @@ void rolling_rows(const Data& data, const ConstraintSpec& c, int s, int r0, cons
   cd.Gdot_v[r0] = g.x_dot.dot(u) + g.x.dot(u_dot);
   cd.Gdot_v[r0 + 1] = g.y_dot.dot(u) + g.y.dot(u_dot);
   cd.Gdot_v[r0 + 2] = nz.dot(u_dot);
-  cd.err[r0] = 0.0;          // nonholonomic: no position error, so no Baumgarte beta term
-  cd.err[r0 + 1] = 0.0;
-  cd.err[r0 + 2] = nz.dot(g.p + data.p_ref) - c.ground_d;  // height of the contact point above the plane
+  if (errors) {
+    cd.err[r0] = 0.0;  // nonholonomic: no position error, so no Baumgarte beta term
+    cd.err[r0 + 1] = 0.0;
+    cd.err[r0 + 2] = nz.dot(g.p + data.p_ref) - c.ground_d;  // height of the contact point above the plane
+  }
   if (c.rolling_resistance > 0) {
     const double uc = g.x.dot(V_W.tail<3>() + w.cross(c_R));  // the centre's speed along the heading
     cd.rr_arm[s] = -c.rolling_resistance * c.radius * uc / std::sqrt(uc * uc + kRollingResistanceSpeed * kRollingResistanceSpeed);
@@ -255,7 +259,7 @@ void rolling_rows(const Data& data, const ConstraintSpec& c, int s, int r0, cons
 // tip): one pose, and each row of G is a component of X_WA^-1 applied to a motion-subspace column,
 // written straight into G (column d of G holds the spec's rows contiguously).
 void world_weld_rows(const Data& data, const ConstraintSet& set, const ConstraintSpec& c, int s, int body_a,
-                     const Transform& X_WA, ConstraintData& cd) {
+                     const Transform& X_WA, bool errors, ConstraintData& cd) {
   const int r0 = set.row_offset[s], n = set.row_count[s];
   const Mat3 Rt = X_WA.R.transpose();
   const Vec3 p_RA = X_WA.p - data.p_ref;
@@ -279,19 +283,20 @@ void world_weld_rows(const Data& data, const ConstraintSet& set, const Constrain
     a_A.head<3>().noalias() = Rt * aw;
     a_A.tail<3>().noalias() = Rt * (ao - p_RA.cross(aw));
   }
-  const Vec6 e = pose_error(c.X_WA_target.inverse() * X_WA);
   for (int k = 0; k < n; ++k) {
     const int ax = axes[k], r = r0 + k;
     cd.Gdot_v[r] = a_A[ax];
-    cd.err[r] = e[ax];
     cd.Gv[r] = V_A[ax];
   }
+  if (!errors) return;
+  const Vec6 e = pose_error(c.X_WA_target.inverse() * X_WA);
+  for (int k = 0; k < n; ++k) cd.err[r0 + k] = e[axes[k]];
 }
 
 // Any other weld: frame A to frame B, or a frame on no body (the world) to the world, through the
 // frame Jacobians (J_a - X_AB J_b), relative velocity and bias acceleration in A.
 void frame_weld_rows(const Model& model, const Data& data, const ConstraintSet& set, const ConstraintSpec& c, int s,
-                     const Transform& X_WA, ConstraintData& cd) {
+                     const Transform& X_WA, bool errors, ConstraintData& cd) {
   const int r0 = set.row_offset[s], n = set.row_count[s];
   const std::vector<int>& sup = set.support[s];
   Vec6 a_rel, V_rel, e;
@@ -301,7 +306,7 @@ void frame_weld_rows(const Model& model, const Data& data, const ConstraintSet& 
   if (c.frame_b < 0) {
     a_rel = frame_bias_acceleration(model, data, c.frame_a);
     V_rel = V_A;
-    e = pose_error(c.X_WA_target.inverse() * X_WA);
+    if (errors) e = pose_error(c.X_WA_target.inverse() * X_WA);
   } else {
     const Transform X_WB = frame_pose(model, data, c.frame_b);
     const Transform X_AB = X_WA.inverse() * X_WB;
@@ -312,44 +317,46 @@ void frame_weld_rows(const Model& model, const Data& data, const ConstraintSet& 
     a_rel = frame_bias_acceleration(model, data, c.frame_a) - X_AB.act(frame_bias_acceleration(model, data, c.frame_b)) +
             cross_motion(V_A, V_B_inA);
     V_rel = V_A - V_B_inA;
-    e = pose_error(X_AB.inverse());
+    if (errors) e = pose_error(X_AB.inverse());
   }
   for (int k = 0; k < n; ++k) {
     const int ax = set.row_axis[s][k], r = r0 + k;
     for (int d : sup) cd.G(r, d) = cd.J_a(ax, d);
     cd.Gdot_v[r] = a_rel[ax];
-    cd.err[r] = e[ax];
+    if (errors) cd.err[r] = e[ax];
     cd.Gv[r] = V_rel[ax];
   }
 }
 
 // A weld's rows; also records its tip frame A (relative to R) in X_RS.
 void weld_rows(const Model& model, const Data& data, const ConstraintSet& set, const ConstraintSpec& c, int s,
-               ConstraintData& cd) {
+               bool errors, ConstraintData& cd) {
   const Transform X_WA = frame_pose(model, data, c.frame_a);
   cd.X_RS[s].R = X_WA.R;
   cd.X_RS[s].p = X_WA.p - data.p_ref;
   const int body_a = model.frames[c.frame_a].body;
   if (c.frame_b < 0 && body_a >= 0)
-    world_weld_rows(data, set, c, s, body_a, X_WA, cd);
+    world_weld_rows(data, set, c, s, body_a, X_WA, errors, cd);
   else
-    frame_weld_rows(model, data, set, c, s, X_WA, cd);
+    frame_weld_rows(model, data, set, c, s, X_WA, errors, cd);
 }
 
 }  // namespace
 
 void constraint_rows(const Model& model, const Data& data, const ConstraintSet& set, const Eigen::VectorXd& q,
-                     const Eigen::VectorXd& v, ConstraintData& cd) {
+                     const Eigen::VectorXd& v, ConstraintData& cd, PositionErrors errors) {
+  const bool fill = errors == PositionErrors::kFill || set.stabilize;
   for (size_t i = 0; i < set.specs.size(); ++i) {
     const ConstraintSpec& c = set.specs[i];
     const int s = static_cast<int>(i), r0 = set.row_offset[i];
     switch (c.kind) {
-      case ConstraintKind::kLock: lock_rows(c, s, r0, q, v, cd); break;
-      case ConstraintKind::kCouple: couple_rows(c, r0, q, v, cd); break;
-      case ConstraintKind::kRolling: rolling_rows(data, c, s, r0, set.support[i], cd); break;
-      case ConstraintKind::kWeld: weld_rows(model, data, set, c, s, cd); break;
+      case ConstraintKind::kLock: lock_rows(c, s, r0, q, v, fill, cd); break;
+      case ConstraintKind::kCouple: couple_rows(c, r0, q, v, fill, cd); break;
+      case ConstraintKind::kRolling: rolling_rows(data, c, s, r0, set.support[i], fill, cd); break;
+      case ConstraintKind::kWeld: weld_rows(model, data, set, c, s, fill, cd); break;
     }
   }
+  if (!fill) cd.err.setConstant(std::numeric_limits<double>::quiet_NaN());
   if (set.stabilize)
     cd.gamma = -cd.Gdot_v - set.baumgarte_alpha * cd.Gv - set.baumgarte_beta * cd.err;
   else

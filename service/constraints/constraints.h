@@ -140,9 +140,16 @@ inline void set_rolling_resistance_moment(const ConstraintSet& set, const Constr
   if (set.specs[static_cast<size_t>(s)].kind == ConstraintKind::kRolling) w[1] = cd.rr_arm[static_cast<size_t>(s)] * w[5];
 }
 
-// Fills G, Gdot_v, err, Gv, gamma and X_RS after forward_kinematics(q, v).
+// Whether constraint_rows fills the position errors cd.err. Only Baumgarte stabilization (gamma),
+// the projection, the state fit and the closure reports read them, and a weld's error (the log of
+// its pose error's rotation) is a third of its rows' cost; kSkip leaves every entry of cd.err NaN
+// (so that a reader that did not ask for them fails loudly), unless set.stabilize: gamma needs them.
+enum class PositionErrors { kFill, kSkip };
+
+// Fills G, Gdot_v, err, Gv, gamma and X_RS after forward_kinematics(q, v) (err: see PositionErrors;
+// with kFill or kSkip, every other output the same bits).
 void constraint_rows(const Model& model, const Data& data, const ConstraintSet& set, const Eigen::VectorXd& q,
-                     const Eigen::VectorXd& v, ConstraintData& cd);
+                     const Eigen::VectorXd& v, ConstraintData& cd, PositionErrors errors = PositionErrors::kFill);
 
 // The change of Gdot*v (cd.Gdot_v) and of each rolling spec's rr_arm along a change of the velocity
 // at a fixed configuration: dV_W, dA0_W the bodies' changes of V_W and A0_W (world, at data.p_ref),

@@ -832,7 +832,8 @@ bool begin_evaluation(const System& sys, Workspace& ws, const Eigen::VectorXd& q
     fail_evaluation(ws, Reason::kMassMatrixSingular);
     return false;
   }
-  constraint_rows(model, ws.data, sys.constraints, q, v, ws.cd);
+  constraint_rows(model, ws.data, sys.constraints, q, v, ws.cd,
+                  ws.position_errors ? PositionErrors::kFill : PositionErrors::kSkip);
   return true;
 }
 

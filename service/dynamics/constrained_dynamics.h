@@ -63,6 +63,11 @@ struct Workspace {
 
   Data data;
   ConstraintData cd;
+  // Whether an evaluation fills the position errors cd.err (constraint_rows' PositionErrors): set
+  // by those that read them after evaluate() (Stepper::ws: the loop's and sim's closure reports);
+  // otherwise cd.err is NaN after an evaluation without Baumgarte stabilization (the rows' error
+  // terms are computed only where read). Nothing else an evaluation gives depends on it.
+  bool position_errors = false;
   Eigen::VectorXd tau_c;   // (nv) tau - h
   Eigen::VectorXd vdot;    // (nv) accelerations
   Eigen::VectorXd lambda;  // (rows) constraint multipliers

@@ -27,6 +27,7 @@ bool parse_integrator(const std::string& s, Integrator* i) {
 
 Stepper::Stepper(const System& sys)
     : ws(sys), ws_stage(sys), proj_qs(sys.constraints.rows) {
+  ws.position_errors = true;  // the start state's closure is reported (the loop, coopdyn sim); the stages' is not
   for (int k = 0; k < 4; ++k) {
     k_q[k].setZero(sys.model.nq());
     k_v[k].setZero(sys.model.nv());

@@ -24,7 +24,7 @@ bool parse_integrator(const std::string& s, Integrator* i);
 
 struct Stepper {
   explicit Stepper(const System& sys);
-  Workspace ws;        // the evaluation at the start of the last step (wrenches are read here)
+  Workspace ws;        // the evaluation at the start of the last step (wrenches and position errors are read here)
   Workspace ws_stage;  // RK4 stages
   Eigen::VectorXd k_q[4], k_v[4];  // (nq), (nv)
   Eigen::VectorXd q_s, v_s;        // stage state

@@ -1,6 +1,8 @@
 // Constraint rows: G v and Gdot v against finite differences, on every scene.
 #include <gtest/gtest.h>
 
+#include <cstring>
+
 #include "service/algorithms/kinematics.h"
 #include "service/constraints/constraints.h"
 #include "tests/support/test_util.h"
@@ -52,4 +54,72 @@ TEST(Kinematics, ConstraintRowsAndTheirDerivativeMatchFiniteDifferences) {
       EXPECT_LT((edot_fd - cd.G * v).norm(), 1e-6 * (1 + v.norm()));
     }
   }
+}
+
+namespace {
+
+bool same_bits(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  return a.rows() == b.rows() && a.cols() == b.cols() &&
+         std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<size_t>(a.size())) == 0;
+}
+
+// every shipped kind of row: welds to the world and between frames, locks (pseudo-joint
+// formulation), couplings (URDF mimic joints), rolling wheels
+std::vector<System> systems_of_every_kind() {
+  std::vector<System> out;
+  for (const auto& name : all_scenes())
+    for (auto f : {Formulation::kMobilePlatform, Formulation::kClassic, Formulation::kPseudoJointSchur})
+      if (name != "four_bar" || f == Formulation::kClassic) out.push_back(load(name, f));
+  for (const auto& name : wheel_scenes()) out.push_back(load(name));
+  for (const char* name : {"pr2_box", "tiago_pro_box"}) out.push_back(load(name));
+  return out;
+}
+
+}  // namespace
+
+TEST(ConstraintRows, PositionErrorsSkippedLeaveEveryOtherOutputBitForBitAndTheErrorsNaN) {
+  // PositionErrors::kSkip (an evaluation whose errors nobody reads) computes the same G, Gdot v,
+  // G v, gamma and frames as kFill, and leaves err NaN, not a stale or zero value; with Baumgarte
+  // stabilization gamma reads the errors, which are then filled whatever was asked
+  std::mt19937 rng(29);
+  int kinds[4] = {0, 0, 0, 0};
+  for (System sys : systems_of_every_kind()) {
+    const Model& m = sys.model;
+    for (const ConstraintSpec& c : sys.constraints.specs) ++kinds[static_cast<int>(c.kind)];
+    for (bool stabilize : {false, true}) {
+      SCOPED_TRACE(sys.name + (stabilize ? " stabilized" : ""));
+      ConstraintSet set = sys.constraints;
+      set.stabilize = stabilize;
+      set.baumgarte_alpha = stabilize ? 20.0 : 0.0;
+      set.baumgarte_beta = stabilize ? 100.0 : 0.0;
+      for (int trial = 0; trial < 3; ++trial) {
+        Eigen::VectorXd q, v;
+        random_state(sys, rng, 0.3, q, v);
+        Data d(m);
+        forward_kinematics(m, d, q, v);
+        ConstraintData fill(m, set), skip(m, set);
+        constraint_rows(m, d, set, q, v, fill);
+        constraint_rows(m, d, set, q, v, skip, PositionErrors::kSkip);
+        EXPECT_TRUE(same_bits(fill.G, skip.G));
+        EXPECT_TRUE(same_bits(fill.Gdot_v, skip.Gdot_v));
+        EXPECT_TRUE(same_bits(fill.Gv, skip.Gv));
+        EXPECT_TRUE(same_bits(fill.gamma, skip.gamma));
+        EXPECT_EQ(fill.rr_arm, skip.rr_arm);
+        for (size_t s = 0; s < set.specs.size(); ++s) {
+          EXPECT_TRUE(same_bits(fill.X_RS[s].R, skip.X_RS[s].R));
+          EXPECT_TRUE(same_bits(fill.X_RS[s].p, skip.X_RS[s].p));
+        }
+        ASSERT_TRUE(fill.err.allFinite());
+        if (set.rows > 0) {
+          EXPECT_GT(fill.err.cwiseAbs().maxCoeff(), 1e-3);  // a state off the constraints
+        }
+        if (stabilize) {
+          EXPECT_TRUE(same_bits(fill.err, skip.err));
+        } else {
+          EXPECT_TRUE(skip.err.array().isNaN().all());
+        }
+      }
+    }
+  }
+  for (int k = 0; k < 4; ++k) EXPECT_GT(kinds[k], 0) << "no spec of kind " << k;  // weld, lock, rolling, couple
 }

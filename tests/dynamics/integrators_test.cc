@@ -1,6 +1,7 @@
 // Integrators and stabilization: convergence order, energy of passive motion, constraint drift.
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <fstream>
 #include <sstream>
 
@@ -191,4 +192,55 @@ TEST(Integrators, ProjectionByCholeskyEqualsTheEigenDecompositionAndRemovesTheRe
     }
   }
   EXPECT_GT(rank_path, 0) << "the rank-deficient (pivoted) path was never taken";
+}
+
+TEST(Integrators, TheStartStateReportsItsPositionErrorsAndNothingElseDependsOnThem) {
+  // The closure the loop and coopdyn sim report is read from Stepper::ws after step(): its
+  // position errors are those of constraint_rows at the start state, bit for bit, with every
+  // integrator. An evaluation in a workspace that does not ask for them (Workspace::position_errors
+  // false: the stages, a plain evaluate()) gives the same accelerations, forces, stresses and
+  // diagnostics to the bit, its errors NaN (nobody can read a stale value) unless Baumgarte
+  // stabilization reads them.
+  std::mt19937 rng(11);
+  const std::vector<System> systems = {load("two_puma_load"), load("four_bar", Formulation::kClassic),
+                                       load("two_iiwa_load", Formulation::kPseudoJointSchur), load("four_wheel_car"),
+                                       load("pr2_box")};
+  for (const System& sys : systems) {
+    SCOPED_TRACE(sys.name);
+    const Model& m = sys.model;
+    for (Integrator integ : {Integrator::kSemiImplicitEuler, Integrator::kRk4, Integrator::kImplicitEuler}) {
+      Eigen::VectorXd q0, v0;
+      random_state(sys, rng, 0.05, q0, v0);
+      v0 *= 0.1;
+      const Eigen::VectorXd tau = Eigen::VectorXd::Constant(m.nv(), 0.5);
+      Stepper st(sys);
+      Eigen::VectorXd q = q0, v = v0;
+      ASSERT_NE(step(sys, st, integ, 1e-3, tau, q, v).status, Status::kError);
+      Data d(m);
+      ConstraintData cd(m, sys.constraints);
+      forward_kinematics(m, d, q0, v0);
+      constraint_rows(m, d, sys.constraints, q0, v0, cd);
+      ASSERT_TRUE(cd.err.allFinite());
+      EXPECT_EQ(std::memcmp(cd.err.data(), st.ws.cd.err.data(), sizeof(double) * cd.err.size()), 0);
+      EXPECT_GT(cd.err.cwiseAbs().maxCoeff(), 1e-4);  // off the constraints: errors to report
+
+      Workspace plain(sys), asked(sys);
+      asked.position_errors = true;
+      const Diagnostics dp = evaluate(sys, plain, q0, v0, tau);
+      const Diagnostics da = evaluate(sys, asked, q0, v0, tau);
+      EXPECT_EQ(dp.status, da.status);
+      EXPECT_EQ(dp.rank, da.rank);
+      EXPECT_EQ(std::memcmp(&dp.condition, &da.condition, sizeof(double)), 0);
+      EXPECT_EQ(std::memcmp(&dp.residual, &da.residual, sizeof(double)), 0);
+      EXPECT_EQ(plain.vdot, asked.vdot);
+      EXPECT_EQ(plain.lambda, asked.lambda);
+      EXPECT_EQ(plain.stress, asked.stress);
+      EXPECT_EQ(std::memcmp(cd.err.data(), asked.cd.err.data(), sizeof(double) * cd.err.size()), 0);
+      if (sys.constraints.stabilize) {
+        EXPECT_EQ(std::memcmp(cd.err.data(), plain.cd.err.data(), sizeof(double) * cd.err.size()), 0);
+      } else {
+        EXPECT_TRUE(plain.cd.err.array().isNaN().all());
+      }
+    }
+  }
 }

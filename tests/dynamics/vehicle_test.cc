@@ -119,6 +119,7 @@ TEST(Vehicle, InclinedGroundEqualsATiltedGravity) {
   Eigen::VectorXd tau = Eigen::VectorXd::Zero(a.model.nv());
   tau[velocity_index_of(a, "rl_spin")] = tau[velocity_index_of(a, "rr_spin")] = 600;  // N*m each
   Workspace wa(a), wb(b);
+  wa.position_errors = true;
   ASSERT_NE(evaluate(a, wa, a.q0, a.v0, tau).status, Status::kError);
   ASSERT_NE(evaluate(b, wb, b.q0, b.v0, tau).status, Status::kError);
   EXPECT_LT(wa.cd.err.cwiseAbs().maxCoeff(), 1e-12);  // the loader put the car on the plane

@@ -410,6 +410,7 @@ TEST(Wheel, RollingDiskSteadyCircleMatchesTheClassicalRelation) {
         v.head<3>() = Rot.transpose() * w_W;
         v.tail<3>() = Rot.transpose() * vc_W;
         Workspace ws(sys);
+        ws.position_errors = true;
         const Diagnostics& d = evaluate(sys, ws, q, v, Eigen::VectorXd::Zero(6));
         ASSERT_EQ(d.status, Status::kOk);
         ASSERT_LT(ws.cd.err.cwiseAbs().maxCoeff(), 1e-15);

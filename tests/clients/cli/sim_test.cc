@@ -43,6 +43,7 @@ void expect_rows_reproduce(const std::string& scene, const std::vector<std::stri
   for (size_t i = 0; i < head.size(); ++i) col[head[i]] = static_cast<int>(i);
   for (int i = 0; i < nv; ++i) ASSERT_TRUE(col.count("vdot:" + sys.model.v_names[i])) << "vdot:" << sys.model.v_names[i];
   Workspace ws(sys);
+  ws.position_errors = true;  // the closure is read below
   WrenchData wd(sys);
   Eigen::VectorXd q(nq), v(nv), tau(nv);
   int rows = 0;
