@@ -470,24 +470,41 @@ void batch_reactions(const System& sys, const Workspace& ws, WrenchSigmaData& sd
   for (int i = 0; i <= last; ++i) {
     const Body& b = model.bodies[i];
     double* a = sd.A.data() + 6 * i * la;
-    if (b.parent >= 0) copy_rows(sd.A.data() + 6 * b.parent * la, a, la, nc);
-    else zero_rows(a, la, nc);
-    for (int c = 0; c < 6; ++c)
-      for (int k = 0; k < b.joint.nv; ++k) {
-        const int d = b.joint.idx_v + k;
-        axpy_row(a + c * la, sd.X.data() + d * sd.X.outerStride(), -ws.data.S_W(c, d), nc);
-      }
+    if (b.parent >= 0 && b.joint.nv == 1) {  // the common case in one pass over the columns
+      const int d = b.joint.idx_v;
+      const double s[6] = {-ws.data.S_W(0, d), -ws.data.S_W(1, d), -ws.data.S_W(2, d),
+                           -ws.data.S_W(3, d), -ws.data.S_W(4, d), -ws.data.S_W(5, d)};
+      accel_one(sd.A.data() + 6 * b.parent * la, s, sd.X.data() + d * sd.X.outerStride(), a, la, nc);
+    } else {
+      if (b.parent >= 0) copy_rows(sd.A.data() + 6 * b.parent * la, a, la, nc);
+      else zero_rows(a, la, nc);
+      for (int c = 0; c < 6; ++c)
+        for (int k = 0; k < b.joint.nv; ++k) {
+          const int d = b.joint.idx_v + k;
+          axpy_row(a + c * la, sd.X.data() + d * sd.X.outerStride(), -ws.data.S_W(c, d), nc);
+        }
+    }
     zero_rows(sd.Acc.data() + 6 * i * la, la, nc);
   }
-  for (int i : pass) {
+  for (int i : pass) {  // children first: each body's acc holds its children's sum when it comes
     const Body& b = model.bodies[i];
+    const bool inertia = ws.data.has_inertia[i], fixed = b.joint.type == JointType::kFixed && b.parent >= 0;
+    const double* a = sd.A.data() + 6 * i * la;
     double* acc = sd.Acc.data() + 6 * i * la;
-    if (ws.data.has_inertia[i]) inertia_times<true>(sd.I_lin[i], sd.A.data() + 6 * i * la, la, acc, la, nc);
-    copy_rows(acc, sd.Rb.data() + 6 * i * la, la, nc);
-    if (b.joint.type == JointType::kFixed && b.parent >= 0)
-      inertia_times<true>(sd.I_fix[i], sd.A.data() + 6 * i * la, la, sd.Rb.data() + 6 * i * la, la, nc);
-    if (b.parent >= 0)
-      for (int c = 0; c < 6; ++c) axpy_row(sd.Acc.data() + (6 * b.parent + c) * la, acc + c * la, -1.0, nc);
+    double* rb = sd.Rb.data() + 6 * i * la;
+    double* accp = b.parent >= 0 ? sd.Acc.data() + 6 * b.parent * la : nullptr;
+    const RigidInertia &I = sd.I_lin[i], &If = sd.I_fix[i];
+    const int n = static_cast<int>(nc);
+    if (!accp) {
+      if (inertia) reaction_body<true, false, false>(I, If, a, acc, rb, accp, la, n);
+      else reaction_body<false, false, false>(I, If, a, acc, rb, accp, la, n);
+    } else if (fixed) {
+      if (inertia) reaction_body<true, true, true>(I, If, a, acc, rb, accp, la, n);
+      else reaction_body<false, true, true>(I, If, a, acc, rb, accp, la, n);
+    } else {
+      if (inertia) reaction_body<true, false, true>(I, If, a, acc, rb, accp, la, n);
+      else reaction_body<false, false, true>(I, If, a, acc, rb, accp, la, n);
+    }
   }
 }
 
@@ -546,6 +563,26 @@ void batch_outputs(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
         row(sd.C, c0 + 1, nc) = ws.cd.rr_arm[static_cast<size_t>(o.spec)] * row(sd.C, c0 + 5, nc);
       continue;
     }
+    const Transform& X = sd.X_WF[k];
+    const int ns = set.out_spec_begin[k + 1] - set.out_spec_begin[k];
+    if (!sd.composite && ns <= 2) {  // the reaction's specs' forces summed inside the frame change
+      const double* f[2] = {nullptr, nullptr};
+      double g[2] = {0.0, 0.0};
+      for (int t = 0; t < ns; ++t) {
+        const auto& st = set.out_spec[static_cast<size_t>(set.out_spec_begin[k] + t)];
+        f[t] = sd.dF.data() + 6 * st.first * sd.dF.outerStride();
+        g[t] = static_cast<double>(st.second);
+      }
+      const Mat3 Rt = (o.reversed ? -1.0 : 1.0) * X.R.transpose();
+      const Vec3 p = X.p - ws.data.p_ref;
+      const double* rb = sd.Rb.data() + 6 * o.body * sd.Rb.outerStride();
+      double* out = &sd.C(c0, 0);
+      const Eigen::Index lr = sd.Rb.outerStride(), lf = sd.dF.outerStride(), lo = sd.C.outerStride();
+      if (ns == 0) to_frame_sum<0>(Rt, p, rb, lr, f, g, lf, out, lo, static_cast<int>(nc));
+      else if (ns == 1) to_frame_sum<1>(Rt, p, rb, lr, f, g, lf, out, lo, static_cast<int>(nc));
+      else to_frame_sum<2>(Rt, p, rb, lr, f, g, lf, out, lo, static_cast<int>(nc));
+      continue;
+    }
     if (sd.composite) composite_reaction(sd, k, nc);
     for (int c = 0; c < 6; ++c) {
       auto d = row(sd.Tmp, c, nc);
@@ -554,7 +591,6 @@ void batch_outputs(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
         d += static_cast<double>(set.out_spec[t].second) * row(sd.dF, 6 * set.out_spec[t].first + c, nc);
     }
     // world coordinates at p_ref -> the report frame at its origin: [R^T (n - p x f); R^T f]
-    const Transform& X = sd.X_WF[k];
     to_frame((o.reversed ? -1.0 : 1.0) * X.R.transpose(), X.p - ws.data.p_ref, sd.Tmp.data(), sd.Tmp.outerStride(), &sd.C(c0, 0),
              sd.C.outerStride(), nc);
   }
