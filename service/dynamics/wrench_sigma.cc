@@ -466,7 +466,7 @@ void batch_reactions(const System& sys, const Workspace& ws, WrenchSigmaData& sd
   const Model& model = sys.model;
   const std::vector<int>& pass = sys.wrenches.pass;
   const int last = pass.front();
-  const Eigen::Index la = sd.A.outerStride();  // A, Acc, Rb: the same shape
+  const int la = nc;  // A, Acc, Rb: compact 6 x nc blocks per body (wrench_sigma_rows.h)
   for (int i = 0; i <= last; ++i) {
     const Body& b = model.bodies[i];
     double* a = sd.A.data() + 6 * i * la;
@@ -474,7 +474,7 @@ void batch_reactions(const System& sys, const Workspace& ws, WrenchSigmaData& sd
       const int d = b.joint.idx_v;
       const double s[6] = {-ws.data.S_W(0, d), -ws.data.S_W(1, d), -ws.data.S_W(2, d),
                            -ws.data.S_W(3, d), -ws.data.S_W(4, d), -ws.data.S_W(5, d)};
-      accel_one(sd.A.data() + 6 * b.parent * la, s, sd.X.data() + d * sd.X.outerStride(), a, la, nc);
+      accel_one(sd.A.data() + 6 * b.parent * la, s, sd.X.data() + d * sd.X.outerStride(), a, nc);
     } else {
       if (b.parent >= 0) copy_rows(sd.A.data() + 6 * b.parent * la, a, la, nc);
       else zero_rows(a, la, nc);
@@ -494,16 +494,15 @@ void batch_reactions(const System& sys, const Workspace& ws, WrenchSigmaData& sd
     double* rb = sd.Rb.data() + 6 * i * la;
     double* accp = b.parent >= 0 ? sd.Acc.data() + 6 * b.parent * la : nullptr;
     const RigidInertia &I = sd.I_lin[i], &If = sd.I_fix[i];
-    const int n = static_cast<int>(nc);
     if (!accp) {
-      if (inertia) reaction_body<true, false, false>(I, If, a, acc, rb, accp, la, n);
-      else reaction_body<false, false, false>(I, If, a, acc, rb, accp, la, n);
+      if (inertia) reaction_body<true, false, false>(I, If, a, acc, rb, accp, nc);
+      else reaction_body<false, false, false>(I, If, a, acc, rb, accp, nc);
     } else if (fixed) {
-      if (inertia) reaction_body<true, true, true>(I, If, a, acc, rb, accp, la, n);
-      else reaction_body<false, true, true>(I, If, a, acc, rb, accp, la, n);
+      if (inertia) reaction_body<true, true, true>(I, If, a, acc, rb, accp, nc);
+      else reaction_body<false, true, true>(I, If, a, acc, rb, accp, nc);
     } else {
-      if (inertia) reaction_body<true, false, true>(I, If, a, acc, rb, accp, la, n);
-      else reaction_body<false, false, true>(I, If, a, acc, rb, accp, la, n);
+      if (inertia) reaction_body<true, false, true>(I, If, a, acc, rb, accp, nc);
+      else reaction_body<false, false, true>(I, If, a, acc, rb, accp, nc);
     }
   }
 }
@@ -575,18 +574,18 @@ void batch_outputs(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
       }
       const Mat3 Rt = (o.reversed ? -1.0 : 1.0) * X.R.transpose();
       const Vec3 p = X.p - ws.data.p_ref;
-      const double* rb = sd.Rb.data() + 6 * o.body * sd.Rb.outerStride();
+      const double* rb = sd.Rb.data() + 6 * o.body * static_cast<int>(nc);
       double* out = &sd.C(c0, 0);
-      const Eigen::Index lr = sd.Rb.outerStride(), lf = sd.dF.outerStride(), lo = sd.C.outerStride();
-      if (ns == 0) to_frame_sum<0>(Rt, p, rb, lr, f, g, lf, out, lo, static_cast<int>(nc));
-      else if (ns == 1) to_frame_sum<1>(Rt, p, rb, lr, f, g, lf, out, lo, static_cast<int>(nc));
-      else to_frame_sum<2>(Rt, p, rb, lr, f, g, lf, out, lo, static_cast<int>(nc));
+      const Eigen::Index lf = sd.dF.outerStride(), lo = sd.C.outerStride();
+      if (ns == 0) to_frame_sum<0>(Rt, p, rb, f, g, lf, out, lo, nc);
+      else if (ns == 1) to_frame_sum<1>(Rt, p, rb, f, g, lf, out, lo, nc);
+      else to_frame_sum<2>(Rt, p, rb, f, g, lf, out, lo, nc);
       continue;
     }
     if (sd.composite) composite_reaction(sd, k, nc);
     for (int c = 0; c < 6; ++c) {
       auto d = row(sd.Tmp, c, nc);
-      if (!sd.composite) d = row(sd.Rb, 6 * o.body + c, nc);
+      if (!sd.composite) d = Eigen::Map<const Eigen::RowVectorXd>(sd.Rb.data() + (6 * o.body + c) * static_cast<int>(nc), nc);
       for (int t = set.out_spec_begin[k]; t < set.out_spec_begin[k + 1]; ++t)
         d += static_cast<double>(set.out_spec[t].second) * row(sd.dF, 6 * set.out_spec[t].first + c, nc);
     }

@@ -128,26 +128,34 @@ inline void to_frame(const Mat3& Rt, const Vec3& p, const double* __restrict d, 
   }
 }
 
-// A = P - s x on 6 rows of nc columns: a body's acceleration change from its parent's over its
-// joint's one DOF, s = -S (the DOF's motion axis negated, as the pass's row operations take it: the
-// same products), column by column (P, A: stride la)
+// The reaction pass's blocks (6 x nc per body) are compact: row r of a block at r nc, so that with
+// a compile-time column count (std::integral_constant) every address in the kernels below is a
+// fixed offset from the block's start (a runtime stride holds a register per row, and the kernels
+// ran out of them).
+
+// A = P - s x on a 6 x nc block: a body's acceleration change from its parent's over its joint's
+// one DOF, s = -S (the DOF's motion axis negated, as the pass's row operations take it: the same
+// products), column by column
+template <class Nc>
 inline void accel_one(const double* __restrict pa, const double* __restrict s, const double* __restrict x, double* __restrict a,
-                      Eigen::Index la, int nc) {
+                      Nc nc) {
+  const int la = nc;
   const double s0 = s[0], s1 = s[1], s2 = s[2], s3 = s[3], s4 = s[4], s5 = s[5];
 #pragma GCC ivdep
-  for (int c = 0; c < nc; ++c) {
+  for (int c = 0; c < la; ++c) {
     const double xc = x[c];
     a[c] = pa[c] - s0 * xc, a[la + c] = pa[la + c] - s1 * xc, a[2 * la + c] = pa[2 * la + c] - s2 * xc;
     a[3 * la + c] = pa[3 * la + c] - s3 * xc, a[4 * la + c] = pa[4 * la + c] - s4 * xc, a[5 * la + c] = pa[5 * la + c] - s5 * xc;
   }
 }
 
-// One body of the reaction pass on 6 rows of nc columns, column by column (every block stride la):
-// acc (in: its children's sum) += I a; rb = acc [+ I_fix a]; parent's acc += acc. The products and
-// sums of inertia_times and the pass's row operations, in their order.
-template <bool kInertia, bool kFix, bool kParent>
+// One body of the reaction pass on 6 x nc blocks, column by column: acc (in: its children's sum)
+// += I a; rb = acc [+ I_fix a]; parent's acc += acc. The products and sums of inertia_times and the
+// pass's row operations, in their order.
+template <bool kInertia, bool kFix, bool kParent, class Nc>
 inline void reaction_body(const RigidInertia& I, const RigidInertia& If, const double* __restrict a, double* __restrict acc,
-                          double* __restrict rb, double* __restrict accp, Eigen::Index la, int nc) {
+                          double* __restrict rb, double* __restrict accp, Nc nc) {
+  const int la = nc;
   const double m = I.m, hx = I.h.x(), hy = I.h.y(), hz = I.h.z();
   const double j00 = I.Io(0, 0), j01 = I.Io(0, 1), j02 = I.Io(0, 2), j10 = I.Io(1, 0), j11 = I.Io(1, 1), j12 = I.Io(1, 2),
                j20 = I.Io(2, 0), j21 = I.Io(2, 1), j22 = I.Io(2, 2);
@@ -155,7 +163,7 @@ inline void reaction_body(const RigidInertia& I, const RigidInertia& If, const d
   const double k00 = If.Io(0, 0), k01 = If.Io(0, 1), k02 = If.Io(0, 2), k10 = If.Io(1, 0), k11 = If.Io(1, 1), k12 = If.Io(1, 2),
                k20 = If.Io(2, 0), k21 = If.Io(2, 1), k22 = If.Io(2, 2);
 #pragma GCC ivdep
-  for (int c = 0; c < nc; ++c) {
+  for (int c = 0; c < la; ++c) {
     const double wx = a[c], wy = a[la + c], wz = a[2 * la + c], vx = a[3 * la + c], vy = a[4 * la + c], vz = a[5 * la + c];
     double r0 = acc[c], r1 = acc[la + c], r2 = acc[2 * la + c], r3 = acc[3 * la + c], r4 = acc[4 * la + c], r5 = acc[5 * la + c];
     if constexpr (kInertia) {
@@ -180,11 +188,12 @@ inline void reaction_body(const RigidInertia& I, const RigidInertia& If, const d
   }
 }
 
-// to_frame of D = R + sum_t g_t F_t (kNs of them: a reaction's specs' forces, g_t = +-1) on 6 rows
-// of nc columns, without forming D (R: stride lr; F_t: stride lf)
-template <int kNs>
-inline void to_frame_sum(const Mat3& Rt, const Vec3& p, const double* __restrict r, Eigen::Index lr,
-                         const double* const* f, const double* g, Eigen::Index lf, double* __restrict o, Eigen::Index lo, int nc) {
+// to_frame of D = R + sum_t g_t F_t (kNs of them: a reaction's specs' forces, g_t = +-1) without
+// forming D: R a compact 6 x nc block, F_t 6 rows of stride lf, the output 6 rows of stride lo
+template <int kNs, class Nc>
+inline void to_frame_sum(const Mat3& Rt, const Vec3& p, const double* __restrict r, const double* const* f, const double* g,
+                         Eigen::Index lf, double* __restrict o, Eigen::Index lo, Nc nc) {
+  const int lr = nc;
   const double px = p.x(), py = p.y(), pz = p.z();
   const double r00 = Rt(0, 0), r01 = Rt(0, 1), r02 = Rt(0, 2), r10 = Rt(1, 0), r11 = Rt(1, 1), r12 = Rt(1, 2), r20 = Rt(2, 0),
                r21 = Rt(2, 1), r22 = Rt(2, 2);
@@ -192,7 +201,7 @@ inline void to_frame_sum(const Mat3& Rt, const Vec3& p, const double* __restrict
   const double* __restrict fb = kNs > 1 ? f[1] : nullptr;
   const double ga = kNs > 0 ? g[0] : 0.0, gb = kNs > 1 ? g[1] : 0.0;
 #pragma GCC ivdep
-  for (int j = 0; j < nc; ++j) {
+  for (int j = 0; j < lr; ++j) {
     double d[6];
     for (int k = 0; k < 6; ++k) {
       d[k] = r[k * lr + j];
