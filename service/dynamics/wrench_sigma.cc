@@ -408,6 +408,17 @@ void batch_response(const System& sys, Workspace& ws, WrenchSigmaData& sd, Nc nc
   rows_solve_L(model, ws.data, sd.X, nc);
 }
 
+// f = I s (RigidInertia's product, the same expression) written in place: returned, its
+// temporary's narrow stores were reloaded wide for the copy, a failed store-to-load forwarding
+// each (perf annotate: most of the composite form's setup)
+void apply_into(const RigidInertia& I, const double* s, double* f) {
+  const Eigen::Map<const Vec6> V(s);
+  const Vec3 w = V.head<3>(), v = V.tail<3>();
+  Eigen::Map<Vec6> F(f);
+  F.head<3>() = I.Io * w + I.h.cross(v);
+  F.tail<3>() = I.m * v - I.h.cross(w);
+}
+
 // The composite form's coefficients (WrenchSigmaData::composite): each subtree's inertia, each
 // DOF's Ic S, each reaction's (Ic_b [+ I_fix_b]) S on its path. After the pass's inertias (batch_setup).
 void composite_setup(const System& sys, const Workspace& ws, WrenchSigmaData& sd) {
@@ -422,14 +433,15 @@ void composite_setup(const System& sys, const Workspace& ws, WrenchSigmaData& sd
   for (int i : set.pass)
     for (int c = 0; c < model.bodies[i].joint.nv; ++c) {
       const int d = model.bodies[i].joint.idx_v + c;
-      sd.F_dof.col(d) = sd.Ic[i] * data.S_W.col(d);
+      apply_into(sd.Ic[i], data.S_W.col(d).data(), sd.F_dof.col(d).data());
     }
   for (size_t k = 0; k < set.outputs.size(); ++k) {
     if (set.outputs[k].spec >= 0) continue;
     const int b = set.outputs[k].body;
     RigidInertia I = sd.Ic[b];
     if (model.bodies[b].joint.type == JointType::kFixed && model.bodies[b].parent >= 0) I += sd.I_fix[b];
-    for (size_t t = 0; t < sd.out_up[k].size(); ++t) sd.U[k].col(static_cast<Eigen::Index>(t)) = I * data.S_W.col(sd.out_up[k][t]);
+    for (size_t t = 0; t < sd.out_up[k].size(); ++t)
+      apply_into(I, data.S_W.col(sd.out_up[k][t]).data(), sd.U[k].col(static_cast<Eigen::Index>(t)).data());
   }
 }
 
