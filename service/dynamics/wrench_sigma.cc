@@ -349,6 +349,70 @@ void q_solve_rows(Workspace& ws, WrenchSigmaData& sd, Nc nc) {
   }
 }
 
+// Rhs -= Y X over every spec's rows. A spec of 6 rows at a compile-time column count holds its 6
+// rows of Rhs in registers over its DOFs (each DOF's row of X loaded once); the same products and
+// sums in the same order per row as the row operations.
+template <class Nc>
+void rows_minus_yx(const ConstraintSet& cs, const Workspace& ws, WrenchSigmaData& sd, Nc nc) {
+  double* rhs = sd.Rhs.data();
+  const double* x = sd.X.data();
+  const Eigen::Index lr = sd.Rhs.outerStride(), lx = sd.X.outerStride();
+  for (size_t s = 0; s < cs.specs.size(); ++s) {
+    const double* y = ws.Yb[s].data();
+    const int r0 = cs.row_offset[s], nk = cs.row_count[s];
+    if constexpr (!std::is_same_v<Nc, int>) {
+      if (nk == 6) {
+        using Row = Eigen::Matrix<double, 1, Nc::value>;
+        double* b = rhs + r0 * lr;
+        Row a0 = ConstFixedRow<Nc>(b), a1 = ConstFixedRow<Nc>(b + lr), a2 = ConstFixedRow<Nc>(b + 2 * lr),
+            a3 = ConstFixedRow<Nc>(b + 3 * lr), a4 = ConstFixedRow<Nc>(b + 4 * lr), a5 = ConstFixedRow<Nc>(b + 5 * lr);
+        for (int d : ws.y_support[s]) {
+          const double* f = y + Workspace::kYStride * d;
+          const ConstFixedRow<Nc> xr(x + d * lx);
+          a0 -= f[0] * xr, a1 -= f[1] * xr, a2 -= f[2] * xr, a3 -= f[3] * xr, a4 -= f[4] * xr, a5 -= f[5] * xr;
+        }
+        FixedRow<Nc> o0(b), o1(b + lr), o2(b + 2 * lr), o3(b + 3 * lr), o4(b + 4 * lr), o5(b + 5 * lr);
+        o0 = a0, o1 = a1, o2 = a2, o3 = a3, o4 = a4, o5 = a5;
+        continue;
+      }
+    }
+    for (int d : ws.y_support[s])
+      for (int k = 0; k < nk; ++k) axpy_row(rhs + (r0 + k) * lr, x + d * lx, y[Workspace::kYStride * d + k], nc);
+  }
+}
+
+// X += Y^T Lam over every spec's rows (as row operations X -= (-Y^T) Lam). A spec of 6 rows at a
+// compile-time column count holds its 6 rows of Lam in registers over its DOFs (each DOF's row of
+// X loaded and stored once per spec); the same products and sums in the same order per row.
+template <class Nc>
+void rows_plus_ytlam(const ConstraintSet& cs, const Workspace& ws, WrenchSigmaData& sd, Nc nc) {
+  double* x = sd.X.data();
+  const double* lam = sd.Lam.data();
+  const Eigen::Index lx = sd.X.outerStride(), ll = sd.Lam.outerStride();
+  for (size_t s = 0; s < cs.specs.size(); ++s) {
+    const double* y = ws.Yb[s].data();
+    const int r0 = cs.row_offset[s], nk = cs.row_count[s];
+    if constexpr (!std::is_same_v<Nc, int>) {
+      if (nk == 6) {
+        using Row = Eigen::Matrix<double, 1, Nc::value>;
+        const double* l = lam + r0 * ll;
+        const Row l0 = ConstFixedRow<Nc>(l), l1 = ConstFixedRow<Nc>(l + ll), l2 = ConstFixedRow<Nc>(l + 2 * ll),
+                  l3 = ConstFixedRow<Nc>(l + 3 * ll), l4 = ConstFixedRow<Nc>(l + 4 * ll), l5 = ConstFixedRow<Nc>(l + 5 * ll);
+        for (int d : ws.y_support[s]) {
+          const double* f = y + Workspace::kYStride * d;
+          Row xr = ConstFixedRow<Nc>(x + d * lx);
+          xr -= -f[0] * l0, xr -= -f[1] * l1, xr -= -f[2] * l2, xr -= -f[3] * l3, xr -= -f[4] * l4, xr -= -f[5] * l5;
+          FixedRow<Nc> o(x + d * lx);
+          o = xr;
+        }
+        continue;
+      }
+    }
+    for (int d : ws.y_support[s])
+      for (int k = 0; k < nk; ++k) axpy_row(x + d * lx, lam + (r0 + k) * ll, -y[Workspace::kYStride * d + k], nc);
+  }
+}
+
 // Lam and X (the accelerations' change) for the generalized-force changes X0 and the constraint
 // right-hand side changes Gm of every column, through the evaluation's factors of M and Q
 // (schur_solve of constrained_dynamics.cc). With rolling resistance the wheels' moments (linear in
@@ -381,30 +445,14 @@ void batch_response(const System& sys, Workspace& ws, WrenchSigmaData& sd, Nc nc
     rows_solve_Lt(model, ws.data, sd.X, nc);
     if (tau_only) zero_block(sd.Rhs.data(), sd.Rhs.outerStride(), cs.rows, nc);
     else copy_block(sd.Gm.data(), sd.Gm.outerStride(), sd.Rhs.data(), sd.Rhs.outerStride(), cs.rows, nc);
-    double* rhs = sd.Rhs.data();
-    const double* x = sd.X.data();
-    const Eigen::Index lr = sd.Rhs.outerStride(), lx = sd.X.outerStride();
-    for (int s = 0; s < ns; ++s) {
-      const double* y = ws.Yb[static_cast<size_t>(s)].data();
-      const int r0 = cs.row_offset[s], nk = cs.row_count[s];
-      for (int d : ws.y_support[static_cast<size_t>(s)])
-        for (int k = 0; k < nk; ++k) axpy_row(rhs + (r0 + k) * lr, x + d * lx, y[Workspace::kYStride * d + k], nc);
-    }
+    rows_minus_yx(cs, ws, sd, nc);
     q_solve_rows(ws, sd, nc);
     if (it > 0) {
       const double step = (sd.Lam.leftCols(nc) - sd.Lam_prev.leftCols(nc)).cwiseAbs().maxCoeff();
       if (!(step > 1e-14 * sd.Lam.leftCols(nc).cwiseAbs().maxCoeff())) break;
     }
   }
-  double* x = sd.X.data();
-  const double* lam = sd.Lam.data();
-  const Eigen::Index lx = sd.X.outerStride(), ll = sd.Lam.outerStride();
-  for (int s = 0; s < ns; ++s) {  // X <- L^-1 (X + Y^T Lam)
-    const double* y = ws.Yb[static_cast<size_t>(s)].data();
-    const int r0 = cs.row_offset[s], nk = cs.row_count[s];
-    for (int d : ws.y_support[static_cast<size_t>(s)])
-      for (int k = 0; k < nk; ++k) axpy_row(x + d * lx, lam + (r0 + k) * ll, -y[Workspace::kYStride * d + k], nc);
-  }
+  rows_plus_ytlam(cs, ws, sd, nc);  // X <- L^-1 (X + Y^T Lam)
   rows_solve_L(model, ws.data, sd.X, nc);
 }
 
