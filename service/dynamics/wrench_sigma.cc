@@ -493,6 +493,23 @@ void composite_setup(const System& sys, const Workspace& ws, WrenchSigmaData& sd
   }
 }
 
+// spec_force of a unit multiplier on axis a (0-2 moment, 3-5 force) of a spec that is not a rolling
+// contact (no rolling-resistance moment): its products by the unit's 1 and 0s left out (exact: the
+// same values)
+void unit_spec_force(const Transform& X_RS, int a, double* F) {
+  const Mat3& R = X_RS.R;
+  const Vec3& p = X_RS.p;
+  if (a < 3) {
+    F[0] = R(0, a), F[1] = R(1, a), F[2] = R(2, a), F[3] = 0.0, F[4] = 0.0, F[5] = 0.0;
+    return;
+  }
+  const double f0 = R(0, a - 3), f1 = R(1, a - 3), f2 = R(2, a - 3);
+  F[0] = p[1] * f2 - p[2] * f1;
+  F[1] = p[2] * f0 - p[0] * f2;
+  F[2] = p[0] * f1 - p[1] * f0;
+  F[3] = f0, F[4] = f1, F[5] = f2;
+}
+
 // The state-dependent matrices of the pass: each reaction's inertia on its body's acceleration
 // (joint_reactions.h: the body's I_W, and for a fixed joint the welded group's I_Bw), each pass
 // spec's force per unit of its rows (spec_force), each output's report frame.
@@ -509,8 +526,13 @@ void batch_setup(const System& sys, const Workspace& ws, WrenchSigmaData& sd) {
   for (int s : set.pass_specs) {
     const int r0 = cs.row_offset[s];
     for (int r = 0; r < cs.row_count[s]; ++r) {
+      double* t = sd.T_spec[static_cast<size_t>(s)].col(r).data();
+      if (cs.specs[static_cast<size_t>(s)].kind != ConstraintKind::kRolling) {
+        unit_spec_force(ws.cd.X_RS[static_cast<size_t>(s)], cs.row_axis[s][r], t);
+        continue;
+      }
       sd.unit[r0 + r] = 1.0;
-      spec_force(cs, ws.cd, sd.unit.data(), s, sd.T_spec[static_cast<size_t>(s)].col(r).data());
+      spec_force(cs, ws.cd, sd.unit.data(), s, t);
       sd.unit[r0 + r] = 0.0;
     }
   }
