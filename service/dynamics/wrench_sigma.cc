@@ -349,6 +349,15 @@ void q_solve_rows(Workspace& ws, WrenchSigmaData& sd, Nc nc) {
   }
 }
 
+// f(offset, count) over the parts of a row of K columns held in registers: the whole row where K is
+// a multiple of 4 (12: three 4-wide registers a row measured 3-5 % faster than in_parts' 8 + 4 at
+// 2 PUMAs), else in_parts (18: 8 + 8 + 2 instead of nine 2-wide, 20-25 % faster at 3 PUMAs)
+template <int K, class F>
+inline void held_parts(F&& f) {
+  if constexpr (K % 4 == 0) f(std::integral_constant<int, 0>{}, std::integral_constant<int, K>{});
+  else in_parts<K>(f);
+}
+
 // Rhs -= Y X over every spec's rows. A spec of 6 rows at a compile-time column count holds its 6
 // rows of Rhs in registers over its DOFs (each DOF's row of X loaded once); the same products and
 // sums in the same order per row as the row operations.
@@ -362,17 +371,19 @@ void rows_minus_yx(const ConstraintSet& cs, const Workspace& ws, WrenchSigmaData
     const int r0 = cs.row_offset[s], nk = cs.row_count[s];
     if constexpr (!std::is_same_v<Nc, int>) {
       if (nk == 6) {
-        using Row = Eigen::Matrix<double, 1, Nc::value>;
-        double* b = rhs + r0 * lr;
-        Row a0 = ConstFixedRow<Nc>(b), a1 = ConstFixedRow<Nc>(b + lr), a2 = ConstFixedRow<Nc>(b + 2 * lr),
-            a3 = ConstFixedRow<Nc>(b + 3 * lr), a4 = ConstFixedRow<Nc>(b + 4 * lr), a5 = ConstFixedRow<Nc>(b + 5 * lr);
-        for (int d : ws.y_support[s]) {
-          const double* f = y + Workspace::kYStride * d;
-          const ConstFixedRow<Nc> xr(x + d * lx);
-          a0 -= f[0] * xr, a1 -= f[1] * xr, a2 -= f[2] * xr, a3 -= f[3] * xr, a4 -= f[4] * xr, a5 -= f[5] * xr;
-        }
-        FixedRow<Nc> o0(b), o1(b + lr), o2(b + 2 * lr), o3(b + 3 * lr), o4(b + 4 * lr), o5(b + 5 * lr);
-        o0 = a0, o1 = a1, o2 = a2, o3 = a3, o4 = a4, o5 = a5;
+        held_parts<Nc::value>([&](auto o, auto n) {
+          using Row = Eigen::Matrix<double, 1, decltype(n)::value>;
+          using CM = Eigen::Map<const Row>;
+          double* b = rhs + r0 * lr + o;
+          Row a0 = CM(b), a1 = CM(b + lr), a2 = CM(b + 2 * lr), a3 = CM(b + 3 * lr), a4 = CM(b + 4 * lr), a5 = CM(b + 5 * lr);
+          for (int d : ws.y_support[s]) {
+            const double* f = y + Workspace::kYStride * d;
+            const CM xr(x + d * lx + o);
+            a0 -= f[0] * xr, a1 -= f[1] * xr, a2 -= f[2] * xr, a3 -= f[3] * xr, a4 -= f[4] * xr, a5 -= f[5] * xr;
+          }
+          Eigen::Map<Row> o0(b), o1(b + lr), o2(b + 2 * lr), o3(b + 3 * lr), o4(b + 4 * lr), o5(b + 5 * lr);
+          o0 = a0, o1 = a1, o2 = a2, o3 = a3, o4 = a4, o5 = a5;
+        });
         continue;
       }
     }
@@ -394,17 +405,19 @@ void rows_plus_ytlam(const ConstraintSet& cs, const Workspace& ws, WrenchSigmaDa
     const int r0 = cs.row_offset[s], nk = cs.row_count[s];
     if constexpr (!std::is_same_v<Nc, int>) {
       if (nk == 6) {
-        using Row = Eigen::Matrix<double, 1, Nc::value>;
-        const double* l = lam + r0 * ll;
-        const Row l0 = ConstFixedRow<Nc>(l), l1 = ConstFixedRow<Nc>(l + ll), l2 = ConstFixedRow<Nc>(l + 2 * ll),
-                  l3 = ConstFixedRow<Nc>(l + 3 * ll), l4 = ConstFixedRow<Nc>(l + 4 * ll), l5 = ConstFixedRow<Nc>(l + 5 * ll);
-        for (int d : ws.y_support[s]) {
-          const double* f = y + Workspace::kYStride * d;
-          Row xr = ConstFixedRow<Nc>(x + d * lx);
-          xr -= -f[0] * l0, xr -= -f[1] * l1, xr -= -f[2] * l2, xr -= -f[3] * l3, xr -= -f[4] * l4, xr -= -f[5] * l5;
-          FixedRow<Nc> o(x + d * lx);
-          o = xr;
-        }
+        held_parts<Nc::value>([&](auto o, auto n) {
+          using Row = Eigen::Matrix<double, 1, decltype(n)::value>;
+          using CM = Eigen::Map<const Row>;
+          const double* l = lam + r0 * ll + o;
+          const Row l0 = CM(l), l1 = CM(l + ll), l2 = CM(l + 2 * ll), l3 = CM(l + 3 * ll), l4 = CM(l + 4 * ll), l5 = CM(l + 5 * ll);
+          for (int d : ws.y_support[s]) {
+            const double* f = y + Workspace::kYStride * d;
+            Row xr = CM(x + d * lx + o);
+            xr -= -f[0] * l0, xr -= -f[1] * l1, xr -= -f[2] * l2, xr -= -f[3] * l3, xr -= -f[4] * l4, xr -= -f[5] * l5;
+            Eigen::Map<Row> out(x + d * lx + o);
+            out = xr;
+          }
+        });
         continue;
       }
     }
