@@ -83,31 +83,6 @@ inline auto row(Mat& M, Eigen::Index r, Nc nc) {
   else return M.row(r).template head<Nc::value>();
 }
 
-// N (+)= I A for a rigid inertia on 6 rows of nc columns (row r of A at a + r la, of N at
-// n + r ln): n = Io w + h x v, f = m v - h x w (the 6 x 6 inertia matrix without its zeros and
-// repeats: 24 multiply-adds a column instead of 36). ivdep here and in to_frame: the rows never
-// overlap, and without it GCC leaves these loops scalar (a quarter slower at 48 columns).
-template <bool kAdd>
-inline void inertia_times(const RigidInertia& I, const double* __restrict a, Eigen::Index la, double* __restrict n,
-                   Eigen::Index ln, int nc) {
-  const double m = I.m, hx = I.h.x(), hy = I.h.y(), hz = I.h.z();
-  const double j00 = I.Io(0, 0), j01 = I.Io(0, 1), j02 = I.Io(0, 2), j10 = I.Io(1, 0), j11 = I.Io(1, 1), j12 = I.Io(1, 2),
-               j20 = I.Io(2, 0), j21 = I.Io(2, 1), j22 = I.Io(2, 2);
-#pragma GCC ivdep
-  for (int c = 0; c < nc; ++c) {
-    const double wx = a[c], wy = a[la + c], wz = a[2 * la + c], vx = a[3 * la + c], vy = a[4 * la + c], vz = a[5 * la + c];
-    const double x0 = j00 * wx + j01 * wy + j02 * wz + hy * vz - hz * vy;
-    const double x1 = j10 * wx + j11 * wy + j12 * wz + hz * vx - hx * vz;
-    const double x2 = j20 * wx + j21 * wy + j22 * wz + hx * vy - hy * vx;
-    const double x3 = m * vx - (hy * wz - hz * wy), x4 = m * vy - (hz * wx - hx * wz), x5 = m * vz - (hx * wy - hy * wx);
-    if constexpr (kAdd) {
-      n[c] += x0, n[ln + c] += x1, n[2 * ln + c] += x2, n[3 * ln + c] += x3, n[4 * ln + c] += x4, n[5 * ln + c] += x5;
-    } else {
-      n[c] = x0, n[ln + c] = x1, n[2 * ln + c] = x2, n[3 * ln + c] = x3, n[4 * ln + c] = x4, n[5 * ln + c] = x5;
-    }
-  }
-}
-
 // C = [Rt (n - p x f); Rt f] for D = [n; f] on 6 rows of nc columns (row r of D at d + r ld, of C
 // at o + r lo)
 inline void to_frame(const Mat3& Rt, const Vec3& p, const double* __restrict d, Eigen::Index ld, double* __restrict o,
@@ -150,8 +125,10 @@ inline void accel_one(const double* __restrict pa, const double* __restrict s, c
 }
 
 // One body of the reaction pass on 6 x nc blocks, column by column: acc (in: its children's sum)
-// += I a; rb = acc [+ I_fix a]; parent's acc += acc. The products and sums of inertia_times and the
-// pass's row operations, in their order.
+// += I a; rb = acc [+ I_fix a]; parent's acc += acc, in the order of the row operations this
+// replaced. A rigid inertia by its parts: n = Io w + h x v, f = m v - h x w (the 6 x 6 matrix
+// without its zeros and repeats: 24 multiply-adds a column instead of 36). ivdep here and in the
+// other column loops: the rows never overlap, and without it GCC leaves these loops scalar.
 template <bool kInertia, bool kFix, bool kParent, class Nc>
 inline void reaction_body(const RigidInertia& I, const RigidInertia& If, const double* __restrict a, double* __restrict acc,
                           double* __restrict rb, double* __restrict accp, Nc nc) {
