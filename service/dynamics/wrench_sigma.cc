@@ -349,6 +349,83 @@ void q_solve_rows(Workspace& ws, WrenchSigmaData& sd, Nc nc) {
   }
 }
 
+// f(offset, count) over the parts of a row of K columns held in registers: the whole row where K is
+// a multiple of 4 (12: three 4-wide registers a row measured 3-5 % faster than in_parts' 8 + 4 at
+// 2 PUMAs), else in_parts (18: 8 + 8 + 2 instead of nine 2-wide, 20-25 % faster at 3 PUMAs)
+template <int K, class F>
+inline void held_parts(F&& f) {
+  if constexpr (K % 4 == 0) f(std::integral_constant<int, 0>{}, std::integral_constant<int, K>{});
+  else in_parts<K>(f);
+}
+
+// Rhs -= Y X over every spec's rows. A spec of 6 rows at a compile-time column count holds its 6
+// rows of Rhs in registers over its DOFs (each DOF's row of X loaded once); the same products and
+// sums in the same order per row as the row operations.
+template <class Nc>
+void rows_minus_yx(const ConstraintSet& cs, const Workspace& ws, WrenchSigmaData& sd, Nc nc) {
+  double* rhs = sd.Rhs.data();
+  const double* x = sd.X.data();
+  const Eigen::Index lr = sd.Rhs.outerStride(), lx = sd.X.outerStride();
+  for (size_t s = 0; s < cs.specs.size(); ++s) {
+    const double* y = ws.Yb[s].data();
+    const int r0 = cs.row_offset[s], nk = cs.row_count[s];
+    if constexpr (!std::is_same_v<Nc, int>) {
+      if (nk == 6) {
+        held_parts<Nc::value>([&](auto o, auto n) {
+          using Row = Eigen::Matrix<double, 1, decltype(n)::value>;
+          using CM = Eigen::Map<const Row>;
+          double* b = rhs + r0 * lr + o;
+          Row a0 = CM(b), a1 = CM(b + lr), a2 = CM(b + 2 * lr), a3 = CM(b + 3 * lr), a4 = CM(b + 4 * lr), a5 = CM(b + 5 * lr);
+          for (int d : ws.y_support[s]) {
+            const double* f = y + Workspace::kYStride * d;
+            const CM xr(x + d * lx + o);
+            a0 -= f[0] * xr, a1 -= f[1] * xr, a2 -= f[2] * xr, a3 -= f[3] * xr, a4 -= f[4] * xr, a5 -= f[5] * xr;
+          }
+          Eigen::Map<Row> o0(b), o1(b + lr), o2(b + 2 * lr), o3(b + 3 * lr), o4(b + 4 * lr), o5(b + 5 * lr);
+          o0 = a0, o1 = a1, o2 = a2, o3 = a3, o4 = a4, o5 = a5;
+        });
+        continue;
+      }
+    }
+    for (int d : ws.y_support[s])
+      for (int k = 0; k < nk; ++k) axpy_row(rhs + (r0 + k) * lr, x + d * lx, y[Workspace::kYStride * d + k], nc);
+  }
+}
+
+// X += Y^T Lam over every spec's rows (as row operations X -= (-Y^T) Lam). A spec of 6 rows at a
+// compile-time column count holds its 6 rows of Lam in registers over its DOFs (each DOF's row of
+// X loaded and stored once per spec); the same products and sums in the same order per row.
+template <class Nc>
+void rows_plus_ytlam(const ConstraintSet& cs, const Workspace& ws, WrenchSigmaData& sd, Nc nc) {
+  double* x = sd.X.data();
+  const double* lam = sd.Lam.data();
+  const Eigen::Index lx = sd.X.outerStride(), ll = sd.Lam.outerStride();
+  for (size_t s = 0; s < cs.specs.size(); ++s) {
+    const double* y = ws.Yb[s].data();
+    const int r0 = cs.row_offset[s], nk = cs.row_count[s];
+    if constexpr (!std::is_same_v<Nc, int>) {
+      if (nk == 6) {
+        held_parts<Nc::value>([&](auto o, auto n) {
+          using Row = Eigen::Matrix<double, 1, decltype(n)::value>;
+          using CM = Eigen::Map<const Row>;
+          const double* l = lam + r0 * ll + o;
+          const Row l0 = CM(l), l1 = CM(l + ll), l2 = CM(l + 2 * ll), l3 = CM(l + 3 * ll), l4 = CM(l + 4 * ll), l5 = CM(l + 5 * ll);
+          for (int d : ws.y_support[s]) {
+            const double* f = y + Workspace::kYStride * d;
+            Row xr = CM(x + d * lx + o);
+            xr -= -f[0] * l0, xr -= -f[1] * l1, xr -= -f[2] * l2, xr -= -f[3] * l3, xr -= -f[4] * l4, xr -= -f[5] * l5;
+            Eigen::Map<Row> out(x + d * lx + o);
+            out = xr;
+          }
+        });
+        continue;
+      }
+    }
+    for (int d : ws.y_support[s])
+      for (int k = 0; k < nk; ++k) axpy_row(x + d * lx, lam + (r0 + k) * ll, -y[Workspace::kYStride * d + k], nc);
+  }
+}
+
 // Lam and X (the accelerations' change) for the generalized-force changes X0 and the constraint
 // right-hand side changes Gm of every column, through the evaluation's factors of M and Q
 // (schur_solve of constrained_dynamics.cc). With rolling resistance the wheels' moments (linear in
@@ -381,31 +458,26 @@ void batch_response(const System& sys, Workspace& ws, WrenchSigmaData& sd, Nc nc
     rows_solve_Lt(model, ws.data, sd.X, nc);
     if (tau_only) zero_block(sd.Rhs.data(), sd.Rhs.outerStride(), cs.rows, nc);
     else copy_block(sd.Gm.data(), sd.Gm.outerStride(), sd.Rhs.data(), sd.Rhs.outerStride(), cs.rows, nc);
-    double* rhs = sd.Rhs.data();
-    const double* x = sd.X.data();
-    const Eigen::Index lr = sd.Rhs.outerStride(), lx = sd.X.outerStride();
-    for (int s = 0; s < ns; ++s) {
-      const double* y = ws.Yb[static_cast<size_t>(s)].data();
-      const int r0 = cs.row_offset[s], nk = cs.row_count[s];
-      for (int d : ws.y_support[static_cast<size_t>(s)])
-        for (int k = 0; k < nk; ++k) axpy_row(rhs + (r0 + k) * lr, x + d * lx, y[Workspace::kYStride * d + k], nc);
-    }
+    rows_minus_yx(cs, ws, sd, nc);
     q_solve_rows(ws, sd, nc);
     if (it > 0) {
       const double step = (sd.Lam.leftCols(nc) - sd.Lam_prev.leftCols(nc)).cwiseAbs().maxCoeff();
       if (!(step > 1e-14 * sd.Lam.leftCols(nc).cwiseAbs().maxCoeff())) break;
     }
   }
-  double* x = sd.X.data();
-  const double* lam = sd.Lam.data();
-  const Eigen::Index lx = sd.X.outerStride(), ll = sd.Lam.outerStride();
-  for (int s = 0; s < ns; ++s) {  // X <- L^-1 (X + Y^T Lam)
-    const double* y = ws.Yb[static_cast<size_t>(s)].data();
-    const int r0 = cs.row_offset[s], nk = cs.row_count[s];
-    for (int d : ws.y_support[static_cast<size_t>(s)])
-      for (int k = 0; k < nk; ++k) axpy_row(x + d * lx, lam + (r0 + k) * ll, -y[Workspace::kYStride * d + k], nc);
-  }
+  rows_plus_ytlam(cs, ws, sd, nc);  // X <- L^-1 (X + Y^T Lam)
   rows_solve_L(model, ws.data, sd.X, nc);
+}
+
+// f = I s (RigidInertia's product, the same expression) written in place: returned, its
+// temporary's narrow stores were reloaded wide for the copy, a failed store-to-load forwarding
+// each (perf annotate: most of the composite form's setup)
+void apply_into(const RigidInertia& I, const double* s, double* f) {
+  const Eigen::Map<const Vec6> V(s);
+  const Vec3 w = V.head<3>(), v = V.tail<3>();
+  Eigen::Map<Vec6> F(f);
+  F.head<3>() = I.Io * w + I.h.cross(v);
+  F.tail<3>() = I.m * v - I.h.cross(w);
 }
 
 // The composite form's coefficients (WrenchSigmaData::composite): each subtree's inertia, each
@@ -422,14 +494,48 @@ void composite_setup(const System& sys, const Workspace& ws, WrenchSigmaData& sd
   for (int i : set.pass)
     for (int c = 0; c < model.bodies[i].joint.nv; ++c) {
       const int d = model.bodies[i].joint.idx_v + c;
-      sd.F_dof.col(d) = sd.Ic[i] * data.S_W.col(d);
+      apply_into(sd.Ic[i], data.S_W.col(d).data(), sd.F_dof.col(d).data());
     }
   for (size_t k = 0; k < set.outputs.size(); ++k) {
     if (set.outputs[k].spec >= 0) continue;
     const int b = set.outputs[k].body;
     RigidInertia I = sd.Ic[b];
     if (model.bodies[b].joint.type == JointType::kFixed && model.bodies[b].parent >= 0) I += sd.I_fix[b];
-    for (size_t t = 0; t < sd.out_up[k].size(); ++t) sd.U[k].col(static_cast<Eigen::Index>(t)) = I * data.S_W.col(sd.out_up[k][t]);
+    for (size_t t = 0; t < sd.out_up[k].size(); ++t)
+      apply_into(I, data.S_W.col(sd.out_up[k][t]).data(), sd.U[k].col(static_cast<Eigen::Index>(t)).data());
+  }
+}
+
+// spec_force of a unit multiplier on axis a (0-2 moment, 3-5 force) of a spec that is not a rolling
+// contact (no rolling-resistance moment): its products by the unit's 1 and 0s left out (exact: the
+// same values)
+void unit_spec_force(const Transform& X_RS, int a, double* F) {
+  const Mat3& R = X_RS.R;
+  const Vec3& p = X_RS.p;
+  if (a < 3) {
+    F[0] = R(0, a), F[1] = R(1, a), F[2] = R(2, a), F[3] = 0.0, F[4] = 0.0, F[5] = 0.0;
+    return;
+  }
+  const double f0 = R(0, a - 3), f1 = R(1, a - 3), f2 = R(2, a - 3);
+  F[0] = p[1] * f2 - p[2] * f1;
+  F[1] = p[2] * f0 - p[0] * f2;
+  F[2] = p[0] * f1 - p[1] * f0;
+  F[3] = f0, F[4] = f1, F[5] = f2;
+}
+
+// X = wrench_frame_pose(sys, data, k), a reaction's frame X_WB X_BF formed in place (the same
+// products): returned, the copy reloaded its temporary wide (store-to-load forwarding, perf: 4-6 %
+// of the sigma at 2 PUMAs)
+void report_frame_into(const System& sys, const Data& data, int k, Transform& X) {
+  const WrenchOutput& o = sys.wrenches.outputs[static_cast<size_t>(k)];
+  if (o.centre_of >= 0) {
+    X = wrench_frame_pose(sys, data, k);
+  } else if (o.frame_body >= 0) {
+    const Transform& B = data.X_WB[o.frame_body];
+    X.R.noalias() = B.R * o.X_BF.R;
+    X.p.noalias() = B.p + B.R * o.X_BF.p;
+  } else {
+    X = o.X_BF;
   }
 }
 
@@ -449,13 +555,18 @@ void batch_setup(const System& sys, const Workspace& ws, WrenchSigmaData& sd) {
   for (int s : set.pass_specs) {
     const int r0 = cs.row_offset[s];
     for (int r = 0; r < cs.row_count[s]; ++r) {
+      double* t = sd.T_spec[static_cast<size_t>(s)].col(r).data();
+      if (cs.specs[static_cast<size_t>(s)].kind != ConstraintKind::kRolling) {
+        unit_spec_force(ws.cd.X_RS[static_cast<size_t>(s)], cs.row_axis[s][r], t);
+        continue;
+      }
       sd.unit[r0 + r] = 1.0;
-      spec_force(cs, ws.cd, sd.unit.data(), s, sd.T_spec[static_cast<size_t>(s)].col(r).data());
+      spec_force(cs, ws.cd, sd.unit.data(), s, t);
       sd.unit[r0 + r] = 0.0;
     }
   }
   for (size_t k = 0; k < set.outputs.size(); ++k)
-    if (set.outputs[k].spec < 0) sd.X_WF[k] = wrench_frame_pose(sys, data, static_cast<int>(k));
+    if (set.outputs[k].spec < 0) report_frame_into(sys, data, static_cast<int>(k), sd.X_WF[k]);
   if (sd.composite) composite_setup(sys, ws, sd);
 }
 
@@ -466,28 +577,44 @@ void batch_reactions(const System& sys, const Workspace& ws, WrenchSigmaData& sd
   const Model& model = sys.model;
   const std::vector<int>& pass = sys.wrenches.pass;
   const int last = pass.front();
-  const Eigen::Index la = sd.A.outerStride();  // A, Acc, Rb: the same shape
+  const int la = nc;  // A, Acc, Rb: compact 6 x nc blocks per body (wrench_sigma_rows.h)
   for (int i = 0; i <= last; ++i) {
     const Body& b = model.bodies[i];
     double* a = sd.A.data() + 6 * i * la;
-    if (b.parent >= 0) copy_rows(sd.A.data() + 6 * b.parent * la, a, la, nc);
-    else zero_rows(a, la, nc);
-    for (int c = 0; c < 6; ++c)
-      for (int k = 0; k < b.joint.nv; ++k) {
-        const int d = b.joint.idx_v + k;
-        axpy_row(a + c * la, sd.X.data() + d * sd.X.outerStride(), -ws.data.S_W(c, d), nc);
-      }
+    if (b.parent >= 0 && b.joint.nv == 1) {  // the common case in one pass over the columns
+      const int d = b.joint.idx_v;
+      const double s[6] = {-ws.data.S_W(0, d), -ws.data.S_W(1, d), -ws.data.S_W(2, d),
+                           -ws.data.S_W(3, d), -ws.data.S_W(4, d), -ws.data.S_W(5, d)};
+      accel_one(sd.A.data() + 6 * b.parent * la, s, sd.X.data() + d * sd.X.outerStride(), a, nc);
+    } else {
+      if (b.parent >= 0) copy_rows(sd.A.data() + 6 * b.parent * la, a, la, nc);
+      else zero_rows(a, la, nc);
+      for (int c = 0; c < 6; ++c)
+        for (int k = 0; k < b.joint.nv; ++k) {
+          const int d = b.joint.idx_v + k;
+          axpy_row(a + c * la, sd.X.data() + d * sd.X.outerStride(), -ws.data.S_W(c, d), nc);
+        }
+    }
     zero_rows(sd.Acc.data() + 6 * i * la, la, nc);
   }
-  for (int i : pass) {
+  for (int i : pass) {  // children first: each body's acc holds its children's sum when it comes
     const Body& b = model.bodies[i];
+    const bool inertia = ws.data.has_inertia[i], fixed = b.joint.type == JointType::kFixed && b.parent >= 0;
+    const double* a = sd.A.data() + 6 * i * la;
     double* acc = sd.Acc.data() + 6 * i * la;
-    if (ws.data.has_inertia[i]) inertia_times<true>(sd.I_lin[i], sd.A.data() + 6 * i * la, la, acc, la, nc);
-    copy_rows(acc, sd.Rb.data() + 6 * i * la, la, nc);
-    if (b.joint.type == JointType::kFixed && b.parent >= 0)
-      inertia_times<true>(sd.I_fix[i], sd.A.data() + 6 * i * la, la, sd.Rb.data() + 6 * i * la, la, nc);
-    if (b.parent >= 0)
-      for (int c = 0; c < 6; ++c) axpy_row(sd.Acc.data() + (6 * b.parent + c) * la, acc + c * la, -1.0, nc);
+    double* rb = sd.Rb.data() + 6 * i * la;
+    double* accp = b.parent >= 0 ? sd.Acc.data() + 6 * b.parent * la : nullptr;
+    const RigidInertia &I = sd.I_lin[i], &If = sd.I_fix[i];
+    if (!accp) {
+      if (inertia) reaction_body<true, false, false>(I, If, a, acc, rb, accp, nc);
+      else reaction_body<false, false, false>(I, If, a, acc, rb, accp, nc);
+    } else if (fixed) {
+      if (inertia) reaction_body<true, true, true>(I, If, a, acc, rb, accp, nc);
+      else reaction_body<false, true, true>(I, If, a, acc, rb, accp, nc);
+    } else {
+      if (inertia) reaction_body<true, false, true>(I, If, a, acc, rb, accp, nc);
+      else reaction_body<false, false, true>(I, If, a, acc, rb, accp, nc);
+    }
   }
 }
 
@@ -546,15 +673,34 @@ void batch_outputs(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
         row(sd.C, c0 + 1, nc) = ws.cd.rr_arm[static_cast<size_t>(o.spec)] * row(sd.C, c0 + 5, nc);
       continue;
     }
+    const Transform& X = sd.X_WF[k];
+    const int ns = set.out_spec_begin[k + 1] - set.out_spec_begin[k];
+    if (!sd.composite && ns <= 2) {  // the reaction's specs' forces summed inside the frame change
+      const double* f[2] = {nullptr, nullptr};
+      double g[2] = {0.0, 0.0};
+      for (int t = 0; t < ns; ++t) {
+        const auto& st = set.out_spec[static_cast<size_t>(set.out_spec_begin[k] + t)];
+        f[t] = sd.dF.data() + 6 * st.first * sd.dF.outerStride();
+        g[t] = static_cast<double>(st.second);
+      }
+      const Mat3 Rt = (o.reversed ? -1.0 : 1.0) * X.R.transpose();
+      const Vec3 p = X.p - ws.data.p_ref;
+      const double* rb = sd.Rb.data() + 6 * o.body * static_cast<int>(nc);
+      double* out = &sd.C(c0, 0);
+      const Eigen::Index lf = sd.dF.outerStride(), lo = sd.C.outerStride();
+      if (ns == 0) to_frame_sum<0>(Rt, p, rb, f, g, lf, out, lo, nc);
+      else if (ns == 1) to_frame_sum<1>(Rt, p, rb, f, g, lf, out, lo, nc);
+      else to_frame_sum<2>(Rt, p, rb, f, g, lf, out, lo, nc);
+      continue;
+    }
     if (sd.composite) composite_reaction(sd, k, nc);
     for (int c = 0; c < 6; ++c) {
       auto d = row(sd.Tmp, c, nc);
-      if (!sd.composite) d = row(sd.Rb, 6 * o.body + c, nc);
+      if (!sd.composite) d = Eigen::Map<const Eigen::RowVectorXd>(sd.Rb.data() + (6 * o.body + c) * static_cast<int>(nc), nc);
       for (int t = set.out_spec_begin[k]; t < set.out_spec_begin[k + 1]; ++t)
         d += static_cast<double>(set.out_spec[t].second) * row(sd.dF, 6 * set.out_spec[t].first + c, nc);
     }
     // world coordinates at p_ref -> the report frame at its origin: [R^T (n - p x f); R^T f]
-    const Transform& X = sd.X_WF[k];
     to_frame((o.reversed ? -1.0 : 1.0) * X.R.transpose(), X.p - ws.data.p_ref, sd.Tmp.data(), sd.Tmp.outerStride(), &sd.C(c0, 0),
              sd.C.outerStride(), nc);
   }

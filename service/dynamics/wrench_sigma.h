@@ -39,7 +39,10 @@
 // All columns (torque, then q, then v) are propagated together: one pass of each factor over a
 // block of right-hand sides, one block Q solve, one reaction pass over 6 x columns blocks. The row
 // operations run at a compile-time column count where the count is a common one (6, 12, 18, 24, 36,
-// 48: wrench_sigma_rows.h), and where only a few reactions are reported (the bases, with
+// 48: wrench_sigma_rows.h); the reaction pass runs body by body on compact 6 x columns blocks,
+// each body's acceleration, inertia, subtree sum and reaction in one loop over the columns, and Y X
+// and Y^T Lam hold a weld's 6 rows in registers over its DOFs (the same operations per entry, in
+// the same order, as the row operations). Where only a few reactions are reported (the bases, with
 // `reactions: none`) each is read off composite inertias instead of the pass (composite, below),
 // both with the same result to round-off.
 //
