@@ -313,7 +313,7 @@ double condition_without_nominal(const System& sys, Workspace& ws) {
 }
 
 void dense_q_from_yb(const System& sys, Workspace& ws);
-void reflected_q_from_yb(const System& sys, Workspace& ws, const Eigen::MatrixXd& G);
+void reflected_q_from_yb(const System& sys, Workspace& ws);
 
 // Solves Q x = b through ws.qs; with factor, factors ws.Q first and records rank and condition.
 // With the block structure (ws.use_q_blocks, build_q formed the blocks only) the block Cholesky is
@@ -403,6 +403,11 @@ void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G, bool de
   const Model& model = sys.model;
   const ConstraintSet& cs = sys.constraints;
   const int ns = static_cast<int>(cs.specs.size());
+  // the nominal directions' reflections need only G: taken first, their chain of square roots and
+  // divisions overlaps the sweep below
+  const bool blocks = ws.use_q_blocks && !dense_yt, reflected = !dense_yt && !blocks && !ws.nominal_rows.empty();
+  if (blocks && ws.qb.has_nominal) ws.qb.prepare_nominal(G);
+  else if (reflected) ws.qs.prepare_nominal(G);
   // L^-T solve of each spec's rows at once: one 6-wide row operation per (DOF, ancestor) pair, the
   // specs' sweeps interleaved (their chains are independent)
   for (int s = 0; s < ns; ++s) {
@@ -417,8 +422,8 @@ void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G, bool de
       for (int d : ws.y_support[s])
         for (int k = 0; k < cs.row_count[s]; ++k) ws.Yt(d, cs.row_offset[s] + k) = ws.Yb[s](d, k);
   ws.q_reflected = false;
-  if (ws.use_q_blocks && !dense_yt) ws.qb.assemble(sys, ws.Yb);  // solve_q forms the dense Q if it needs it
-  else if (!dense_yt && !ws.nominal_rows.empty()) reflected_q_from_yb(sys, ws, G);
+  if (blocks) ws.qb.assemble(sys, ws.Yb);  // solve_q forms the dense Q if it needs it
+  else if (reflected) reflected_q_from_yb(sys, ws);
   else dense_q_from_yb(sys, ws);
 }
 
@@ -454,16 +459,15 @@ Mat6 pair_block(const Workspace::YBlock& ys, const Workspace::YBlock& yt, const 
   return acc;
 }
 
-// R Q R^T's upper triangle into ws.qs.Nq (q_solve.h, after prepare_nominal): each nominal weld's
+// R Q R^T's upper triangle into ws.qs.Nq (q_solve.h, after build_q's prepare_nominal): each nominal weld's
 // rows of Y reflected (Yr: H Y, per DOF one 6-vector), then the sums of dense_q_from_yb over the
 // reflected rows, H Q H = (H Y)(H Y)^T, each entry written to its place in the order R. Against
 // factor_nominal_last on the dense Q (Q, then a copy reflected from both sides, then permuted) this
 // reflects 6-vectors of Y instead of Q's rows and columns and writes the factored matrix once.
-void reflected_q_from_yb(const System& sys, Workspace& ws, const Eigen::MatrixXd& G) {
+void reflected_q_from_yb(const System& sys, Workspace& ws) {
   const ConstraintSet& cs = sys.constraints;
   const int ns = static_cast<int>(cs.specs.size());
   QSolver& qs = ws.qs;
-  qs.prepare_nominal(G);
   for (int s = 0; s < ns; ++s) {
     const int a = ws.spec_nominal[s];
     if (a < 0) continue;
@@ -863,6 +867,12 @@ const Diagnostics& finish_checked(const System& sys, Workspace& ws, const Eigen:
     ws.tmp_m = ws.cd.gamma;
     for (size_t s = 0; s < cs.specs.size(); ++s) {
       const int r0 = cs.row_offset[s], nk = cs.row_count[s];
+      if (nk == 6) {  // a weld: the six rows in registers, the same multiply-adds in the same order
+        Vec6 acc = ws.tmp_m.segment<6>(r0);
+        for (int d : cs.support[s]) acc -= ws.cd.G.block<6, 1>(r0, d) * ws.vdot[d];
+        ws.tmp_m.segment<6>(r0) = acc;
+        continue;
+      }
       for (int d : cs.support[s]) {
         const double vd = ws.vdot[d];
         const double* g = ws.cd.G.col(d).data() + r0;

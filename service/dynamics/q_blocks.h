@@ -101,11 +101,17 @@ struct QBlocks {
   // With nominal directions (G: the constraint rows, for joint 1's column in the base weld), the
   // same test on the reduced Q decides and *condition is the reduced Q's ratio.
   bool factor(const SolverOptions& opt, const Eigen::MatrixXd& G, double* condition);
+  // The reflections and the kept and dropped rows of the nominal directions for G (has_nominal).
+  // factor() takes them from here when called since its last run (the same G), else computes them:
+  // the caller runs this before work that does not need them (build_q: before the L^-T sweep of Y),
+  // so that their chain of square roots and divisions overlaps it.
+  void prepare_nominal(const Eigen::MatrixXd& G);
   // x = Q^-1 b (x may not alias b).
   void solve(const Eigen::VectorXd& b, Eigen::VectorXd& x);
 
   bool usable = false;
   bool has_nominal = false;  // some group has a nominal direction: the single factor with them last
+  bool prepared = false;     // prepare_nominal() ran since the last factor()
   std::vector<int> common;  // the DOFs every spec reaches, ascending
   std::vector<Group> groups;
   Mat6 P;
