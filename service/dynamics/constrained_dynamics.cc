@@ -427,38 +427,6 @@ void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G, bool de
   else dense_q_from_yb(sys, ws);
 }
 
-// Q_st's 6 x 6 block: the sum over the DOFs both specs reach (ranges) of the outer products
-// ys.row(d)^T yt.row(d), each entry's multiply-adds in the order of d. Kept by rows 0-3 and 4-5 (a
-// 4-wide and a 2-wide vector per column, where a 6-vector is three 2-wide ones); for a spec with
-// itself (same) only rows 4-5's last two columns besides rows 0-3, the rest of rows 4-5 mirrored
-// from rows 0-3's last two columns (the same products: fma(x, y, z) = fma(y, x, z)). Bit for bit
-// the plain 6 x 6 sums.
-Mat6 pair_block(const Workspace::YBlock& ys, const Workspace::YBlock& yt, const std::vector<std::pair<int, int>>& ranges,
-                bool same) {
-  using Row6 = Eigen::Matrix<double, 1, 6>;
-  constexpr int S = Workspace::kYStride;
-  Eigen::Matrix<double, 4, 6> top = Eigen::Matrix<double, 4, 6>::Zero();
-  Eigen::Matrix<double, 2, 6> bot = Eigen::Matrix<double, 2, 6>::Zero();
-  Eigen::Matrix2d corner = Eigen::Matrix2d::Zero();
-  for (const auto& rg : ranges)
-    for (int d = rg.first, e = rg.first + rg.second; d < e; ++d) {
-      const double* a = ys.data() + S * d;
-      const double* b = yt.data() + S * d;
-      top.noalias() += Eigen::Map<const Eigen::Vector4d>(a) * Eigen::Map<const Row6>(b);
-      if (same) corner.noalias() += Eigen::Map<const Eigen::Vector2d>(a + 4) * Eigen::Map<const Eigen::RowVector2d>(b + 4);
-      else bot.noalias() += Eigen::Map<const Eigen::Vector2d>(a + 4) * Eigen::Map<const Row6>(b);
-    }
-  Mat6 acc;
-  acc.topRows<4>() = top;
-  if (same) {
-    acc.bottomLeftCorner<2, 4>() = top.rightCols<2>().transpose();
-    acc.bottomRightCorner<2, 2>() = corner;
-  } else {
-    acc.bottomRows<2>() = bot;
-  }
-  return acc;
-}
-
 // R Q R^T's upper triangle into ws.qs.Nq (q_solve.h, after build_q's prepare_nominal): each nominal weld's
 // rows of Y reflected (Yr: H Y, per DOF one 6-vector), then the sums of dense_q_from_yb over the
 // reflected rows, H Q H = (H Y)(H Y)^T, each entry written to its place in the order R. Against
