@@ -413,6 +413,10 @@ void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G, bool de
   for (int s = 0; s < ns; ++s) {
     Workspace::YBlock& Y = ws.Yb[s];
     const int r0 = cs.row_offset[s], nk = cs.row_count[s];
+    if (nk == 6) {  // a weld: its column of G is Y's row, six contiguous doubles each
+      for (int d : ws.y_support[s]) Y.row(d).head<6>() = G.block<6, 1>(r0, d).transpose();
+      continue;
+    }
     for (int d : ws.y_support[s])
       for (int k = 0; k < nk; ++k) Y(d, k) = G(r0 + k, d);
   }

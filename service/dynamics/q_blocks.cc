@@ -265,6 +265,14 @@ void reduce_group(QBlocks::Group& g, int d0, Eigen::MatrixXd& Zt, Eigen::MatrixX
   g.Kr.resize(k, 6);
   g.dinvr.resize(k);
   g.Ad.resize(k, nd);
+  if (R == 6 && nd == 1 && g.drop_idx[0] == 0) {  // a weld with its first row dropped: blocks, not indices
+    Eigen::Map<Eigen::Matrix<double, 5, 5>>{g.Ar.data()} = A.template bottomRightCorner<5, 5>();
+    Eigen::Map<Eigen::Matrix<double, 5, 6>>{g.Br.data()} = B.template bottomRows<5>();
+    Eigen::Map<Eigen::Matrix<double, 5, 1>>{g.Ad.data()} = A.col(0).template tail<5>();
+    S(d0, d0) = A(0, 0);
+    Zt.row(d0) = B.row(0);
+    return;
+  }
   for (int c = 0; c < k; ++c) {
     const int j = g.kept_idx[c];
     for (int l = 0; l < k; ++l) g.Ar(l, c) = A(g.kept_idx[l], j);
