@@ -313,7 +313,7 @@ double condition_without_nominal(const System& sys, Workspace& ws) {
 }
 
 void dense_q_from_yb(const System& sys, Workspace& ws);
-void reflected_q_from_yb(const System& sys, Workspace& ws, const Eigen::MatrixXd& G);
+void reflected_q_from_yb(const System& sys, Workspace& ws);
 
 // Solves Q x = b through ws.qs; with factor, factors ws.Q first and records rank and condition.
 // With the block structure (ws.use_q_blocks, build_q formed the blocks only) the block Cholesky is
@@ -403,11 +403,20 @@ void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G, bool de
   const Model& model = sys.model;
   const ConstraintSet& cs = sys.constraints;
   const int ns = static_cast<int>(cs.specs.size());
+  // the nominal directions' reflections need only G: taken first, their chain of square roots and
+  // divisions overlaps the sweep below
+  const bool blocks = ws.use_q_blocks && !dense_yt, reflected = !dense_yt && !blocks && !ws.nominal_rows.empty();
+  if (blocks && ws.qb.has_nominal) ws.qb.prepare_nominal(G);
+  else if (reflected) ws.qs.prepare_nominal(G);
   // L^-T solve of each spec's rows at once: one 6-wide row operation per (DOF, ancestor) pair, the
   // specs' sweeps interleaved (their chains are independent)
   for (int s = 0; s < ns; ++s) {
     Workspace::YBlock& Y = ws.Yb[s];
     const int r0 = cs.row_offset[s], nk = cs.row_count[s];
+    if (nk == 6) {  // a weld: its column of G is Y's row, six contiguous doubles each
+      for (int d : ws.y_support[s]) Y.row(d).head<6>() = G.block<6, 1>(r0, d).transpose();
+      continue;
+    }
     for (int d : ws.y_support[s])
       for (int k = 0; k < nk; ++k) Y(d, k) = G(r0 + k, d);
   }
@@ -417,53 +426,20 @@ void build_q(const System& sys, Workspace& ws, const Eigen::MatrixXd& G, bool de
       for (int d : ws.y_support[s])
         for (int k = 0; k < cs.row_count[s]; ++k) ws.Yt(d, cs.row_offset[s] + k) = ws.Yb[s](d, k);
   ws.q_reflected = false;
-  if (ws.use_q_blocks && !dense_yt) ws.qb.assemble(sys, ws.Yb);  // solve_q forms the dense Q if it needs it
-  else if (!dense_yt && !ws.nominal_rows.empty()) reflected_q_from_yb(sys, ws, G);
+  if (blocks) ws.qb.assemble(sys, ws.Yb);  // solve_q forms the dense Q if it needs it
+  else if (reflected) reflected_q_from_yb(sys, ws);
   else dense_q_from_yb(sys, ws);
 }
 
-// Q_st's 6 x 6 block: the sum over the DOFs both specs reach (ranges) of the outer products
-// ys.row(d)^T yt.row(d), each entry's multiply-adds in the order of d. Kept by rows 0-3 and 4-5 (a
-// 4-wide and a 2-wide vector per column, where a 6-vector is three 2-wide ones); for a spec with
-// itself (same) only rows 4-5's last two columns besides rows 0-3, the rest of rows 4-5 mirrored
-// from rows 0-3's last two columns (the same products: fma(x, y, z) = fma(y, x, z)). Bit for bit
-// the plain 6 x 6 sums.
-Mat6 pair_block(const Workspace::YBlock& ys, const Workspace::YBlock& yt, const std::vector<std::pair<int, int>>& ranges,
-                bool same) {
-  using Row6 = Eigen::Matrix<double, 1, 6>;
-  constexpr int S = Workspace::kYStride;
-  Eigen::Matrix<double, 4, 6> top = Eigen::Matrix<double, 4, 6>::Zero();
-  Eigen::Matrix<double, 2, 6> bot = Eigen::Matrix<double, 2, 6>::Zero();
-  Eigen::Matrix2d corner = Eigen::Matrix2d::Zero();
-  for (const auto& rg : ranges)
-    for (int d = rg.first, e = rg.first + rg.second; d < e; ++d) {
-      const double* a = ys.data() + S * d;
-      const double* b = yt.data() + S * d;
-      top.noalias() += Eigen::Map<const Eigen::Vector4d>(a) * Eigen::Map<const Row6>(b);
-      if (same) corner.noalias() += Eigen::Map<const Eigen::Vector2d>(a + 4) * Eigen::Map<const Eigen::RowVector2d>(b + 4);
-      else bot.noalias() += Eigen::Map<const Eigen::Vector2d>(a + 4) * Eigen::Map<const Row6>(b);
-    }
-  Mat6 acc;
-  acc.topRows<4>() = top;
-  if (same) {
-    acc.bottomLeftCorner<2, 4>() = top.rightCols<2>().transpose();
-    acc.bottomRightCorner<2, 2>() = corner;
-  } else {
-    acc.bottomRows<2>() = bot;
-  }
-  return acc;
-}
-
-// R Q R^T's upper triangle into ws.qs.Nq (q_solve.h, after prepare_nominal): each nominal weld's
+// R Q R^T's upper triangle into ws.qs.Nq (q_solve.h, after build_q's prepare_nominal): each nominal weld's
 // rows of Y reflected (Yr: H Y, per DOF one 6-vector), then the sums of dense_q_from_yb over the
 // reflected rows, H Q H = (H Y)(H Y)^T, each entry written to its place in the order R. Against
 // factor_nominal_last on the dense Q (Q, then a copy reflected from both sides, then permuted) this
 // reflects 6-vectors of Y instead of Q's rows and columns and writes the factored matrix once.
-void reflected_q_from_yb(const System& sys, Workspace& ws, const Eigen::MatrixXd& G) {
+void reflected_q_from_yb(const System& sys, Workspace& ws) {
   const ConstraintSet& cs = sys.constraints;
   const int ns = static_cast<int>(cs.specs.size());
   QSolver& qs = ws.qs;
-  qs.prepare_nominal(G);
   for (int s = 0; s < ns; ++s) {
     const int a = ws.spec_nominal[s];
     if (a < 0) continue;
@@ -864,6 +840,12 @@ const Diagnostics& finish_checked(const System& sys, Workspace& ws, const Eigen:
     ws.tmp_m = ws.cd.gamma;
     for (size_t s = 0; s < cs.specs.size(); ++s) {
       const int r0 = cs.row_offset[s], nk = cs.row_count[s];
+      if (nk == 6) {  // a weld: the six rows in registers, the same multiply-adds in the same order
+        Vec6 acc = ws.tmp_m.segment<6>(r0);
+        for (int d : cs.support[s]) acc -= ws.cd.G.block<6, 1>(r0, d) * ws.vdot[d];
+        ws.tmp_m.segment<6>(r0) = acc;
+        continue;
+      }
       for (int d : cs.support[s]) {
         const double vd = ws.vdot[d];
         const double* g = ws.cd.G.col(d).data() + r0;

@@ -199,11 +199,13 @@ bool factor_group(int r, double* a, const double* b, double* w, double* dinv, Ma
 // B <- H B, and the first is dropped; the kept rows are then written to Ar and Br, sized to them.
 // Also the dropped rows, for the single factor (q_blocks.h): their local indices, Ad = H A_g H (kept,
 // dropped), their rows of H B_g into Zt's rows d0.. and their block of H A_g H into S at (d0, d0).
-template <int R>
-void reduce_group(QBlocks::Group& g, const Eigen::MatrixXd& G, int d0, Eigen::MatrixXd& Zt, Eigen::MatrixXd& S) {
+// The group's reflections for the constraint rows G (q_blocks.h): per nominal direction u = G's
+// column of joint 1 in the weld's rows, either the one row u lies along is dropped (w = 0) or
+// H = I - w w^T (H u = -sign(u_0) |u| e_0) and the weld's first row is dropped; keep, kept_idx,
+// drop_idx, red_rows and nd follow. Only G is read: QBlocks::prepare_nominal runs it before the L^-T
+// sweep of Y, where its chain of square roots and divisions overlaps that work.
+void reflections_group(QBlocks::Group& g, const Eigen::MatrixXd& G) {
   const int r = g.rows;
-  MatR<R> A = Eigen::Map<const MatR<R>>(g.A.data(), r, r);  // both triangles (assemble)
-  MatR6<R> B = Eigen::Map<const MatR6<R>>(g.B.data(), r, 6);
   g.keep.setOnes(r);
   for (size_t n = 0; n < g.nominal.size(); ++n) {
     const auto [dof, o] = g.nominal[n];
@@ -221,14 +223,6 @@ void reduce_group(QBlocks::Group& g, const Eigen::MatrixXd& G, int d0, Eigen::Ma
     w /= un;
     w[0] += w[0] >= 0 ? 1.0 : -1.0;
     w *= std::sqrt(2.0 / w.squaredNorm());
-    // A <- H A (rows o..o+5), then A <- A H (columns o..o+5), B <- H B
-    const Eigen::Matrix<double, 1, R, Eigen::RowMajor, 1, R == Eigen::Dynamic ? QBlocks::kMaxGroupRows : R> tr =
-        w.transpose().lazyProduct(A.template middleRows<6>(o));
-    A.template middleRows<6>(o) -= w.lazyProduct(tr);
-    const VecR<R> tc = A.template middleCols<6>(o).lazyProduct(w);
-    A.template middleCols<6>(o) -= tc.lazyProduct(w.transpose());
-    const Eigen::Matrix<double, 1, 6> tb = w.transpose().lazyProduct(B.template middleRows<6>(o));
-    B.template middleRows<6>(o) -= w.lazyProduct(tb);
     g.keep[o] = 0;
   }
   int k = 0, nd = 0;
@@ -238,6 +232,32 @@ void reduce_group(QBlocks::Group& g, const Eigen::MatrixXd& G, int d0, Eigen::Ma
   }
   g.red_rows = k;
   g.nd = nd;
+}
+
+// The group's part of the reduced Q (q_blocks.h), as condition_without_nominal forms the dense one,
+// with the reflections of reflections_group: A <- H A H, B <- H B on each reflected weld's six rows,
+// the kept rows written to Ar and Br, sized to them.
+// Also the dropped rows, for the single factor (q_blocks.h): Ad = H A_g H (kept, dropped), their
+// rows of H B_g into Zt's rows d0.. and their block of H A_g H into S at (d0, d0).
+template <int R>
+void reduce_group(QBlocks::Group& g, int d0, Eigen::MatrixXd& Zt, Eigen::MatrixXd& S) {
+  const int r = g.rows;
+  MatR<R> A = Eigen::Map<const MatR<R>>(g.A.data(), r, r);  // both triangles (assemble)
+  MatR6<R> B = Eigen::Map<const MatR6<R>>(g.B.data(), r, 6);
+  for (size_t n = 0; n < g.nominal.size(); ++n) {
+    const int o = g.nominal[n].second;
+    const Vec6& w = g.hw[n];
+    if (w.isZero(0.0)) continue;  // no reflection: the one row u lies along is dropped, or none
+    // A <- H A (rows o..o+5), then A <- A H (columns o..o+5), B <- H B
+    const Eigen::Matrix<double, 1, R, Eigen::RowMajor, 1, R == Eigen::Dynamic ? QBlocks::kMaxGroupRows : R> tr =
+        w.transpose().lazyProduct(A.template middleRows<6>(o));
+    A.template middleRows<6>(o) -= w.lazyProduct(tr);
+    const VecR<R> tc = A.template middleCols<6>(o).lazyProduct(w);
+    A.template middleCols<6>(o) -= tc.lazyProduct(w.transpose());
+    const Eigen::Matrix<double, 1, 6> tb = w.transpose().lazyProduct(B.template middleRows<6>(o));
+    B.template middleRows<6>(o) -= w.lazyProduct(tb);
+  }
+  const int k = g.red_rows, nd = g.nd;
   g.d0 = d0;
   g.Ar.resize(k, k);  // within the fixed maximum: no allocation
   g.Br.resize(k, 6);
@@ -245,6 +265,14 @@ void reduce_group(QBlocks::Group& g, const Eigen::MatrixXd& G, int d0, Eigen::Ma
   g.Kr.resize(k, 6);
   g.dinvr.resize(k);
   g.Ad.resize(k, nd);
+  if (R == 6 && nd == 1 && g.drop_idx[0] == 0) {  // a weld with its first row dropped: blocks, not indices
+    Eigen::Map<Eigen::Matrix<double, 5, 5>>{g.Ar.data()} = A.template bottomRightCorner<5, 5>();
+    Eigen::Map<Eigen::Matrix<double, 5, 6>>{g.Br.data()} = B.template bottomRows<5>();
+    Eigen::Map<Eigen::Matrix<double, 5, 1>>{g.Ad.data()} = A.col(0).template tail<5>();
+    S(d0, d0) = A(0, 0);
+    Zt.row(d0) = B.row(0);
+    return;
+  }
   for (int c = 0; c < k; ++c) {
     const int j = g.kept_idx[c];
     for (int l = 0; l < k; ++l) g.Ar(l, c) = A(g.kept_idx[l], j);
@@ -390,14 +418,21 @@ void nominal_backward(const QBlocks::Group& g, int np, double* y, Vec6& t, const
 
 }  // namespace
 
+void QBlocks::prepare_nominal(const Eigen::MatrixXd& G) {
+  for (Group& g : groups) reflections_group(g, G);
+  prepared = true;
+}
+
 bool QBlocks::factor_nominal_last(const SolverOptions& opt, const Eigen::MatrixXd& G, double* condition) {
+  if (!prepared) prepare_nominal(G);
+  prepared = false;
   // R Q R^T's parts: the reduced groups, the dropped rows' block of H A H (into S) and of H B (into Zt)
   nd = 0;
   Zt.setZero();  // the padding rows stay 0
   S.setZero();   // the entries beyond the dropped rows' blocks start at 0
   for (Group& g : groups) {
-    if (g.rows == 6) reduce_group<6>(g, G, nd, Zt, S);
-    else reduce_group<Eigen::Dynamic>(g, G, nd, Zt, S);
+    if (g.rows == 6) reduce_group<6>(g, nd, Zt, S);
+    else reduce_group<Eigen::Dynamic>(g, nd, Zt, S);
     nd += g.nd;
   }
   np = nominal_width(nd);

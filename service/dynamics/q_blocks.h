@@ -101,11 +101,17 @@ struct QBlocks {
   // With nominal directions (G: the constraint rows, for joint 1's column in the base weld), the
   // same test on the reduced Q decides and *condition is the reduced Q's ratio.
   bool factor(const SolverOptions& opt, const Eigen::MatrixXd& G, double* condition);
+  // The reflections and the kept and dropped rows of the nominal directions for G (has_nominal).
+  // factor() takes them from here when called since its last run (the same G), else computes them:
+  // the caller runs this before work that does not need them (build_q: before the L^-T sweep of Y),
+  // so that their chain of square roots and divisions overlaps it.
+  void prepare_nominal(const Eigen::MatrixXd& G);
   // x = Q^-1 b (x may not alias b).
   void solve(const Eigen::VectorXd& b, Eigen::VectorXd& x);
 
   bool usable = false;
   bool has_nominal = false;  // some group has a nominal direction: the single factor with them last
+  bool prepared = false;     // prepare_nominal() ran since the last factor()
   std::vector<int> common;  // the DOFs every spec reaches, ascending
   std::vector<Group> groups;
   Mat6 P;
@@ -123,24 +129,63 @@ struct QBlocks {
   void solve_nominal_last(const Eigen::VectorXd& b, Eigen::VectorXd& x);
 };
 
+// The 6 x 6 block Y_s^T Y_t of two specs' rows of Y (ys, yt: YBlock, row-major, a DOF's row at
+// stride S >= 6): the sum over the DOFs both reach (ranges) of the outer products ys.row(d)^T
+// yt.row(d), each entry's multiply-adds in the order of d. Kept by rows 0-3 and 4-5 (a 4-wide and a
+// 2-wide vector per column, where a 6-vector is three 2-wide ones); for a spec with itself (same)
+// only rows 4-5's last two columns besides rows 0-3, the rest of rows 4-5 mirrored from rows 0-3's
+// last two columns (the same products: fma(x, y, z) = fma(y, x, z)). Bit for bit the plain 6 x 6 sums.
+template <class YBlock>
+Mat6 pair_block(const YBlock& ys, const YBlock& yt, const std::vector<std::pair<int, int>>& ranges, bool same) {
+  using Row6 = Eigen::Matrix<double, 1, 6>;
+  constexpr int S = YBlock::ColsAtCompileTime;
+  Eigen::Matrix<double, 4, 6> top = Eigen::Matrix<double, 4, 6>::Zero();
+  Eigen::Matrix<double, 2, 6> bot = Eigen::Matrix<double, 2, 6>::Zero();
+  Eigen::Matrix2d corner = Eigen::Matrix2d::Zero();
+  for (const auto& rg : ranges)
+    for (int d = rg.first, e = rg.first + rg.second; d < e; ++d) {
+      const double* a = ys.data() + S * d;
+      const double* b = yt.data() + S * d;
+      top.noalias() += Eigen::Map<const Eigen::Vector4d>(a) * Eigen::Map<const Row6>(b);
+      if (same) corner.noalias() += Eigen::Map<const Eigen::Vector2d>(a + 4) * Eigen::Map<const Eigen::RowVector2d>(b + 4);
+      else bot.noalias() += Eigen::Map<const Eigen::Vector2d>(a + 4) * Eigen::Map<const Row6>(b);
+    }
+  Mat6 acc;
+  acc.template topRows<4>() = top;
+  if (same) {
+    acc.template bottomLeftCorner<2, 4>() = top.template rightCols<2>().transpose();
+    acc.template bottomRightCorner<2, 2>() = corner;
+  } else {
+    acc.template bottomRows<2>() = bot;
+  }
+  return acc;
+}
+
 template <class YBlock>
 void QBlocks::assemble(const System& sys, const std::vector<YBlock>& Yb) {
   const ConstraintSet& cs = sys.constraints;
   const int nc = static_cast<int>(common.size());
+  constexpr int S = YBlock::ColsAtCompileTime;
   for (Group& g : groups) {
     for (int s = g.spec0; s < g.spec1; ++s) {
-      const int o = cs.row_offset[s] - g.row0;
+      const int o = cs.row_offset[s] - g.row0, nk = cs.row_count[s];
       const double* y = Yb[s].data();
-      for (int k = 0; k < cs.row_count[s]; ++k)
-        for (int c = 0; c < nc; ++c) g.B(o + k, c) = y[YBlock::ColsAtCompileTime * common[c] + k];
+      for (int c = 0; c < nc; ++c) {
+        double* bc = &g.B(o, c);
+        const double* yc = y + S * common[c];
+        if (nk == 6) Eigen::Map<Vec6>{bc} = Eigen::Map<const Vec6>(yc);
+        else
+          for (int k = 0; k < nk; ++k) bc[k] = yc[k];
+      }
     }
     for (const Group::Pair& p : g.pairs) {
-      Mat6 acc = Mat6::Zero();
-      for (const auto& rg : p.ranges)
-        for (int d = rg.first, e = rg.first + rg.second; d < e; ++d)
-          acc.noalias() += Yb[p.s].row(d).template head<6>().transpose() * Yb[p.t].row(d).template head<6>();
+      const Mat6 acc = pair_block(Yb[p.s], Yb[p.t], p.ranges, p.s == p.t);
       const int rs = cs.row_offset[p.s] - g.row0, rt = cs.row_offset[p.t] - g.row0;
       const int ks = cs.row_count[p.s], kt = cs.row_count[p.t];
+      if (ks == 6 && kt == 6 && g.rows == 6) {  // a group of one weld: its A is the block
+        Eigen::Map<Mat6>{g.A.data()} = acc;
+        continue;
+      }
       for (int i = 0; i < ks; ++i)
         for (int j = 0; j < kt; ++j) {
           g.A(rs + i, rt + j) = acc(i, j);
