@@ -83,17 +83,17 @@ inline auto row(Mat& M, Eigen::Index r, Nc nc) {
   else return M.row(r).template head<Nc::value>();
 }
 
-// C = [Rt (n - p x f); Rt f] for D = [n; f] on 6 rows of nc columns (row r of D at d + r ld, of C
-// at o + r lo)
-inline void to_frame(const Mat3& Rt, const Vec3& p, const double* __restrict d, Eigen::Index ld, double* __restrict o,
-              Eigen::Index lo, int nc) {
-  const double px = p.x(), py = p.y(), pz = p.z();
-  const double r00 = Rt(0, 0), r01 = Rt(0, 1), r02 = Rt(0, 2), r10 = Rt(1, 0), r11 = Rt(1, 1), r12 = Rt(1, 2), r20 = Rt(2, 0),
-               r21 = Rt(2, 1), r22 = Rt(2, 2);
-#pragma GCC ivdep
-  for (int j = 0; j < nc; ++j) {
-    const double f0 = d[3 * ld + j], f1 = d[4 * ld + j], f2 = d[5 * ld + j];
-    const double n0 = d[j] - (py * f2 - pz * f1), n1 = d[ld + j] - (pz * f0 - px * f2), n2 = d[2 * ld + j] - (px * f1 - py * f0);
+// The change to a report frame, [Rt (n - p x f); Rt f] of a wrench [n; f] (world, at p_ref), as
+// scalars a column loop keeps in registers
+struct FrameChange {
+  double px, py, pz, r00, r01, r02, r10, r11, r12, r20, r21, r22;
+  FrameChange(const Mat3& Rt, const Vec3& p)
+      : px(p.x()), py(p.y()), pz(p.z()), r00(Rt(0, 0)), r01(Rt(0, 1)), r02(Rt(0, 2)), r10(Rt(1, 0)), r11(Rt(1, 1)),
+        r12(Rt(1, 2)), r20(Rt(2, 0)), r21(Rt(2, 1)), r22(Rt(2, 2)) {}
+  // column j of 6 rows of stride lo at o <- the change of [d0 d1 d2; f0 f1 f2]
+  inline void put(double d0, double d1, double d2, double f0, double f1, double f2, double* __restrict o, Eigen::Index lo,
+                  int j) const {
+    const double n0 = d0 - (py * f2 - pz * f1), n1 = d1 - (pz * f0 - px * f2), n2 = d2 - (px * f1 - py * f0);
     o[j] = r00 * n0 + r01 * n1 + r02 * n2;
     o[lo + j] = r10 * n0 + r11 * n1 + r12 * n2;
     o[2 * lo + j] = r20 * n0 + r21 * n1 + r22 * n2;
@@ -101,6 +101,15 @@ inline void to_frame(const Mat3& Rt, const Vec3& p, const double* __restrict d, 
     o[4 * lo + j] = r10 * f0 + r11 * f1 + r12 * f2;
     o[5 * lo + j] = r20 * f0 + r21 * f1 + r22 * f2;
   }
+};
+
+// C = [Rt (n - p x f); Rt f] for D = [n; f] on 6 rows of nc columns (row r of D at d + r ld, of C
+// at o + r lo)
+inline void to_frame(const Mat3& Rt, const Vec3& p, const double* __restrict d, Eigen::Index ld, double* __restrict o,
+              Eigen::Index lo, int nc) {
+  const FrameChange F(Rt, p);
+#pragma GCC ivdep
+  for (int j = 0; j < nc; ++j) F.put(d[j], d[ld + j], d[2 * ld + j], d[3 * ld + j], d[4 * ld + j], d[5 * ld + j], o, lo, j);
 }
 
 // The reaction pass's blocks (6 x nc per body) are compact: row r of a block at r nc, so that with
@@ -171,9 +180,7 @@ template <int kNs, class Nc>
 inline void to_frame_sum(const Mat3& Rt, const Vec3& p, const double* __restrict r, const double* const* f, const double* g,
                          Eigen::Index lf, double* __restrict o, Eigen::Index lo, Nc nc) {
   const int lr = nc;
-  const double px = p.x(), py = p.y(), pz = p.z();
-  const double r00 = Rt(0, 0), r01 = Rt(0, 1), r02 = Rt(0, 2), r10 = Rt(1, 0), r11 = Rt(1, 1), r12 = Rt(1, 2), r20 = Rt(2, 0),
-               r21 = Rt(2, 1), r22 = Rt(2, 2);
+  const FrameChange F(Rt, p);
   const double* __restrict fa = kNs > 0 ? f[0] : nullptr;
   const double* __restrict fb = kNs > 1 ? f[1] : nullptr;
   const double ga = kNs > 0 ? g[0] : 0.0, gb = kNs > 1 ? g[1] : 0.0;
@@ -185,14 +192,7 @@ inline void to_frame_sum(const Mat3& Rt, const Vec3& p, const double* __restrict
       if constexpr (kNs > 0) d[k] += ga * fa[k * lf + j];
       if constexpr (kNs > 1) d[k] += gb * fb[k * lf + j];
     }
-    const double f0 = d[3], f1 = d[4], f2 = d[5];
-    const double n0 = d[0] - (py * f2 - pz * f1), n1 = d[1] - (pz * f0 - px * f2), n2 = d[2] - (px * f1 - py * f0);
-    o[j] = r00 * n0 + r01 * n1 + r02 * n2;
-    o[lo + j] = r10 * n0 + r11 * n1 + r12 * n2;
-    o[2 * lo + j] = r20 * n0 + r21 * n1 + r22 * n2;
-    o[3 * lo + j] = r00 * f0 + r01 * f1 + r02 * f2;
-    o[4 * lo + j] = r10 * f0 + r11 * f1 + r12 * f2;
-    o[5 * lo + j] = r20 * f0 + r21 * f1 + r22 * f2;
+    F.put(d[0], d[1], d[2], d[3], d[4], d[5], o, lo, j);
   }
 }
 
