@@ -214,6 +214,11 @@ class DaemonProcess : public ::testing::Test {
     if (!bus_) GTEST_SKIP() << "LCM udpm unavailable (no multicast route? 'ip route add 224.0.0.0/4 dev lo')";
     sys_ = load_scene(scene_path("two_puma_load"));
   }
+  // sink takes the daemon's outputs and stats on bus_ from now on
+  void listen(OutputSink& sink) {
+    sink.attach(*bus_);
+    bus_->start();
+  }
   std::unique_ptr<Child> start_daemon(const std::vector<std::string>& extra, const std::string& name = "coopdynd") {
     std::vector<std::string> argv = {COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--lcm-url", url_,
                                      "--duration", "20"};
@@ -230,8 +235,7 @@ TEST_F(DaemonProcess, UdpmSimulateCommandsInWrenchesOutThenSigterm) {
   const std::string cfg_path = tmp_path("sigterm.yaml");
   std::ofstream(cfg_path) << "watchdog_ms: 600000\nstats_period_s: 0.1\n";
   OutputSink sink;
-  sink.attach(*bus_);
-  bus_->start();
+  listen(sink);
   auto d = start_daemon({"--config", cfg_path});
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   const Eigen::VectorXd tau = some_torque(sys_, 9);
@@ -286,8 +290,7 @@ TEST_F(DaemonProcess, CommandSentTheInstantItSaysRunningIsReceived) {
   const std::string cfg_path = tmp_path("instant.yaml");
   std::ofstream(cfg_path) << "watchdog_ms: 5000\n";
   OutputSink sink;
-  sink.attach(*bus_);
-  bus_->start();
+  listen(sink);
   const Eigen::VectorXd tau = some_torque(sys_, 13);
   constexpr int kStarts = 20;
   int received = 0;
@@ -315,8 +318,7 @@ TEST_F(DaemonProcess, CommandSentTheInstantItSaysRunningIsReceived) {
 
 TEST_F(DaemonProcess, UdpmEstimateMeasuredStateInWrenchesOut) {
   OutputSink sink;
-  sink.attach(*bus_);
-  bus_->start();
+  listen(sink);
   auto d = start_daemon({"--mode", "estimate"});
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   Eigen::VectorXd v = sys_.v0;
@@ -356,8 +358,7 @@ TEST_F(DaemonProcess, UdpmEstimateMeasuredStateInWrenchesOut) {
 // error status goes out at rate_hz.
 TEST_F(DaemonProcess, UdpmEstimateOnArrivalOneOutputPerStateEqualOffline) {
   OutputSink sink;
-  sink.attach(*bus_);
-  bus_->start();
+  listen(sink);
   auto d = start_daemon({"--mode", "estimate", "--trigger", "arrival", "--rate", "200"});
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   EXPECT_NE(slurp(d->err).find("event-driven"), std::string::npos) << slurp(d->err);
@@ -430,8 +431,7 @@ TEST_F(DaemonProcess, UdpmEstimateOnArrivalBusyPollingOneOutputPerStateEqualOffl
   const std::string cfg_path = tmp_path("busy_poll.yaml");
   std::ofstream(cfg_path) << "rate_hz: 200\nmode: estimate\ntrigger: arrival\nrealtime: {busy_poll: true}\n";
   OutputSink sink;
-  sink.attach(*bus_);
-  bus_->start();
+  listen(sink);
   auto d = start_daemon({"--config", cfg_path}, "busy_poll");
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   EXPECT_NE(slurp(d->err).find("busy poll: the loop polls for measured states"), std::string::npos) << slurp(d->err);
@@ -479,8 +479,7 @@ TEST_F(DaemonProcess, UdpmEstimateReceivingInTheLoopEqualsTheReceiveProcess) {
   ASSERT_TRUE(in);
   RawUdp raw(url_in);
   OutputSink sink;
-  sink.attach(*bus_);
-  bus_->start();
+  listen(sink);
   Eigen::VectorXd v = sys_.v0;
   for (int i = 0; i < v.size(); ++i) v[i] = 0.05 * std::sin(2 * i + 1.0);
   v = closing_velocity(sys_, sys_.q0, v);
@@ -559,8 +558,7 @@ TEST_F(DaemonProcess, LowestRateStopsAtOnceOnSigtermAndDuration) {
   const std::string cfg_path = tmp_path("slow.yaml");
   std::ofstream(cfg_path) << "rate_hz: 1\n";
   OutputSink sink;
-  sink.attach(*bus_);
-  bus_->start();
+  listen(sink);
   auto d = start_daemon({"--config", cfg_path}, "slow");
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   const auto t0 = std::chrono::steady_clock::now();  // the next deadline is ~1 s away
@@ -659,8 +657,7 @@ TEST_F(DaemonProcess, LcmLoggerRunConvertsToCsv) {
   const std::string cfg_path = tmp_path("cfg.yaml");
   std::ofstream(cfg_path) << "rate_hz: 200\nstats_period_s: 0.25\n";
   OutputSink sink;
-  sink.attach(*bus_);
-  bus_->start();
+  listen(sink);
   Child logger({"/usr/bin/lcm-logger", "--lcm-url=" + url_, "-f", "-q", log_path}, "logger");
   auto d = start_daemon({"--config", cfg_path});
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
@@ -792,8 +789,7 @@ void EstimateReplay::replay_and_compare(bool joints_only) {
   ASSERT_EQ(rows.size(), 301u);
 
   OutputSink sink;
-  sink.attach(*bus_);
-  bus_->start();
+  listen(sink);
   auto d = start_daemon({"--mode", "estimate"});
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   std::vector<std::string> send_args = {COOPDYN_PATH, "send", "--scene", scene_path("two_puma_load"), "--lcm-url", url_,
@@ -937,8 +933,7 @@ TEST_F(DaemonProcess, CommandLargerThanADatagramIsReassembledAndApplied) {
   std::ofstream(cfg_path) << "rate_hz: 20\nwatchdog_ms: 3000\nlcm_url_in: \"" << url_in
                           << "\"\nreceive:\n  max_message_bytes: 200000\n";
   OutputSink sink;
-  sink.attach(*bus_);
-  bus_->start();
+  listen(sink);
   auto in = try_bus(url_in);
   ASSERT_TRUE(in);
   Child d({COOPDYND_PATH, "--scene", scene_file, "--config", cfg_path, "--lcm-url", url_, "--duration", "20"}, "long_name");
@@ -967,8 +962,7 @@ TEST_F(DaemonProcess, CommandLargerThanADatagramIsReassembledAndApplied) {
 // the receive process too: it ignores it, the daemon stops it, and that is no restart.
 TEST_F(DaemonProcess, SigintToTheProcessGroupIsNoReceiverRestart) {
   OutputSink sink;
-  sink.attach(*bus_);
-  bus_->start();
+  listen(sink);
   // setsid: the daemon leads its own process group (and this test is not in it)
   Child d({"/usr/bin/setsid", COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--lcm-url", url_, "--duration", "20"},
           "group_sigint");
@@ -990,8 +984,7 @@ TEST_F(DaemonProcess, SigintToTheProcessGroupIsNoReceiverRestart) {
 // killed), and commands sent after that line are applied.
 TEST_F(DaemonProcess, ReceiveProcessIsRestartedWhenKilled) {
   OutputSink sink;
-  sink.attach(*bus_);
-  bus_->start();
+  listen(sink);
   auto d = start_daemon({}, "killed_rx");
   // the receive process that subscribed first, or after restart n: its pid, from the daemon's log
   auto rx_pid = [&](int restart) -> pid_t {
@@ -1035,8 +1028,7 @@ TEST_F(DaemonProcess, ReceiveProcessIsRestartedWhenKilled) {
 // control_t and waits for the daemon's acknowledgement in its output.
 TEST_F(DaemonProcess, ControlRoundTripPauseResumeResetClearFault) {
   OutputSink sink;
-  sink.attach(*bus_);
-  bus_->start();
+  listen(sink);
   auto d = start_daemon({}, "control");
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   auto run = [&](const std::string& action) {
@@ -1086,8 +1078,7 @@ TEST_F(DaemonProcess, ControlRoundTripPauseResumeResetClearFault) {
 TEST_F(DaemonProcess, SendExitsNonZeroWhenItsCommandsAreRejected) {
   auto d = start_daemon({}, "rejecting");
   OutputSink sink;
-  sink.attach(*bus_);
-  bus_->start();
+  listen(sink);
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   // the four-bar's 6 torques sent to a daemon running two_puma_load (18 DOFs): wrong count
   Child bad({COOPDYN_PATH, "send", "--scene", scene_path("four_bar"), "--lcm-url", url_, "--rate", "100", "--duration",
