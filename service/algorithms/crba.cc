@@ -25,7 +25,7 @@ void crba_compact(const Model& model, Data& data) {
       const double F[6] = {Fn.x(), Fn.y(), Fn.z(), Ff.x(), Ff.y(), Ff.z()};
       const int* path = model.dof_path.data() + model.dof_path_offset[col];
       const int depth = model.dof_depth[col];
-      double* __restrict row = mc + model.dof_path_offset[col] + col;
+      double* __restrict row = mc + model.dof_row_offset[col];
       for (int p = 0; p < depth; ++p) {
         const double* s = S + 6 * path[p];
         row[p] = s[0] * F[0] + s[1] * F[1] + s[2] * F[2] + s[3] * F[3] + s[4] * F[4] + s[5] * F[5];
@@ -42,7 +42,7 @@ void crba(const Model& model, Data& data) {
   Eigen::MatrixXd& M = data.M;
   for (int col = 0; col < model.nv(); ++col) {
     const int* path = model.dof_path.data() + model.dof_path_offset[col];
-    const double* row = mc + model.dof_path_offset[col] + col;
+    const double* row = mc + model.dof_row_offset[col];
     for (int p = 0; p < model.dof_depth[col]; ++p) {
       M(path[p], col) = row[p];
       M(col, path[p]) = row[p];

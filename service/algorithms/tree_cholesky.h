@@ -23,7 +23,7 @@ Eigen::MatrixXd tree_factor_dense(const Model& model, const Data& data);
 
 // Row k of L: its entries over the ancestor path, then the diagonal at [dof_depth[k]].
 inline const double* tree_factor_row(const Model& model, const Data& data, int k) {
-  return data.Lc.data() + model.dof_path_offset[k] + k;
+  return data.Lc.data() + model.dof_row_offset[k];
 }
 
 // x <- L^{-T} x  (solves L^T y = x). Also turns a row g of G into the row of Y = G L^{-1}.

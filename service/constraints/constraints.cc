@@ -264,14 +264,24 @@ void world_weld_rows(const Data& data, const ConstraintSet& set, const Constrain
   const Mat3 Rt = X_WA.R.transpose();
   const Vec3 p_RA = X_WA.p - data.p_ref;
   const std::array<int, 6>& axes = set.row_axis[s];
-  for (int d : set.support[s]) {
-    const Vec3 w = data.S_W.col(d).head<3>();
-    const Vec3 vo = data.S_W.col(d).tail<3>();
-    Vec6 J;
-    J.head<3>().noalias() = Rt * w;
-    J.tail<3>().noalias() = Rt * (vo - p_RA.cross(w));
-    double* g = cd.G.col(d).data() + r0;
-    for (int k = 0; k < n; ++k) g[k] = J[axes[k]];
+  if (n == 6) {  // every axis (a full weld: axes 0..5): each column's six rows written whole
+    for (int d : set.support[s]) {
+      const Vec3 w = data.S_W.col(d).head<3>();
+      const Vec3 vo = data.S_W.col(d).tail<3>();
+      double* g = cd.G.col(d).data() + r0;
+      Eigen::Map<Vec3>(g).noalias() = Rt * w;
+      Eigen::Map<Vec3>(g + 3).noalias() = Rt * (vo - p_RA.cross(w));
+    }
+  } else {
+    for (int d : set.support[s]) {
+      const Vec3 w = data.S_W.col(d).head<3>();
+      const Vec3 vo = data.S_W.col(d).tail<3>();
+      Vec6 J;
+      J.head<3>().noalias() = Rt * w;
+      J.tail<3>().noalias() = Rt * (vo - p_RA.cross(w));
+      double* g = cd.G.col(d).data() + r0;
+      for (int k = 0; k < n; ++k) g[k] = J[axes[k]];
+    }
   }
   // V and A0 of the body seen in A (inv_act of the pose relative to R, by halves)
   Vec6 V_A, a_A;

@@ -108,6 +108,8 @@ int Model::add_body(const std::string& name, int parent, const Transform& X_PJ, 
     dof_path_offset.push_back(static_cast<int>(dof_path.size()));
     dof_depth.push_back(static_cast<int>(path.size()));
     dof_path.insert(dof_path.end(), path.begin(), path.end());
+    dof_row_offset.push_back(factor_size);
+    factor_size += (static_cast<int>(path.size()) + kFactorRowPad) / kFactorRowPad * kFactorRowPad;
     dof_parent.push_back(par);
     dof_body.push_back(body_id);
     if (joint.pseudo) pseudo_dofs.push_back(nv_ + k);
@@ -220,7 +222,7 @@ Data::Data(const Model& model) {
   f.assign(nb, Vec6::Zero());
   h.setZero(nv);
   M.setZero(nv, nv);
-  Lc.setZero(static_cast<Eigen::Index>(model.dof_path.size()) + nv);
+  Lc.setZero(model.factor_size);
   Mc = Lc;
   Ld_inv.setZero(nv);
   tmp_v.setZero(nv);

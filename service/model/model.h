@@ -108,6 +108,13 @@ class Model {
   // dof_path[dof_path_offset[k] .. + dof_depth[k]). The path of an ancestor of k is a prefix of k's
   // path, which the tree-sparse factorization uses to make every update one contiguous loop.
   std::vector<int> dof_depth, dof_path_offset, dof_path;
+  // Where row k of the tree factor (and of M, Data::Mc and Lc) starts: each row, its dof_depth[k]
+  // entries over the path and then the diagonal, padded with zeros to a multiple of kFactorRowPad
+  // doubles, so that every row starts on a 64-byte boundary and the factorization updates it in
+  // whole 8-wide chunks that no other row shares (tree_cholesky.cc). factor_size: the total.
+  static constexpr int kFactorRowPad = 8;
+  std::vector<int> dof_row_offset;
+  int factor_size = 0;
   // A leaves-to-root order of the DOFs (every DOF after all its descendants) that interleaves the
   // branches: by depth, deepest first. Sweeps that eliminate DOFs one by one (the factorization,
   // L^-T solves) use it, and its reverse for root-to-leaves sweeps.
@@ -173,8 +180,9 @@ struct Data {
   Eigen::MatrixXd M;          // (nv x nv) joint-space inertia
   Eigen::VectorXd Mc;         // M by rows over the ancestor paths, the layout of Lc (crba fills both)
   // Tree-sparse factor M = L^T L (L lower triangular with the sparsity of M), stored by rows over
-  // the ancestor paths: row k of L is Lc[dof_path_offset[k] + k .. + dof_depth[k]], its entries in
-  // the columns dof_path (ascending), then the diagonal L(k, k). Dense L: tree_factor_dense().
+  // the ancestor paths: row k of L is Lc[dof_row_offset[k] .. + dof_depth[k]], its entries in
+  // the columns dof_path (ascending), then the diagonal L(k, k), then zeros up to the next row
+  // (Model::kFactorRowPad). Dense L: tree_factor_dense().
   Eigen::VectorXd Lc;
   Eigen::VectorXd Ld_inv;     // (nv) 1 / L(k, k): the solves multiply, keeping divisions off their critical paths
   bool L_ok = false;

@@ -1,6 +1,9 @@
 // The tree-sparse factorization of the mass matrix: it reproduces M with the tree's sparsity, solves,
-// and names a DOF that moves no mass.
+// names a DOF that moves no mass, and keeps each row to its own aligned chunks.
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
 
 #include "service/algorithms/crba.h"
 #include "service/algorithms/kinematics.h"
@@ -92,4 +95,43 @@ TEST(TreeCholesky, ReportsTheDofThatMovesNoMass) {
   int bad = -1;
   EXPECT_FALSE(tree_cholesky_factor(m, d, 1e-13, &bad));
   EXPECT_EQ(bad, 0);
+}
+
+// The factor's rows (and M's, Data::Mc) each start on a 64-byte boundary and own their chunks of
+// Model::kFactorRowPad doubles, which the factorization updates whole: whatever the padding past a
+// row's end holds never reaches an entry of M's factor (here NaN in every padding slot of Mc gives
+// the same factor, bit for bit, as zeros).
+TEST(TreeCholesky, RowsOwnAlignedChunksAndTheirPaddingNeverReachesTheFactor) {
+  std::mt19937 rng(15);
+  for (const auto& name : all_scenes()) {
+    SCOPED_TRACE(name);
+    const System sys = load(name);
+    const Model& m = sys.model;
+    const int pad = Model::kFactorRowPad;
+    for (int k = 0; k < m.nv(); ++k) {
+      EXPECT_EQ(m.dof_row_offset[k] % pad, 0);
+      const int end = k + 1 < m.nv() ? m.dof_row_offset[k + 1] : m.factor_size;
+      EXPECT_GE(end - m.dof_row_offset[k], m.dof_depth[k] + 1);  // the path, the diagonal
+      EXPECT_LT(end - m.dof_row_offset[k], m.dof_depth[k] + 1 + pad);
+    }
+    Eigen::VectorXd q, v;
+    random_state(sys, rng, 0.5, q, v);
+    Data d(m), dn(m);
+    EXPECT_EQ(reinterpret_cast<std::uintptr_t>(d.Lc.data()) % 64, 0u);
+    forward_kinematics(m, d, q, v);
+    crba_compact(m, d);
+    dn.Mc = d.Mc;
+    for (int k = 0; k < m.nv(); ++k) {
+      const int end = k + 1 < m.nv() ? m.dof_row_offset[k + 1] : m.factor_size;
+      for (int i = m.dof_row_offset[k] + m.dof_depth[k] + 1; i < end; ++i) dn.Mc[i] = std::nan("");
+    }
+    ASSERT_TRUE(tree_cholesky_factor(m, d));
+    ASSERT_TRUE(tree_cholesky_factor(m, dn));
+    for (int k = 0; k < m.nv(); ++k) {
+      const double* a = tree_factor_row(m, d, k);
+      const double* b = tree_factor_row(m, dn, k);
+      for (int p = 0; p <= m.dof_depth[k]; ++p) EXPECT_EQ(a[p], b[p]) << "row " << k << " entry " << p;
+      EXPECT_EQ(d.Ld_inv[k], dn.Ld_inv[k]);
+    }
+  }
 }
