@@ -232,11 +232,10 @@ class DaemonProcess : public ::testing::Test {
 
 TEST_F(DaemonProcess, UdpmSimulateCommandsInWrenchesOutThenSigterm) {
   // the last command held until the stop (the summary counts no expiry, however late the stop comes)
-  const std::string cfg_path = tmp_path("sigterm.yaml");
-  std::ofstream(cfg_path) << "watchdog_ms: 600000\nstats_period_s: 0.1\n";
+  const TempConfig cfg("sigterm.yaml", "watchdog_ms: 600000\nstats_period_s: 0.1\n");
   OutputSink sink;
   listen(sink);
-  auto d = start_daemon({"--config", cfg_path});
+  auto d = start_daemon({"--config", cfg.path()});
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   const Eigen::VectorXd tau = some_torque(sys_, 9);
   for (int seq = 1; seq <= 30; ++seq) {
@@ -279,7 +278,6 @@ TEST_F(DaemonProcess, UdpmSimulateCommandsInWrenchesOutThenSigterm) {
       expect_matches_coopdyn_eval(*it, "sim");
       break;
     }
-  std::remove(cfg_path.c_str());
 }
 
 // The daemon says it runs only once its receive process has subscribed: a command sent the instant
@@ -287,8 +285,7 @@ TEST_F(DaemonProcess, UdpmSimulateCommandsInWrenchesOutThenSigterm) {
 // (The command is held 5 s by the watchdog, so the output that carries it comes however late the
 // loop ticks on a loaded machine.)
 TEST_F(DaemonProcess, CommandSentTheInstantItSaysRunningIsReceived) {
-  const std::string cfg_path = tmp_path("instant.yaml");
-  std::ofstream(cfg_path) << "watchdog_ms: 5000\n";
+  const TempConfig cfg("instant.yaml", "watchdog_ms: 5000\n");
   OutputSink sink;
   listen(sink);
   const Eigen::VectorXd tau = some_torque(sys_, 13);
@@ -296,7 +293,7 @@ TEST_F(DaemonProcess, CommandSentTheInstantItSaysRunningIsReceived) {
   int received = 0;
   for (int k = 1; k <= kStarts; ++k) {
     SCOPED_TRACE("start " + std::to_string(k));
-    auto d = start_daemon({"--config", cfg_path}, "instant");
+    auto d = start_daemon({"--config", cfg.path()}, "instant");
     ASSERT_TRUE(wait_until([&] { return slurp(d->err).find(kDaemonRunning) != std::string::npos; }, kEventLimit, 1ms))
         << slurp(d->err);
     const auto b = io::encode_torque_command(io::wall_us(), k, {}, stdvec(tau));
@@ -313,7 +310,6 @@ TEST_F(DaemonProcess, CommandSentTheInstantItSaysRunningIsReceived) {
   }
   bus_->stop();
   std::printf("commands sent the instant the daemon said running: %d of %d applied\n", received, kStarts);
-  std::remove(cfg_path.c_str());
 }
 
 TEST_F(DaemonProcess, UdpmEstimateMeasuredStateInWrenchesOut) {
@@ -428,11 +424,10 @@ TEST_F(DaemonProcess, UdpmEstimateOnArrivalOneOutputPerStateEqualOffline) {
 // state sent in lock-step gets exactly one output carrying its seq, equal to the offline
 // evaluation, and SIGTERM still stops the polling loop.
 TEST_F(DaemonProcess, UdpmEstimateOnArrivalBusyPollingOneOutputPerStateEqualOffline) {
-  const std::string cfg_path = tmp_path("busy_poll.yaml");
-  std::ofstream(cfg_path) << "rate_hz: 200\nmode: estimate\ntrigger: arrival\nrealtime: {busy_poll: true}\n";
+  const TempConfig cfg("busy_poll.yaml", "rate_hz: 200\nmode: estimate\ntrigger: arrival\nrealtime: {busy_poll: true}\n");
   OutputSink sink;
   listen(sink);
-  auto d = start_daemon({"--config", cfg_path}, "busy_poll");
+  auto d = start_daemon({"--config", cfg.path()}, "busy_poll");
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   EXPECT_NE(slurp(d->err).find("busy poll: the loop polls for measured states"), std::string::npos) << slurp(d->err);
   Eigen::VectorXd v = sys_.v0;
@@ -463,7 +458,6 @@ TEST_F(DaemonProcess, UdpmEstimateOnArrivalBusyPollingOneOutputPerStateEqualOffl
     expect_matches_offline(sys_, o);
   }
   for (int seq = 1; seq <= 20; ++seq) EXPECT_EQ(per_seq[seq], 1) << "outputs carrying seq " << seq;
-  std::remove(cfg_path.c_str());
 }
 
 // realtime.receive_in_loop (the loop reads the input socket itself, no receive process) against the
@@ -488,10 +482,9 @@ TEST_F(DaemonProcess, UdpmEstimateReceivingInTheLoopEqualsTheReceiveProcess) {
   constexpr int kStates = 20;
   std::vector<io::DecodedOutput> outs;  // both runs'
   for (const int in_loop : {0, 1}) {
-    const std::string cfg_path = tmp_path("in_loop.yaml");
-    std::ofstream(cfg_path) << "rate_hz: 200\nmode: estimate\ntrigger: arrival\nlcm_url_in: \"" << url_in
-                            << "\"\nrealtime: {receive_in_loop: " << (in_loop ? "true" : "false") << "}\n";
-    auto d = start_daemon({"--config", cfg_path}, in_loop ? "in_loop" : "ring");
+    const TempConfig cfg("in_loop.yaml", "rate_hz: 200\nmode: estimate\ntrigger: arrival\nlcm_url_in: \"" + url_in +
+                                             "\"\nrealtime: {receive_in_loop: " + (in_loop ? "true" : "false") + "}\n");
+    auto d = start_daemon({"--config", cfg.path()}, in_loop ? "in_loop" : "ring");
     ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput& o) { return o.input != static_cast<int>(io::Input::kState); }, kEventLimit))
         << slurp(d->err);
     const int base = in_loop ? 100 : 0;
@@ -529,7 +522,6 @@ TEST_F(DaemonProcess, UdpmEstimateReceivingInTheLoopEqualsTheReceiveProcess) {
     if (in_loop) {
       EXPECT_NE(slurp(d->err).find("realtime.receive_in_loop: no receive process"), std::string::npos) << slurp(d->err);
     }
-    std::remove(cfg_path.c_str());
     std::lock_guard<std::mutex> lk(sink.mu);  // the next run waits for outputs of its own
     outs.insert(outs.end(), sink.outs.begin(), sink.outs.end());
     sink.outs.clear();
@@ -555,11 +547,10 @@ TEST_F(DaemonProcess, UdpmEstimateReceivingInTheLoopEqualsTheReceiveProcess) {
 // ServiceLoop.StopEndsRunWithinASliceAtTheLowestRate's (exactly, on the sleep plan); the times taken
 // here are printed, not judged (a loaded machine may delay any process).
 TEST_F(DaemonProcess, LowestRateStopsAtOnceOnSigtermAndDuration) {
-  const std::string cfg_path = tmp_path("slow.yaml");
-  std::ofstream(cfg_path) << "rate_hz: 1\n";
+  const TempConfig cfg("slow.yaml", "rate_hz: 1\n");
   OutputSink sink;
   listen(sink);
-  auto d = start_daemon({"--config", cfg_path}, "slow");
+  auto d = start_daemon({"--config", cfg.path()}, "slow");
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   const auto t0 = std::chrono::steady_clock::now();  // the next deadline is ~1 s away
   d->signal(SIGTERM);
@@ -569,7 +560,7 @@ TEST_F(DaemonProcess, LowestRateStopsAtOnceOnSigtermAndDuration) {
   EXPECT_NE(slurp(d->out).find("coopdynd: stopped (SIGTERM)"), std::string::npos) << slurp(d->out);
   bus_->stop();
   // --duration 0.1 at 1 Hz: stops after 0.1 s with no tick (the summary's own clock)
-  Child c({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--lcm-url", url_, "--config", cfg_path, "--duration",
+  Child c({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--lcm-url", url_, "--config", cfg.path(), "--duration",
            "0.1"},
           "slow_duration");
   EXPECT_EQ(c.wait(), 0) << slurp(c.err);
@@ -578,23 +569,20 @@ TEST_F(DaemonProcess, LowestRateStopsAtOnceOnSigtermAndDuration) {
   ASSERT_NE(p, std::string::npos) << out;
   const double secs = std::stod(out.substr(p + std::strlen("stopped (duration) after 0 ticks in ")));
   EXPECT_GE(secs, 0.1) << "stopped before its duration: " << out;
-  std::remove(cfg_path.c_str());
 }
 
 TEST(DaemonStartup, BrokenSceneOrConfigStopsWithAClearMessage) {
-  const std::string bad_scene = tmp_path("bad_scene.yaml");
-  std::ofstream(bad_scene) << "name: x\nrobots: [\n";
+  const TempConfig bad_scene("bad_scene.yaml", "name: x\nrobots: [\n");
   {
-    Child c({COOPDYND_PATH, "--scene", bad_scene, "--lcm-url", "memq://"}, "bad_scene");
+    Child c({COOPDYND_PATH, "--scene", bad_scene.path(), "--lcm-url", "memq://"}, "bad_scene");
     EXPECT_EQ(c.wait(), 1);
-    EXPECT_NE(slurp(c.err).find(bad_scene), std::string::npos) << slurp(c.err);
+    EXPECT_NE(slurp(c.err).find(bad_scene.path()), std::string::npos) << slurp(c.err);
   }
-  const std::string bad_cfg = tmp_path("bad_cfg.yaml");
-  std::ofstream(bad_cfg) << "rate_hz: 1000\nmode: dream\n";
+  const TempConfig bad_cfg("bad_cfg.yaml", "rate_hz: 1000\nmode: dream\n");
   {
-    Child c({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", bad_cfg}, "bad_cfg");
+    Child c({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", bad_cfg.path()}, "bad_cfg");
     EXPECT_EQ(c.wait(), 2);
-    EXPECT_NE(slurp(c.err).find(bad_cfg + ":2:"), std::string::npos) << slurp(c.err);
+    EXPECT_NE(slurp(c.err).find(bad_cfg.path() + ":2:"), std::string::npos) << slurp(c.err);
     EXPECT_NE(slurp(c.err).find("mode must be simulate or estimate"), std::string::npos);
   }
   {
@@ -602,27 +590,22 @@ TEST(DaemonStartup, BrokenSceneOrConfigStopsWithAClearMessage) {
     EXPECT_EQ(c.wait(), 2);
   }
   // an input URL the receive process cannot join (a group that is no multicast address)
-  const std::string bad_in = tmp_path("bad_in.yaml");
-  std::ofstream(bad_in) << "lcm_url_in: \"udpm://10.1.2.3:7667?ttl=0\"\n";
+  const TempConfig bad_in("bad_in.yaml", "lcm_url_in: \"udpm://10.1.2.3:7667?ttl=0\"\n");
   {
-    Child c({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", bad_in, "--lcm-url", "memq://"}, "bad_in");
+    Child c({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", bad_in.path(), "--lcm-url", "memq://"}, "bad_in");
     EXPECT_EQ(c.wait(), 1);
     EXPECT_NE(slurp(c.err).find("input URL: the group '10.1.2.3' of 'udpm://10.1.2.3:7667?ttl=0' is not an IPv4 multicast"),
               std::string::npos) << slurp(c.err);
   }
   // the loop reading the inputs itself: udpm only, and the URL named
-  const std::string in_loop = tmp_path("in_loop_memq.yaml");
-  std::ofstream(in_loop) << "mode: estimate\ntrigger: arrival\nrealtime: {receive_in_loop: true}\n";
+  const TempConfig in_loop("in_loop_memq.yaml", "mode: estimate\ntrigger: arrival\nrealtime: {receive_in_loop: true}\n");
   {
-    Child c({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", in_loop, "--lcm-url", "memq://"}, "in_loop_memq");
+    Child c({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", in_loop.path(), "--lcm-url", "memq://"},
+            "in_loop_memq");
     EXPECT_EQ(c.wait(), 1);
     EXPECT_NE(slurp(c.err).find("realtime.receive_in_loop reads udpm:// inputs only; input URL 'memq://'"), std::string::npos)
         << slurp(c.err);
   }
-  std::remove(in_loop.c_str());
-  std::remove(bad_in.c_str());
-  std::remove(bad_scene.c_str());
-  std::remove(bad_cfg.c_str());
 }
 
 // A receive process that cannot subscribe (here: a network namespace with no multicast route, so
@@ -631,10 +614,9 @@ TEST(DaemonStartup, BrokenSceneOrConfigStopsWithAClearMessage) {
 TEST(DaemonStartup, ReceiveProcessThatCannotSubscribeStopsTheDaemon) {
   if (access("/usr/bin/unshare", X_OK) != 0 || std::system("/usr/bin/unshare -n true >/dev/null 2>&1") != 0)
     GTEST_SKIP() << "no network namespace to be had here (unshare -n needs root or user namespaces)";
-  const std::string cfg_path = tmp_path("no_route.yaml");
   const std::string url_in = private_udpm_url(9);
-  std::ofstream(cfg_path) << "lcm_url_in: \"" << url_in << "\"\n";
-  Child c({"/usr/bin/unshare", "-n", COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", cfg_path,
+  const TempConfig cfg("no_route.yaml", "lcm_url_in: \"" + url_in + "\"\n");
+  Child c({"/usr/bin/unshare", "-n", COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", cfg.path(),
            "--lcm-url", "memq://", "--duration", "20"},
           "no_route");
   EXPECT_EQ(c.wait(), 1) << slurp(c.err);
@@ -646,7 +628,6 @@ TEST(DaemonStartup, ReceiveProcessThatCannotSubscribeStopsTheDaemon) {
       << err;
   EXPECT_EQ(err.find(kDaemonRunning), std::string::npos) << err;
   EXPECT_EQ(slurp(c.out).find("coopdynd: stopped"), std::string::npos) << "it never ran";
-  std::remove(cfg_path.c_str());
 }
 
 // lcm-logger records a daemon run driven by `coopdyn send`; `coopdyn log` finds the three channels
@@ -654,12 +635,11 @@ TEST(DaemonStartup, ReceiveProcessThatCannotSubscribeStopsTheDaemon) {
 TEST_F(DaemonProcess, LcmLoggerRunConvertsToCsv) {
   if (access("/usr/bin/lcm-logger", X_OK) != 0) GTEST_SKIP() << "lcm-logger (Debian liblcm-bin) not installed";
   const std::string log_path = tmp_path("run.lcmlog"), out_dir = tmp_path("run_csv");
-  const std::string cfg_path = tmp_path("cfg.yaml");
-  std::ofstream(cfg_path) << "rate_hz: 200\nstats_period_s: 0.25\n";
+  const TempConfig cfg("cfg.yaml", "rate_hz: 200\nstats_period_s: 0.25\n");
   OutputSink sink;
   listen(sink);
   Child logger({"/usr/bin/lcm-logger", "--lcm-url=" + url_, "-f", "-q", log_path}, "logger");
-  auto d = start_daemon({"--config", cfg_path});
+  auto d = start_daemon({"--config", cfg.path()});
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   // the logger records from its subscription on: wait until it has written the daemon's outputs
   // (it flushes every 100 ms) before the first command, however slowly it started
@@ -742,7 +722,6 @@ TEST_F(DaemonProcess, LcmLoggerRunConvertsToCsv) {
     std::remove((out_dir + "/" + f).c_str());
   rmdir(out_dir.c_str());
   std::remove(log_path.c_str());
-  std::remove(cfg_path.c_str());
 }
 
 // Estimate mode on simulated states: `coopdyn sim` writes a trajectory, `coopdyn send --states`
@@ -835,8 +814,7 @@ void EstimateReplay::replay_and_compare(bool joints_only) {
 // parallel), and this test's own subscriber (the outputs) never sees them.
 TEST_F(DaemonProcess, HostileFragmentsAreRefusedWhileCommandsAreApplied) {
   const std::string url_in = private_udpm_url(1, "239.255.76.99");
-  const std::string cfg_path = tmp_path("hostile.yaml");
-  std::ofstream(cfg_path) << "lcm_url_in: \"" << url_in << "\"\nstats_period_s: 0.2\n";
+  const TempConfig cfg("hostile.yaml", "lcm_url_in: \"" + url_in + "\"\nstats_period_s: 0.2\n");
   OutputSink sink;
   sink.attach(*bus_);
   std::mutex mu;
@@ -850,7 +828,7 @@ TEST_F(DaemonProcess, HostileFragmentsAreRefusedWhileCommandsAreApplied) {
   bus_->start();
   auto in = try_bus(url_in);  // publishes only: never subscribes, so the fragment cannot reach it
   ASSERT_TRUE(in);
-  auto d = start_daemon({"--config", cfg_path}, "hostile");
+  auto d = start_daemon({"--config", cfg.path()}, "hostile");
   // the first output comes once the receive process is listening (the daemon waits for it)
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   RawUdp raw(url_in);
@@ -911,7 +889,6 @@ TEST_F(DaemonProcess, HostileFragmentsAreRefusedWhileCommandsAreApplied) {
   EXPECT_GE(malformed, crafted.load()) << out;
   EXPECT_EQ(err.find("receive process killed"), std::string::npos) << err;
   EXPECT_NE(err.find("fragment beyond the message's size"), std::string::npos) << "the refusals are logged: " << err;
-  std::remove(cfg_path.c_str());
 }
 
 // A valid input larger than one datagram: liblcm's publisher sends a message over 65,499 bytes as
@@ -923,20 +900,20 @@ TEST_F(DaemonProcess, CommandLargerThanADatagramIsReassembledAndApplied) {
   const auto at = scene.find("name: j1,");
   ASSERT_NE(at, std::string::npos);
   scene.replace(at, 8, "name: " + long_name);
-  const std::string scene_file = tmp_path("long_name.yaml"), cfg_path = tmp_path("long_name_cfg.yaml");
-  std::ofstream(scene_file) << scene;
+  const TempConfig scene_file("long_name.yaml", scene);
   // inputs on their own URL: the daemon's outputs (this scene's are over 200 kB, its names in them)
   // do not reach the receive process
   const std::string url_in = private_udpm_url(2, "239.255.76.98");
   // each output is over 200 kB (UDP fragments a loaded reader may drop): 20 Hz, and the command
   // held for 3 s (watchdog), so many outputs carry it and one reaching the sink is enough
-  std::ofstream(cfg_path) << "rate_hz: 20\nwatchdog_ms: 3000\nlcm_url_in: \"" << url_in
-                          << "\"\nreceive:\n  max_message_bytes: 200000\n";
+  const TempConfig cfg("long_name_cfg.yaml",
+                       "rate_hz: 20\nwatchdog_ms: 3000\nlcm_url_in: \"" + url_in + "\"\nreceive:\n  max_message_bytes: 200000\n");
   OutputSink sink;
   listen(sink);
   auto in = try_bus(url_in);
   ASSERT_TRUE(in);
-  Child d({COOPDYND_PATH, "--scene", scene_file, "--config", cfg_path, "--lcm-url", url_, "--duration", "20"}, "long_name");
+  Child d({COOPDYND_PATH, "--scene", scene_file.path(), "--config", cfg.path(), "--lcm-url", url_, "--duration", "20"},
+          "long_name");
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d.err);
   const auto b = io::encode_torque_command(io::wall_us(), 1, {long_name}, {0.25});
   ASSERT_GT(b.size(), 65499u) << "must not fit one LCM datagram";
@@ -954,8 +931,6 @@ TEST_F(DaemonProcess, CommandLargerThanADatagramIsReassembledAndApplied) {
   const std::string out = slurp(d.out);
   EXPECT_NE(out.find("accepted 1,"), std::string::npos) << out;
   EXPECT_NE(out.find("malformed 0,"), std::string::npos) << out;
-  std::remove(scene_file.c_str());
-  std::remove(cfg_path.c_str());
 }
 
 // A stop signalled to the whole process group (Ctrl-C in a terminal, a service manager) reaches

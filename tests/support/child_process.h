@@ -1,5 +1,5 @@
 // Child processes of the tests: one with its output in files, a command run to its end, temporary
-// paths, an LCM bus that may be unavailable (no multicast route).
+// paths and files, an LCM bus that may be unavailable (no multicast route).
 #pragma once
 
 #include <fcntl.h>
@@ -10,6 +10,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <fstream>
 #include <functional>
 #include <memory>
 #include <string>
@@ -39,6 +40,20 @@ inline std::string tmp_path(const std::string& what) {
   return (::testing::TempDir().empty() ? std::string("/tmp/") : ::testing::TempDir()) + "coopdynd_test_" +
          std::to_string(getpid()) + "_" + what;
 }
+
+// A file a test writes for a child process to read (a config, a scene): tmp_path(name) holding
+// `text`, removed when it goes out of scope, however the test ends (an ASSERT returns early too).
+class TempConfig {
+ public:
+  TempConfig(const std::string& name, const std::string& text) : path_(tmp_path(name)) { std::ofstream(path_) << text; }
+  ~TempConfig() { std::remove(path_.c_str()); }
+  TempConfig(const TempConfig&) = delete;
+  TempConfig& operator=(const TempConfig&) = delete;
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
 
 // Starts argv (argv[0] a path) with the descriptors set_fds arranges; its pid, or -1.
 inline pid_t spawn(const std::vector<std::string>& argv, const std::function<void(posix_spawn_file_actions_t*)>& set_fds) {
