@@ -509,6 +509,35 @@ TEST(ServiceLoop, StaleOrFutureUtimeRejectedAndCountedByReason) {
   EXPECT_EQ(e.bus.last_output().reason, io::kReasonNoState);
 }
 
+// Each valid command of a sender numbering 1, 2, 3, ... that is not applied is counted once, where
+// it went: one that never arrived as a seq gap (commands_missed), one that arrived too late or too
+// early as a rejection for its utime (stale_utime, future_utime), not as a gap too.
+TEST(ServiceLoop, EveryCommandNotAppliedIsCountedOnceAsMissedOrByItsUtime) {
+  Rig r("two_puma_load");
+  r.loop->commands().set_wall_clock(&fake_wall_us);
+  g_fake_wall_us = 1'800'000'000'000'000;
+  const Eigen::VectorXd tau = some_torque(r.sys, 8);
+  auto at = [&](int64_t utime, int64_t seq) { return io::encode_torque_command(utime, seq, {}, stdvec(tau)); };
+  const int64_t fresh = g_fake_wall_us, late = g_fake_wall_us - 2'000'000, early = g_fake_wall_us + 2'000'000;
+  // seqs 1..10 sent; 2, 6 and 9 lost on the way, 3 and 4 late, 7 early, 10 late and the last
+  EXPECT_EQ(r.send(at(fresh, 1), 0), Offer::kAccepted);
+  EXPECT_EQ(r.send(at(late, 3), kMs), Offer::kRejected);
+  EXPECT_EQ(r.send(at(late, 4), kMs), Offer::kRejected);
+  EXPECT_EQ(r.send(at(fresh, 5), kMs), Offer::kAccepted);
+  EXPECT_EQ(r.send(at(early, 7), kMs), Offer::kRejected);
+  EXPECT_EQ(r.send(at(fresh, 8), kMs), Offer::kAccepted);
+  EXPECT_EQ(r.send(at(late, 10), kMs), Offer::kRejected);
+  const auto& n = r.loop->input_counters();
+  EXPECT_EQ(n.missed.load(), 3) << "seqs 2, 6 and 9";
+  EXPECT_EQ(n.by_reason[static_cast<int>(io::Reject::kStale)].load(), 3) << "seqs 3, 4 and 10";
+  EXPECT_EQ(n.by_reason[static_cast<int>(io::Reject::kFuture)].load(), 1) << "seq 7";
+  EXPECT_EQ(n.accepted.load() + n.missed.load() + n.rejected.load(), 10) << "each of the 10 seqs counted once";
+  // a late duplicate of an accepted seq is no gap either
+  EXPECT_EQ(r.send(at(late, 5), kMs), Offer::kRejected);
+  EXPECT_EQ(r.send(at(fresh, 11), kMs), Offer::kAccepted);
+  EXPECT_EQ(n.missed.load(), 3);
+}
+
 // The expiry is decided once, by the loop, and the sequence rule follows that decision: under a
 // real loop at 1 kHz and a sender that restarts its seq after silences near the watchdog (where
 // the two threads' clock readings used to disagree), every restart the inbox let through is an
