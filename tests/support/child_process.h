@@ -79,8 +79,9 @@ struct Child {
       posix_spawn_file_actions_addopen(fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     });
   }
-  // exit code, or -signal; waits at most `limit` and then kills
-  int wait(std::chrono::milliseconds limit = 20s) {
+  // exit code, or -signal; waits at most `limit` (a bound that only turns a hang into a failure)
+  // and then kills
+  int wait(std::chrono::milliseconds limit = kEventLimit) {
     const auto end = std::chrono::steady_clock::now() + limit;
     int st = 0;
     while (true) {
@@ -118,6 +119,11 @@ inline bool log_says(const Child& c, const std::string& what, std::chrono::milli
   }
   return false;
 }
+
+// --duration of a daemon the test stops itself (SIGTERM or SIGINT once it has what it waits for):
+// longer than the waits of a test (each up to kEventLimit), so that a loaded machine never sees the
+// daemon stop on its own first; it only ends a daemon that a crashed test left behind.
+inline const std::string kDaemonDuration = "600";
 
 // coopdynd logs this once its receive process has subscribed (it stops, exit 1, if it does not within
 // 10 s) and its loop runs: inputs sent after it are received.
