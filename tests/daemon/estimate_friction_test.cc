@@ -146,7 +146,7 @@ class EstimateFriction : public ::testing::Test {
     Child d(argv, "friction_daemon");
     // the first state only once the daemon's receive process is subscribed (however long its
     // start takes on a loaded machine)
-    EXPECT_TRUE(log_says(d, kDaemonRunning, 30s)) << slurp(d.err);
+    EXPECT_TRUE(log_says(d, kDaemonRunning, kEventLimit)) << slurp(d.err);
     std::map<std::vector<double>, io::DecodedOutput> seen;  // by state (its joint angles)
     for (int pass = 0; pass < 20 && seen.size() < kStatesSeen; ++pass) {
       const int first_seq = 1 + 61 * pass;
