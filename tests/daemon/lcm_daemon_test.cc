@@ -43,10 +43,6 @@ using namespace std::chrono_literals;
 
 namespace {
 
-// A watchdog (config line) longer than a loaded machine may hold a measured state between its
-// receipt and its evaluation: the tests that count one evaluated output per state use it (with the
-// default 100 ms, a state the machine held longer gets its expiry as its one output).
-const char* const kLongWatchdog = "watchdog_ms: 60000\n";
 
 // Collects decoded outputs from a bus, and the last loop_stats_t.
 struct OutputSink {
@@ -235,7 +231,7 @@ class DaemonProcess : public ::testing::Test {
 
 TEST_F(DaemonProcess, UdpmSimulateCommandsInWrenchesOutThenSigterm) {
   // the last command held until the stop (the summary counts no expiry, however late the stop comes)
-  const TempConfig cfg("sigterm.yaml", "watchdog_ms: 600000\nstats_period_s: 0.1\n");
+  const TempConfig cfg("sigterm.yaml", "watchdog_ms: 600000\nmax_input_age_ms: 60000\nstats_period_s: 0.1\n");
   OutputSink sink;
   listen(sink);
   auto d = start_daemon({"--config", cfg.path()});
@@ -251,8 +247,8 @@ TEST_F(DaemonProcess, UdpmSimulateCommandsInWrenchesOutThenSigterm) {
   bus_->publish("COOPDYN_COMMAND", bad.data(), static_cast<int>(bad.size()));
   const auto old = io::encode_torque_command(io::wall_us(), 3, {}, stdvec(-tau));
   bus_->publish("COOPDYN_COMMAND", old.data(), static_cast<int>(old.size()));
-  // a command never stamped (utime 0) and one stamped 10 s ago: rejected as stale, never applied
-  for (const int64_t utime : {int64_t{0}, static_cast<int64_t>(io::wall_us() - 10'000'000)}) {
+  // a command never stamped (utime 0) and one stamped 100 s ago: rejected as stale, never applied
+  for (const int64_t utime : {int64_t{0}, static_cast<int64_t>(io::wall_us() - 100'000'000)}) {
     const auto stale = io::encode_torque_command(utime, 40, {}, stdvec(-tau));
     bus_->publish("COOPDYN_COMMAND", stale.data(), static_cast<int>(stale.size()));
   }
@@ -285,10 +281,10 @@ TEST_F(DaemonProcess, UdpmSimulateCommandsInWrenchesOutThenSigterm) {
 
 // The daemon says it runs only once its receive process has subscribed: a command sent the instant
 // `running` is in its log (polled every millisecond) is received and applied, on each of 20 starts.
-// (The command is held 5 s by the watchdog, so the output that carries it comes however late the
-// loop ticks on a loaded machine.)
+// (The command is held 60 s by the watchdog and taken up to 60 s old, kPatientInputs, so the output
+// that carries it comes however late the loop ticks on a loaded machine.)
 TEST_F(DaemonProcess, CommandSentTheInstantItSaysRunningIsReceived) {
-  const TempConfig cfg("instant.yaml", "watchdog_ms: 5000\n");
+  const TempConfig cfg("instant.yaml", kPatientInputs);
   OutputSink sink;
   listen(sink);
   const Eigen::VectorXd tau = some_torque(sys_, 13);
@@ -355,12 +351,13 @@ TEST_F(DaemonProcess, UdpmEstimateMeasuredStateInWrenchesOut) {
 // gets one error output (REASON_CLOSURE); NaN, stale and out-of-order states are rejected as on the
 // fixed-rate path and get none; without a state (before the first, and in a second run with the
 // default 100 ms watchdog after the last one expired) the error status goes out at rate_hz. The
-// first run's watchdog (kLongWatchdog) is longer than a loaded machine may hold a state between its
-// receipt and its evaluation, which makes the state's one output its expiry instead.
+// first run takes its inputs patiently (kPatientInputs): a loaded machine may hold a state longer
+// than the default watchdog between its receipt and its evaluation, which makes its one output
+// its expiry instead.
 TEST_F(DaemonProcess, UdpmEstimateOnArrivalOneOutputPerStateEqualOffline) {
   OutputSink sink;
   listen(sink);
-  const TempConfig cfg("on_arrival.yaml", kLongWatchdog);
+  const TempConfig cfg("on_arrival.yaml", kPatientInputs);
   auto d = start_daemon({"--config", cfg.path(), "--mode", "estimate", "--trigger", "arrival", "--rate", "200"});
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
   EXPECT_NE(slurp(d->err).find("event-driven"), std::string::npos) << slurp(d->err);
@@ -383,7 +380,7 @@ TEST_F(DaemonProcess, UdpmEstimateOnArrivalOneOutputPerStateEqualOffline) {
   Eigen::VectorXd v_nan = v;
   v_nan[3] = std::numeric_limits<double>::quiet_NaN();
   send(31, io::wall_us(), sys_.q0, v_nan);               // NaN: rejected
-  send(32, io::wall_us() - 10'000'000, sys_.q0, v);      // stamped 10 s ago: rejected
+  send(32, io::wall_us() - 100'000'000, sys_.q0, v);     // stamped 100 s ago: rejected
   send(5, io::wall_us(), sys_.q0, v);                    // out of order: dropped
   // the three counted before the next state
   ASSERT_TRUE(sink.wait_stats([](const io::StatsFrame& st) { return st.received >= 33; })) << slurp(d->err);
@@ -419,7 +416,7 @@ TEST_F(DaemonProcess, UdpmEstimateOnArrivalOneOutputPerStateEqualOffline) {
     else EXPECT_EQ(per_seq[seq], 1) << "outputs carrying seq " << seq;
   }
   EXPECT_GE(none, 1);     // before the first state (the test waited for one output before sending)
-  EXPECT_EQ(expired, 0);  // a state held for kLongWatchdog
+  EXPECT_EQ(expired, 0);  // a state held 60 s
   // the default watchdog (100 ms) expires a state: the error status follows at the rate (5 of them)
   {
     std::lock_guard<std::mutex> lk(sink.mu);
@@ -445,7 +442,7 @@ TEST_F(DaemonProcess, UdpmEstimateOnArrivalOneOutputPerStateEqualOffline) {
 // state sent in lock-step gets exactly one output carrying its seq, equal to the offline
 // evaluation, and SIGTERM still stops the polling loop.
 TEST_F(DaemonProcess, UdpmEstimateOnArrivalBusyPollingOneOutputPerStateEqualOffline) {
-  const TempConfig cfg("busy_poll.yaml", std::string(kLongWatchdog) +
+  const TempConfig cfg("busy_poll.yaml", std::string(kPatientInputs) +
                                              "rate_hz: 200\nmode: estimate\ntrigger: arrival\nrealtime: {busy_poll: true}\n");
   OutputSink sink;
   listen(sink);
@@ -504,7 +501,7 @@ TEST_F(DaemonProcess, UdpmEstimateReceivingInTheLoopEqualsTheReceiveProcess) {
   constexpr int kStates = 20;
   std::vector<io::DecodedOutput> outs;  // both runs'
   for (const int in_loop : {0, 1}) {
-    const TempConfig cfg("in_loop.yaml", std::string(kLongWatchdog) +
+    const TempConfig cfg("in_loop.yaml", std::string(kPatientInputs) +
                                              "rate_hz: 200\nmode: estimate\ntrigger: arrival\nlcm_url_in: \"" + url_in +
                                              "\"\nrealtime: {receive_in_loop: " + (in_loop ? "true" : "false") + "}\n");
     auto d = start_daemon({"--config", cfg.path()}, in_loop ? "in_loop" : "ring");
@@ -957,9 +954,9 @@ TEST_F(DaemonProcess, CommandLargerThanADatagramIsReassembledAndApplied) {
   // do not reach the receive process
   const std::string url_in = private_udpm_url(2, "239.255.76.98");
   // each output is over 200 kB (UDP fragments a loaded reader may drop): 20 Hz, and the command
-  // held for 3 s (watchdog), so many outputs carry it and one reaching the sink is enough
-  const TempConfig cfg("long_name_cfg.yaml",
-                       "rate_hz: 20\nwatchdog_ms: 3000\nlcm_url_in: \"" + url_in + "\"\nreceive:\n  max_message_bytes: 200000\n");
+  // held (kPatientInputs), so many outputs carry it and one reaching the sink is enough
+  const TempConfig cfg("long_name_cfg.yaml", std::string(kPatientInputs) + "rate_hz: 20\nlcm_url_in: \"" + url_in +
+                                                 "\"\nreceive:\n  max_message_bytes: 200000\n");
   OutputSink sink;
   listen(sink);
   auto in = try_bus(url_in);
@@ -1014,7 +1011,8 @@ TEST_F(DaemonProcess, SigintToTheProcessGroupIsNoReceiverRestart) {
 TEST_F(DaemonProcess, ReceiveProcessIsRestartedWhenKilled) {
   OutputSink sink;
   listen(sink);
-  auto d = start_daemon({}, "killed_rx");
+  const TempConfig cfg("killed_rx.yaml", kPatientInputs);  // the commands after the restarts all taken
+  auto d = start_daemon({"--config", cfg.path()}, "killed_rx");
   // the receive process that subscribed first, or after restart n: its pid, from the daemon's log
   auto rx_pid = [&](int restart) -> pid_t {
     const std::regex line(restart == 0 ? std::string(R"(receive process (\d+) subscribed to )")

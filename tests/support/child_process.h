@@ -125,6 +125,12 @@ inline bool log_says(const Child& c, const std::string& what, std::chrono::milli
 // daemon stop on its own first; it only ends a daemon that a crashed test left behind.
 inline const std::string kDaemonDuration = "600";
 
+// Config lines for the tests that count what the daemon accepted and evaluated: a watchdog and a
+// max input age longer than a loaded machine may hold an input on its way (sent, received,
+// evaluated). With the defaults (100 ms, 1 s) an input held longer is evaluated as expired, or
+// rejected as stale: the daemon's right answer, which those counts do not expect.
+inline const char* const kPatientInputs = "watchdog_ms: 60000\nmax_input_age_ms: 60000\n";
+
 // coopdynd logs this once its receive process has subscribed (it stops, exit 1, if it does not within
 // 10 s) and its loop runs: inputs sent after it are received.
 inline const char* const kDaemonRunning = "running; SIGINT or SIGTERM stops";
