@@ -41,10 +41,11 @@ namespace coopdyn::runtime {
 
 struct InputCounters {
   std::atomic<int64_t> received{0}, accepted{0}, rejected{0}, out_of_order{0};
-  // seqs skipped between consecutive accepted messages (seq above the last accepted + 1): the valid
-  // messages of a sender that numbers 1, 2, 3, ... that never arrived, wherever they were lost
-  // (socket buffer, receive process, ring). A sender that numbers otherwise, or jumps, adds to it
-  // too (at most 2^40 per jump).
+  // seqs that never reached the checks: skipped between consecutive messages whose seq was read (the
+  // accepted ones, and those rejected for their utime alone, stale or future, which arrived and are
+  // counted there): the valid messages of a sender that numbers 1, 2, 3, ... that never arrived,
+  // wherever they were lost (socket buffer, receive process, ring), each counted once. A sender
+  // that numbers otherwise, or jumps, adds to it too (at most 2^40 per jump).
   std::atomic<int64_t> missed{0};
   std::atomic<int64_t> by_reason[io::kRejectKinds] = {};
 };
@@ -71,6 +72,7 @@ class Inbox {
     Slot& s = buffer_.write_slot();
     io::Reject r = authenticate(data, len);
     if (r == io::Reject::kNone) r = decoder_.decode(data, len, s);
+    const bool decoded = r == io::Reject::kNone;  // s.seq is the sender's, whatever its utime
     if (r == io::Reject::kNone && max_age_us_ > 0) {
       if (s.utime <= 0) {
         r = io::Reject::kStale;  // never stamped (0, -1): checked first, so the difference cannot overflow
@@ -82,6 +84,7 @@ class Inbox {
     }
     if (why) *why = r;
     if (r != io::Reject::kNone) {
+      if (decoded) note_seq(s.seq);  // late or early, it arrived: no gap for it
       counters_.rejected.fetch_add(1, std::memory_order_relaxed);
       counters_.by_reason[static_cast<int>(r)].fetch_add(1, std::memory_order_relaxed);
       return Offer::kRejected;
@@ -90,10 +93,8 @@ class Inbox {
       counters_.out_of_order.fetch_add(1, std::memory_order_relaxed);
       return Offer::kOutOfOrder;
     }
-    if (have_last_ && s.seq > last_seq_) {  // unsigned: the difference of any two int64 fits
-      const uint64_t gap = static_cast<uint64_t>(s.seq) - static_cast<uint64_t>(last_seq_) - 1;
-      if (gap > 0) counters_.missed.fetch_add(static_cast<int64_t>(gap < (1ULL << 40) ? gap : (1ULL << 40)), std::memory_order_relaxed);
-    }
+    note_seq(s.seq);
+    last_seen_seq_ = s.seq;  // a restarted sender (a lower seq let through) is followed from here
     if (verifier_) last_auth_utime_ = s.utime;
     s.recv_ns = recv_ns;
     s.id = ++last_id_;
@@ -117,6 +118,15 @@ class Inbox {
   void require_auth(const io::Verifier* v) { verifier_ = v; }
 
  private:
+  // A message with this seq reached the checks: the seqs skipped since the newest one read are missed.
+  void note_seq(int64_t seq) {
+    if (have_seen_ && seq > last_seen_seq_) {  // unsigned: the difference of any two int64 fits
+      const uint64_t gap = static_cast<uint64_t>(seq) - static_cast<uint64_t>(last_seen_seq_) - 1;
+      if (gap > 0) counters_.missed.fetch_add(static_cast<int64_t>(gap < (1ULL << 40) ? gap : (1ULL << 40)), std::memory_order_relaxed);
+    }
+    if (!have_seen_ || seq > last_seen_seq_) last_seen_seq_ = seq;
+    have_seen_ = true;
+  }
   // the MAC and the replay rule (authentication on), before anything is decoded
   io::Reject authenticate(const void* data, int len) const {
     if (!verifier_) return io::Reject::kNone;
@@ -134,6 +144,8 @@ class Inbox {
   int64_t last_auth_utime_ = std::numeric_limits<int64_t>::min();  // utime of the last accepted input (authentication on)
   bool have_last_ = false;
   int64_t last_seq_ = 0;
+  bool have_seen_ = false;    // a seq was read (note_seq)
+  int64_t last_seen_seq_ = 0;  // the newest seq read, or the last accepted after a restart
   int64_t last_id_ = 0;
   // written by the loop, read by the receive thread: id of the last slot the loop declared expired
   std::atomic<int64_t> expired_id_{-1};

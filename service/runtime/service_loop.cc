@@ -583,7 +583,7 @@ void ServiceLoop::run_on_arrival(const std::atomic<bool>& stop, long long max_ti
     const long long beat = fresh(now) ? states_.latest().recv_ns + watchdog_ns_ + 1 : next_beat;
     const long long deadline = next_stats < beat ? next_stats : beat;
     bool stopped = false;
-    const bool rung = wait_for_arrival(seen, deadline, stop, &stopped);
+    wait_for_arrival(seen, deadline, stop, &stopped);
     if (stopped) break;
     seen = bell_value();
     const long long wake = io::monotonic_ns();
@@ -592,14 +592,16 @@ void ServiceLoop::run_on_arrival(const std::atomic<bool>& stop, long long max_ti
     // offered here, on the loop's thread, at every wake-up: a state the source rang in while the loop
     // was not waiting (a heartbeat's tick) is in the inbox before `seen` is taken as handled
     if (source_) source_->drain();
-    if (rung) {
-      // one output per state taken: a ring whose state an earlier tick already took computes nothing
-      if (states_.update()) {
-        have_state_ = true;
-        late = wake - states_.latest().recv_ns;
-        tick(wake);
-        ticked = true;
-      }
+    // a new state in the inbox is evaluated now, whether the bell woke the loop or a deadline did: a
+    // state handed over and rung after the wait timed out but before `seen` was read is in the inbox
+    // with its ring already in `seen`, and waiting for the bell again would leave it unevaluated
+    // until it expired. One output per state taken: a ring whose state an earlier tick already took
+    // computes nothing.
+    if (states_.update()) {
+      have_state_ = true;
+      late = wake - states_.latest().recv_ns;
+      tick(wake);
+      ticked = true;
     } else if (wake >= beat && !fresh(wake)) {  // no state yet, or the held one just expired
       late = wake - beat;
       tick(wake);

@@ -267,7 +267,7 @@ TEST(AuthRoundTrip, MemqForgedUnsignedReplayedRejectedSignedApplied) {
   send(forged_resume, "COOPDYN_CONTROL");
   io::StatsFrame s;
   const bool counted = sink.wait_stats(
-      [](const io::StatsFrame& x) { return x.received >= 7 && x.controls_received >= 4; }, 5s, &s);
+      [](const io::StatsFrame& x) { return x.received >= 7 && x.controls_received >= 4; }, kEventLimit, &s);
   // a tick after the one that counted them has taken (or refused) every control
   EXPECT_TRUE(counted && sink.wait_output([&](const io::DecodedOutput& o) { return o.tick > s.tick + 1; }, kEventLimit));
   stop = true;
@@ -346,7 +346,8 @@ TEST(AuthDaemon, UdpmSignedClientsAppliedUnsignedRejected) {
   Sink sink;
   sink.attach(*bus);
   bus->start();
-  Child d({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", config, "--lcm-url", url, "--duration", "20"},
+  Child d({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", config, "--lcm-url", url, "--duration",
+           kDaemonDuration},
           "auth_daemon");
   ASSERT_TRUE(sink.wait_output([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d.err);
   auto send = [&](bool with_key, const std::string& name, const char* seq) {
@@ -391,7 +392,8 @@ TEST(AuthDaemon, UdpmSignedClientsAppliedUnsignedRejected) {
   // the unsigned control, rejected by the receive process before its ring, is in loop_stats_t
   io::StatsFrame st;
   EXPECT_TRUE(sink.wait_stats(
-      [](const io::StatsFrame& x) { return x.controls_unauthenticated == 1 && x.controls_accepted == 1; }, 5s, &st))
+      [](const io::StatsFrame& x) { return x.controls_unauthenticated == 1 && x.controls_accepted == 1; }, kEventLimit,
+      &st))
       << "the unsigned control is not counted in loop_stats_t";
   EXPECT_EQ(st.controls_received, 2);
   EXPECT_EQ(st.controls_rejected, 1);

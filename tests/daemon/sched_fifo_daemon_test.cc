@@ -77,12 +77,6 @@ Policy policy_of(pid_t tid) {
   return p;
 }
 
-std::string config_file(const std::string& name, const std::string& yaml) {
-  const std::string path = tmp_path(name);
-  std::ofstream(path) << yaml;
-  return path;
-}
-
 // What the tests need of the kernel, probed: SCHED_FIFO at the daemon's priority (80) granted to a
 // throwaway thread, and real-time threads given CPU time. "" if so, else why not (root without
 // CAP_SYS_NICE, an RLIMIT_RTPRIO below 80, a container without a real-time budget all refuse it).
@@ -109,18 +103,18 @@ struct Running {
   std::string log, summary;
 };
 void run_daemon(const std::string& yaml, Running* r) {
-  const std::string cfg = config_file("fifo.yaml", yaml);
-  Child d({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", cfg, "--lcm-url", private_udpm_url(8),
-           "--duration", "30"},
+  const TempConfig cfg("fifo.yaml", yaml);
+  Child d({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", cfg.path(), "--lcm-url",
+           private_udpm_url(8), "--duration", kDaemonDuration},
           "fifo");
-  ASSERT_TRUE(log_says(d, kDaemonRunning, 30s)) << slurp(d.err);
+  ASSERT_TRUE(log_says(d, kDaemonRunning, kEventLimit)) << slurp(d.err);
   // each thread names itself as it starts: wait until all are there
   std::vector<pid_t> loop, rx, kids;
-  for (int i = 0; i < 1000 && (loop.size() != 1 || rx.size() != 1 || kids.size() != 1); ++i) {
-    if (i > 0) std::this_thread::sleep_for(10ms);
+  wait_until([&] {
     loop = threads_named(d.pid, "coopdynd-loop"), rx = threads_named(d.pid, "coopdynd-rx");
     kids = children_of(d.pid);
-  }
+    return loop.size() == 1 && rx.size() == 1 && kids.size() == 1;
+  }, kEventLimit, 10ms);
   ASSERT_EQ(loop.size(), 1u) << "one thread named coopdynd-loop";
   ASSERT_EQ(rx.size(), 1u) << "one thread named coopdynd-rx";
   ASSERT_EQ(kids.size(), 1u) << "one receive process";
@@ -131,7 +125,6 @@ void run_daemon(const std::string& yaml, Running* r) {
   ASSERT_EQ(d.wait(), 0) << slurp(d.err);
   r->log = slurp(d.err);
   r->summary = slurp(d.out);
-  std::remove(cfg.c_str());
 }
 
 // A config and the policy (and priority, where FIFO) the kernel must report for the loop thread,
@@ -190,11 +183,11 @@ TEST_F(DaemonSchedFifo, AutoStepsALoopTooHeavyForItsPeriodDownToSchedOther) {
   if (tick_ns < 2e9 / rate_hz)
     GTEST_SKIP() << "a tiago_pro_box tick takes " << tick_ns / 1000.0 << " us here, less than twice the shortest period "
                  << "the daemon accepts (rate_hz " << runtime::kMaxRateHz << "): no period makes it too heavy";
-  const std::string cfg = config_file("heavy.yaml", "rate_hz: " + std::to_string(rate_hz) + "\nstats_period_s: 0.1\n");
-  Child d({COOPDYND_PATH, "--scene", scene_path("tiago_pro_box"), "--config", cfg, "--lcm-url", private_udpm_url(9),
-           "--duration", "60"},
+  const TempConfig cfg("heavy.yaml", "rate_hz: " + std::to_string(rate_hz) + "\nstats_period_s: 0.1\n");
+  Child d({COOPDYND_PATH, "--scene", scene_path("tiago_pro_box"), "--config", cfg.path(), "--lcm-url",
+           private_udpm_url(9), "--duration", kDaemonDuration},
           "heavy");
-  ASSERT_TRUE(log_says(d, "the loop stepped down from SCHED_FIFO to SCHED_OTHER", 60s))
+  ASSERT_TRUE(log_says(d, "the loop stepped down from SCHED_FIFO to SCHED_OTHER", kEventLimit))
       << "a tick of " << tick_ns / 1000.0 << " us at rate_hz " << rate_hz << ":\n" << slurp(d.err);
   const auto loop = threads_named(d.pid, "coopdynd-loop");
   ASSERT_EQ(loop.size(), 1u);
@@ -204,5 +197,4 @@ TEST_F(DaemonSchedFifo, AutoStepsALoopTooHeavyForItsPeriodDownToSchedOther) {
   const std::string log = slurp(d.err), summary = slurp(d.out);
   EXPECT_NE(log.find("loop thread runs SCHED_FIFO priority 80"), std::string::npos) << "it had the priority first: " << log;
   EXPECT_NE(summary.find("SCHED_FIFO stepped down: loop 1, receive 0"), std::string::npos) << summary;
-  std::remove(cfg.c_str());
 }

@@ -615,9 +615,12 @@ void run_on_arrival_from_the_ring_without_allocation(bool busy_poll) {
     else b = io::encode_measured_state(runtime::realtime_us(), k, {}, stdvec(sys.q0), {}, stdvec(sys.v0), stdvec(sys.v0));
     valid += k % 4 == 1 || k % 4 == 0;
     out->publish(k % 4 == 3 ? cfg.control_channel.c_str() : cfg.state_channel.c_str(), b.data(), static_cast<int>(b.size()));
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    // the next one once the loop has taken this one (a loaded machine may hold either thread longer
+    // than the ring's 64 slots last at a fixed pace)
+    coopdyn::testing::wait_until([&] {
+      return loop.states().counters().received.load() + loop.controls().counters().received.load() >= k;
+    }, coopdyn::testing::kEventLimit, std::chrono::milliseconds(1));
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(60));
   stop = true;
   loop_thread.join();
   rx.stop();

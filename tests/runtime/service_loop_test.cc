@@ -6,6 +6,7 @@
 #include <time.h>
 
 #include <algorithm>
+#include <atomic>
 #include <fstream>
 #include <sstream>
 #include <thread>
@@ -14,6 +15,7 @@
 #include "service/io/lcm_bus.h"
 #include "service/runtime/service_loop.h"
 #include "tests/support/daemon_test_util.h"
+#include "tests/support/wait.h"
 
 using namespace coopdyn;
 using namespace coopdyn::daemon_test;
@@ -507,6 +509,108 @@ TEST(ServiceLoop, StaleOrFutureUtimeRejectedAndCountedByReason) {
   EXPECT_EQ(why, io::Reject::kStale);
   e.loop->tick(kMs);
   EXPECT_EQ(e.bus.last_output().reason, io::kReasonNoState);
+}
+
+// Each valid command of a sender numbering 1, 2, 3, ... that is not applied is counted once, where
+// it went: one that never arrived as a seq gap (commands_missed), one that arrived too late or too
+// early as a rejection for its utime (stale_utime, future_utime), not as a gap too.
+TEST(ServiceLoop, EveryCommandNotAppliedIsCountedOnceAsMissedOrByItsUtime) {
+  Rig r("two_puma_load");
+  r.loop->commands().set_wall_clock(&fake_wall_us);
+  g_fake_wall_us = 1'800'000'000'000'000;
+  const Eigen::VectorXd tau = some_torque(r.sys, 8);
+  auto at = [&](int64_t utime, int64_t seq) { return io::encode_torque_command(utime, seq, {}, stdvec(tau)); };
+  const int64_t fresh = g_fake_wall_us, late = g_fake_wall_us - 2'000'000, early = g_fake_wall_us + 2'000'000;
+  // seqs 1..10 sent; 2, 6 and 9 lost on the way, 3 and 4 late, 7 early, 10 late and the last
+  EXPECT_EQ(r.send(at(fresh, 1), 0), Offer::kAccepted);
+  EXPECT_EQ(r.send(at(late, 3), kMs), Offer::kRejected);
+  EXPECT_EQ(r.send(at(late, 4), kMs), Offer::kRejected);
+  EXPECT_EQ(r.send(at(fresh, 5), kMs), Offer::kAccepted);
+  EXPECT_EQ(r.send(at(early, 7), kMs), Offer::kRejected);
+  EXPECT_EQ(r.send(at(fresh, 8), kMs), Offer::kAccepted);
+  EXPECT_EQ(r.send(at(late, 10), kMs), Offer::kRejected);
+  const auto& n = r.loop->input_counters();
+  EXPECT_EQ(n.missed.load(), 3) << "seqs 2, 6 and 9";
+  EXPECT_EQ(n.by_reason[static_cast<int>(io::Reject::kStale)].load(), 3) << "seqs 3, 4 and 10";
+  EXPECT_EQ(n.by_reason[static_cast<int>(io::Reject::kFuture)].load(), 1) << "seq 7";
+  EXPECT_EQ(n.accepted.load() + n.missed.load() + n.rejected.load(), 10) << "each of the 10 seqs counted once";
+  // a late duplicate of an accepted seq is no gap either
+  EXPECT_EQ(r.send(at(late, 5), kMs), Offer::kRejected);
+  EXPECT_EQ(r.send(at(fresh, 11), kMs), Offer::kAccepted);
+  EXPECT_EQ(n.missed.load(), 3);
+}
+
+namespace {
+// An arrival source (runtime/arrival_source.h) that hands a state over the way a receive process can
+// on a loaded machine: after the loop's wait has timed out at a deadline (the stats) and before the
+// loop reads the bell again to mark what it has handled (the second bell() after wait() returned),
+// the state goes into the "ring" and the bell moves. hand_over() does it the ordinary way, at once.
+struct RacingSource : runtime::ArrivalSource {
+  runtime::ServiceLoop& loop;
+  std::vector<uint8_t> pending;                // the state to hand over (set before hand_over / arm)
+  mutable std::atomic<uint32_t> count{0};      // the bell
+  mutable std::atomic<bool> queued{false};     // pending is in the "ring"
+  std::atomic<bool> armed{false};              // the next deadline wake-up races
+  mutable int bells_since_wait = -1;           // loop thread only
+  explicit RacingSource(runtime::ServiceLoop& l) : loop(l) {}
+  uint32_t bell() const override {
+    if (bells_since_wait >= 0 && ++bells_since_wait == 2) {
+      bells_since_wait = -1;
+      queued = true;
+      count.fetch_add(1);
+    }
+    return count.load();
+  }
+  void wait(uint32_t seen, long long deadline_ns) override {
+    while (count.load() == seen && io::monotonic_ns() < deadline_ns) std::this_thread::sleep_for(std::chrono::microseconds(100));
+    if (count.load() == seen && armed.exchange(false)) bells_since_wait = 0;
+  }
+  void drain() override {
+    if (queued.exchange(false)) loop.states().offer(pending.data(), static_cast<int>(pending.size()), io::monotonic_ns());
+  }
+  void hand_over() {
+    queued = true;
+    count.fetch_add(1);
+  }
+};
+}  // namespace
+
+// Event-driven estimate mode (trigger: arrival): a state handed over and rung between the wait's
+// timeout and the loop's next read of the bell is evaluated at that wake-up (before, its ring was
+// taken as handled with the state left in the inbox: no output for it until it expired, the
+// expiry's error status carrying its seq; seen under load in the daemon tests on arrival).
+TEST(ServiceLoop, OnArrivalAStateRungAsTheWaitTimesOutIsEvaluated) {
+  const System sys = load_scene(scene_path("two_puma_load"));
+  ServiceConfig cfg;
+  cfg.mode = runtime::ServiceMode::kEstimate;
+  cfg.trigger = runtime::Trigger::kArrival;
+  // the held state stays fresh for 10 min: the wake-up after it is the next state's or a deadline's,
+  // so an output for that state within kEventLimit is its evaluation at its arrival (before, it came
+  // with the held state's expiry, at 10 min)
+  cfg.watchdog_ms = 600000;
+  cfg.stats_period_s = 0.005;  // a deadline every 5 ms: the wait times out there
+  SharedFakeBus bus;
+  ServiceLoop loop(sys, cfg, bus);
+  RacingSource source(loop);
+  loop.take_arrivals_from(&source);
+  auto state = [&](int64_t seq) {
+    return io::encode_measured_state(runtime::realtime_us(), seq, {}, stdvec(sys.q0), {}, stdvec(sys.v0), stdvec(sys.v0));
+  };
+  std::atomic<bool> stop{false};
+  std::thread th([&] { loop.run(stop); });
+  source.pending = state(1);
+  source.hand_over();
+  const bool first = coopdyn::testing::wait_until([&] { return bus.last_input_seq() == 1; });
+  source.pending = state(2);
+  source.armed = true;
+  const bool second = first && coopdyn::testing::wait_until([&] { return bus.last_input_seq() == 2; });
+  stop = true;
+  th.join();
+  ASSERT_TRUE(first) << "the state handed over at once was not evaluated";
+  ASSERT_TRUE(second) << "no output for the state rung as the wait timed out";
+  EXPECT_EQ(bus.last_output().input, static_cast<int>(io::Input::kState)) << "its output is its evaluation, not its expiry";
+  EXPECT_EQ(loop.expirations(), 0);
+  EXPECT_EQ(loop.states().counters().accepted.load(), 2);
 }
 
 // The expiry is decided once, by the loop, and the sequence rule follows that decision: under a

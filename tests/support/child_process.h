@@ -1,5 +1,5 @@
 // Child processes of the tests: one with its output in files, a command run to its end, temporary
-// paths, an LCM bus that may be unavailable (no multicast route).
+// paths and files, an LCM bus that may be unavailable (no multicast route).
 #pragma once
 
 #include <fcntl.h>
@@ -10,6 +10,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <fstream>
 #include <functional>
 #include <memory>
 #include <string>
@@ -40,6 +41,20 @@ inline std::string tmp_path(const std::string& what) {
          std::to_string(getpid()) + "_" + what;
 }
 
+// A file a test writes for a child process to read (a config, a scene): tmp_path(name) holding
+// `text`, removed when it goes out of scope, however the test ends (an ASSERT returns early too).
+class TempConfig {
+ public:
+  TempConfig(const std::string& name, const std::string& text) : path_(tmp_path(name)) { std::ofstream(path_) << text; }
+  ~TempConfig() { std::remove(path_.c_str()); }
+  TempConfig(const TempConfig&) = delete;
+  TempConfig& operator=(const TempConfig&) = delete;
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
 // Starts argv (argv[0] a path) with the descriptors set_fds arranges; its pid, or -1.
 inline pid_t spawn(const std::vector<std::string>& argv, const std::function<void(posix_spawn_file_actions_t*)>& set_fds) {
   posix_spawn_file_actions_t fa;
@@ -64,8 +79,9 @@ struct Child {
       posix_spawn_file_actions_addopen(fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     });
   }
-  // exit code, or -signal; waits at most `limit` and then kills
-  int wait(std::chrono::milliseconds limit = 20s) {
+  // exit code, or -signal; waits at most `limit` (a bound that only turns a hang into a failure)
+  // and then kills
+  int wait(std::chrono::milliseconds limit = kEventLimit) {
     const auto end = std::chrono::steady_clock::now() + limit;
     int st = 0;
     while (true) {
@@ -103,6 +119,17 @@ inline bool log_says(const Child& c, const std::string& what, std::chrono::milli
   }
   return false;
 }
+
+// --duration of a daemon the test stops itself (SIGTERM or SIGINT once it has what it waits for):
+// longer than the waits of a test (each up to kEventLimit), so that a loaded machine never sees the
+// daemon stop on its own first; it only ends a daemon that a crashed test left behind.
+inline const std::string kDaemonDuration = "600";
+
+// Config lines for the tests that count what the daemon accepted and evaluated: a watchdog and a
+// max input age longer than a loaded machine may hold an input on its way (sent, received,
+// evaluated). With the defaults (100 ms, 1 s) an input held longer is evaluated as expired, or
+// rejected as stale: the daemon's right answer, which those counts do not expect.
+inline const char* const kPatientInputs = "watchdog_ms: 60000\nmax_input_age_ms: 60000\n";
 
 // coopdynd logs this once its receive process has subscribed (it stops, exit 1, if it does not within
 // 10 s) and its loop runs: inputs sent after it are received.
