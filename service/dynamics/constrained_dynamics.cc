@@ -114,6 +114,24 @@ void Workspace::ignore_joint_losses() {
   tau_loss.setZero();
 }
 
+namespace {
+// The nominal directions' reference (QBlocks::set_nominal_reference): the constraint rows at the
+// scene's initial configuration, in scratch kinematics (the workspace's own stay as they are). Where
+// that configuration is not valid or gives no finite rows, no reference is set: every evaluation
+// then takes its own reflections.
+void set_nominal_reference(const System& sys, Workspace& ws) {
+  if (!configuration_valid(sys.model, sys.q0)) return;
+  Data d(sys.model);
+  ConstraintData cd(sys.model, sys.constraints);
+  const Eigen::VectorXd v = Eigen::VectorXd::Zero(sys.model.nv());
+  forward_kinematics(sys.model, d, sys.q0, v);
+  constraint_rows(sys.model, d, sys.constraints, sys.q0, v, cd, PositionErrors::kSkip);
+  if (!cd.G.allFinite()) return;
+  if (ws.qb.has_nominal) ws.qb.set_nominal_reference(cd.G);
+  ws.qs.set_nominal_reference(cd.G);
+}
+}  // namespace
+
 Workspace::Workspace(const System& sys)
     : data(sys.model), cd(sys.model, sys.constraints), qs(sys.constraints.rows) {
   const int n = sys.model.nv(), m = sys.constraints.rows;
@@ -175,7 +193,10 @@ Workspace::Workspace(const System& sys)
                                     (qb.has_nominal ? kQBlocksMinGroupsNominal : kQBlocksMinGroups);
   }
   qs.plan_nominal(nominal_rows);
-  if (!nominal_rows.empty()) Qn.setZero(m, m);
+  if (!nominal_rows.empty()) {
+    Qn.setZero(m, m);
+    set_nominal_reference(sys, *this);
+  }
   // Eigen's default LLT leaves its info unset, which a copy of the workspace reads (UBSan: "invalid
   // value for type ComputationInfo"): every workspace computes it once, sized where it is used
   d4_llt.compute(Eigen::MatrixXd::Identity(0, 0));

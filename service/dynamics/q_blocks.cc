@@ -22,7 +22,6 @@ void size_nominal(QBlocks& qb, int nmax, int rows) {
     g.keep.setOnes(g.rows);
     g.hw.assign(g.nominal.size(), Vec6::Zero());
     g.Ad.setZero(g.rows, g.rows);
-    g.Kr.setZero(g.rows, QBlocks::kMaxCommon);
     g.Yt.setZero(pmax, QBlocks::kMaxGroupRows);
   }
   qb.S.setZero(pmax, pmax);
@@ -165,10 +164,8 @@ bool cholesky_lower(Mat& A, double* dinv, int n, double& dmax, double& dmin) {
 // One group of the block Cholesky (q_blocks.h) on r rows: A's lower triangle <- L_g of
 // A_g + B_g P B_g^T, W = L_g^-1 B_g P, P -= W^T W, dinv = 1 / diag(L_g); dmax, dmin the extreme
 // diagonals so far. False on a pivot that is not positive.
-// With kk (R x 6, as W), also K = L_g^-1 B_g there (the single factor with the nominal rows last).
 template <int R>
-bool factor_group(int r, double* a, const double* b, double* w, double* dinv, Mat6& P, double& dmax, double& dmin,
-                  double* kk = nullptr) {
+bool factor_group(int r, double* a, const double* b, double* w, double* dinv, Mat6& P, double& dmax, double& dmin) {
   Eigen::Map<MatR<R>> A(a, r, r);
   Eigen::Map<const MatR6<R>> B(b, r, 6);
   Eigen::Map<MatR6<R>> W(w, r, 6);
@@ -181,36 +178,21 @@ bool factor_group(int r, double* a, const double* b, double* w, double* dinv, Ma
     for (int k = 0; k < i; ++k) W.row(i) -= A(i, k) * W.row(k);
     W.row(i) *= dinv[i];
   }
-  if (kk) {  // K = L_g^-1 B the same way
-    Eigen::Map<MatR6<R>> K(kk, r, 6);
-    K = B;
-    for (int i = 0; i < r; ++i) {
-      for (int k = 0; k < i; ++k) K.row(i) -= A(i, k) * K.row(k);
-      K.row(i) *= dinv[i];
-    }
-  }
   P.noalias() -= W.transpose().lazyProduct(W);
   return true;
 }
 
-// The group's part of the reduced Q (q_blocks.h), as condition_without_nominal forms the dense one:
-// per nominal direction u = G's column of joint 1 in the weld's rows, either the one row u lies
-// along is dropped or H = I - w w^T (H u = -sign(u_0) |u| e_0) acts on the six rows, A <- H A H,
-// B <- H B, and the first is dropped; the kept rows are then written to Ar and Br, sized to them.
-// Also the dropped rows, for the single factor (q_blocks.h): their local indices, Ad = H A_g H (kept,
-// dropped), their rows of H B_g into Zt's rows d0.. and their block of H A_g H into S at (d0, d0).
-// The group's reflections for the constraint rows G (q_blocks.h): per nominal direction u = G's
-// column of joint 1 in the weld's rows, either the one row u lies along is dropped (w = 0) or
-// H = I - w w^T (H u = -sign(u_0) |u| e_0) and the weld's first row is dropped; keep, kept_idx,
-// drop_idx, red_rows and nd follow. Only G is read: QBlocks::prepare_nominal runs it before the L^-T
-// sweep of Y, where its chain of square roots and divisions overlaps that work.
-void reflections_group(QBlocks::Group& g, const Eigen::MatrixXd& G) {
+// The group's reflections for the nominal directions u (q_blocks.h; u[n] = G's column of joint 1 in the
+// weld's rows): per direction either the one row u lies along is dropped (w = 0) or H = I - w w^T
+// (H u = -sign(u_0) |u| e_0) and the weld's first row is dropped; keep, kept_idx, drop_idx, red_rows
+// and nd follow.
+void reflections_group(QBlocks::Group& g, const Vec6* u) {
   const int r = g.rows;
   g.keep.setOnes(r);
   for (size_t n = 0; n < g.nominal.size(); ++n) {
-    const auto [dof, o] = g.nominal[n];
+    const int o = g.nominal[n].second;
     Vec6& w = g.hw[n];
-    w = G.block<6, 1>(g.row0 + o, dof);
+    w = u[n];
     const double un = w.norm();
     int single = -1;
     for (int k = 0; k < 6; ++k)
@@ -234,6 +216,44 @@ void reflections_group(QBlocks::Group& g, const Eigen::MatrixXd& G) {
   g.nd = nd;
 }
 
+// Whether u is the reference direction ur to round-off (q_blocks.h, set_nominal_reference): the same
+// exact zeros (so the same rule: a reflection or the one row u lies along) and every entry within
+// kNominalRefTol |ur|_inf of ur's. u is the joint's motion in the weld frame: the same vector in every
+// configuration, computed with a configuration's round-off (about 1e-16 |u|).
+bool near_reference(const Vec6& u, const Vec6& ur) {
+  const double tol = QBlocks::kNominalRefTol * ur.cwiseAbs().maxCoeff();
+  bool same = tol > 0.0 && std::isfinite(tol);
+  for (int k = 0; k < 6; ++k) same = same && (u[k] == 0.0) == (ur[k] == 0.0) && std::abs(u[k] - ur[k]) <= tol;
+  return same;
+}
+
+// A group of one weld whose first row is the nominal direction's, reflected (the common case): the
+// same quantities, H A H formed as the rank-2 update A - w v^T - v w^T (t = A w, v = t - (w.t / 2) w)
+// and written straight to its places, H B = B - w (w^T B) likewise. Against the two one-sided
+// reflections of reduce_group, the same matrix to round-off with a shorter chain of dependent
+// products and no copy of A and B.
+void reduce_weld_reflected(QBlocks::Group& g, int d0, Eigen::MatrixXd& Zt, Eigen::MatrixXd& S) {
+  using Vec5 = Eigen::Matrix<double, 5, 1>;
+  const Eigen::Map<const Mat6> A(g.A.data()), B(g.B.data());  // 6 rows: leading dimension 6
+  const Vec6& w = g.hw[0];
+  const Vec6 t = A.lazyProduct(w);
+  const Vec6 v = t - (0.5 * w.dot(t)) * w;
+  const Vec5 w5 = w.tail<5>(), v5 = v.tail<5>();
+  const Eigen::Matrix<double, 1, 6> tb = w.transpose().lazyProduct(B);
+  g.d0 = d0;
+  g.Ar.resize(5, 5);  // within the fixed maximum: no allocation
+  g.Br.resize(5, 6);
+  g.Wr.resize(5, 6);
+  g.dinvr.resize(5);
+  g.Ad.resize(5, 1);
+  Eigen::Map<Eigen::Matrix<double, 5, 5>>{g.Ar.data()} =
+      A.bottomRightCorner<5, 5>() - w5.lazyProduct(v5.transpose()) - v5.lazyProduct(w5.transpose());
+  Eigen::Map<Vec5>{g.Ad.data()} = A.col(0).tail<5>() - w5 * v[0] - v5 * w[0];
+  S(d0, d0) = A(0, 0) - 2.0 * w[0] * v[0];
+  Eigen::Map<Eigen::Matrix<double, 5, 6>>{g.Br.data()} = B.bottomRows<5>() - w5.lazyProduct(tb);
+  Zt.row(d0) = B.row(0) - w[0] * tb;
+}
+
 // The group's part of the reduced Q (q_blocks.h), as condition_without_nominal forms the dense one,
 // with the reflections of reflections_group: A <- H A H, B <- H B on each reflected weld's six rows,
 // the kept rows written to Ar and Br, sized to them.
@@ -242,6 +262,9 @@ void reflections_group(QBlocks::Group& g, const Eigen::MatrixXd& G) {
 template <int R>
 void reduce_group(QBlocks::Group& g, int d0, Eigen::MatrixXd& Zt, Eigen::MatrixXd& S) {
   const int r = g.rows;
+  if (R == 6 && g.nominal.size() == 1 && g.nominal[0].second == 0 && g.nd == 1 && g.drop_idx[0] == 0 &&
+      !g.hw[0].isZero(0.0))
+    return reduce_weld_reflected(g, d0, Zt, S);
   MatR<R> A = Eigen::Map<const MatR<R>>(g.A.data(), r, r);  // both triangles (assemble)
   MatR6<R> B = Eigen::Map<const MatR6<R>>(g.B.data(), r, 6);
   for (size_t n = 0; n < g.nominal.size(); ++n) {
@@ -262,7 +285,6 @@ void reduce_group(QBlocks::Group& g, int d0, Eigen::MatrixXd& Zt, Eigen::MatrixX
   g.Ar.resize(k, k);  // within the fixed maximum: no allocation
   g.Br.resize(k, 6);
   g.Wr.resize(k, 6);
-  g.Kr.resize(k, 6);
   g.dinvr.resize(k);
   g.Ad.resize(k, nd);
   if (R == 6 && nd == 1 && g.drop_idx[0] == 0) {  // a weld with its first row dropped: blocks, not indices
@@ -286,13 +308,12 @@ void reduce_group(QBlocks::Group& g, int d0, Eigen::MatrixXd& Zt, Eigen::MatrixX
   }
 }
 
-bool factor_any(int r, double* a, const double* b, double* w, double* dinv, Mat6& P, double& dmax, double& dmin,
-                double* kk = nullptr) {
+bool factor_any(int r, double* a, const double* b, double* w, double* dinv, Mat6& P, double& dmax, double& dmin) {
   switch (r) {
-    case 6: return factor_group<6>(r, a, b, w, dinv, P, dmax, dmin, kk);
-    case 5: return factor_group<5>(r, a, b, w, dinv, P, dmax, dmin, kk);
-    case 3: return factor_group<3>(r, a, b, w, dinv, P, dmax, dmin, kk);
-    default: return factor_group<Eigen::Dynamic>(r, a, b, w, dinv, P, dmax, dmin, kk);
+    case 6: return factor_group<6>(r, a, b, w, dinv, P, dmax, dmin);
+    case 5: return factor_group<5>(r, a, b, w, dinv, P, dmax, dmin);
+    case 3: return factor_group<3>(r, a, b, w, dinv, P, dmax, dmin);
+    default: return factor_group<Eigen::Dynamic>(r, a, b, w, dinv, P, dmax, dmin);
   }
 }
 
@@ -344,29 +365,44 @@ bool QBlocks::factor(const SolverOptions& opt, const Eigen::MatrixXd& G, double*
 
 namespace {
 
-// The group's columns of L_dr (q_blocks.h), after its reduced factor: Ad <- L_g^-1 Ad,
-// Y_g = K_g Z + Ad in the group's own columns (stored as Yt = Y_g^T, N x red_rows), Z <- Z - W_g^T Y_g,
-// and S <- S - Y_g^T Y_g, over the first np rows of Zt, Yt and S (np >= N: the rows beyond N are zero
-// in Zt, so in Yt, and S's are not read). R: the reduced rows, NP: np, each fixed or Eigen::Dynamic.
+// The group's columns of L_dr (q_blocks.h), after its reduced factor: Y_g = L_g^-1 (Br_g Z + Ad E_g) (the
+// forward solve of the group's rows of Q_rd: K_g Z + (L_g^-1 Ad) E_g without forming K_g = L_g^-1 Br_g),
+// stored as Yt = Y_g^T (N x red_rows, a reduced row's N entries contiguous: the L_g^-1 steps are
+// N-wide), then Z <- Z - W_g^T Y_g and S <- S - Y_g^T Y_g, over the first np rows of Zt, Yt and S (np >=
+// N: the rows beyond N are zero in Zt, so in Yt, and S's are not read). R: the reduced rows, NP: np,
+// each fixed or Eigen::Dynamic.
 template <int R, int NP>
 void nominal_columns(QBlocks::Group& g, int np, Eigen::MatrixXd& Zt, Eigen::MatrixXd& S) {
   const int r = g.red_rows;
-  for (int c = 0; c < g.nd; ++c)
-    for (int i = 0; i < r; ++i) {
-      double s = g.Ad(i, c);
-      for (int k = 0; k < i; ++k) s -= g.Ar(i, k) * g.Ad(k, c);
-      g.Ad(i, c) = s * g.dinvr[i];
-    }
   using Stride = Eigen::OuterStride<>;
   Eigen::Map<Eigen::Matrix<double, NP, R>, 0, Stride> Y(g.Yt.data(), np, r, Stride(g.Yt.outerStride()));
   Eigen::Map<Eigen::Matrix<double, NP, 6>, 0, Stride> Z(Zt.data(), np, 6, Stride(Zt.outerStride()));
   Eigen::Map<Eigen::Matrix<double, NP, NP>, 0, Stride> Sm(S.data(), np, np, Stride(S.outerStride()));
-  Eigen::Map<const MatR6<R>> K(g.Kr.data(), r, 6), W(g.Wr.data(), r, 6);
-  Y.noalias() = Z.lazyProduct(K.transpose());
+  Eigen::Map<const MatR<R>> L(g.Ar.data(), r, r);
+  Eigen::Map<const MatR6<R>> B(g.Br.data(), r, 6), W(g.Wr.data(), r, 6);
+  Y.noalias() = Z.lazyProduct(B.transpose());
   for (int c = 0; c < g.nd; ++c)
     for (int i = 0; i < r; ++i) Y(g.d0 + c, i) += g.Ad(i, c);
+  for (int i = 0; i < r; ++i) {
+    for (int k = 0; k < i; ++k) Y.col(i) -= L(i, k) * Y.col(k);
+    Y.col(i) *= g.dinvr[i];
+  }
   Z.noalias() -= Y.lazyProduct(W);
   Sm.noalias() -= Y.lazyProduct(Y.transpose());
+}
+
+// S += Zt Zt^T over the first np rows (np: 4, 8 fixed, else dynamic)
+template <int NP>
+void add_outer_n(int np, const Eigen::MatrixXd& Zt, Eigen::MatrixXd& S) {
+  using Stride = Eigen::OuterStride<>;
+  Eigen::Map<const Eigen::Matrix<double, NP, 6>, 0, Stride> Z(Zt.data(), np, 6, Stride(Zt.outerStride()));
+  Eigen::Map<Eigen::Matrix<double, NP, NP>, 0, Stride> Sm(S.data(), np, np, Stride(S.outerStride()));
+  Sm.noalias() += Z.lazyProduct(Z.transpose());
+}
+void add_outer(int np, const Eigen::MatrixXd& Zt, Eigen::MatrixXd& S) {
+  if (np == 4) return add_outer_n<4>(np, Zt, S);
+  if (np == 8) return add_outer_n<8>(np, Zt, S);
+  add_outer_n<Eigen::Dynamic>(np, Zt, S);
 }
 
 void nominal_columns_any(QBlocks::Group& g, int np, Eigen::MatrixXd& Zt, Eigen::MatrixXd& S) {
@@ -418,8 +454,33 @@ void nominal_backward(const QBlocks::Group& g, int np, double* y, Vec6& t, const
 
 }  // namespace
 
+namespace {
+// a group of one weld whose first row is the one dropped (reflected or not): its rows as blocks
+bool weld_first_dropped(const QBlocks::Group& g) { return g.rows == 6 && g.nd == 1 && g.drop_idx[0] == 0; }
+}  // namespace
+
+void QBlocks::set_nominal_reference(const Eigen::MatrixXd& G) {
+  for (Group& g : groups) {
+    g.u_ref.resize(g.nominal.size());
+    for (size_t n = 0; n < g.nominal.size(); ++n) g.u_ref[n] = G.block<6, 1>(g.row0 + g.nominal[n].second, g.nominal[n].first);
+    reflections_group(g, g.u_ref.data());
+    g.at_ref = true;
+  }
+}
+
 void QBlocks::prepare_nominal(const Eigen::MatrixXd& G) {
-  for (Group& g : groups) reflections_group(g, G);
+  for (Group& g : groups) {
+    const size_t nn = g.nominal.size();
+    Vec6 u[kMaxGroupRows / 6];
+    bool ref = g.u_ref.size() == nn;
+    for (size_t n = 0; n < nn; ++n) {
+      u[n] = G.block<6, 1>(g.row0 + g.nominal[n].second, g.nominal[n].first);
+      ref = ref && near_reference(u[n], g.u_ref[n]);
+    }
+    if (ref && g.at_ref) continue;  // the reference's reflections stand
+    reflections_group(g, ref ? g.u_ref.data() : u);
+    g.at_ref = ref;
+  }
   prepared = true;
 }
 
@@ -436,14 +497,13 @@ bool QBlocks::factor_nominal_last(const SolverOptions& opt, const Eigen::MatrixX
     nd += g.nd;
   }
   np = nominal_width(nd);
-  // S = Q_dd = blkdiag(H A_g H (dropped)) + Bd Bd^T (lower triangle)
-  for (int b = 0; b < nd; ++b)
-    for (int a = b; a < nd; ++a) S(a, b) += Zt.row(a).dot(Zt.row(b));
+  // S = Q_dd = blkdiag(H A_g H (dropped)) + Bd Bd^T (the lower triangle read; the padding stays 0)
+  add_outer(np, Zt, S);
   // the reduced rows' block Cholesky, and the columns of L_dr with the Schur complement group by group
   P.setIdentity();
   double dmax = 0.0, dmin = HUGE_VAL;
   for (Group& g : groups) {
-    if (!factor_any(g.red_rows, g.Ar.data(), g.Br.data(), g.Wr.data(), g.dinvr.data(), P, dmax, dmin, g.Kr.data()))
+    if (!factor_any(g.red_rows, g.Ar.data(), g.Br.data(), g.Wr.data(), g.dinvr.data(), P, dmax, dmin))
       return false;
     nominal_columns_any(g, np, Zt, S);
   }
@@ -474,6 +534,13 @@ void QBlocks::solve_nominal_last(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
   // R b: per group its rows reflected, the kept ones into xr (at the group's rows), the dropped into xd
   xd.setZero();  // the padding entries stay 0
   for (const Group& g : groups) {
+    if (weld_first_dropped(g)) {  // one weld, its first row dropped: the reflected rows in place
+      Vec6 v = b.segment<6>(g.row0);
+      v -= g.hw[0].dot(v) * g.hw[0];
+      xr.segment<5>(g.row0) = v.tail<5>();
+      xd[g.d0] = v[0];
+      continue;
+    }
     GVec v = b.segment(g.row0, g.rows);
     for (size_t n = 0; n < g.nominal.size(); ++n) {
       const Vec6& w = g.hw[n];
@@ -510,6 +577,14 @@ void QBlocks::solve_nominal_last(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
   }
   // x = R^T [x_r; x_d]
   for (const Group& g : groups) {
+    if (weld_first_dropped(g)) {
+      Vec6 v;
+      v[0] = xd[g.d0];
+      v.tail<5>() = xr.segment<5>(g.row0);
+      v -= g.hw[0].dot(v) * g.hw[0];
+      x.segment<6>(g.row0) = v;
+      continue;
+    }
     GVec v(g.rows);
     for (int c = 0; c < g.red_rows; ++c) v[g.kept_idx[c]] = xr[g.row0 + c];
     for (int c = 0; c < g.nd; ++c) v[g.drop_idx[c]] = xd[g.d0 + c];

@@ -26,10 +26,9 @@
 // dropped (nominal) rows last, so the leading pivots are the reduced Q's (the condition) and the
 // whole factor solves Q. The reduced part is the block Cholesky above on the reduced groups (Ar_g,
 // Br_g: H A_g H and H B_g without the dropped rows). The last N rows need L_dr = Q_dr L_rr^-T and
-// the N x N Schur complement S = Q_dd - L_dr L_dr^T. With K_g = L_g^-1 Br_g and a_g the dropped
-// rows' columns of H A_g H on the group's kept rows, the block forward solve of Q_rd gives the
-// columns of L_dr^T in group g as
-//   Y_g = K_g Z + L_g^-1 a_g E_g,   Z <- Z - W_g^T Y_g,   Z (6 x N) starting at Bd^T,
+// the N x N Schur complement S = Q_dd - L_dr L_dr^T. With a_g the dropped rows' columns of H A_g H
+// on the group's kept rows, the block forward solve of Q_rd gives the columns of L_dr^T in group g as
+//   Y_g = L_g^-1 (Br_g Z + a_g E_g),   Z <- Z - W_g^T Y_g,   Z (6 x N) starting at Bd^T,
 // (Bd: the dropped rows of H B, E_g: the group's dropped rows among the N), and
 //   S = blkdiag(dropped rows of H A_g H) + Bd Bd^T - sum_g Y_g^T Y_g,   L_S L_S^T = S.
 // The fast-path test reads every pivot of R Q R^T (the reduced ones and L_S's), as the dense
@@ -76,9 +75,10 @@ struct QBlocks {
     int nd = 0;            // the group's dropped rows this evaluation (at most nominal.size())
     int d0 = 0;            // the first of them among the N dropped rows of Q
     std::vector<Vec6> hw;  // (nominal.size()) H = I - w w^T on the weld's rows (w = 0: none)
+    std::vector<Vec6> u_ref;  // (nominal.size()) the reference directions (set_nominal_reference), else empty
+    bool at_ref = false;      // hw, keep, kept_idx, drop_idx, red_rows are u_ref's
     int kept_idx[kMaxGroupRows] = {}, drop_idx[kMaxGroupRows] = {};  // local rows kept, dropped
-    GMat Ad;               // (red_rows x nd) H A_g H (kept, dropped); then L_g^-1 of it
-    GBMat Kr;              // (red_rows x 6) K_g = L_g^-1 Br_g
+    GMat Ad;               // (red_rows x nd) H A_g H (kept, dropped)
     Eigen::MatrixXd Yt;    // (P_max x kMaxGroupRows) Y_g^T: column i is reduced row i's N entries of L_dr
     // pairs of specs s <= t of the group with the ranges [first, first + second) of own DOFs both reach
     struct Pair {
@@ -106,6 +106,16 @@ struct QBlocks {
   // the caller runs this before work that does not need them (build_q: before the L^-T sweep of Y),
   // so that their chain of square roots and divisions overlaps it.
   void prepare_nominal(const Eigen::MatrixXd& G);
+  // Start-up: the reflections of the nominal directions for the constraint rows G of one configuration
+  // (the scene's initial one). Each nominal direction is the joint's motion in the weld frame, the same
+  // vector in every configuration up to its round-off; prepare_nominal() keeps these reflections for
+  // a G whose directions equal the reference's to kNominalRefTol (relative, per entry, and the same exact
+  // zeros), so that the chain of square roots and divisions is not taken at every evaluation, and
+  // computes them from G otherwise. The reflection then differs from G's own by at most about that
+  // tolerance: the factor is of the same Q in a basis orthogonal to round-off, the condition the
+  // reduced Q's to about kNominalRefTol times it.
+  void set_nominal_reference(const Eigen::MatrixXd& G);
+  static constexpr double kNominalRefTol = 2e-15;
   // x = Q^-1 b (x may not alias b).
   void solve(const Eigen::VectorXd& b, Eigen::VectorXd& x);
 

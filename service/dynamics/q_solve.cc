@@ -1,5 +1,7 @@
 #include "service/dynamics/q_solve.h"
 
+#include "service/dynamics/q_blocks.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -312,6 +314,9 @@ void QSolver::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
 void QSolver::plan_nominal(const std::vector<std::pair<int, int>>& rows) {
   nominal_rows = rows;
   nominal_w.assign(rows.size(), Eigen::Matrix<double, 6, 1>::Zero());
+  nominal_u.assign(rows.size(), Eigen::Matrix<double, 6, 1>::Zero());
+  nominal_u_ref.clear();
+  nominal_at_ref = false;
   nominal_perm.assign(m, 0);
   nominal_iperm.assign(m, 0);
   nominal_kept.assign(m, 1);
@@ -322,12 +327,13 @@ void QSolver::plan_nominal(const std::vector<std::pair<int, int>>& rows) {
 // As the dense condition_without_nominal always did (constrained_dynamics.cc): u along one axis of
 // the weld frame (joint 1 on a base axis) drops that row; otherwise H = I - w w^T with
 // H u = -sign(u_0) |u| e_0 and row r0 is dropped; u = 0 (or not finite) drops nothing.
-int QSolver::prepare_nominal(const Eigen::MatrixXd& G) {
+// u: the nominal_rows.size() directions.
+void QSolver::reflections(const Eigen::Matrix<double, 6, 1>* u) {
   for (int i = 0; i < m; ++i) nominal_kept[i] = 1;
   for (size_t a = 0; a < nominal_rows.size(); ++a) {
-    const auto [dof, r0] = nominal_rows[a];
+    const int r0 = nominal_rows[a].second;
     Eigen::Matrix<double, 6, 1>& w = nominal_w[a];
-    w = G.block<6, 1>(r0, dof);
+    w = u[a];
     const double un = w.norm();
     int single = -1;
     for (int k = 0; k < 6; ++k)
@@ -349,6 +355,30 @@ int QSolver::prepare_nominal(const Eigen::MatrixXd& G) {
   for (int i = 0; i < m; ++i)
     if (!nominal_kept[i]) nominal_perm[k++] = i;
   for (int i = 0; i < m; ++i) nominal_iperm[nominal_perm[i]] = i;
+}
+
+void QSolver::set_nominal_reference(const Eigen::MatrixXd& G) {
+  nominal_u_ref.resize(nominal_rows.size());
+  for (size_t a = 0; a < nominal_rows.size(); ++a)
+    nominal_u_ref[a] = G.block<6, 1>(nominal_rows[a].second, nominal_rows[a].first);
+  reflections(nominal_u_ref.data());
+  nominal_at_ref = true;
+}
+
+int QSolver::prepare_nominal(const Eigen::MatrixXd& G) {
+  const size_t nn = nominal_rows.size();
+  bool ref = nominal_u_ref.size() == nn;
+  for (size_t a = 0; a < nn; ++a) {
+    Eigen::Matrix<double, 6, 1>& u = nominal_u[a];
+    u = G.block<6, 1>(nominal_rows[a].second, nominal_rows[a].first);
+    if (!ref) continue;
+    const Eigen::Matrix<double, 6, 1>& ur = nominal_u_ref[a];
+    const double tol = QBlocks::kNominalRefTol * ur.cwiseAbs().maxCoeff();
+    ref = tol > 0.0 && std::isfinite(tol);
+    for (int k = 0; k < 6; ++k) ref = ref && (u[k] == 0.0) == (ur[k] == 0.0) && std::abs(u[k] - ur[k]) <= tol;
+  }
+  if (!(ref && nominal_at_ref)) reflections(ref ? nominal_u_ref.data() : nominal_u.data());
+  nominal_at_ref = ref;
   return nominal_lead;
 }
 

@@ -82,6 +82,9 @@ struct QSolver {
   // returns the number of rows kept (rows less the directions dropped). Used by factor_nominal_last
   // and by the caller's condition of the reduced Q where the fast path fails.
   int prepare_nominal(const Eigen::MatrixXd& G);
+  // Start-up: the reference directions from the constraint rows of one configuration; prepare_nominal()
+  // keeps their reflections where G's directions equal them to round-off (QBlocks::set_nominal_reference).
+  void set_nominal_reference(const Eigen::MatrixXd& G);
   // A <- H A H (A rows x rows, column-major, leading dimension rows), H the reflections of prepare_nominal.
   void reflect_symmetric(double* a) const;
   // X <- H X on nc columns of a row-major (rows x nc) X with leading dimension ld (one column: ld 1).
@@ -94,6 +97,8 @@ struct QSolver {
   // The same on R Q R^T already in Nq's upper triangle (the caller formed it after prepare_nominal,
   // row i of R Q R^T being row nominal_perm[i] of H Q H; nominal_iperm the inverse order).
   bool factor_nominal_formed(const SolverOptions& opt, double* condition);
+  // The reflections and orders for the directions u (nominal_rows.size()).
+  void reflections(const Eigen::Matrix<double, 6, 1>* u);
 
   int m = 0;
   bool fast_path = true;
@@ -104,6 +109,9 @@ struct QSolver {
   // the nominal directions (plan_nominal, prepare_nominal)
   std::vector<std::pair<int, int>> nominal_rows;  // (velocity index of joint 1, first weld row)
   std::vector<Eigen::Matrix<double, 6, 1>> nominal_w;  // H = I - w w^T on rows r0..r0+5 (w = 0: none)
+  std::vector<Eigen::Matrix<double, 6, 1>> nominal_u;      // the directions of the last prepare_nominal
+  std::vector<Eigen::Matrix<double, 6, 1>> nominal_u_ref;  // the reference directions (set_nominal_reference), else empty
+  bool nominal_at_ref = false;  // nominal_w, nominal_kept, the orders and nominal_lead are the reference's
   std::vector<int> nominal_perm;  // (rows) row i of R Q R^T is row nominal_perm[i] of H Q H
   std::vector<int> nominal_iperm;  // (rows) row i of H Q H is row nominal_iperm[i] of R Q R^T
   std::vector<unsigned char> nominal_kept;  // (rows) 1 for a row of the reduced Q

@@ -124,6 +124,53 @@ TEST(QBlocks, ArmsWithoutArmatureEqualDense) {
     }
 }
 
+// The nominal directions' reflections are taken once, at the scene's initial configuration
+// (QBlocks::set_nominal_reference, QSolver's likewise): joint 1's motion seen from the weld frame on
+// its base link is the same in every configuration, so at every state the evaluation keeps that
+// reference (block path from 3 arms, dense path below), and its results equal those of the
+// reflections taken from the state's own constraint rows (a workspace without a reference, as every
+// evaluation did before): the same rank and status, the condition to 1e-10 relative, the
+// accelerations, multipliers and wrenches to 1e-11 (the round-off of these systems: the dense and
+// block paths differ by as much, ArmsWithoutArmatureEqualDense).
+TEST(QBlocks, NominalReferenceKeptAtEveryConfiguration) {
+  for (int n : {1, 2, 3, 4, 8}) {
+    SCOPED_TRACE(n);
+    const System sys = load_scene(std::string(COOPDYN_SOURCE_DIR) + "/bench/scenes/pumas_" + std::to_string(n) +
+                                  "_no_armature.yaml");
+    Workspace wr(sys), wo(sys);
+    for (QBlocks::Group& g : wo.qb.groups) {
+      g.u_ref.clear();
+      g.at_ref = false;
+    }
+    wo.qs.nominal_u_ref.clear();
+    wo.qs.nominal_at_ref = false;
+    WrenchData fr(sys), fo(sys);
+    std::mt19937 rng(23);
+    for (int k = 0; k < 12; ++k) {
+      Eigen::VectorXd q, v;
+      random_state(sys, rng, k < 6 ? 0.2 : 1.5, q, v);
+      Eigen::VectorXd tau(sys.model.nv());
+      for (int i = 0; i < tau.size(); ++i) tau[i] = 3.0 * std::sin(0.7 * i + k);
+      const Diagnostics dr = evaluate(sys, wr, q, v, tau);
+      const Diagnostics dd = evaluate(sys, wo, q, v, tau);
+      EXPECT_EQ(wr.q_blocks_active, n >= Workspace::kQBlocksMinGroupsNominal);
+      if (wr.q_blocks_active)
+        for (const QBlocks::Group& g : wr.qb.groups) EXPECT_TRUE(g.at_ref) << "state " << k;
+      else
+        EXPECT_TRUE(wr.qs.nominal_at_ref) << "state " << k;
+      EXPECT_EQ(dr.status, dd.status);
+      EXPECT_EQ(dr.rank, dd.rank);
+      EXPECT_NEAR(dr.condition, dd.condition, 1e-10 * dd.condition);
+      EXPECT_LE(rel(wr.vdot, wo.vdot), 1e-11);
+      EXPECT_LE(rel(wr.lambda, wo.lambda), 1e-11);
+      compute_wrenches(sys, wr, fr);
+      compute_wrenches(sys, wo, fo);
+      for (size_t t = 0; t < fr.W.size(); ++t)
+        EXPECT_LE((fr.W[t] - fo.W[t]).cwiseAbs().maxCoeff(), 1e-11 * (1.0 + fo.W[t].cwiseAbs().maxCoeff()));
+    }
+  }
+}
+
 TEST(QBlocks, ShippedScenesEqualDenseOrFallBack) {
   std::vector<std::string> scenes = all_scenes();
   for (const auto& w : wheel_scenes()) scenes.push_back(w);
