@@ -10,7 +10,9 @@
 // load, at the initial state), each block ~0.3 ms; printed per scene: the medians over REPS
 // (default 31) repetitions of each per-call time and of the ratios sigma / evaluate within one
 // repetition. q_us and v_us: estimate mode with the torque noise and only the position (only the
-// velocity) noise declared, what each kind of measurement-noise column adds to sigma_us. Goal: the sigma of every reported wrench under 25 % of an evaluation.
+// velocity) noise declared, what each kind of measurement-noise column adds to sigma_us. arms: the
+// simulate-mode sigma took the arm form (wrench_sigma_arms.h); cols_us: the same sigma by the
+// column form (every noisy torque a column through the solve and the pass), timed interleaved. Goal: the sigma of every reported wrench under 25 % of an evaluation.
 //
 //   wrench_sigma_bench [REPS] [SCENE] [REACTIONS] [FORMULATION]   (SCENE: only the scenes whose file
 //   name contains it; REACTIONS: the joint reactions reported, `all` (the default) or `none`: the
@@ -21,6 +23,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <limits>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -72,14 +75,16 @@ int main(int argc, char** argv) {
   for (const char* n : {"pumas_1", "pumas_2", "pumas_3", "pumas_4", "pumas_8", "pumas_3_no_armature", "pumas_4_no_armature",
                         "pumas_8_no_armature"})
     scenes.push_back(dir + "/bench/scenes/" + n + ".yaml");
-  std::printf("%-22s %4s %4s %4s %5s %5s %8s %9s %8s %10s %8s %10s %8s %8s %8s %10s\n", "scene", "nv", "rows", "out", "tau", "q+v",
-              "eval_us", "wrench_us", "sigma_us", "sigma/eval", "est_us", "est/eval", "q_us", "v_us", "fit_us", "fit/eval");
+  std::printf("%-22s %4s %4s %4s %5s %5s %8s %9s %8s %10s %4s %8s %9s %8s %10s %8s %8s %8s %10s\n", "scene", "nv", "rows", "out", "tau",
+              "q+v", "eval_us", "wrench_us", "sigma_us", "sigma/eval", "arms", "cols_us", "cols/eval", "est_us", "est/eval", "q_us",
+              "v_us", "fit_us", "fit/eval");
   for (const std::string& path : scenes) {
     if (path.substr(path.rfind('/') + 1).find(only) == std::string::npos) continue;
     const System sys = load(path);
     Workspace ws(sys);
     WrenchData wd(sys);
-    WrenchSigmaData sd(sys);
+    WrenchSigmaData sd(sys), sc(sys);
+    sc.arms_min = std::numeric_limits<int>::max();  // the column form, interleaved with sd's
     if (!wrench_sigma_supported(sys)) continue;
     const System sys_q = load(path, "{tau: 0.1, q: 1e-4}"), sys_v = load(path, "{tau: 0.1, v: 1e-3}");
     Workspace ws_q(sys_q), ws_v(sys_v);
@@ -98,11 +103,13 @@ int main(int argc, char** argv) {
     evaluate(sys_v, ws_v, sys.q0, sys.v0, tau);
     const double e0 = per_call_us(50, [&] { evaluate(sys, ws, sys.q0, sys.v0, tau); });
     const int n = std::max(5, static_cast<int>(300.0 / std::max(e0, 1e-3)));
-    std::vector<double> te, tw, ts, tq, tqq, tqv, tf, ratio, ratio_q, ratio_f;
+    std::vector<double> te, tw, ts, tc, tq, tqq, tqv, tf, ratio, ratio_c, ratio_q, ratio_f;
     for (int r = 0; r < reps; ++r) {
       te.push_back(per_call_us(n, [&] { evaluate(sys, ws, sys.q0, sys.v0, tau); }));
       tw.push_back(per_call_us(n, [&] { compute_wrenches(sys, ws, wd); }));
       ts.push_back(per_call_us(n, [&] { compute_wrench_sigma(sys, ws, sd); }));
+      tc.push_back(per_call_us(n, [&] { compute_wrench_sigma(sys, ws, sc); }));
+      ratio_c.push_back(tc.back() / te.back());
       tq.push_back(per_call_us(n, [&] { compute_wrench_sigma(sys, ws, sd, sys.q0, sys.v0, tau); }));
       tqq.push_back(per_call_us(n, [&] { compute_wrench_sigma(sys_q, ws_q, sd_q, sys.q0, sys.v0, tau); }));
       tqv.push_back(per_call_us(n, [&] { compute_wrench_sigma(sys_v, ws_v, sd_v, sys.q0, sys.v0, tau); }));
@@ -113,9 +120,11 @@ int main(int argc, char** argv) {
       ratio_f.push_back(tf.back() / te.back());
     }
     const std::string name = path.substr(path.rfind('/') + 1);
-    std::printf("%-22s %4d %4d %4zu %5zu %5zu %8.2f %9.2f %8.2f %10.3f %8.2f %10.3f %8.2f %8.2f", name.c_str(), sys.model.nv(),
-                sys.constraints.rows, sys.wrenches.outputs.size(), sd.dofs.size(), sd.q_dofs.size() + sd.v_dofs.size(), median(te),
-                median(tw), median(ts), median(ratio), median(tq), median(ratio_q), median(tqq), median(tqv));
+    compute_wrench_sigma(sys, ws, sd);
+    std::printf("%-22s %4d %4d %4zu %5zu %5zu %8.2f %9.2f %8.2f %10.3f %4s %8.2f %9.3f %8.2f %10.3f %8.2f %8.2f", name.c_str(),
+                sys.model.nv(), sys.constraints.rows, sys.wrenches.outputs.size(), sd.dofs.size(), sd.q_dofs.size() + sd.v_dofs.size(),
+                median(te), median(tw), median(ts), median(ratio), sd.arms_used ? "yes" : "no", median(tc), median(ratio_c), median(tq),
+                median(ratio_q), median(tqq), median(tqv));
     if (refit) std::printf(" %8.2f %10.3f\n", median(tf), median(ratio_f));
     else std::printf(" %8s %10s\n", "-", "-");
   }
