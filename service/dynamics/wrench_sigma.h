@@ -36,6 +36,12 @@
 // columns are differences of the refitted state. Joint friction is held at the evaluation's (set-valued at rest, its sign constant
 // while sliding); damping follows v.
 //
+// Torque noise from kArmsMin arms on (simulate mode), where the joints fall into arms coupled only
+// through the load's DOFs (the structure of the block factor of Q): the arm form of
+// wrench_sigma_arms.h, linear in the arms: 12 columns through the solve and the pass (the packed
+// torques and the load's unit forces) and one 6 x 12 row product per output component, instead of
+// every torque column. Its C is filled only where keep_C is set (nothing in the service reads it).
+//
 // All columns (torque, then q, then v) are propagated together: one pass of each factor over a
 // block of right-hand sides, one block Q solve, one reaction pass over 6 x columns blocks. The row
 // operations run at a compile-time column count where the count is a common one (6, 12, 18, 24, 36,
@@ -124,6 +130,8 @@ struct SigmaArms {
   std::vector<char> chol_other;    // per arm: S_other positive definite (else the others by columns)
   Mat6 VLinv;               // the common DOFs' acceleration per unit force on them, inverted
   int guarded = 0;          // outputs whose sigma the last compute took column by column (guard)
+  double guard = 1e-12;     // the quadratic form's error bound allowed, relative to an output's
+                            // largest sigma (tests: 0 takes every output's other arms by columns)
 };
 
 struct WrenchSigmaData {
@@ -152,7 +160,7 @@ struct WrenchSigmaData {
   // The arm form (wrench_sigma_arms.h), torque noise only: from arms_min arms on where the joints
   // fall into arms coupled through the load's DOFs only. keep_C: fill C there too (O(arms^2) 6 x 6
   // products; nothing in the service reads C, tests do).
-  static constexpr int kArmsMin = 3;
+  static constexpr int kArmsMin = 5;
   int arms_min = kArmsMin;  // a large value: never
   bool keep_C = false;
   bool c_filled = false;   // the last compute filled C

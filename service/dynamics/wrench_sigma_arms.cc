@@ -313,35 +313,43 @@ void output_sigma(WrenchSigmaData& sd, size_t k, Nw nw) {
   const Vec6& d = A.d_other[h];
   const double gamma = (static_cast<double>(sd.dofs.size()) + 16.0) * std::numeric_limits<double>::epsilon();
   Vec6 s_own, q, bound;
-  for (int r = 0; r < 6; ++r) {
-    const double* cf = &A.Cf(6 * static_cast<Eigen::Index>(k) + r, 0);
-    const double* v = cf + A.pack;
-    double b = 0.0;
-    for (int i = 0; i < nC; ++i) b += std::abs(v[i]) * d[i];
-    bound[r] = gamma * b * b;
-    if constexpr (!std::is_same_v<Nw, int>) {  // the row as one fixed-size vector (whole registers)
-      using Row = Eigen::Matrix<double, 1, Nw::value>;
-      using Own = Eigen::Matrix<double, 1, Nw::value - 6>;
-      Row acc = Row::Zero();  // P's row added after (written into acc first, its narrow stores were
-                              // reloaded wide: failed store-to-load forwarding, half the time here)
-      for (int i = 0; i < nC; ++i) acc += v[i] * Eigen::Map<const Row>(B.data() + i * B.outerStride());
-      s_own[r] = (acc.template head<Nw::value - 6>() + Eigen::Map<const Own>(cf)).squaredNorm();
-      q[r] = acc.template tail<6>().squaredNorm();
-    } else {
+  const double* cf0 = &A.Cf(6 * static_cast<Eigen::Index>(k), 0);
+  const Eigen::Index lc = A.Cf.outerStride();
+  if constexpr (!std::is_same_v<Nw, int>) {  // 6 x 12 at fixed sizes: the rows in whole registers
+    constexpr int N = Nw::value, NO = N - 6;
+    using RM6 = Eigen::Matrix<double, 6, 6, Eigen::RowMajor>;
+    using RMO = Eigen::Matrix<double, 6, NO, Eigen::RowMajor>;
+    using RMN = Eigen::Matrix<double, 6, N, Eigen::RowMajor>;
+    const Eigen::Map<const RM6, 0, Eigen::OuterStride<>> V(cf0 + A.pack, Eigen::OuterStride<>(lc));
+    const Eigen::Map<const RMO, 0, Eigen::OuterStride<>> P(cf0, Eigen::OuterStride<>(lc));
+    RMN acc;
+    if (nC == 6) acc.noalias() = V * B.template leftCols<N>();
+    else acc.noalias() = V.leftCols(nC) * B.topLeftCorner(nC, N);
+    s_own = (acc.template leftCols<NO>() + P).rowwise().squaredNorm();
+    q = acc.template rightCols<6>().rowwise().squaredNorm();
+    const Vec6 b = (nC == 6 ? (V.cwiseAbs() * d).eval() : (V.leftCols(nC).cwiseAbs() * d.head(nC)).eval());
+    bound = gamma * b.cwiseAbs2();
+  } else {
+    for (int r = 0; r < 6; ++r) {
+      const double* cf = cf0 + r * lc;
+      const double* v = cf + A.pack;
       double acc[SigmaArms::kMaxPack + 6];
       for (int c = 0; c < nw; ++c) acc[c] = c < nh ? cf[c] : 0.0;
+      double b = 0.0;
       for (int i = 0; i < nC; ++i) {
         const double* bi = B.data() + i * B.outerStride();
         for (int c = 0; c < nw; ++c) acc[c] += v[i] * bi[c];
+        b += std::abs(v[i]) * d[i];
       }
       double so = 0.0, qo = 0.0;
       for (int c = 0; c < nw; ++c) (c < nh ? so : qo) += acc[c] * acc[c];
       s_own[r] = so;
       q[r] = qo;
+      bound[r] = gamma * b * b;
     }
   }
   Vec6 sig = (s_own + q).cwiseSqrt();
-  const double tol = 1e-12 * sig.maxCoeff();
+  const double tol = A.guard * sig.maxCoeff();
   if (A.chol_other[h] && (bound.array() <= tol * sig.array().max(tol)).all()) {
     sd.sigma[k] = sig;
     return;

@@ -163,9 +163,10 @@ TEST(WrenchSigmaFast, EqualsTheDenseSolveWithTheBlockFactorOfQ) {
 
 // The arm form (wrench_sigma_arms.h: the packed torques, the load's unit forces and one 6 x 6
 // quadratic form per output) from two arms on, C filled (keep_C: its 6 x 6 products) and not
-// (sigma only), against the reference's every column: the shipped scenes and 2, 3, 4 and 8 PUMAs
-// with and without armature, both formulations, every reaction and none, simulate mode, two states.
-// It must take the PUMAs (arms_used) and fall back where the structure does not hold.
+// (sigma only), and with every output's other arms summed by columns (the guard's path), against
+// the reference's every column: the shipped scenes and 2, 3, 4 and 8 PUMAs with and without
+// armature, both formulations, every reaction and none, simulate mode, two states. It must take
+// the PUMAs (arms_used) and fall back where the structure does not hold.
 TEST(WrenchSigmaFast, ArmFormEqualsThePreviousDefinition) {
   std::vector<std::pair<std::string, std::string>> scenes;  // (text, path)
   for (const char* name : kScenes) scenes.emplace_back(scene_text(name), scene_path(name));
@@ -187,9 +188,11 @@ TEST(WrenchSigmaFast, ArmFormEqualsThePreviousDefinition) {
           const System sys = load_scene_string(text, path, ov);
           if (!wrench_sigma_supported(sys)) continue;
           Workspace ws(sys);
-          WrenchSigmaData fast(sys), ref(sys);
+          WrenchSigmaData fast(sys), ref(sys), guarded_all(sys);
           fast.arms_min = 2;
           fast.keep_C = keep;
+          guarded_all.arms_min = 2;
+          guarded_all.arm.guard = 0.0;  // every output's other arms by columns (the guard's path)
           for (int seed : {3, 11}) {
             Eigen::VectorXd v, tau;
             reference::random_v_tau(sys, seed, v, tau);
@@ -199,6 +202,12 @@ TEST(WrenchSigmaFast, ArmFormEqualsThePreviousDefinition) {
             ASSERT_TRUE(fast.valid);
             EXPECT_EQ(fast.c_filled, keep || !fast.arms_used);
             expect_same(sys, fast, ref);
+            if (!keep) {
+              compute_wrench_sigma(sys, ws, guarded_all);
+              EXPECT_EQ(guarded_all.arms_used, fast.arms_used);
+              if (fast.arms_used) EXPECT_EQ(guarded_all.arm.guarded, static_cast<int>(sys.wrenches.outputs.size()));
+              expect_same(sys, guarded_all, ref);
+            }
             ++compared;
             used += fast.arms_used;
             guarded += fast.arm.guarded;
