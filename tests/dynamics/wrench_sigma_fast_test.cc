@@ -205,7 +205,9 @@ TEST(WrenchSigmaFast, ArmFormEqualsThePreviousDefinition) {
             if (!keep) {
               compute_wrench_sigma(sys, ws, guarded_all);
               EXPECT_EQ(guarded_all.arms_used, fast.arms_used);
-              if (fast.arms_used) EXPECT_EQ(guarded_all.arm.guarded, static_cast<int>(sys.wrenches.outputs.size()));
+              if (fast.arms_used) {
+                EXPECT_EQ(guarded_all.arm.guarded, static_cast<int>(sys.wrenches.outputs.size()));
+              }
               expect_same(sys, guarded_all, ref);
             }
             ++compared;
