@@ -6,6 +6,7 @@
 #include "service/algorithms/kinematics.h"
 #include "service/algorithms/rnea.h"
 #include "service/algorithms/tree_cholesky.h"
+#include "service/dynamics/wrench_sigma_arms.h"
 #include "service/dynamics/wrench_sigma_position.h"
 #include "service/dynamics/wrench_sigma_rows.h"
 #include "service/dynamics/wrench_sigma_velocity.h"
@@ -80,7 +81,8 @@ WrenchSigmaData::WrenchSigmaData(const System& sys) {
   for (int j = 0; j < na; ++j) S[j] = sys.tau_noise[dofs[static_cast<size_t>(j)]];
   for (int j = 0; j < nq; ++j) Sq[j] = sys.q_noise[q_dofs[static_cast<size_t>(j)]];
   for (int j = 0; j < nv; ++j) Sv[j] = sys.v_noise[v_dofs[static_cast<size_t>(j)]];
-  const int nc = std::max(1, na + nq + nv);
+  sigma_arms_plan(sys, *this);  // torque noise by arms: its columns share the scratch below
+  const int nc = std::max({1, na + nq + nv, arm.usable ? arm.pack + static_cast<int>(arm.common.size()) : 0});
   if (nq + nv > 0)  // a refit fits the floating joints (state_fit.h): their tangents are columns too
     for (const Body& b : model.bodies)
       if (b.joint.type == JointType::kFloating)
@@ -441,7 +443,9 @@ void batch_response(const System& sys, Workspace& ws, WrenchSigmaData& sd, Nc nc
   for (int it = 0; it < (rr ? 50 : 1); ++it) {
     if (tau_only) {
       zero_block(sd.X.data(), sd.X.outerStride(), model.nv(), nc);
-      for (int j = 0; j < na; ++j) sd.X(sd.dofs[static_cast<size_t>(j)], j) = sd.S[j];
+      if (sd.arms_used) sigma_arms_columns(sd, sd.X);
+      else
+        for (int j = 0; j < na; ++j) sd.X(sd.dofs[static_cast<size_t>(j)], j) = sd.S[j];
     } else {
       copy_block(sd.X0.data(), sd.X0.outerStride(), sd.X.data(), sd.X.outerStride(), model.nv(), nc);
     }
@@ -653,6 +657,7 @@ template <class Nc>
 void batch_outputs(const System& sys, const Workspace& ws, WrenchSigmaData& sd, Nc nc) {
   const ConstraintSet& cs = sys.constraints;
   const WrenchSet& set = sys.wrenches;
+  RowMat& C = sd.arms_used ? sd.arm.Cf : sd.C;  // the arm form's columns: scratch of their own
   for (size_t t = 0; t < set.pass_specs.size(); ++t) {  // dF = T_spec Lam, row by row
     const int s = set.pass_specs[t], r0 = cs.row_offset[s];
     const Mat6& T = sd.T_spec[static_cast<size_t>(s)];
@@ -666,11 +671,11 @@ void batch_outputs(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
     const WrenchOutput& o = set.outputs[k];
     const Eigen::Index c0 = 6 * static_cast<Eigen::Index>(k);
     if (o.spec >= 0) {
-      sd.C.block(c0, 0, 6, nc).setZero();
+      C.block(c0, 0, 6, nc).setZero();
       const int r0 = cs.row_offset[o.spec];
-      for (int r = 0; r < cs.row_count[o.spec]; ++r) row(sd.C, c0 + cs.row_axis[o.spec][r], nc) = row(sd.Lam, r0 + r, nc);
+      for (int r = 0; r < cs.row_count[o.spec]; ++r) row(C, c0 + cs.row_axis[o.spec][r], nc) = row(sd.Lam, r0 + r, nc);
       if (cs.specs[static_cast<size_t>(o.spec)].kind == ConstraintKind::kRolling)  // set_rolling_resistance_moment
-        row(sd.C, c0 + 1, nc) = ws.cd.rr_arm[static_cast<size_t>(o.spec)] * row(sd.C, c0 + 5, nc);
+        row(C, c0 + 1, nc) = ws.cd.rr_arm[static_cast<size_t>(o.spec)] * row(C, c0 + 5, nc);
       continue;
     }
     const Transform& X = sd.X_WF[k];
@@ -686,8 +691,8 @@ void batch_outputs(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
       const Mat3 Rt = (o.reversed ? -1.0 : 1.0) * X.R.transpose();
       const Vec3 p = X.p - ws.data.p_ref;
       const double* rb = sd.Rb.data() + 6 * o.body * static_cast<int>(nc);
-      double* out = &sd.C(c0, 0);
-      const Eigen::Index lf = sd.dF.outerStride(), lo = sd.C.outerStride();
+      double* out = &C(c0, 0);
+      const Eigen::Index lf = sd.dF.outerStride(), lo = C.outerStride();
       if (ns == 0) to_frame_sum<0>(Rt, p, rb, f, g, lf, out, lo, nc);
       else if (ns == 1) to_frame_sum<1>(Rt, p, rb, f, g, lf, out, lo, nc);
       else to_frame_sum<2>(Rt, p, rb, f, g, lf, out, lo, nc);
@@ -701,8 +706,8 @@ void batch_outputs(const System& sys, const Workspace& ws, WrenchSigmaData& sd, 
         d += static_cast<double>(set.out_spec[t].second) * row(sd.dF, 6 * set.out_spec[t].first + c, nc);
     }
     // world coordinates at p_ref -> the report frame at its origin: [R^T (n - p x f); R^T f]
-    to_frame((o.reversed ? -1.0 : 1.0) * X.R.transpose(), X.p - ws.data.p_ref, sd.Tmp.data(), sd.Tmp.outerStride(), &sd.C(c0, 0),
-             sd.C.outerStride(), nc);
+    to_frame((o.reversed ? -1.0 : 1.0) * X.R.transpose(), X.p - ws.data.p_ref, sd.Tmp.data(), sd.Tmp.outerStride(), &C(c0, 0),
+             C.outerStride(), nc);
   }
 }
 
@@ -887,6 +892,8 @@ bool start(Workspace& ws, WrenchSigmaData& sd, int nc) {
   sd.ncols = sd.valid ? nc : 0;
   if (!sd.valid) {
     sd.source = 0;
+    sd.arms_used = false;
+    sd.c_filled = true;
     if (sd.declared) {
       for (Vec6& s : sd.sigma) s.setZero();
       sd.C.setZero();
@@ -945,7 +952,18 @@ void compute_wrench_sigma(const System& sys, Workspace& ws, WrenchSigmaData& sd)
   if (!start(ws, sd, na)) return;
   sd.source = WrenchSigmaData::kTau;  // batch_response writes the torques' columns itself
   batch_setup(sys, ws, sd);
+  sd.arms_used = sigma_arms_apply(sys, ws, sd);
+  if (sd.arms_used) {  // wrench_sigma_arms.h: the packed torques and the common DOFs' unit forces
+    propagate(sys, ws, sd, sd.arm.pack + static_cast<int>(sd.arm.common.size()));
+    if (sigma_arms_finish(sd)) {
+      sd.c_filled = sd.keep_C;
+      if (sd.keep_C) finish(sd);
+      return;
+    }
+    sd.arms_used = false;  // a near-singular arm: every column
+  }
   propagate(sys, ws, sd, na);
+  sd.c_filled = true;
   finish(sd);
 }
 
@@ -959,6 +977,8 @@ void compute_wrench_sigma(const System& sys, Workspace& ws, WrenchSigmaData& sd,
   const int nv = static_cast<int>(sd.v_dofs.size()), nc = na + nq + nv;
   if (!start(ws, sd, nc)) return;
   sd.source = (na > 0 ? WrenchSigmaData::kTau : 0) | (nq > 0 ? WrenchSigmaData::kQ : 0) | (nv > 0 ? WrenchSigmaData::kV : 0);
+  sd.arms_used = false;
+  sd.c_filled = true;
   tau_columns(sd);
   batch_setup(sys, ws, sd);
   if (nq + nv > 0) state_columns(sys, ws, sd, q, v, tau, nq);

@@ -36,6 +36,12 @@
 // columns are differences of the refitted state. Joint friction is held at the evaluation's (set-valued at rest, its sign constant
 // while sliding); damping follows v.
 //
+// Torque noise from kArmsMin arms on (simulate mode), where the joints fall into arms coupled only
+// through the load's DOFs (the structure of the block factor of Q): the arm form of
+// wrench_sigma_arms.h, linear in the arms: 12 columns through the solve and the pass (the packed
+// torques and the load's unit forces) and one 6 x 12 row product per output component, instead of
+// every torque column. Its C is filled only where keep_C is set (nothing in the service reads it).
+//
 // All columns (torque, then q, then v) are propagated together: one pass of each factor over a
 // block of right-hand sides, one block Q solve, one reaction pass over 6 x columns blocks. The row
 // operations run at a compile-time column count where the count is a common one (6, 12, 18, 24, 36,
@@ -99,6 +105,35 @@ struct StateRefit {
 // propagates it (mobile_platform, classic): the outputs carry sigma.
 bool wrench_sigma_supported(const System& sys);
 
+// The arm form of the torque noise's sigma (wrench_sigma_arms.h): the structure, found at
+// construction, and its scratch.
+struct SigmaArms {
+  using RowMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  using Mat6X = Eigen::Matrix<double, 6, Eigen::Dynamic>;
+  static constexpr int kMaxPack = 16;  // the most noisy torques of one arm the form takes
+  bool usable = false;      // the structure holds (every noisy torque and every output on one arm)
+  int count = 0;            // arms with noisy torques
+  int pack = 0;             // the packed torque columns: the most noisy torques of one arm
+  std::vector<int> common;  // the common DOFs (every spec reaches them), at most 6
+  std::vector<int> j0, nj;  // per arm: its noisy torques are the columns j0 .. j0 + nj - 1
+  std::vector<int> out_arm; // per output: its arm
+  // scratch
+  RowMat Cf;                // (6 outputs x (pack + common)) each output's response to the packed
+                            // torques, then to a unit force on each common DOF
+  Mat6X c, chat, ctot;      // (6 x na) c_j, (6 x na) the other arms' sum at j's slot, (6 x pack)
+  std::vector<Mat6> S_arm, S_other;  // per arm: sum of c_j c_j^T over its columns, over the others'
+  // per arm: B = [-chat (own columns) | L_o], L_o L_o^T = S_other (lower); an output's row r of
+  // [P - V chat | V L_o] is its row of P (zeros after) plus V_r B, one row of nh + 6 entries
+  using BMat = Eigen::Matrix<double, 6, kMaxPack + 6, Eigen::RowMajor>;
+  std::vector<BMat> B;
+  std::vector<Vec6> d_other;       // per arm: sqrt(diag(S_other)) (the quadratic form's error bound)
+  std::vector<char> chol_other;    // per arm: S_other positive definite (else the others by columns)
+  Mat6 VLinv;               // the common DOFs' acceleration per unit force on them, inverted
+  int guarded = 0;          // outputs whose sigma the last compute took column by column (guard)
+  double guard = 1e-12;     // the quadratic form's error bound allowed, relative to an output's
+                            // largest sigma (tests: 0 takes every output's other arms by columns)
+};
+
 struct WrenchSigmaData {
   using RowMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   // what a sigma contains (bits, output_t SIGMA_*)
@@ -120,7 +155,17 @@ struct WrenchSigmaData {
   // C(6 k + c, j): component c of output k per one standard deviation of noise source j: the torque
   // of dofs[j] (j < na), then the position of q_dofs (estimate mode), then the velocity of v_dofs
   // (the square root of the covariance: cov_k = C_k C_k^T over the first ncols columns)
-  RowMat C;  // (6 outputs x (na + nq + nv))
+  RowMat C;  // (6 outputs x (na + nq + nv)); filled unless the arm form ran without keep_C (c_filled)
+
+  // The arm form (wrench_sigma_arms.h), torque noise only: from arms_min arms on where the joints
+  // fall into arms coupled through the load's DOFs only. keep_C: fill C there too (O(arms^2) 6 x 6
+  // products; nothing in the service reads C, tests do).
+  static constexpr int kArmsMin = 5;
+  int arms_min = kArmsMin;  // a large value: never
+  bool keep_C = false;
+  bool c_filled = false;   // the last compute filled C
+  bool arms_used = false;  // the last compute took the arm form
+  SigmaArms arm;
   RowMat Cd;  // (6 outputs x (nq + nv)) the wrenches' own change at fixed vdot, lambda (scratch)
 
   // scratch (columns: every noise source; X0, Gm and Cd then 2 nf more with measurement noise:

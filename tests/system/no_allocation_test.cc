@@ -257,18 +257,27 @@ TEST(NoAllocation, WrenchSigmaOfNoisyScenes) {
     const System sys = load_scene_string(text + "\nreactions: all\nnoise: {tau: 0.2, q: 1e-4, v: 1e-3}\n", c.path, ov);
     Workspace ws(sys);
     WrenchData wd(sys);
-    WrenchSigmaData sd(sys);
+    WrenchSigmaData sd(sys), sa(sys), sk(sys);  // sa, sk: the arm form from two arms (wrench_sigma_arms.h), sk keeping C
+    sa.arms_min = sk.arms_min = 2;
+    sk.keep_C = true;
     ASSERT_TRUE(sd.declared);
     const Inputs in = inputs_at_rest_and_moving(sys, 8, 16);
+    int arm_form = 0;
     {
       AllocationCounter cnt;
       for (int k = 0; k < 500; ++k) {
         evaluate(sys, ws, in.q[k % 16], in.v[k % 16], in.tau[k % 16]);
         compute_wrenches(sys, ws, wd);
         compute_wrench_sigma(sys, ws, sd);
+        compute_wrench_sigma(sys, ws, sa);
+        compute_wrench_sigma(sys, ws, sk);
+        arm_form += sa.arms_used && sk.arms_used;
         compute_wrench_sigma(sys, ws, sd, in.q[k % 16], in.v[k % 16], in.tau[k % 16]);
       }
       EXPECT_EQ(cnt.count(), 0);
+    }
+    if (c.path == arms || c.path == nominal) {
+      EXPECT_GT(arm_form, 0);
     }
     EXPECT_TRUE(sd.valid);
     if (c.path == nominal) {
