@@ -20,6 +20,7 @@ constexpr int kPad = Model::kFactorRowPad;
 static_assert(kPad == 8, "the chunks are one 8-wide AVX-512 vector");
 
 #ifdef __AVX512F__
+static_assert(EIGEN_MAX_ALIGN_BYTES >= 64, "Data::Lc and Mc start on a 64-byte boundary (aligned loads)");
 inline __mmask8 lanes_below(int n) { return n >= kPad ? __mmask8(0xff) : __mmask8((1u << n) - 1u); }
 
 // r[q] -= c * a[q] for q < n

@@ -117,7 +117,9 @@ TEST(TreeCholesky, RowsOwnAlignedChunksAndTheirPaddingNeverReachesTheFactor) {
     Eigen::VectorXd q, v;
     random_state(sys, rng, 0.5, q, v);
     Data d(m), dn(m);
+#ifdef __AVX512F__  // the chunked loads need whole 64-byte rows (Eigen aligns to 64 with AVX-512)
     EXPECT_EQ(reinterpret_cast<std::uintptr_t>(d.Lc.data()) % 64, 0u);
+#endif
     forward_kinematics(m, d, q, v);
     crba_compact(m, d);
     dn.Mc = d.Mc;
