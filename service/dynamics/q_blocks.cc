@@ -216,17 +216,6 @@ void reflections_group(QBlocks::Group& g, const Vec6* u) {
   g.nd = nd;
 }
 
-// Whether u is the reference direction ur to round-off (q_blocks.h, set_nominal_reference): the same
-// exact zeros (so the same rule: a reflection or the one row u lies along) and every entry within
-// kNominalRefTol |ur|_inf of ur's. u is the joint's motion in the weld frame: the same vector in every
-// configuration, computed with a configuration's round-off (about 1e-16 |u|).
-bool near_reference(const Vec6& u, const Vec6& ur) {
-  const double tol = QBlocks::kNominalRefTol * ur.cwiseAbs().maxCoeff();
-  bool same = tol > 0.0 && std::isfinite(tol);
-  for (int k = 0; k < 6; ++k) same = same && (u[k] == 0.0) == (ur[k] == 0.0) && std::abs(u[k] - ur[k]) <= tol;
-  return same;
-}
-
 // A group of one weld whose first row is the nominal direction's, reflected (the common case): the
 // same quantities, H A H formed as the rank-2 update A - w v^T - v w^T (t = A w, v = t - (w.t / 2) w)
 // and written straight to its places, H B = B - w (w^T B) likewise. Against the two one-sided
@@ -459,6 +448,13 @@ namespace {
 bool weld_first_dropped(const QBlocks::Group& g) { return g.rows == 6 && g.nd == 1 && g.drop_idx[0] == 0; }
 }  // namespace
 
+bool QBlocks::near_reference(const Vec6& u, const Vec6& ur) {
+  const double tol = kNominalRefTol * ur.cwiseAbs().maxCoeff();
+  bool same = tol > 0.0 && std::isfinite(tol);
+  for (int k = 0; k < 6; ++k) same = same && (u[k] == 0.0) == (ur[k] == 0.0) && std::abs(u[k] - ur[k]) <= tol;
+  return same;
+}
+
 void QBlocks::set_nominal_reference(const Eigen::MatrixXd& G) {
   for (Group& g : groups) {
     g.u_ref.resize(g.nominal.size());
@@ -475,7 +471,7 @@ void QBlocks::prepare_nominal(const Eigen::MatrixXd& G) {
     bool ref = g.u_ref.size() == nn;
     for (size_t n = 0; n < nn; ++n) {
       u[n] = G.block<6, 1>(g.row0 + g.nominal[n].second, g.nominal[n].first);
-      ref = ref && near_reference(u[n], g.u_ref[n]);
+      ref = ref && QBlocks::near_reference(u[n], g.u_ref[n]);
     }
     if (ref && g.at_ref) continue;  // the reference's reflections stand
     reflections_group(g, ref ? g.u_ref.data() : u);

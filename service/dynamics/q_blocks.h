@@ -116,6 +116,10 @@ struct QBlocks {
   // reduced Q's to about kNominalRefTol times it.
   void set_nominal_reference(const Eigen::MatrixXd& G);
   static constexpr double kNominalRefTol = 2e-15;
+  // Whether u is the reference direction ur to round-off: the same exact zeros (so the same rule: a
+  // reflection or the one row u lies along) and every entry within kNominalRefTol |ur|_inf of ur's
+  // (also QSolver's dense path).
+  static bool near_reference(const Vec6& u, const Vec6& ur);
   // x = Q^-1 b (x may not alias b).
   void solve(const Eigen::VectorXd& b, Eigen::VectorXd& x);
 

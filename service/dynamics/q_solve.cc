@@ -371,11 +371,7 @@ int QSolver::prepare_nominal(const Eigen::MatrixXd& G) {
   for (size_t a = 0; a < nn; ++a) {
     Eigen::Matrix<double, 6, 1>& u = nominal_u[a];
     u = G.block<6, 1>(nominal_rows[a].second, nominal_rows[a].first);
-    if (!ref) continue;
-    const Eigen::Matrix<double, 6, 1>& ur = nominal_u_ref[a];
-    const double tol = QBlocks::kNominalRefTol * ur.cwiseAbs().maxCoeff();
-    ref = tol > 0.0 && std::isfinite(tol);
-    for (int k = 0; k < 6; ++k) ref = ref && (u[k] == 0.0) == (ur[k] == 0.0) && std::abs(u[k] - ur[k]) <= tol;
+    ref = ref && QBlocks::near_reference(u, nominal_u_ref[a]);
   }
   if (!(ref && nominal_at_ref)) reflections(ref ? nominal_u_ref.data() : nominal_u.data());
   nominal_at_ref = ref;
