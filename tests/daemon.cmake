@@ -32,6 +32,10 @@ coopdyn_test(coopdynd_tests
   DEPENDS coopdynd coopdyn
   PROPERTIES LABELS daemon)
 
+# output_t's one field list: every older layout through the upgrader, messages.md's table (its own
+# executable, with the generated types: it writes old layouts)
+coopdyn_test(coopdyn_output_fields_tests FILES io/output_fields_test.cc LIBS coopdyn_io coopdyn_scene coopdyn_lcmtypes)
+
 # Seeded mutation fuzzing of the decoders and the scene and config loaders (tests/fuzz/fuzz_test.cc),
 # a bounded number of inputs per target; the seed corpus is tests/fuzz/corpus.
 coopdyn_test(coopdyn_fuzz_tests NO_MAIN

@@ -1,8 +1,6 @@
 // The loop-side codec: command/state decoders (receive thread), output/stats encoders (loop thread).
 #include "service/io/codec.h"
 
-#include "service/dynamics/contacts.h"
-
 #include <cmath>
 #include <cstring>
 #include <unordered_map>
@@ -531,12 +529,52 @@ bool put_bound(const FrictionBoundData* fb, coopdyn::output_t& o) {
 }
 }  // namespace
 
+namespace {
+// on_error values (output_fields.def): keep leaves a field as it is; a number sets every element
+struct Keep {};
+constexpr Keep keep{};
+template <class T>
+void reset(T&, Keep) {}
+template <class T, class = std::enable_if_t<std::is_arithmetic_v<T>>>
+void reset(T& x, double v) {
+  x = static_cast<T>(v);
+}
+void reset(coopdyn::wrench_t& w, double v) {
+  for (auto c : kWrenchComponent) w.*c = v;
+}
+template <class T>
+void reset(std::vector<T>& xs, double v) {
+  for (T& x : xs) reset(x, v);
+}
+// the rolling contacts the loop computed (contacts.h), else their error values; false on a non-finite value
+bool put_contacts(const ContactData* c, coopdyn::output_t& o) {
+  if (!c) {
+    reset(o.contact_normal, 0.0);
+    reset(o.contact_friction_needed, -1.0);
+    reset(o.contact_utilisation, -1.0);
+    reset(o.contact_state, 0.0);
+    o.contact_status = 0;
+    return true;
+  }
+  bool ok = true;
+  for (size_t i = 0; i < c->spec.size() && i < o.contact_normal.size(); ++i) {
+    o.contact_normal[i] = c->normal[i];
+    o.contact_friction_needed[i] = c->friction_needed[i];
+    o.contact_utilisation[i] = c->utilisation[i];
+    o.contact_state[i] = static_cast<int8_t>(c->state[i]);
+    ok = ok && std::isfinite(o.contact_normal[i]) && std::isfinite(o.contact_friction_needed[i]) &&
+         std::isfinite(o.contact_utilisation[i]);
+  }
+  o.contact_status = static_cast<int8_t>(c->worst);
+  return ok;
+}
+}  // namespace
+
 struct OutputEncoder::Impl {
   const System& sys;
   coopdyn::output_t msg;
-  ContactData contacts;
   int size = 0;
-  explicit Impl(const System& s) : sys(s), contacts(s) {
+  explicit Impl(const System& s) : sys(s) {
     const Model& model = s.model;
     msg = coopdyn::output_t();
     const auto& outs = s.wrenches.outputs;
@@ -560,12 +598,13 @@ struct OutputEncoder::Impl {
     const int rows = s.constraints.rows;
     msg.free_class.assign(static_cast<size_t>(rows), 0);
     msg.free_direction.assign(static_cast<size_t>(rows), std::vector<coopdyn::wrench_t>(outs.size(), zero_wrench()));
-    msg.num_contacts = static_cast<int32_t>(contacts.spec.size());
-    for (int k : contacts.spec) msg.contact_names.push_back(s.constraints.specs[static_cast<size_t>(k)].name);
-    msg.contact_normal.assign(contacts.spec.size(), 0.0);
-    msg.contact_friction_needed.assign(contacts.spec.size(), -1.0);
-    msg.contact_utilisation.assign(contacts.spec.size(), -1.0);
-    msg.contact_state.assign(contacts.spec.size(), 0);
+    const std::vector<int> contacts = ContactData(s).spec;  // the rolling constraints
+    msg.num_contacts = static_cast<int32_t>(contacts.size());
+    for (int k : contacts) msg.contact_names.push_back(s.constraints.specs[static_cast<size_t>(k)].name);
+    msg.contact_normal.assign(contacts.size(), 0.0);
+    msg.contact_friction_needed.assign(contacts.size(), -1.0);
+    msg.contact_utilisation.assign(contacts.size(), -1.0);
+    msg.contact_state.assign(contacts.size(), 0);
     msg.contact_status = 0;
     msg.num_stresses = static_cast<int32_t>(num_stresses(s));
     for (int k = 0; k < num_stresses(s); ++k) msg.stress_names.push_back(stress_name(s, k));
@@ -588,24 +627,10 @@ struct OutputEncoder::Impl {
     size = msg.getEncodedSize();  // the largest message
     msg.num_free = 0;
   }
+  // every field whose on_error (output_fields.def) is not keep, to that value
   void zero_dynamics() {
-    msg.rows = msg.rank = msg.indeterminate = 0;
-    msg.num_free = 0;
-    msg.condition = msg.residual = 0;
-    for (auto& w : msg.wrench) w = zero_wrench();
-    std::fill(msg.indeterminate_mask.begin(), msg.indeterminate_mask.end(), 0);
-    for (auto& w : msg.wrench_residual) w = zero_wrench();
-    msg.sigma_source = coopdyn::output_t::SIGMA_NONE;
-    for (auto& w : msg.wrench_sigma) w = zero_wrench();
-    msg.friction_resting = 0;
-    for (auto& w : msg.wrench_bound) w = zero_wrench();
-    std::fill(msg.stress.begin(), msg.stress.end(), 0.0);
-    std::fill(msg.vdot.begin(), msg.vdot.end(), 0.0);
-    std::fill(msg.contact_normal.begin(), msg.contact_normal.end(), 0.0);
-    std::fill(msg.contact_friction_needed.begin(), msg.contact_friction_needed.end(), -1.0);
-    std::fill(msg.contact_utilisation.begin(), msg.contact_utilisation.end(), -1.0);
-    std::fill(msg.contact_state.begin(), msg.contact_state.end(), 0);
-    msg.contact_status = 0;
+#define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) reset(msg.name, on_error);
+#include "service/io/output_fields.def"
   }
 };
 
@@ -698,16 +723,7 @@ int OutputEncoder::encode(const OutputFrame& f, uint8_t* buf, int cap, bool* san
       std::fill(o.indeterminate_mask.begin(), o.indeterminate_mask.end(), 0);
       o.num_free = 0;
     }
-    compute_contacts(m.sys, ws, m.contacts);
-    for (size_t i = 0; i < m.contacts.spec.size(); ++i) {
-      o.contact_normal[i] = m.contacts.normal[i];
-      o.contact_friction_needed[i] = m.contacts.friction_needed[i];
-      o.contact_utilisation[i] = m.contacts.utilisation[i];
-      o.contact_state[i] = static_cast<int8_t>(m.contacts.state[i]);
-      ok = ok && std::isfinite(o.contact_normal[i]) && std::isfinite(o.contact_friction_needed[i]) &&
-           std::isfinite(o.contact_utilisation[i]);
-    }
-    o.contact_status = static_cast<int8_t>(m.contacts.worst);
+    ok = put_contacts(f.contacts, o) && ok;
     ok = copy_finite(&ws.stress, o.stress) && ok;
     ok = copy_finite(&ws.vdot, o.vdot) && ok;
     bad = bad || !ok;
@@ -739,7 +755,7 @@ int StatsEncoder::max_size() const { return impl_->msg.getEncodedSize(); }
 
 int StatsEncoder::encode(const StatsFrame& s, uint8_t* buf, int cap) {
   coopdyn::loop_stats_t& o = impl_->msg;
-#define COOPDYN_STATS_FIELD(lcm, frame, put) o.lcm = s.frame;
+#define COOPDYN_STATS_FIELD(lcm, frame, put, since) o.lcm = s.frame;
 #include "service/io/stats_fields.def"
   for (int k = 1; k < kRejectKinds; ++k) o.rejected_by_reason[k - 1] = s.rejected_by_reason[k];
   if (cap < o.getEncodedSize()) return -1;

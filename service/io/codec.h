@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "service/dynamics/constrained_dynamics.h"
+#include "service/dynamics/contacts.h"
 #include "service/dynamics/state_fit.h"
 #include "service/dynamics/system.h"
 #include "service/dynamics/friction_bound.h"
@@ -87,6 +88,7 @@ struct OutputFrame {
   const WrenchSigmaData* sigma = nullptr;  // compute_wrench_sigma() of it (declared noise) when valid
   JointLosses joint_losses = JointLosses::kNone;  // estimate: how the joints' damping and friction were taken
   const FrictionBoundData* bound = nullptr;  // estimate, compensated: compute_friction_bound() of it
+  const ContactData* contacts = nullptr;     // compute_contacts() of it when valid (none: 0 and -1, as on error)
 };
 
 class OutputEncoder {

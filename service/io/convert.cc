@@ -2,6 +2,9 @@
 // `coopdyn send` and tests, decoding and CSV rows for `coopdyn log`.
 #include <cstdio>
 #include <cstring>
+#include <tuple>
+#include <type_traits>
+#include <utility>
 
 #include "coopdyn/control_t.hpp"
 #include "coopdyn/loop_stats_t.hpp"
@@ -47,22 +50,34 @@ bool decode_msg(const void* data, int len, M* m) {
     return false;
   }
 }
-// loop_stats_t's fingerprints before fields were appended (stats_fields.def), and how many bytes of
-// int64 fields the current encoding has after such a message's last: a log recorded then reads as
-// the current message with those fields 0
-struct StatsBefore {
+// loop_stats_t's layouts: each fingerprint with the `since` (stats_fields.def) it has the fields of.
+// An older layout lacks the int64 fields appended after it (at the end of the message): it reads as
+// the current one with them 0.
+struct StatsLayout {
   uint64_t hash;
-  int missing_bytes;
+  int version;
 };
-constexpr StatsBefore kStatsBefore[] = {
-    {0x7f11746fd02903b9ULL, 8 * 8},  // before inputs_malformed (and the fields after it)
-    {0x48bcc81f9a071c5aULL, 8 * 7},  // before controls_received ... controls_replayed, outputs_dropped
-    {0x5f3a349535103d01ULL, 8 * 1},  // before outputs_dropped
+constexpr int kStatsVersion = 4;
+constexpr StatsLayout kStatsLayouts[] = {
+#define COOPDYN_STATS_LAYOUT(hash, version) {hash, version},
+#include "service/io/stats_fields.def"
 };
-int stats_missing_bytes(uint64_t hash) {
-  for (const StatsBefore& b : kStatsBefore)
-    if (b.hash == hash) return b.missing_bytes;
+constexpr int stats_fields_after(int version) {
+  return 0
+#define COOPDYN_STATS_FIELD(lcm, frame, put, since) +((since) > version ? 1 : 0)
+#include "service/io/stats_fields.def"
+      ;
+}
+static_assert(stats_fields_after(kStatsVersion) == 0, "stats_fields.def: a since above kStatsVersion");
+int stats_version(uint64_t hash) {
+  for (const StatsLayout& b : kStatsLayouts)
+    if (b.hash == hash) return b.version;
   return -1;
+}
+// the bytes an old layout lacks, -1 for the current one or another type
+int stats_missing_bytes(uint64_t hash) {
+  const int v = stats_version(hash);
+  return v < 0 ? -1 : 8 * stats_fields_after(v);
 }
 
 int64_t hash_of(const void* data, int len) {
@@ -151,132 +166,140 @@ std::vector<uint8_t> encode_control(int64_t utime, int64_t seq, ControlAction ac
 }
 
 namespace {
-// each wrench's sigma: output_t's (version 3); none in the layouts before it
-template <class M>
-void fill_sigma(const M& m, DecodedOutput* out) {
-  out->sigma_source = 0;
-  out->wrench_sigma.assign(m.wrench.size(), {});
+// Copies a decoded message's field into DecodedOutput's, whatever the layout's element types (int8_t
+// codes, int16_t arrays, 6-arrays or wrench_t rows).
+template <class T, class U>
+void get(T& out, const U& in) {
+  out = static_cast<T>(in);
 }
-template <class M>
-void fill_sigma_v3(const M& m, DecodedOutput* out) {
-  out->sigma_source = m.sigma_source;
-  out->wrench_sigma.assign(m.wrench.size(), {});
-  for (size_t t = 0; t < m.wrench_sigma.size() && t < m.wrench.size(); ++t)
-    for (int k = 0; k < 6; ++k) out->wrench_sigma[t][k] = component(m.wrench_sigma[t], k);
+template <class T, class U, size_t N>
+void get(std::array<T, N>& out, const U (&in)[N]) {
+  for (size_t k = 0; k < N; ++k) out[k] = static_cast<T>(in[k]);
 }
-template <>
-void fill_sigma(const coopdyn::output_v3_t& m, DecodedOutput* out) {
-  fill_sigma_v3(m, out);
+void get(std::array<double, 6>& out, const coopdyn::wrench_t& w) {
+  for (int k = 0; k < 6; ++k) out[static_cast<size_t>(k)] = component(w, k);
 }
-template <>
-void fill_sigma(const coopdyn::output_t& m, DecodedOutput* out) {
-  fill_sigma_v3(m, out);
+void get(std::array<double, 6>& out, const std::vector<double>& w) {
+  for (int k = 0; k < 6; ++k) out[static_cast<size_t>(k)] = component(w, k);
 }
-// the joint losses and each wrench's friction bound: output_t's (version 4); none before it
-template <class M>
-void fill_bound(const M& m, DecodedOutput* out) {
-  out->joint_losses = 0;
-  out->friction_resting = 0;
-  out->wrench_bound.assign(m.wrench.size(), {});
-}
-template <>
-void fill_bound(const coopdyn::output_t& m, DecodedOutput* out) {
-  out->joint_losses = m.joint_losses;
-  out->friction_resting = m.friction_resting;
-  out->wrench_bound.assign(m.wrench.size(), {});
-  for (size_t t = 0; t < m.wrench_bound.size() && t < m.wrench.size(); ++t)
-    for (int k = 0; k < 6; ++k) out->wrench_bound[t][k] = component(m.wrench_bound[t], k);
+void get(std::string& out, const std::string& in) { out = in; }
+template <class T, class U>
+void get(std::vector<T>& out, const std::vector<U>& in) {
+  out.resize(in.size());
+  for (size_t i = 0; i < in.size(); ++i) get(out[i], in[i]);
 }
 
-// output_t and output_v1_t .. output_v3_t have the same fields but for the wrench rows' type, the
-// sigma of version 3 and the joint losses and friction bound of version 4
-template <class M>
-void fill_decoded(const M& m, DecodedOutput* out) {
-  fill_sigma(m, out);
-  fill_bound(m, out);
-  out->utime = m.utime;
-  out->tick = m.tick;
-  out->sim_time = m.sim_time;
-  out->mode = m.mode;
-  out->status = m.status;
-  out->reason = m.reason;
-  out->input = m.input;
-  out->input_seq = m.input_seq;
-  out->input_utime = m.input_utime;
-  out->paused = m.paused;
-  out->control_seq = m.control_seq;
-  out->control_action = m.control_action;
-  out->control_result = m.control_result;
-  out->state_fitted = m.state_fitted;
-  out->fit_iterations = m.fit_iterations;
-  for (int k = 0; k < 4; ++k) {
-    out->closure[k] = m.closure[k];
-    out->closure_constraint[k] = m.closure_constraint[k];
+// A field the layout lacks: its `absent` value, as many as the message's count for it.
+template <class T, class V>
+void put_absent(T& out, V absent, size_t) {
+  out = static_cast<T>(absent);
+}
+template <class T, size_t N, class V>
+void put_absent(std::array<T, N>& out, V absent, size_t) {
+  out.fill(static_cast<T>(absent));
+}
+template <class V>
+void put_absent(std::string& out, V, size_t) {
+  out.clear();
+}
+template <class T, class V>
+void put_absent(std::vector<T>& out, V absent, size_t n) {
+  out.resize(n);
+  for (T& x : out) put_absent(x, absent, 0);
+}
+template <class T, class V>
+void put_absent(std::vector<std::vector<T>>& out, V, size_t) {
+  out.clear();  // free directions are in every layout; a new one would need its own rule
+}
+
+// How many elements a field of this size has, from the fields every layout has.
+size_t elements(const DecodedOutput& o, const char* size) {
+  const std::string s = size;
+  if (s == "constraints") return o.constraint_names.size();
+  if (s == "wrenches") return o.wrench_names.size();
+  if (s == "free") return o.free_class.size();
+  if (s == "contacts") return o.contact_names.size();
+  if (s == "stresses") return o.stress_names.size();
+  if (s == "q") return o.q_names.size();
+  if (s == "v") return o.v_names.size();
+  return s == "four" ? 4 : 1;
+}
+
+// Whether layout M has the field (member detection), one trait per field.
+#define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) \
+  template <class M, class = void>                                               \
+  struct has_##name : std::false_type {};                                        \
+  template <class M>                                                             \
+  struct has_##name<M, std::void_t<decltype(&M::name)>> : std::true_type {};
+#include "service/io/output_fields.def"
+
+// The layouts output_t was published in, each with its VERSION: a field is in a layout exactly when
+// its `since` is not above the layout's version (checked here at compile time for every field).
+template <class M, int V>
+struct Layout {
+  using Message = M;
+  static constexpr int kVersion = V;
+#define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) \
+  static_assert(has_##name<M>::value == ((since) <= V), "output_fields.def: since of " #name);
+#include "service/io/output_fields.def"
+};
+static_assert(coopdyn::output_t::VERSION == 4, "a new VERSION: freeze the old layout (messages.md, Adding a field)");
+using OutputLayouts = std::tuple<Layout<coopdyn::output_t, 4>, Layout<coopdyn::output_v3_t, 3>,
+                                 Layout<coopdyn::output_v2_t, 2>, Layout<coopdyn::output_v1_t, 1>>;
+
+// The one upgrader: a message of any layout into the current fields, the absent ones marked. The
+// count fields (type count) are the vectors' sizes.
+#define COOPDYN_UPGRADE_count(name, size, absent)
+#define COOPDYN_UPGRADE_FIELD(name, size, absent)                                        \
+  if constexpr (has_##name<M>::value) {                                                 \
+    get(out->name, m.name);                                                             \
+  } else {                                                                              \
+    put_absent(out->name, absent, elements(*out, #size));                              \
+    out->missing |= uint64_t{1} << static_cast<int>(OutputField::name);                 \
   }
-  out->constraint_names = m.constraint_names;
-  out->rows = m.rows;
-  out->rank = m.rank;
-  out->indeterminate = m.indeterminate;
-  out->condition = m.condition;
-  out->residual = m.residual;
-  out->wrench_names = m.wrench_names;
-  out->wrench_frames = m.wrench_frames;
-  out->wrench_by = m.wrench_by;
-  out->wrench_kind.assign(m.wrench_kind.begin(), m.wrench_kind.end());
-  out->wrench.assign(m.wrench.size(), {});
-  for (size_t t = 0; t < m.wrench.size(); ++t)
-    for (int k = 0; k < 6; ++k) out->wrench[t][k] = component(m.wrench[t], k);
-  out->constrained_mask.assign(m.constrained_mask.begin(), m.constrained_mask.end());
-  out->indeterminate_mask.assign(m.indeterminate_mask.begin(), m.indeterminate_mask.end());
-  out->wrench_measured.assign(m.wrench_measured.begin(), m.wrench_measured.end());
-  out->wrench_residual.assign(m.wrench_residual.size(), {});
-  for (size_t t = 0; t < m.wrench_residual.size(); ++t)
-    for (int k = 0; k < 6; ++k) out->wrench_residual[t][k] = component(m.wrench_residual[t], k);
-  out->free_class.assign(m.free_class.begin(), m.free_class.begin() + m.num_free);
-  out->free_direction.assign(static_cast<size_t>(m.num_free), std::vector<std::array<double, 6>>(m.wrench.size()));
-  for (int d = 0; d < m.num_free; ++d)
-    for (size_t t = 0; t < m.wrench.size(); ++t)
-      for (int k = 0; k < 6; ++k) out->free_direction[static_cast<size_t>(d)][t][static_cast<size_t>(k)] = component(m.free_direction[static_cast<size_t>(d)][t], k);
-  out->contact_status = m.contact_status;
-  out->contact_names = m.contact_names;
-  out->contact_normal = m.contact_normal;
-  out->contact_friction_needed = m.contact_friction_needed;
-  out->contact_utilisation = m.contact_utilisation;
-  out->contact_state.assign(m.contact_state.begin(), m.contact_state.end());
-  out->stress_names = m.stress_names;
-  out->stress = m.stress;
-  out->q_names = m.q_names;
-  out->v_names = m.v_names;
-  out->q = m.q;
-  out->v = m.v;
-  out->tau = m.tau;
-  out->vdot = m.vdot;
+#define COOPDYN_UPGRADE_i COOPDYN_UPGRADE_FIELD
+#define COOPDYN_UPGRADE_i64 COOPDYN_UPGRADE_FIELD
+#define COOPDYN_UPGRADE_f COOPDYN_UPGRADE_FIELD
+#define COOPDYN_UPGRADE_f4 COOPDYN_UPGRADE_FIELD
+#define COOPDYN_UPGRADE_i4 COOPDYN_UPGRADE_FIELD
+#define COOPDYN_UPGRADE_names COOPDYN_UPGRADE_FIELD
+#define COOPDYN_UPGRADE_ints COOPDYN_UPGRADE_FIELD
+#define COOPDYN_UPGRADE_reals COOPDYN_UPGRADE_FIELD
+#define COOPDYN_UPGRADE_wrenches COOPDYN_UPGRADE_FIELD
+#define COOPDYN_UPGRADE_dirs COOPDYN_UPGRADE_FIELD
+template <class M>
+void upgrade(const M& m, DecodedOutput* out) {
+  out->missing = 0;
+#define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) \
+  COOPDYN_UPGRADE_##type(name, size, absent)
+#include "service/io/output_fields.def"
+}
+
+template <size_t I = 0>
+int decode_layout(int64_t hash, const void* data, int len, DecodedOutput* out) {
+  if constexpr (I == std::tuple_size_v<OutputLayouts>) {
+    return -1;  // not an output_t of any layout
+  } else {
+    using L = std::tuple_element_t<I, OutputLayouts>;
+    if (hash != L::Message::getHash()) return decode_layout<I + 1>(hash, data, len, out);
+    typename L::Message m;
+    if (!decode_msg(data, len, &m)) return 0;
+    upgrade(m, out);
+    if (!out->has(OutputField::version)) out->version = L::kVersion;
+    return 1;
+  }
+}
+template <size_t... I>
+bool is_output_layout(int64_t hash, std::index_sequence<I...>) {
+  return ((hash == std::tuple_element_t<I, OutputLayouts>::Message::getHash()) || ...);
+}
+bool is_output_layout(int64_t hash) {
+  return is_output_layout(hash, std::make_index_sequence<std::tuple_size_v<OutputLayouts>>());
 }
 }  // namespace
 
 bool decode_output(const void* data, int len, DecodedOutput* out) {
-  if (hash_of(data, len) == coopdyn::output_v1_t::getHash()) {
-    coopdyn::output_v1_t v1;
-    if (!decode_msg(data, len, &v1)) return false;
-    fill_decoded(v1, out);
-    return true;
-  }
-  if (hash_of(data, len) == coopdyn::output_v2_t::getHash()) {
-    coopdyn::output_v2_t v2;
-    if (!decode_msg(data, len, &v2)) return false;
-    fill_decoded(v2, out);
-    return true;
-  }
-  if (hash_of(data, len) == coopdyn::output_v3_t::getHash()) {
-    coopdyn::output_v3_t v3;
-    if (!decode_msg(data, len, &v3)) return false;
-    fill_decoded(v3, out);
-    return true;
-  }
-  coopdyn::output_t m;
-  if (!decode_msg(data, len, &m)) return false;
-  fill_decoded(m, out);
-  return true;
+  return decode_layout(hash_of(data, len), data, len, out) == 1;
 }
 
 bool decode_stats(const void* data, int len, StatsFrame* s) {
@@ -290,7 +313,13 @@ bool decode_stats(const void* data, int len, StatsFrame* s) {
   } else if (!decode_msg(data, len, &o)) {
     return false;
   }
-#define COOPDYN_STATS_FIELD(lcm, frame, put) s->frame = o.lcm;
+  const int version = stats_version(static_cast<uint64_t>(hash_of(data, len)));
+  s->missing = 0;
+  int field = 0;
+#define COOPDYN_STATS_FIELD(lcm, frame, put, since)                      \
+  s->frame = o.lcm;                                                      \
+  if (version >= 0 && (since) > version) s->missing |= uint64_t{1} << field; \
+  ++field;
 #include "service/io/stats_fields.def"
   // by the reasons' keys, so that a sender built with another set of reasons still reads the ones it knows
   for (int k = 1; k < kRejectKinds; ++k) {
@@ -302,13 +331,11 @@ bool decode_stats(const void* data, int len, StatsFrame* s) {
 }
 
 MessageType identify(const void* data, int len) {
-  if (hash_of(data, len) == coopdyn::output_v2_t::getHash()) return MessageType::kOutput;  // a log of version 2
-  if (hash_of(data, len) == coopdyn::output_v3_t::getHash()) return MessageType::kOutput;  // a log of version 3
   const int64_t h = hash_of(data, len);
   const uint64_t u = static_cast<uint64_t>(h);
   if (h == coopdyn::torque_command_t::getHash() || u == kPreMacCommandHash) return MessageType::kTorqueCommand;
   if (h == coopdyn::measured_state_t::getHash() || u == kPreMacStateHash) return MessageType::kMeasuredState;
-  if (h == coopdyn::output_t::getHash() || h == coopdyn::output_v1_t::getHash()) return MessageType::kOutput;
+  if (is_output_layout(h)) return MessageType::kOutput;  // output_t of any layout
   if (h == coopdyn::loop_stats_t::getHash() || stats_missing_bytes(u) >= 0) return MessageType::kLoopStats;
   if (h == coopdyn::control_t::getHash() || u == kPreMacControlHash) return MessageType::kControl;
   return MessageType::kUnknown;
@@ -384,7 +411,7 @@ bool to_csv(MessageType t, const void* data, int len, std::string* header, std::
       StatsFrame s;
       if (!decode_stats(data, len, &s)) return false;
       header->clear();
-#define COOPDYN_STATS_FIELD(lcm, frame, put) \
+#define COOPDYN_STATS_FIELD(lcm, frame, put, since) \
   *header += header->empty() ? #lcm : "," #lcm; \
   put(row, s.frame);
 #include "service/io/stats_fields.def"

@@ -118,44 +118,40 @@ struct StatsFrame {
   int64_t controls_received = 0, controls_accepted = 0, controls_rejected = 0;
   int64_t controls_unauthenticated = 0, controls_bad_mac = 0, controls_replayed = 0;
   int64_t outputs_dropped = 0;  // output_t and loop_stats_t messages the loop's bus refused (publish() != 0)
+  // decode_stats: bit k set when field k of stats_fields.def is absent from the layout the message
+  // was recorded in (it reads 0)
+  uint64_t missing = 0;
 };
 
-// A decoded output_t, for clients and tests (allocates; never used by the loop).
+// A decoded output_t, for clients and tests (allocates; never used by the loop): one member per field
+// of output_fields.def (its types there), whatever layout the message was recorded in; a field that
+// layout lacks holds its `absent` value and its bit in `missing` (OutputField) is set.
+enum class OutputField {
+#define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) name,
+#include "service/io/output_fields.def"
+};
+constexpr int kOutputFields = 0
+#define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) +1
+#include "service/io/output_fields.def"
+    ;
+static_assert(kOutputFields <= 64, "DecodedOutput::missing holds a bit per field");
+
+#define COOPDYN_DECODED_i(n, absent) int n = absent;
+#define COOPDYN_DECODED_i64(n, absent) int64_t n = absent;
+#define COOPDYN_DECODED_f(n, absent) double n = absent;
+#define COOPDYN_DECODED_f4(n, absent) std::array<double, 4> n{{absent, absent, absent, absent}};
+#define COOPDYN_DECODED_i4(n, absent) std::array<int, 4> n{{absent, absent, absent, absent}};
+#define COOPDYN_DECODED_names(n, absent) std::vector<std::string> n;
+#define COOPDYN_DECODED_ints(n, absent) std::vector<int> n;
+#define COOPDYN_DECODED_reals(n, absent) std::vector<double> n;
+#define COOPDYN_DECODED_wrenches(n, absent) std::vector<std::array<double, 6>> n;
+#define COOPDYN_DECODED_dirs(n, absent) std::vector<std::vector<std::array<double, 6>>> n;
+#define COOPDYN_DECODED_count(n, absent)
 struct DecodedOutput {
-  int64_t utime = 0, tick = 0;
-  double sim_time = 0;
-  int mode = 0, status = 0, reason = 0, input = 0;
-  int64_t input_seq = -1, input_utime = -1;
-  int paused = 0;
-  int64_t control_seq = -1;
-  int control_action = -1, control_result = -1;
-  int state_fitted = 0, fit_iterations = 0;
-  std::array<double, 4> closure{{0, 0, 0, 0}};  // position m, orientation rad, linear m/s, angular rad/s
-  std::array<int, 4> closure_constraint{{-1, -1, -1, -1}};
-  std::vector<std::string> constraint_names;
-  int rows = 0, rank = 0, indeterminate = 0;
-  double condition = 0, residual = 0;
-  std::vector<std::string> wrench_names, wrench_frames, wrench_by;
-  std::vector<int> wrench_kind;  // WrenchKind codes (output_t KIND_*)
-  std::vector<std::array<double, 6>> wrench;
-  std::vector<int> constrained_mask, indeterminate_mask;
-  std::vector<int> wrench_measured;                  // 1: a sensor reading came with the state
-  std::vector<std::array<double, 6>> wrench_residual;  // measured - estimated
-  int sigma_source = 0;                                // output_t SIGMA_*: 0 none (and logs before version 3)
-  std::vector<std::array<double, 6>> wrench_sigma;     // standard deviation of each component (zeros: none)
-  int joint_losses = 0;                                // output_t JOINT_LOSSES_*: 0 none (and logs before version 4)
-  int friction_resting = 0;                            // estimate: friction joints at rest (their friction bounded)
-  std::vector<std::array<double, 6>> wrench_bound;     // estimate: largest departure over that friction (zeros: none)
-  std::vector<int> free_class;                                      // per free direction: FreeClass
-  std::vector<std::vector<std::array<double, 6>>> free_direction;   // [direction][wrench]: change per unit
-  int contact_status = 0;                      // worst ContactState (output_t CONTACT_*)
-  std::vector<std::string> contact_names;      // rolling contacts, constraint order
-  std::vector<double> contact_normal, contact_friction_needed, contact_utilisation;  // N; -1: undefined
-  std::vector<int> contact_state;              // ContactState codes
-  std::vector<std::string> stress_names;
-  std::vector<double> stress;
-  std::vector<std::string> q_names, v_names;
-  std::vector<double> q, v, tau, vdot;
+#define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) COOPDYN_DECODED_##type(name, absent)
+#include "service/io/output_fields.def"
+  uint64_t missing = 0;  // bit OutputField: absent from the layout the message was recorded in
+  bool has(OutputField f) const { return !(missing >> static_cast<int>(f) & 1); }
 };
 
 }  // namespace coopdyn::io

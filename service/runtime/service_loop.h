@@ -40,6 +40,7 @@
 
 #include <memory>
 
+#include "service/dynamics/contacts.h"
 #include "service/dynamics/holding_torque.h"
 #include "service/dynamics/integrators.h"
 #include "service/dynamics/state_fit.h"
@@ -194,6 +195,7 @@ class ServiceLoop {
   Closure closure_;                  // simulate: drift of the step's start state
   bool closure_open_ = false;        // estimate: the last state was above closure_tolerance
   WrenchData wrenches_;              // the published wrenches of the evaluation (either mode)
+  ContactData contacts_;             // its rolling contacts (contacts.h)
   WrenchSigmaData sigma_;            // their sigma from the scene's declared noise (wrench_sigma.h)
   FitRefit refit_;                   // estimate: q and v noise moves the fitted load too (state_fit_sigma.h)
   FrictionBoundData bound_;          // estimate: their interval over the friction at rest (friction_bound.h)

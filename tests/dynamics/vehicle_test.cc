@@ -284,6 +284,9 @@ TEST(Vehicle, LiftOffAndSlipAreReportedWhereTheFormulasSay) {
   io::OutputFrame f;
   f.valid = true;
   f.ws = ws;
+  ContactData contacts(*sys);  // computed by the loop, not the codec
+  compute_contacts(*sys, *ws, contacts);
+  f.contacts = &contacts;
   Eigen::VectorXd z = Eigen::VectorXd::Zero(sys->model.nv()), qq = sys->q0;
   f.q = &qq;
   f.v = &z;

@@ -1,5 +1,6 @@
-// loop_stats_t as logs recorded before its last fields were appended (service/io/convert.cc,
-// kStatsBefore): such a message reads as the current one with those fields 0; identify() knows it.
+// loop_stats_t as logs recorded before its last fields were appended (service/io/stats_fields.def:
+// each field's since, each older layout's fingerprint): such a message reads as the current one with
+// those fields 0; identify() knows it.
 #include <gtest/gtest.h>
 
 #include <cstdint>
