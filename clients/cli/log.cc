@@ -28,7 +28,7 @@
 #include "clients/cli/progress.h"
 #include "clients/csv/step_csv.h"
 #include "service/dynamics/contacts.h"
-#include "service/io/codec.h"
+#include "service/io/codec/codec.h"
 #include "service/scene/scene.h"
 
 namespace coopdyn::cli {
@@ -98,7 +98,7 @@ void write_header(std::FILE* f, const std::string& what, const CsvColumns& c) {
 }
 
 // The output_t columns only a daemon has, after the shared ones: log_time, then the fields whose csv
-// writer (service/io/output_fields.def) is not none or step, in the message's order.
+// writer (service/io/codec/output_fields.def) is not none or step, in the message's order.
 #define COOPDYN_CALL(m, args) m args
 #define COOPDYN_UNPAREN(...) __VA_ARGS__
 #define COOPDYN_LOG_COLUMN(name, writer, unit) COOPDYN_LOG_COLUMN_##writer(name, unit)
@@ -118,7 +118,7 @@ void add_log_columns(const StepSchema& s, CsvColumns* c) {
   c->add("log_time", "s");
 #define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) \
   COOPDYN_CALL(COOPDYN_LOG_COLUMN, (name, COOPDYN_UNPAREN csv))
-#include "service/io/output_fields.def"
+#include "service/io/codec/output_fields.def"
 }
 
 // The cells of the columns only a daemon has (add_log_columns), after the shared ones.
@@ -141,7 +141,7 @@ void write_log_cells(CsvLine& l, const io::DecodedOutput& o, double log_time) {
   l.sep(), l.num(log_time);
 #define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) \
   COOPDYN_CALL(COOPDYN_LOG_CELL, (name, COOPDYN_UNPAREN csv))
-#include "service/io/output_fields.def"
+#include "service/io/codec/output_fields.def"
 }
 
 // The shared cells of an output_t (its contact states as words, in r's buffer).

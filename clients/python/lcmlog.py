@@ -129,7 +129,7 @@ def upgrade(msg):
     """(output_t, missing): an output_t of any layout (output_v1_t .. output_v3_t, from decode) as the
     current output_t, and the set of the names of its fields the layout lacked: each holds its absent
     value (coopdyn.output_fields.OUTPUT_FIELDS: 0, -1, or zeros per wrench), version the layout's.
-    The field list is the daemon's (service/io/output_fields.def), as the C++ decode_output reads it."""
+    The field list is the daemon's (service/io/codec/output_fields.def), as the C++ decode_output reads it."""
     import coopdyn
     from coopdyn import output_fields
     out, missing = coopdyn.output_t(), set()

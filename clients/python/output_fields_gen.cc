@@ -4,7 +4,7 @@
 #include <cstdio>
 #include <string>
 
-#include "service/io/output_schema.h"
+#include "service/io/codec/output_schema.h"
 
 int main(int argc, char** argv) {
   const bool md = argc > 1 && std::string(argv[1]) == "--markdown";

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "service/io/lcm_bus.h"
+#include "service/io/transport/lcm_bus.h"
 #include "service/runtime/realtime.h"
 
 namespace coopdyn::runtime {

@@ -13,7 +13,7 @@
 
 #include "service/dynamics/contacts.h"
 #include "service/dynamics/integrators.h"
-#include "service/io/codec.h"
+#include "service/io/codec/codec.h"
 #include "tests/support/child_process.h"
 #include "tests/support/test_util.h"
 

@@ -1,4 +1,4 @@
-#include "service/dynamics/state_fit_sigma.h"
+#include "service/dynamics/sigma/state_fit_sigma.h"
 
 #include <stdexcept>
 #include <string>

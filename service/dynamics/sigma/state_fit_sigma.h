@@ -24,7 +24,7 @@
 #include <Eigen/Core>
 
 #include "service/dynamics/state_fit.h"
-#include "service/dynamics/wrench_sigma.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
 
 namespace coopdyn {
 

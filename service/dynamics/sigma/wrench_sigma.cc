@@ -1,4 +1,4 @@
-#include "service/dynamics/wrench_sigma.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
 
 #include <cmath>
 #include <type_traits>
@@ -6,10 +6,10 @@
 #include "service/algorithms/kinematics.h"
 #include "service/algorithms/rnea.h"
 #include "service/algorithms/tree_cholesky.h"
-#include "service/dynamics/wrench_sigma_arms.h"
-#include "service/dynamics/wrench_sigma_position.h"
-#include "service/dynamics/wrench_sigma_rows.h"
-#include "service/dynamics/wrench_sigma_velocity.h"
+#include "service/dynamics/sigma/wrench_sigma_arms.h"
+#include "service/dynamics/sigma/wrench_sigma_position.h"
+#include "service/dynamics/sigma/wrench_sigma_rows.h"
+#include "service/dynamics/sigma/wrench_sigma_velocity.h"
 
 namespace coopdyn {
 

@@ -28,7 +28,7 @@
 // linearization error is second order in the noise (a wrench's curvature in q times S_q^2);
 // against central differences of whole evaluations the columns agree to 1e-4 (absolute, or
 // relative above 1) on the shipped scenes
-// (tests/dynamics/wrench_sigma_test.cc). A load pose and twist fitted from the
+// (tests/dynamics/sigma/wrench_sigma_test.cc). A load pose and twist fitted from the
 // joints (state_fit.h) are held unless WrenchSigmaData::refit is set (state_fit_sigma.h): then each
 // column adds their first-order response to the measured coordinate (the fit's, from one
 // factorization), through the floating joints' own position and velocity tangents (computed once

@@ -1,4 +1,4 @@
-#include "service/dynamics/wrench_sigma_arms.h"
+#include "service/dynamics/sigma/wrench_sigma_arms.h"
 
 #include <algorithm>
 #include <cmath>

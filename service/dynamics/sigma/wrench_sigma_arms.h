@@ -30,7 +30,7 @@
 // solve, or V_L not safely positive definite (a singular arm). Allocation-free after the plan.
 #pragma once
 
-#include "service/dynamics/wrench_sigma.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
 
 namespace coopdyn {
 

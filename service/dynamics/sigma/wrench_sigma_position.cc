@@ -1,4 +1,4 @@
-#include "service/dynamics/wrench_sigma_position.h"
+#include "service/dynamics/sigma/wrench_sigma_position.h"
 
 namespace coopdyn {
 

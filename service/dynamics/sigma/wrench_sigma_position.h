@@ -19,7 +19,7 @@
 // sums, the carried constraint forces and, on a moved body, its frame. Only the subtree, the path
 // to the root, the welds that touch the subtree and the reactions above or inside it are visited:
 // a column costs the joint's subtree, not an evaluation. Exact (no step): equal to central
-// differences of the residuals in the limit of their step (tests/dynamics/wrench_sigma_position_test.cc).
+// differences of the residuals in the limit of their step (tests/dynamics/sigma/wrench_sigma_position_test.cc).
 //
 // A floating joint's DOF (what a refit fits, state_fit_sigma.h) is a tangent the same way: its
 // motion subspace is body-fixed, so its own other columns are carried too. The first body's joint
@@ -31,7 +31,7 @@
 // in it under Baumgarte position feedback (its pose error's logarithm). Allocation-free; never throws.
 #pragma once
 
-#include "service/dynamics/wrench_sigma.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
 
 namespace coopdyn {
 

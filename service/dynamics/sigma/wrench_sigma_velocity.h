@@ -16,13 +16,13 @@
 // and constraint_bias_tangent() for Gdot v and rr_arm. Only the bodies below a DOF with dv != 0
 // move, only they and their ancestors are visited: a joint's column costs its subtree and its path
 // to the root. Exact (no step, no truncation error): equal to the directional differences of the
-// residuals in the limit of their step (tests/dynamics/wrench_sigma_velocity_test.cc).
+// residuals in the limit of their step (tests/dynamics/sigma/wrench_sigma_velocity_test.cc).
 // Allocation-free; never throws.
 #pragma once
 
 #include <Eigen/Core>
 
-#include "service/dynamics/wrench_sigma.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
 
 namespace coopdyn {
 

@@ -1,5 +1,5 @@
 // The loop-side codec: command/state decoders (receive thread), output/stats encoders (loop thread).
-#include "service/io/codec.h"
+#include "service/io/codec/codec.h"
 
 #include <cmath>
 #include <cstring>
@@ -11,12 +11,12 @@
 #include "coopdyn/output_t.hpp"
 #include "coopdyn/torque_command_t.hpp"
 #include "service/dynamics/state_fit.h"
-#include "service/io/wire.h"
-#include "service/io/wrench_fields.h"
+#include "service/io/codec/wire.h"
+#include "service/io/codec/wrench_fields.h"
 
 namespace coopdyn::io {
 
-// every code of the tables (service/io/codes.def, service/dynamics/reasons.def) is the LCM constant
+// every code of the tables (service/io/codec/codes.def, service/dynamics/reasons.def) is the LCM constant
 // of the same name
 #define COOPDYN_MODE(e, code, key, lcm) static_assert(static_cast<int>(Mode::e) == coopdyn::output_t::lcm, #lcm);
 #define COOPDYN_INPUT(e, code, key, name, lcm) static_assert(static_cast<int>(Input::e) == coopdyn::output_t::lcm, #lcm);
@@ -26,7 +26,7 @@ namespace coopdyn::io {
 #define COOPDYN_CONTROL_RESULT(e, code, key, name, lcm) \
   static_assert(static_cast<int>(ControlResult::e) == coopdyn::output_t::lcm, #lcm);
 #define COOPDYN_JOINT_LOSSES(e, code, key, lcm) static_assert(static_cast<int>(JointLosses::e) == coopdyn::output_t::lcm, #lcm);
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
 static_assert(static_cast<int>(Reason::kNone) == coopdyn::output_t::REASON_NONE, "core reasons");
 static_assert(static_cast<int>(Reason::kNonFiniteInput) == coopdyn::output_t::REASON_NONFINITE_INPUT, "core reasons");
 static_assert(static_cast<int>(Reason::kMassMatrixSingular) == coopdyn::output_t::REASON_MASS_MATRIX_SINGULAR, "core reasons");
@@ -56,7 +56,7 @@ const char* reject_key(Reject r) {
   switch (r) {
 #define COOPDYN_REJECT(e, key, name) \
   case Reject::e: return #key;
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
   }
   return "?";
 }
@@ -65,7 +65,7 @@ const char* reject_name(Reject r) {
   switch (r) {
 #define COOPDYN_REJECT(e, key, name) \
   case Reject::e: return name;
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
   }
   return "?";
 }
@@ -76,7 +76,7 @@ const char* control_action_name(ControlAction a) {
   switch (a) {
 #define COOPDYN_CONTROL_ACTION(e, code, key, name, lcm) \
   case ControlAction::e: return name;
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
   }
   return "?";
 }
@@ -84,7 +84,7 @@ const char* control_result_name(ControlResult r) {
   switch (r) {
 #define COOPDYN_CONTROL_RESULT(e, code, key, name, lcm) \
   case ControlResult::e: return name;
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
   }
   return "?";
 }
@@ -93,7 +93,7 @@ const char* input_name(Input i) {
   switch (i) {
 #define COOPDYN_INPUT(e, code, key, name, lcm) \
   case Input::e: return name;
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
   }
   return "?";
 }
@@ -105,7 +105,7 @@ const char* reason_key(int r) {
 #include "service/dynamics/reasons.def"
 #define COOPDYN_SERVICE_REASON(c, code, key, lcm) \
   case code: return #key;
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
   }
   return "unknown";
 }
@@ -113,7 +113,7 @@ const char* input_key(int i) {
   switch (i) {
 #define COOPDYN_INPUT(e, code, key, name, lcm) \
   case code: return #key;
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
   }
   return "unknown";
 }
@@ -121,7 +121,7 @@ const char* joint_losses_key(int j) {
   switch (j) {
 #define COOPDYN_JOINT_LOSSES(e, code, key, lcm) \
   case code: return #key;
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
   }
   return "unknown";
 }
@@ -129,7 +129,7 @@ const char* mode_key(int m) {
   switch (m) {
 #define COOPDYN_MODE(e, code, key, lcm) \
   case code: return #key;
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
   }
   return "unknown";
 }
@@ -138,7 +138,7 @@ const char* control_action_key(int a) {
   switch (a) {
 #define COOPDYN_CONTROL_ACTION(e, code, key, name, lcm) \
   case code: return #key;
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
   }
   return "unknown";
 }
@@ -146,7 +146,7 @@ const char* control_result_key(int r) {
   switch (r) {
 #define COOPDYN_CONTROL_RESULT(e, code, key, name, lcm) \
   case code: return #key;
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
   }
   return "unknown";
 }
@@ -630,7 +630,7 @@ struct OutputEncoder::Impl {
   // every field whose on_error (output_fields.def) is not keep, to that value
   void zero_dynamics() {
 #define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) reset(msg.name, on_error);
-#include "service/io/output_fields.def"
+#include "service/io/codec/output_fields.def"
   }
 };
 
@@ -756,7 +756,7 @@ int StatsEncoder::max_size() const { return impl_->msg.getEncodedSize(); }
 int StatsEncoder::encode(const StatsFrame& s, uint8_t* buf, int cap) {
   coopdyn::loop_stats_t& o = impl_->msg;
 #define COOPDYN_STATS_FIELD(lcm, frame, put, since) o.lcm = s.frame;
-#include "service/io/stats_fields.def"
+#include "service/io/codec/stats_fields.def"
   for (int k = 1; k < kRejectKinds; ++k) o.rejected_by_reason[k - 1] = s.rejected_by_reason[k];
   if (cap < o.getEncodedSize()) return -1;
   return o.encode(buf, 0, cap);

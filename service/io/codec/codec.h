@@ -20,9 +20,9 @@
 #include "service/dynamics/state_fit.h"
 #include "service/dynamics/system.h"
 #include "service/dynamics/friction_bound.h"
-#include "service/dynamics/wrench_sigma.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
 #include "service/dynamics/wrenches.h"
-#include "service/io/messages.h"
+#include "service/io/codec/messages.h"
 
 namespace coopdyn::io {
 

@@ -14,7 +14,7 @@
 #include "coopdyn/output_v2_t.hpp"
 #include "coopdyn/output_v3_t.hpp"
 #include "coopdyn/torque_command_t.hpp"
-#include "service/io/codec.h"
+#include "service/io/codec/codec.h"
 
 namespace coopdyn::io {
 
@@ -60,12 +60,12 @@ struct StatsLayout {
 constexpr int kStatsVersion = 4;
 constexpr StatsLayout kStatsLayouts[] = {
 #define COOPDYN_STATS_LAYOUT(hash, version) {hash, version},
-#include "service/io/stats_fields.def"
+#include "service/io/codec/stats_fields.def"
 };
 constexpr int stats_fields_after(int version) {
   return 0
 #define COOPDYN_STATS_FIELD(lcm, frame, put, since) +((since) > version ? 1 : 0)
-#include "service/io/stats_fields.def"
+#include "service/io/codec/stats_fields.def"
       ;
 }
 static_assert(stats_fields_after(kStatsVersion) == 0, "stats_fields.def: a since above kStatsVersion");
@@ -231,7 +231,7 @@ size_t elements(const DecodedOutput& o, const char* size) {
   struct has_##name : std::false_type {};                                        \
   template <class M>                                                             \
   struct has_##name<M, std::void_t<decltype(&M::name)>> : std::true_type {};
-#include "service/io/output_fields.def"
+#include "service/io/codec/output_fields.def"
 
 // The layouts output_t was published in, each with its VERSION: a field is in a layout exactly when
 // its `since` is not above the layout's version (checked here at compile time for every field).
@@ -241,7 +241,7 @@ struct Layout {
   static constexpr int kVersion = V;
 #define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) \
   static_assert(has_##name<M>::value == ((since) <= V), "output_fields.def: since of " #name);
-#include "service/io/output_fields.def"
+#include "service/io/codec/output_fields.def"
 };
 static_assert(coopdyn::output_t::VERSION == 4, "a new VERSION: freeze the old layout (messages.md, Adding a field)");
 using OutputLayouts = std::tuple<Layout<coopdyn::output_t, 4>, Layout<coopdyn::output_v3_t, 3>,
@@ -272,7 +272,7 @@ void upgrade(const M& m, DecodedOutput* out) {
   out->missing = 0;
 #define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) \
   COOPDYN_UPGRADE_##type(name, size, absent)
-#include "service/io/output_fields.def"
+#include "service/io/codec/output_fields.def"
 }
 
 template <size_t I = 0>
@@ -320,7 +320,7 @@ bool decode_stats(const void* data, int len, StatsFrame* s) {
   s->frame = o.lcm;                                                      \
   if (version >= 0 && (since) > version) s->missing |= uint64_t{1} << field; \
   ++field;
-#include "service/io/stats_fields.def"
+#include "service/io/codec/stats_fields.def"
   // by the reasons' keys, so that a sender built with another set of reasons still reads the ones it knows
   for (int k = 1; k < kRejectKinds; ++k) {
     s->rejected_by_reason[k] = 0;
@@ -414,7 +414,7 @@ bool to_csv(MessageType t, const void* data, int len, std::string* header, std::
 #define COOPDYN_STATS_FIELD(lcm, frame, put, since) \
   *header += header->empty() ? #lcm : "," #lcm; \
   put(row, s.frame);
-#include "service/io/stats_fields.def"
+#include "service/io/codec/stats_fields.def"
       for (int k = 1; k < kRejectKinds; ++k) *header += std::string(",rejected_") + reject_key(static_cast<Reject>(k));
       for (int k = 1; k < kRejectKinds; ++k) inum(row, s.rejected_by_reason[k]);
       break;

@@ -1,12 +1,12 @@
-#include "service/io/direct_decoder.h"
+#include "service/io/codec/direct_decoder.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <string_view>
 
-#include "service/io/codec.h"
-#include "service/io/wire.h"
+#include "service/io/codec/codec.h"
+#include "service/io/codec/wire.h"
 
 namespace coopdyn::io {
 

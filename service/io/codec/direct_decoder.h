@@ -8,7 +8,7 @@
 // counts against the scene's sizes), then reads names as byte ranges, looked up in tables of the
 // scene's names built at start-up, and the numbers (big-endian IEEE doubles) into the slot's Eigen
 // vectors, sized by the slot's owner. A message it refuses gets the reason the generated decoder
-// gives, checked in the same order (tests/io/direct_decoder_test.cc compares the two on valid,
+// gives, checked in the same order (tests/io/codec/direct_decoder_test.cc compares the two on valid,
 // mutated and hostile messages; tests/fuzz/fuzz_test.cc does so on the fuzzer's inputs). No
 // allocation, no exception, no logging after construction.
 #pragma once
@@ -20,7 +20,7 @@
 
 #include "service/dynamics/state_fit.h"
 #include "service/dynamics/system.h"
-#include "service/io/messages.h"
+#include "service/io/codec/messages.h"
 
 namespace coopdyn::io {
 

@@ -11,14 +11,14 @@
 
 namespace coopdyn::io {
 
-// Why an input was not applied (service/io/codes.def: the table, with each reason's key and name).
+// Why an input was not applied (service/io/codec/codes.def: the table, with each reason's key and name).
 enum class Reject {
 #define COOPDYN_REJECT(e, key, name) e,
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
 };
 constexpr int kRejectKinds = 0
 #define COOPDYN_REJECT(e, key, name) +1
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
     ;
 
 const char* reject_name(Reject r);
@@ -57,11 +57,11 @@ struct StateSlot {
 // A validated control request (control_t), sized once (nq, nv for RESET_TO_STATE).
 enum class ControlAction : int8_t {
 #define COOPDYN_CONTROL_ACTION(e, code, key, name, lcm) e = code,
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
 };
 enum class ControlResult : int8_t {
 #define COOPDYN_CONTROL_RESULT(e, code, key, name, lcm) e = code,
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
 };
 const char* control_action_name(ControlAction a);
 const char* control_result_name(ControlResult r);
@@ -78,19 +78,19 @@ struct ControlSlot {
 // Codes carried by output_t (mirrors its constants; the codec checks they agree).
 enum class Mode : int8_t {
 #define COOPDYN_MODE(e, code, key, lcm) e = code,
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
 };
 enum class Input : int8_t {
 #define COOPDYN_INPUT(e, code, key, name, lcm) e = code,
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
 };
 const char* input_name(Input i);
 enum class JointLosses : int8_t {
 #define COOPDYN_JOINT_LOSSES(e, code, key, lcm) e = code,
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
 };
 #define COOPDYN_SERVICE_REASON(c, code, key, lcm) constexpr int16_t c = code;
-#include "service/io/codes.def"
+#include "service/io/codec/codes.def"
 
 // One-word keys of the codes (the CSV and JSON outputs); "unknown" for a code not in the tables.
 const char* reason_key(int reason);          // Reason or the service's 100+: "none", "diverged", "no_state", ...
@@ -128,11 +128,11 @@ struct StatsFrame {
 // layout lacks holds its `absent` value and its bit in `missing` (OutputField) is set.
 enum class OutputField {
 #define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) name,
-#include "service/io/output_fields.def"
+#include "service/io/codec/output_fields.def"
 };
 constexpr int kOutputFields = 0
 #define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) +1
-#include "service/io/output_fields.def"
+#include "service/io/codec/output_fields.def"
     ;
 static_assert(kOutputFields <= 64, "DecodedOutput::missing holds a bit per field");
 
@@ -149,7 +149,7 @@ static_assert(kOutputFields <= 64, "DecodedOutput::missing holds a bit per field
 #define COOPDYN_DECODED_count(n, absent)
 struct DecodedOutput {
 #define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) COOPDYN_DECODED_##type(name, absent)
-#include "service/io/output_fields.def"
+#include "service/io/codec/output_fields.def"
   uint64_t missing = 0;  // bit OutputField: absent from the layout the message was recorded in
   bool has(OutputField f) const { return !(missing >> static_cast<int>(f) & 1); }
 };

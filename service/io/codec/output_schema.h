@@ -27,7 +27,7 @@ inline std::string output_fields_markdown() {
     names += (names.empty() ? "" : ", ") + n + "`";
   };
 #define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) add(#name, #type, doc);
-#include "service/io/output_fields.def"
+#include "service/io/codec/output_fields.def"
   flush();
   return t;
 }
@@ -36,24 +36,24 @@ inline std::string output_fields_markdown() {
 // (name, since); STATS_LAYOUTS, {fingerprint: version} of loop_stats_t's older layouts.
 inline std::string output_fields_python() {
   std::string t =
-      "\"\"\"The fields of output_t and loop_stats_t (generated from service/io/output_fields.def and\n"
+      "\"\"\"The fields of output_t and loop_stats_t (generated from service/io/codec/output_fields.def and\n"
       "stats_fields.def by output_fields_gen at build time: do not edit).\"\"\"\n\nOUTPUT_FIELDS = [\n";
   char b[256];
 #define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc)                       \
   std::snprintf(b, sizeof b, "    (\"%s\", \"%s\", \"%s\", %d, %d),\n", #name, #type, #size, since, absent); \
   t += b;
-#include "service/io/output_fields.def"
+#include "service/io/codec/output_fields.def"
   t += "]\n\nSTATS_FIELDS = [\n";
 #define COOPDYN_STATS_FIELD(lcm, frame, put, since)                 \
   std::snprintf(b, sizeof b, "    (\"%s\", %d),\n", #lcm, since); \
   t += b;
-#include "service/io/stats_fields.def"
+#include "service/io/codec/stats_fields.def"
   t += "]\n\nSTATS_LAYOUTS = {\n";
 #define COOPDYN_STATS_LAYOUT(hash, version)                                                               \
   std::snprintf(b, sizeof b, "    bytes.fromhex(\"%016llx\"): %d,\n", static_cast<unsigned long long>(hash), \
                 version);                                                                                 \
   t += b;
-#include "service/io/stats_fields.def"
+#include "service/io/codec/stats_fields.def"
   t += "}\n";
   return t;
 }

@@ -1,4 +1,4 @@
-#include "service/io/auth.h"
+#include "service/io/transport/auth.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <cstring>
 
-#include "service/io/wire.h"
+#include "service/io/codec/wire.h"
 
 namespace coopdyn::io {
 

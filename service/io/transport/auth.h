@@ -24,8 +24,8 @@
 #include <string>
 #include <vector>
 
-#include "service/io/codec.h"
-#include "service/io/messages.h"
+#include "service/io/codec/codec.h"
+#include "service/io/codec/messages.h"
 
 namespace coopdyn::io {
 

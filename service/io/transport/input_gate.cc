@@ -1,4 +1,4 @@
-#include "service/io/input_gate.h"
+#include "service/io/transport/input_gate.h"
 
 #include <arpa/inet.h>
 #include <linux/filter.h>
@@ -9,8 +9,8 @@
 #include <limits>
 #include <stdexcept>
 
-#include "service/io/lcm_bus.h"
-#include "service/io/udpm_socket.h"
+#include "service/io/transport/lcm_bus.h"
+#include "service/io/transport/udpm_socket.h"
 
 namespace coopdyn::io {
 

@@ -26,9 +26,9 @@
 #include <string>
 #include <vector>
 
-#include "service/io/auth.h"
-#include "service/io/lcm_wire.h"
-#include "service/io/messages.h"
+#include "service/io/transport/auth.h"
+#include "service/io/transport/lcm_wire.h"
+#include "service/io/codec/messages.h"
 
 namespace coopdyn::io {
 

@@ -1,4 +1,4 @@
-#include "service/io/lcm_bus.h"
+#include "service/io/transport/lcm_bus.h"
 
 #include <lcm/lcm.h>
 #include <netinet/in.h>
@@ -10,8 +10,8 @@
 #include <regex>
 #include <vector>
 
-#include "service/io/lcm_wire.h"
-#include "service/io/udpm_socket.h"
+#include "service/io/transport/lcm_wire.h"
+#include "service/io/transport/udpm_socket.h"
 
 namespace coopdyn::io {
 

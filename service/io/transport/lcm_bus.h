@@ -20,7 +20,7 @@
 #include <thread>
 #include <vector>
 
-#include "service/io/bus.h"
+#include "service/io/transport/bus.h"
 
 typedef struct _lcm_t lcm_t;
 

@@ -1,4 +1,4 @@
-#include "service/io/lcm_wire.h"
+#include "service/io/transport/lcm_wire.h"
 
 #include <arpa/inet.h>
 

@@ -1,4 +1,4 @@
-#include "service/io/rx_in_loop.h"
+#include "service/io/transport/rx_in_loop.h"
 
 #include <poll.h>
 #include <time.h>
@@ -6,7 +6,7 @@
 
 #include <stdexcept>
 
-#include "service/io/lcm_bus.h"
+#include "service/io/transport/lcm_bus.h"
 
 namespace coopdyn::io {
 

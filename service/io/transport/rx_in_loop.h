@@ -22,7 +22,7 @@
 #include <string>
 #include <vector>
 
-#include "service/io/input_gate.h"
+#include "service/io/transport/input_gate.h"
 
 namespace coopdyn::io {
 

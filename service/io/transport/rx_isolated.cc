@@ -1,4 +1,4 @@
-#include "service/io/rx_isolated.h"
+#include "service/io/transport/rx_isolated.h"
 
 #include <fcntl.h>
 #include <linux/futex.h>
@@ -26,9 +26,9 @@
 #include <stdexcept>
 #include <vector>
 
-#include "service/io/codec.h"
-#include "service/io/lcm_bus.h"
-#include "service/io/lcm_wire.h"
+#include "service/io/codec/codec.h"
+#include "service/io/transport/lcm_bus.h"
+#include "service/io/transport/lcm_wire.h"
 
 extern char** environ;
 

@@ -69,10 +69,10 @@
 #include <thread>
 #include <vector>
 
-#include "service/io/auth.h"
-#include "service/io/input_gate.h"
-#include "service/io/lcm_wire.h"
-#include "service/io/messages.h"
+#include "service/io/transport/auth.h"
+#include "service/io/transport/input_gate.h"
+#include "service/io/transport/lcm_wire.h"
+#include "service/io/codec/messages.h"
 
 namespace coopdyn::io {
 

@@ -1,4 +1,4 @@
-#include "service/io/udpm_socket.h"
+#include "service/io/transport/udpm_socket.h"
 
 #include <arpa/inet.h>
 #include <netinet/in.h>

@@ -10,7 +10,7 @@
 
 #include <string>
 
-#include "service/io/lcm_wire.h"
+#include "service/io/transport/lcm_wire.h"
 
 namespace coopdyn::io {
 

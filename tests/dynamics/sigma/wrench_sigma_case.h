@@ -9,8 +9,8 @@
 #include <string>
 #include <utility>
 
-#include "service/dynamics/wrench_sigma.h"
-#include "tests/dynamics/wrench_sigma_reference.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
+#include "tests/dynamics/sigma/wrench_sigma_reference.h"
 #include "tests/support/test_util.h"
 
 namespace coopdyn::testing {

@@ -1,4 +1,4 @@
-// The fast path of each wrench's sigma (service/dynamics/wrench_sigma.cc) against its previous
+// The fast path of each wrench's sigma (service/dynamics/sigma/wrench_sigma.cc) against its previous
 // definition (wrench_sigma_reference.cc): on every shipped scene with every joint reaction reported
 // and noise declared on every joint (torque, position, velocity), in both modes and both
 // formulations, the square root C of each covariance, the sigmas and what they contain agree to
@@ -13,8 +13,8 @@
 
 #include <random>
 
-#include "service/dynamics/wrench_sigma.h"
-#include "tests/dynamics/wrench_sigma_reference.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
+#include "tests/dynamics/sigma/wrench_sigma_reference.h"
 #include "tests/support/test_util.h"
 
 namespace coopdyn::testing {

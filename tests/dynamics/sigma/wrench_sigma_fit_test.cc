@@ -15,8 +15,8 @@
 #include <utility>
 
 #include "service/dynamics/integrators.h"
-#include "service/dynamics/state_fit_sigma.h"
-#include "service/dynamics/wrench_sigma.h"
+#include "service/dynamics/sigma/state_fit_sigma.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
 #include "tests/support/sigma_monte_carlo.h"
 #include "tests/support/test_util.h"
 

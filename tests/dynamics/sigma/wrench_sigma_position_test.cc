@@ -1,5 +1,5 @@
-// The position columns of each wrench's sigma as tangents (service/dynamics/wrench_sigma_position.h)
-// against differences of the residuals they linearize (tests/dynamics/wrench_sigma_reference.cc):
+// The position columns of each wrench's sigma as tangents (service/dynamics/sigma/wrench_sigma_position.h)
+// against differences of the residuals they linearize (tests/dynamics/sigma/wrench_sigma_reference.cc):
 // the generalized-force change (X0), the constraint right-hand side's (Gm) and the wrenches' own
 // change (Cd), column by column. The solve after them is the torque columns' (wrench_sigma_fast_test.cc).
 #include <gtest/gtest.h>
@@ -8,8 +8,8 @@
 #include <optional>
 #include <random>
 
-#include "service/dynamics/wrench_sigma.h"
-#include "tests/dynamics/wrench_sigma_case.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
+#include "tests/dynamics/sigma/wrench_sigma_case.h"
 #include "tests/support/test_util.h"
 
 namespace coopdyn::testing {

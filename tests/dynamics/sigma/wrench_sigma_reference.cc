@@ -1,9 +1,9 @@
-// The definition of each wrench's sigma before its fast path (service/dynamics/wrench_sigma.cc as it
+// The definition of each wrench's sigma before its fast path (service/dynamics/sigma/wrench_sigma.cc as it
 // was): every noise source a column propagated through the evaluation's factor of M, a dense solve
 // of Q independent of the evaluation's factors of it (q_solve_rows below), and a reaction pass on
 // 6 x columns blocks with dense 6 x 6 inertias and frame transforms. Kept as the reference the
 // fast path is tested against (wrench_sigma_fast_test.cc); not linked into the service.
-#include "tests/dynamics/wrench_sigma_reference.h"
+#include "tests/dynamics/sigma/wrench_sigma_reference.h"
 
 #include <cmath>
 #include <random>

@@ -2,7 +2,7 @@
 // tested against (same arguments and results as compute_wrench_sigma of wrench_sigma.h).
 #pragma once
 
-#include "service/dynamics/wrench_sigma.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
 
 namespace coopdyn::reference {
 

@@ -1,4 +1,4 @@
-// The uncertainty of every reported wrench from declared torque noise (service/dynamics/wrench_sigma.h):
+// The uncertainty of every reported wrench from declared torque noise (service/dynamics/sigma/wrench_sigma.h):
 // its response matrix against finite differences of whole evaluations, its standard deviations
 // against Monte Carlo, and the scene key `noise`.
 #include <gtest/gtest.h>
@@ -6,7 +6,7 @@
 #include <cmath>
 #include <random>
 
-#include "service/dynamics/wrench_sigma.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
 #include "tests/support/sigma_monte_carlo.h"
 #include "tests/support/test_util.h"
 

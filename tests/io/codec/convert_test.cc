@@ -1,4 +1,4 @@
-// loop_stats_t as logs recorded before its last fields were appended (service/io/stats_fields.def:
+// loop_stats_t as logs recorded before its last fields were appended (service/io/codec/stats_fields.def:
 // each field's since, each older layout's fingerprint): such a message reads as the current one with
 // those fields 0; identify() knows it.
 #include <gtest/gtest.h>
@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "service/io/codec.h"
+#include "service/io/codec/codec.h"
 
 using namespace coopdyn;
 

@@ -1,4 +1,4 @@
-// The allocation-free state decoder (service/io/direct_decoder.h) against the generated one
+// The allocation-free state decoder (service/io/codec/direct_decoder.h) against the generated one
 // (StateDecoder, codec.h): on every scene, valid states of every form (in order, named, named in
 // reverse, joints only with the load fitted, pseudo-joints omitted, sensor readings) decode to the
 // same slot, bit for bit, and to the values sent; truncated, oversized and hostile messages and
@@ -16,8 +16,8 @@
 #include <vector>
 
 #include "service/dynamics/state_fit.h"
-#include "service/io/codec.h"
-#include "service/io/direct_decoder.h"
+#include "service/io/codec/codec.h"
+#include "service/io/codec/direct_decoder.h"
 #include "service/scene/scene.h"
 #include "tests/support/daemon_test_util.h"
 

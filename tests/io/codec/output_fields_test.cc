@@ -1,4 +1,4 @@
-// output_t's one field list (service/io/output_fields.def): every older layout (output_v1_t ..
+// output_t's one field list (service/io/codec/output_fields.def): every older layout (output_v1_t ..
 // output_v3_t) decodes through the one upgrader into the current fields, equal to the current
 // message's where the layout has the field, its absent value and marked missing where it does not;
 // and docs/reference/messages.md's output_t table is the list's.
@@ -15,9 +15,9 @@
 #include "coopdyn/output_v2_t.hpp"
 #include "coopdyn/output_v3_t.hpp"
 #include "service/dynamics/contacts.h"
-#include "service/dynamics/wrench_sigma.h"
-#include "service/io/codec.h"
-#include "service/io/output_schema.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
+#include "service/io/codec/codec.h"
+#include "service/io/codec/output_schema.h"
 #include "tests/support/test_util.h"
 
 namespace coopdyn::testing {
@@ -28,7 +28,7 @@ namespace {
   struct has_##name : std::false_type {};                                        \
   template <class M>                                                             \
   struct has_##name<M, std::void_t<decltype(&M::name)>> : std::true_type {};
-#include "service/io/output_fields.def"
+#include "service/io/codec/output_fields.def"
 
 // A field of the current generated message into an old layout's (wrench_t rows to 6-arrays for v1).
 template <class T, class U>
@@ -52,7 +52,7 @@ std::vector<uint8_t> encode_as(const coopdyn::output_t& m, int version) {
   L old;
 #define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) \
   if constexpr (has_##name<L>::value) put(old.name, m.name);
-#include "service/io/output_fields.def"
+#include "service/io/codec/output_fields.def"
   if constexpr (has_version<L>::value) old.version = static_cast<int16_t>(version);
   std::vector<uint8_t> b(static_cast<size_t>(old.getEncodedSize()));
   EXPECT_GT(old.encode(b.data(), 0, static_cast<int>(b.size())), 0);
@@ -143,7 +143,7 @@ void expect_upgraded(const Published& p, int version) {
 #define COOPDYN_CHECK_reals COOPDYN_CHECK_FIELD
 #define COOPDYN_CHECK_wrenches COOPDYN_CHECK_FIELD
 #define COOPDYN_CHECK_dirs COOPDYN_CHECK_FIELD
-#include "service/io/output_fields.def"
+#include "service/io/codec/output_fields.def"
   EXPECT_EQ(old.version, version);
   EXPECT_EQ(missing > 0, version < coopdyn::output_t::VERSION);
 }
@@ -180,7 +180,7 @@ TEST(OutputFields, StatsLayoutsMarkTheFieldsTheyLack) {
 #define COOPDYN_STATS_FIELD(lcm, frame, put, since) \
   if (std::string(#lcm) == "outputs_dropped") dropped = fields; \
   ++fields;
-#include "service/io/stats_fields.def"
+#include "service/io/codec/stats_fields.def"
   b.resize(static_cast<size_t>(n - 8));
   const uint64_t before = 0x5f3a349535103d01ULL;
   for (int i = 0; i < 8; ++i) b[static_cast<size_t>(i)] = static_cast<uint8_t>(before >> (56 - 8 * i));
@@ -197,7 +197,7 @@ TEST(OutputFields, MessagesMdTableIsTheFieldList) {
   std::stringstream ss;
   ss << f.rdbuf();
   const std::string md = ss.str();
-  const std::string begin = "<!-- output_t fields: generated from service/io/output_fields.def -->\n";
+  const std::string begin = "<!-- output_t fields: generated from service/io/codec/output_fields.def -->\n";
   const std::string end = "<!-- end of output_t fields -->";
   const size_t a = md.find(begin), b = md.find(end);
   ASSERT_TRUE(a != std::string::npos && b != std::string::npos && a < b) << path << ": no output_t field markers";

@@ -1,4 +1,4 @@
-// The receive path's gate (service/io/input_gate.h) on its own, shared by the receive process and
+// The receive path's gate (service/io/transport/input_gate.h) on its own, shared by the receive process and
 // the in-loop receiver: datagrams sent over loopback to a plain UDP socket, read in one batch and
 // admitted or refused one by one, each refusal counted with its reason.
 #include <gtest/gtest.h>
@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "service/io/auth.h"
-#include "service/io/codec.h"
-#include "service/io/input_gate.h"
+#include "service/io/transport/auth.h"
+#include "service/io/codec/codec.h"
+#include "service/io/transport/input_gate.h"
 #include "tests/support/raw_udp.h"
 
 using namespace coopdyn;

@@ -11,7 +11,7 @@
 #include <thread>
 #include <vector>
 
-#include "service/io/lcm_bus.h"
+#include "service/io/transport/lcm_bus.h"
 #include "tests/support/private_udpm_url.h"
 
 using namespace coopdyn;

@@ -1,7 +1,7 @@
-// The LCM wire parser and reassembler (service/io/lcm_wire.h) on datagrams built from the format
+// The LCM wire parser and reassembler (service/io/transport/lcm_wire.h) on datagrams built from the format
 // (fragmented as liblcm 1.3.1 does; tests/daemon receives liblcm's own datagrams through udpm),
 // every refusal checked with its reason.
-#include "service/io/lcm_wire.h"
+#include "service/io/transport/lcm_wire.h"
 
 #include <gtest/gtest.h>
 

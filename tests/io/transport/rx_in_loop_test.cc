@@ -1,4 +1,4 @@
-// The in-loop receive path (service/io/rx_in_loop.h, realtime.receive_in_loop) over real udpm on a
+// The in-loop receive path (service/io/transport/rx_in_loop.h, realtime.receive_in_loop) over real udpm on a
 // private port (ttl=0): the loop's thread reads the input socket itself, sleeping in ppoll on it or
 // polling it. Valid states arrive interleaved with hostile datagrams (liblcm 1.3.1's crash fragment,
 // junk after the state fingerprint, random fragments, non-LCM junk): every valid state is taken,
@@ -20,10 +20,10 @@
 #include <random>
 #include <thread>
 
-#include "service/io/auth.h"
-#include "service/io/codec.h"
-#include "service/io/lcm_bus.h"
-#include "service/io/rx_in_loop.h"
+#include "service/io/transport/auth.h"
+#include "service/io/codec/codec.h"
+#include "service/io/transport/lcm_bus.h"
+#include "service/io/transport/rx_in_loop.h"
 #include "service/runtime/realtime.h"
 #include "service/runtime/service_loop.h"
 #include "service/runtime/socket_arrivals.h"
