@@ -3,64 +3,14 @@
 // velocities (System::q_noise, v_noise). Call after evaluate() on the same workspace (it reads the
 // evaluation's factors; the solves use this data's scratch, not the workspace's results).
 //
-// Torque noise, exact. At a fixed state (q, v) every reported wrench is affine in the torques:
-// w_k = W_k tau + c_k (the factorization of M and of Q does not depend on tau, nor does the rank
-// decision or the redundancy rule, which are linear in the right-hand side). With
-// tau ~ N(tau, diag(S^2)) the covariance of w_k is exactly W_k diag(S^2) W_k^T; it is computed
-// through its square root C_k = W_k diag(S) (6 x na), sigma_k = the row norms of C_k.
-//
-// Measurement noise, linearized at the evaluated state. The evaluation solves
-//   E1 = tau + tau_loss(v) - M(q) vdot - h(q, v) + G(q)^T lambda = 0,   E2 = gamma(q, v) - G(q) vdot = 0
-// and reports w = g(q, v, vdot, lambda). A change dx of one measured coordinate moves the solution by
-//   M dvdot - G^T dlambda = dE1/dx dx,   G dvdot = dE2/dx dx
-// (the same solve as a torque change, with a right-hand side in both rows), and the wrench by
-// dg/dx dx (its own dependence at fixed vdot, lambda) plus the solve's part; the solve itself is
-// never repeated. Velocity columns: dE/dv and dg/dv are exact tangents of the velocity recursion
-// at fixed q (wrench_sigma_velocity.h: v enters only the bias forces, Gdot v, the damping and the
-// rolling-resistance arm), equal to central differences of any step to round-off. Position
-// columns: exact tangents too (wrench_sigma_position.h: a joint's motion carries its subtree as one
-// rigid body; the inverse dynamics, the welds' rows and the reactions change over that subtree and
-// its path to the root only), equal to five-point central differences to round-off. Where that
-// does not hold (a rolling contact in the subtree, a weld in it under
-// Baumgarte position feedback) a column is a directional difference of the
-// residual (kinematics of the joint's subtree, inverse dynamics, constraint rows and the wrench
-// pass, no factorization) with a forward step h = 1e-7 (rad, m), truncation error O(h). The
-// linearization error is second order in the noise (a wrench's curvature in q times S_q^2);
-// against central differences of whole evaluations the columns agree to 1e-4 (absolute, or
-// relative above 1) on the shipped scenes
-// (tests/dynamics/sigma/wrench_sigma_test.cc). A load pose and twist fitted from the
-// joints (state_fit.h) are held unless WrenchSigmaData::refit is set (state_fit_sigma.h): then each
-// column adds their first-order response to the measured coordinate (the fit's, from one
-// factorization), through the floating joints' own position and velocity tangents (computed once
-// per evaluation, per unit); where a floating joint's position tangent does not apply, the position
-// columns are differences of the refitted state. Joint friction is held at the evaluation's (set-valued at rest, its sign constant
-// while sliding); damping follows v.
-//
-// Torque noise from kArmsMin arms on (simulate mode), where the joints fall into arms coupled only
-// through the load's DOFs (the structure of the block factor of Q): the arm form of
-// wrench_sigma_arms.h, linear in the arms: 12 columns through the solve and the pass (the packed
-// torques and the load's unit forces) and one 6 x 12 row product per output component, instead of
-// every torque column. Its C is filled only where keep_C is set (nothing in the service reads it).
-//
-// All columns (torque, then q, then v) are propagated together: one pass of each factor over a
-// block of right-hand sides, one block Q solve, one reaction pass over 6 x columns blocks. The row
-// operations run at a compile-time column count where the count is a common one (6, 12, 18, 24, 36,
-// 48: wrench_sigma_rows.h); the reaction pass runs body by body on compact 6 x columns blocks,
-// each body's acceleration, inertia, subtree sum and reaction in one loop over the columns, and Y X
-// and Y^T Lam hold a weld's 6 rows in registers over its DOFs (the same operations per entry, in
-// the same order, as the row operations). Where only a few reactions are reported (the bases, with
-// `reactions: none`) each is read off composite inertias instead of the pass (composite, below),
-// both with the same result to round-off.
-//
-// Indeterminate components (WrenchData::indeterminate, an over-constrained system) report the
-// spread of the value the scene's redundancy rule selects (minimum norm or compliance-weighted):
-// the physics does not determine them, the rule is linear, and that is the value reported. The
-// rule's null space turns with q: an over-constrained evaluation has no position columns (source
-// without kQ).
-//
-// Coulomb friction at a joint at rest is free within its bound (stuck, it would absorb a torque
-// change): sigma is the spread with that friction left free, the same map as without it, and the
-// interval the friction itself may move each wrench over is the separate bound of friction_bound.h.
+// Contract: sigma[k] is the standard deviation of each component of wrench k (same frame and order),
+// exact for torque noise, linearized at the evaluated state for measurement noise (exact tangents,
+// or a forward difference with h = 1e-7 where a contact or Baumgarte feedback is in the subtree); a
+// load fitted from the joints is held unless WrenchSigmaData::refit is set (state_fit_sigma.h).
+// Indeterminate components report the spread of the value the redundancy rule selects; Coulomb
+// friction at rest is left free (its bound: friction_bound.h). The derivation: docs/method.md,
+// "The uncertainty of the wrenches". From kArmsMin arms on (simulate mode) torque noise takes the arm
+// form of wrench_sigma_arms.h, whose C is filled only where keep_C is set.
 //
 // Supported formulations: mobile_platform and classic (every shipped scene). pseudo_joint and svd,
 // a failed evaluation, or a scene without noise: valid = false and sigma zero. Allocation-free
