@@ -15,6 +15,7 @@
 #include "coopdyn/output_v3_t.hpp"
 #include "coopdyn/torque_command_t.hpp"
 #include "service/io/codec/codec.h"
+#include "service/io/codec/output_traits.h"
 
 namespace coopdyn::io {
 
@@ -224,14 +225,6 @@ size_t elements(const DecodedOutput& o, const char* size) {
   if (s == "v") return o.v_names.size();
   return s == "four" ? 4 : 1;
 }
-
-// Whether layout M has the field (member detection), one trait per field.
-#define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) \
-  template <class M, class = void>                                               \
-  struct has_##name : std::false_type {};                                        \
-  template <class M>                                                             \
-  struct has_##name<M, std::void_t<decltype(&M::name)>> : std::true_type {};
-#include "service/io/codec/output_fields.def"
 
 // The layouts output_t was published in, each with its VERSION: a field is in a layout exactly when
 // its `since` is not above the layout's version (checked here at compile time for every field).

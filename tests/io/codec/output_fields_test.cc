@@ -18,17 +18,13 @@
 #include "service/dynamics/sigma/wrench_sigma.h"
 #include "service/io/codec/codec.h"
 #include "service/io/codec/output_schema.h"
+#include "service/io/codec/output_traits.h"
 #include "tests/support/test_util.h"
 
 namespace coopdyn::testing {
 namespace {
+using namespace io;  // has_NAME<M> (output_traits.h)
 
-#define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) \
-  template <class M, class = void>                                               \
-  struct has_##name : std::false_type {};                                        \
-  template <class M>                                                             \
-  struct has_##name<M, std::void_t<decltype(&M::name)>> : std::true_type {};
-#include "service/io/codec/output_fields.def"
 
 // A field of the current generated message into an old layout's (wrench_t rows to 6-arrays for v1).
 template <class T, class U>
