@@ -1,4 +1,4 @@
-// Cost of the MAC check of an authenticated input (service/io/auth.h, Verifier::check: HMAC-SHA256
+// Cost of the MAC check of an authenticated input (service/io/transport/auth.h, Verifier::check: HMAC-SHA256
 // through libsodium over the channel's name and the message's bytes, the key's part precomputed),
 // per message, for the three input types at the default scene's sizes (two_puma_load: a torque
 // command, a measured state, a pause control and a reset_to_state control), and what rejecting junk
@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "service/io/auth.h"
-#include "service/io/codec.h"
+#include "service/io/transport/auth.h"
+#include "service/io/codec/codec.h"
 #include "service/scene/scene.h"
 
 using namespace coopdyn;

@@ -15,7 +15,7 @@ target_link_libraries(auth_bench PRIVATE coopdyn_io coopdyn_scene benchmark::ben
 coopdyn_use_paths(auth_bench)
 
 # Decoding a measured state: the allocation-free decoder the loop runs on arrival against the
-# generated one (service/io/direct_decoder.h)
+# generated one (service/io/codec/direct_decoder.h)
 add_executable(direct_decoder_bench ${CMAKE_CURRENT_LIST_DIR}/direct_decoder_bench.cc)
 target_link_libraries(direct_decoder_bench PRIVATE coopdyn_io coopdyn_scene benchmark::benchmark)
 coopdyn_use_paths(direct_decoder_bench)

@@ -1,5 +1,5 @@
 // Cost of decoding a measured state (two_puma_load) with the allocation-free decoder the loop's
-// thread runs on arrival (service/io/direct_decoder.h) against the generated one (StateDecoder,
+// thread runs on arrival (service/io/codec/direct_decoder.h) against the generated one (StateDecoder,
 // codec.h), per message: in the scene's order, by name, joints only (the load fitted later), and
 // full and joints-only states alternating (names of other lengths: where the generated decoder
 // reallocates its strings).
@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "service/dynamics/state_fit.h"
-#include "service/io/codec.h"
-#include "service/io/direct_decoder.h"
+#include "service/io/codec/codec.h"
+#include "service/io/codec/direct_decoder.h"
 #include "service/scene/scene.h"
 
 using namespace coopdyn;

@@ -23,7 +23,7 @@
 #include <thread>
 #include <vector>
 
-#include "service/io/lcm_bus.h"
+#include "service/io/transport/lcm_bus.h"
 
 using coopdyn::io::LcmBus;
 using coopdyn::io::monotonic_ns;

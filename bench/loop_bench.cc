@@ -19,9 +19,9 @@
 #include <vector>
 
 #include "service/dynamics/holding_torque.h"
-#include "service/io/lcm_bus.h"
+#include "service/io/transport/lcm_bus.h"
 
-#include "service/io/codec.h"
+#include "service/io/codec/codec.h"
 #include "service/runtime/service_loop.h"
 #include "service/scene/scene.h"
 

@@ -1,4 +1,4 @@
-// Cost of each reported wrench's sigma (service/dynamics/wrench_sigma.h) next to the evaluation it
+// Cost of each reported wrench's sigma (service/dynamics/sigma/wrench_sigma.h) next to the evaluation it
 // comes from. Per scene (the shipped scenes whose formulation propagates noise, then 1, 2, 3, 4, 6 and 8
 // PUMAs holding a load: bench/scenes/pumas_N.yaml, and 3, 4, 6 and 8 without joint armature, whose Q
 // is factored with the nominal rows last: pumas_N_no_armature.yaml; every joint reaction reported,
@@ -31,8 +31,8 @@
 #include <vector>
 
 #include "bench/bench_util.h"
-#include "service/dynamics/state_fit_sigma.h"
-#include "service/dynamics/wrench_sigma.h"
+#include "service/dynamics/sigma/state_fit_sigma.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
 #include "service/scene/scene.h"
 
 using namespace coopdyn;

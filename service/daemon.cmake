@@ -4,18 +4,18 @@ add_subdirectory(${PROJECT_SOURCE_DIR}/lcmtypes ${CMAKE_BINARY_DIR}/lcmtypes)
 
 # coopdyn_io: the only library that sees generated lcmtypes (privately)
 add_library(coopdyn_io
-  ${CMAKE_CURRENT_LIST_DIR}/io/auth.cc
-  ${CMAKE_CURRENT_LIST_DIR}/io/codec.cc
-  ${CMAKE_CURRENT_LIST_DIR}/io/convert.cc
-  ${CMAKE_CURRENT_LIST_DIR}/io/direct_decoder.cc
-  ${CMAKE_CURRENT_LIST_DIR}/io/input_gate.cc
-  ${CMAKE_CURRENT_LIST_DIR}/io/lcm_bus.cc
-  ${CMAKE_CURRENT_LIST_DIR}/io/lcm_wire.cc
-  ${CMAKE_CURRENT_LIST_DIR}/io/rx_in_loop.cc
-  ${CMAKE_CURRENT_LIST_DIR}/io/rx_isolated.cc
-  ${CMAKE_CURRENT_LIST_DIR}/io/udpm_socket.cc
+  ${CMAKE_CURRENT_LIST_DIR}/io/transport/auth.cc
+  ${CMAKE_CURRENT_LIST_DIR}/io/codec/codec.cc
+  ${CMAKE_CURRENT_LIST_DIR}/io/codec/convert.cc
+  ${CMAKE_CURRENT_LIST_DIR}/io/codec/direct_decoder.cc
+  ${CMAKE_CURRENT_LIST_DIR}/io/transport/input_gate.cc
+  ${CMAKE_CURRENT_LIST_DIR}/io/transport/lcm_bus.cc
+  ${CMAKE_CURRENT_LIST_DIR}/io/transport/lcm_wire.cc
+  ${CMAKE_CURRENT_LIST_DIR}/io/transport/rx_in_loop.cc
+  ${CMAKE_CURRENT_LIST_DIR}/io/transport/rx_isolated.cc
+  ${CMAKE_CURRENT_LIST_DIR}/io/transport/udpm_socket.cc
 )
-# libsodium: HMAC-SHA256 of authenticated inputs (io/auth.h), allocation-free; its header is in auth.h
+# libsodium: HMAC-SHA256 of authenticated inputs (io/transport/auth.h), allocation-free; its header is in auth.h
 pkg_check_modules(SODIUM REQUIRED IMPORTED_TARGET GLOBAL libsodium)
 target_link_libraries(coopdyn_io PUBLIC coopdyn_core Threads::Threads PkgConfig::LCM PkgConfig::SODIUM
                                  PRIVATE coopdyn_lcmtypes)

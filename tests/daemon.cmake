@@ -4,12 +4,12 @@
 # tests/CMakeLists.txt.
 coopdyn_test(coopdynd_tests
   FILES
-    io/lcm_wire_test.cc
-    io/input_gate_test.cc
-    io/rx_in_loop_test.cc
-    io/direct_decoder_test.cc
-    io/lcm_bus_test.cc
-    io/convert_test.cc
+    io/transport/lcm_wire_test.cc
+    io/transport/input_gate_test.cc
+    io/transport/rx_in_loop_test.cc
+    io/codec/direct_decoder_test.cc
+    io/transport/lcm_bus_test.cc
+    io/codec/convert_test.cc
     runtime/service_loop_test.cc
     runtime/triple_buffer_test.cc
     runtime/publisher_thread_test.cc
@@ -31,6 +31,10 @@ coopdyn_test(coopdynd_tests
   LIBS coopdyn_runtime coopdyn_scene coopdyn_step_csv
   DEPENDS coopdynd coopdyn
   PROPERTIES LABELS daemon)
+
+# output_t's one field list: every older layout through the upgrader, messages.md's table (its own
+# executable, with the generated types: it writes old layouts)
+coopdyn_test(coopdyn_output_fields_tests FILES io/codec/output_fields_test.cc LIBS coopdyn_io coopdyn_scene coopdyn_lcmtypes)
 
 # Seeded mutation fuzzing of the decoders and the scene and config loaders (tests/fuzz/fuzz_test.cc),
 # a bounded number of inputs per target; the seed corpus is tests/fuzz/corpus.

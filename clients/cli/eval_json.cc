@@ -9,7 +9,7 @@
 #include "service/dynamics/contacts.h"
 #include "service/dynamics/free_directions.h"
 #include "service/dynamics/friction_bound.h"
-#include "service/dynamics/wrench_sigma.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
 #include "service/dynamics/wrenches.h"
 
 namespace coopdyn::cli {

@@ -1,4 +1,4 @@
-// --key-file of coopdyn send, track and control: the daemon's auth key (service/io/auth.h: the same
+// --key-file of coopdyn send, track and control: the daemon's auth key (service/io/transport/auth.h: the same
 // file format and permission check as auth.key_file), and signing what they publish with it.
 #pragma once
 
@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "service/io/auth.h"
+#include "service/io/transport/auth.h"
 
 namespace coopdyn::cli {
 

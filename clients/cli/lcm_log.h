@@ -6,7 +6,7 @@
 #include <functional>
 #include <string>
 
-#include "service/io/codec.h"
+#include "service/io/codec/codec.h"
 
 namespace coopdyn::cli {
 

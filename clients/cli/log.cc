@@ -28,7 +28,7 @@
 #include "clients/cli/progress.h"
 #include "clients/csv/step_csv.h"
 #include "service/dynamics/contacts.h"
-#include "service/io/codec.h"
+#include "service/io/codec/codec.h"
 #include "service/scene/scene.h"
 
 namespace coopdyn::cli {
@@ -97,51 +97,51 @@ void write_header(std::FILE* f, const std::string& what, const CsvColumns& c) {
   std::fprintf(f, "\n");
 }
 
-// The output_t columns only a daemon has, after the shared ones.
+// The output_t columns only a daemon has, after the shared ones: log_time, then the fields whose csv
+// writer (service/io/codec/output_fields.def) is not none or step, in the message's order.
+#define COOPDYN_CALL(m, args) m args
+#define COOPDYN_UNPAREN(...) __VA_ARGS__
+#define COOPDYN_LOG_COLUMN(name, writer, unit) COOPDYN_LOG_COLUMN_##writer(name, unit)
+#define COOPDYN_LOG_COLUMN_none(name, unit)
+#define COOPDYN_LOG_COLUMN_step(name, unit)
+#define COOPDYN_LOG_COLUMN_integer(name, unit) c->add(#name, unit);
+#define COOPDYN_LOG_COLUMN_key(name, unit) c->add(#name, unit);
+#define COOPDYN_LOG_COLUMN_closure(name, unit) \
+  for (int k = 0; k < 4; ++k) c->add(std::string(#name "_") + kClosureKinds[k], kClosureUnits[k]);
+#define COOPDYN_LOG_COLUMN_closure_at(name, unit) \
+  for (int k = 0; k < 4; ++k) c->add(std::string("closure_") + kClosureKinds[k] + "_at", unit);
+#define COOPDYN_LOG_COLUMN_wrench_bits(field, unit) \
+  for (const auto& w : s.wrenches) c->add(w.name + "." #field, unit);
+constexpr const char* kClosureKinds[4] = {"position", "orientation", "linear_velocity", "angular_velocity"};
+constexpr const char* kClosureUnits[4] = {"m", "rad", "m/s", "rad/s"};
 void add_log_columns(const StepSchema& s, CsvColumns* c) {
   c->add("log_time", "s");
-  c->add("utime", "us");
-  c->add("tick", "1");
-  c->add("mode", "text");
-  c->add("input", "text");
-  c->add("input_seq", "1");
-  c->add("input_utime", "us");
-  c->add("paused", "1");
-  c->add("control_seq", "1");
-  c->add("control_action", "text");
-  c->add("control_result", "text");
-  c->add("state_fitted", "bits");
-  c->add("fit_iterations", "1");
-  c->add("closure_position", "m");
-  c->add("closure_orientation", "rad");
-  c->add("closure_linear_velocity", "m/s");
-  c->add("closure_angular_velocity", "rad/s");
-  for (const char* n : {"closure_position_at", "closure_orientation_at", "closure_linear_velocity_at", "closure_angular_velocity_at"})
-    c->add(n, "text");
-  for (const auto& w : s.wrenches) c->add(w.name + ".indeterminate_mask", "bits");
+#define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) \
+  COOPDYN_CALL(COOPDYN_LOG_COLUMN, (name, COOPDYN_UNPAREN csv))
+#include "service/io/codec/output_fields.def"
 }
 
 // The cells of the columns only a daemon has (add_log_columns), after the shared ones.
+#define COOPDYN_LOG_CELL(name, writer, unit) COOPDYN_LOG_CELL_##writer(name)
+#define COOPDYN_LOG_CELL_none(name)
+#define COOPDYN_LOG_CELL_step(name)
+#define COOPDYN_LOG_CELL_integer(name) l.sep(), l.integer(o.name);
+#define COOPDYN_LOG_CELL_key(name) l.sep(), l.text(name##_key(o.name));
+#define COOPDYN_LOG_CELL_closure(name) \
+  for (double y : o.name) l.sep(), l.num(y);
+#define COOPDYN_LOG_CELL_closure_at(name) \
+  for (int c : o.name) { /* the constraint's name, empty if none */ \
+    l.sep();                                                          \
+    if (c >= 0 && c < static_cast<int>(o.constraint_names.size()))    \
+      l.text(o.constraint_names[static_cast<size_t>(c)].c_str());     \
+  }
+#define COOPDYN_LOG_CELL_wrench_bits(name) \
+  for (int m : o.name) l.sep(), l.integer(m);
 void write_log_cells(CsvLine& l, const io::DecodedOutput& o, double log_time) {
   l.sep(), l.num(log_time);
-  l.sep(), l.integer(o.utime);
-  l.sep(), l.integer(o.tick);
-  l.sep(), l.text(mode_key(o.mode));
-  l.sep(), l.text(input_key(o.input));
-  l.sep(), l.integer(o.input_seq);
-  l.sep(), l.integer(o.input_utime);
-  l.sep(), l.integer(o.paused);
-  l.sep(), l.integer(o.control_seq);
-  l.sep(), l.text(control_action_key(o.control_action));
-  l.sep(), l.text(control_result_key(o.control_result));
-  l.sep(), l.integer(o.state_fitted);
-  l.sep(), l.integer(o.fit_iterations);
-  for (double y : o.closure) l.sep(), l.num(y);
-  for (int c : o.closure_constraint) {  // the constraint's name, empty if none
-    l.sep();
-    if (c >= 0 && c < static_cast<int>(o.constraint_names.size())) l.text(o.constraint_names[static_cast<size_t>(c)].c_str());
-  }
-  for (int m : o.indeterminate_mask) l.sep(), l.integer(m);
+#define COOPDYN_OUTPUT_FIELD(name, type, size, since, absent, on_error, csv, doc) \
+  COOPDYN_CALL(COOPDYN_LOG_CELL, (name, COOPDYN_UNPAREN csv))
+#include "service/io/codec/output_fields.def"
 }
 
 // The shared cells of an output_t (its contact states as words, in r's buffer).

@@ -20,8 +20,8 @@
 #include "clients/cli/cli.h"
 #include "clients/cli/key_file.h"
 #include "clients/csv/step_csv.h"
-#include "service/io/codec.h"
-#include "service/io/lcm_bus.h"
+#include "service/io/codec/codec.h"
+#include "service/io/transport/lcm_bus.h"
 #include "service/scene/scene.h"
 
 namespace coopdyn::cli {

@@ -25,7 +25,7 @@
 #include "service/dynamics/contacts.h"
 #include "service/dynamics/holding_torque.h"
 #include "service/dynamics/integrators.h"
-#include "service/dynamics/wrench_sigma.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
 #include "service/dynamics/wrenches.h"
 #include "service/scene/scene.h"
 

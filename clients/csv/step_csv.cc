@@ -3,7 +3,7 @@
 #include <sstream>
 
 #include "service/dynamics/wrench_components.h"
-#include "service/dynamics/wrench_sigma.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
 
 namespace coopdyn::cli {
 

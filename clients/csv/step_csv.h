@@ -26,7 +26,7 @@
 
 #include "service/dynamics/constrained_dynamics.h"
 #include "service/dynamics/system.h"
-#include "service/io/messages.h"
+#include "service/io/codec/messages.h"
 
 namespace coopdyn::cli {
 
@@ -87,7 +87,7 @@ struct CsvHeader {
 bool read_step_csv_header(std::istream& in, const std::string& path, CsvHeader* h, std::string* err);
 
 // Words for the codes (the CSV's text columns; the names of output_t's constants in lower case),
-// from the code tables (service/io/codes.def, service/dynamics/reasons.def).
+// from the code tables (service/io/codec/codes.def, service/dynamics/reasons.def).
 using io::control_action_key;
 using io::control_result_key;
 using io::input_key;

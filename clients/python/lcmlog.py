@@ -94,18 +94,24 @@ _TYPES = None
 _PRE_MAC = {bytes.fromhex("b5f5b8e960348f9c"): "torque_command_t", bytes.fromhex("1a87938cb56bb24b"): "measured_state_t",
             bytes.fromhex("489f6be38cd3846e"): "control_t"}
 
-# loop_stats_t's fingerprints before int64 fields were appended, and the bytes of those fields: such a
-# message reads as the current one with them 0 (as service/io/convert.cc reads it)
-_STATS_BEFORE = {bytes.fromhex("7f11746fd02903b9"): 8 * 8,  # before inputs_malformed and the fields after it
-                 bytes.fromhex("48bcc81f9a071c5a"): 8 * 7,  # before controls_received ... controls_replayed, outputs_dropped
-                 bytes.fromhex("5f3a349535103d01"): 8 * 1}  # before outputs_dropped
+def _stats_missing():
+    """{fingerprint: bytes} of loop_stats_t's older layouts (coopdyn.output_fields, generated from the
+    daemon's field list): such a message lacks the int64 fields appended after it and reads as the
+    current one with them 0 (as the C++ readers read it)."""
+    from coopdyn import output_fields
+    return {h: 8 * sum(1 for _, since in output_fields.STATS_FIELDS if since > v)
+            for h, v in output_fields.STATS_LAYOUTS.items()}
+
+
+_STATS_BEFORE = None
 
 
 def decode(data):
     """The coopdyn message in data (by its fingerprint), decoded; None if it is another type."""
-    global _TYPES
+    global _TYPES, _STATS_BEFORE
     if _TYPES is None:
         _TYPES = types()
+        _STATS_BEFORE = _stats_missing()
     head = bytes(data[:8])
     if head in _PRE_MAC:
         import coopdyn
@@ -117,3 +123,47 @@ def decode(data):
         return t.decode(t._get_packed_fingerprint() + bytes(data[8:]) + bytes(_STATS_BEFORE[head]))
     t = _TYPES.get(head)
     return t.decode(data) if t else None
+
+
+def upgrade(msg):
+    """(output_t, missing): an output_t of any layout (output_v1_t .. output_v3_t, from decode) as the
+    current output_t, and the set of the names of its fields the layout lacked: each holds its absent
+    value (coopdyn.output_fields.OUTPUT_FIELDS: 0, -1, or zeros per wrench), version the layout's.
+    The field list is the daemon's (service/io/codec/output_fields.def), as the C++ decode_output reads it."""
+    import coopdyn
+    from coopdyn import output_fields
+    out, missing = coopdyn.output_t(), set()
+    version = {"output_v1_t": 1, "output_v2_t": 2, "output_v3_t": 3}.get(type(msg).__name__)
+    count = {"one": lambda: 1, "four": lambda: 4, "wrenches": lambda: len(out.wrench_names),
+             "contacts": lambda: len(out.contact_names), "stresses": lambda: len(out.stress_names),
+             "constraints": lambda: len(out.constraint_names), "q": lambda: len(out.q_names),
+             "v": lambda: len(out.v_names), "free": lambda: len(out.free_class)}
+
+    def wrench(w):
+        if hasattr(w, "mx"):
+            return w
+        r = coopdyn.wrench_t()
+        r.mx, r.my, r.mz, r.fx, r.fy, r.fz = components(w)
+        return r
+
+    for name, typ, size, since, absent in output_fields.OUTPUT_FIELDS:
+        if hasattr(msg, name):
+            v = getattr(msg, name)
+            if typ == "wrenches":
+                v = [wrench(w) for w in v]
+            elif typ == "dirs":
+                v = [[wrench(w) for w in d] for d in v]
+            setattr(out, name, v)
+            continue
+        missing.add(name)
+        n = count[size]() if size in count else 0
+        if name == "version" and version is not None:
+            v = version
+        elif typ == "wrenches":
+            v = [wrench([absent] * 6) for _ in range(n)]
+        elif size == "one":
+            v = absent
+        else:
+            v = [absent] * n
+        setattr(out, name, v)
+    return out, missing

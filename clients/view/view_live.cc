@@ -27,8 +27,8 @@
 #include <string>
 
 #include "clients/view/view.h"
-#include "service/io/codec.h"
-#include "service/io/lcm_bus.h"
+#include "service/io/codec/codec.h"
+#include "service/io/transport/lcm_bus.h"
 
 namespace coopdyn::cli {
 

@@ -8,7 +8,7 @@
 #include "clients/cli/lcm_log.h"
 #include "clients/view/view.h"
 #include "service/dynamics/wrenches.h"
-#include "service/io/codec.h"
+#include "service/io/codec/codec.h"
 
 namespace coopdyn::cli {
 

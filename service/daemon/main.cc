@@ -7,7 +7,7 @@
 // realtime.sched_fifo auto, stepped down if it hogs its CPU) never receives; at the fixed rate it
 // hands its encoded outputs to the publisher thread (runtime/publisher_thread.h), which publishes them
 // through LCM (realtime.publisher_thread; on arrival the loop publishes itself). Inputs arrive in a
-// supervised child process (coopdynd --rx-child, io/rx_isolated.h: its own UDP socket and LCM wire
+// supervised child process (coopdynd --rx-child, io/transport/rx_isolated.h: its own UDP socket and LCM wire
 // parser, no liblcm) that copies raw bytes into a shared ring, drained by the receive thread here
 // (-> decode -> triple buffer), which also restarts the child when it dies (trigger: arrival: the
 // loop drains the ring itself, woken by the child, and the receive thread only supervises). spdlog's
@@ -34,9 +34,9 @@
 #include "service/daemon/options.h"
 #include "service/daemon/receive.h"
 #include "service/daemon/reports.h"
-#include "service/io/lcm_bus.h"
-#include "service/io/rx_in_loop.h"
-#include "service/io/rx_isolated.h"
+#include "service/io/transport/lcm_bus.h"
+#include "service/io/transport/rx_in_loop.h"
+#include "service/io/transport/rx_isolated.h"
 #include "service/runtime/config.h"
 #include "service/runtime/publisher_thread.h"
 #include "service/runtime/socket_arrivals.h"
@@ -153,7 +153,7 @@ std::chrono::steady_clock::time_point run(coopdyn::runtime::ServiceLoop& loop, c
 int main(int argc, char** argv) {
   using namespace coopdyn;
   using namespace coopdyn::daemon;
-  // the isolated receive process (io/rx_isolated.h): this binary, exec'd by the daemon itself
+  // the isolated receive process (io/transport/rx_isolated.h): this binary, exec'd by the daemon itself
   if (argc > 1 && std::strcmp(argv[1], "--rx-child") == 0) return io::rx_child_main(argc, argv);
   Options opt;
   if (const int rc = parse_args(argc, argv, &opt); rc >= 0) return rc;

@@ -11,7 +11,7 @@
 #include <cstdlib>
 #include <exception>
 
-#include "service/io/auth.h"
+#include "service/io/transport/auth.h"
 #include "service/runtime/config.h"
 #include "service/scene/scene.h"
 #include "service/version.h"

@@ -11,9 +11,9 @@
 #include <thread>
 #include <vector>
 
-#include "service/io/auth.h"
-#include "service/io/codec.h"
-#include "service/io/lcm_wire.h"
+#include "service/io/transport/auth.h"
+#include "service/io/codec/codec.h"
+#include "service/io/transport/lcm_wire.h"
 #include "service/runtime/realtime.h"
 
 namespace coopdyn::daemon {

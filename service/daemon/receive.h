@@ -7,8 +7,8 @@
 #include <string>
 
 #include "service/daemon/reports.h"
-#include "service/io/rx_in_loop.h"
-#include "service/io/rx_isolated.h"
+#include "service/io/transport/rx_in_loop.h"
+#include "service/io/transport/rx_isolated.h"
 #include "service/runtime/config.h"
 #include "service/runtime/fifo_guard.h"
 #include "service/runtime/service_loop.h"
@@ -18,7 +18,7 @@ namespace coopdyn::daemon {
 // inputs: received by a supervised child process, never by this one (the bus only publishes)
 std::unique_ptr<coopdyn::io::IsolatedReceiver> make_receiver(const coopdyn::runtime::ServiceConfig& cfg);
 
-// realtime.receive_in_loop: the input socket read by the loop's thread itself (io/rx_in_loop.h),
+// realtime.receive_in_loop: the input socket read by the loop's thread itself (io/transport/rx_in_loop.h),
 // through the receive process's gate; estimate mode on arrival only (the config says so)
 std::unique_ptr<coopdyn::io::InLoopReceiver> make_in_loop_receiver(const coopdyn::runtime::ServiceConfig& cfg);
 
@@ -33,7 +33,7 @@ coopdyn::runtime::Offer offer_input(coopdyn::runtime::ServiceLoop& loop, bool si
                                     const void* d, int n, long long t);
 
 // trigger: arrival: the loop drains the receive process's ring itself, woken by the bell the process
-// rings (io/rx_isolated.h drain_in_caller): no receive thread between a state's receipt and the loop
+// rings (io/transport/rx_isolated.h drain_in_caller): no receive thread between a state's receipt and the loop
 struct RingArrivals : coopdyn::runtime::ArrivalSource {
   coopdyn::io::IsolatedReceiver& rx;
   coopdyn::runtime::ServiceLoop& loop;

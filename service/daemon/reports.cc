@@ -9,7 +9,7 @@
 #include <thread>
 
 #include "service/dynamics/constrained_dynamics.h"
-#include "service/io/codec.h"
+#include "service/io/codec/codec.h"
 #include "service/runtime/fifo_guard.h"
 
 namespace coopdyn::daemon {

@@ -8,9 +8,9 @@
 #include <string>
 
 #include "service/dynamics/system.h"
-#include "service/io/input_gate.h"
-#include "service/io/lcm_wire.h"
-#include "service/io/rx_isolated.h"
+#include "service/io/transport/input_gate.h"
+#include "service/io/transport/lcm_wire.h"
+#include "service/io/transport/rx_isolated.h"
 #include "service/runtime/config.h"
 #include "service/runtime/event_ring.h"
 #include "service/runtime/service_loop.h"

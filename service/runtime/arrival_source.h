@@ -1,9 +1,9 @@
 // Where the event-driven loop (trigger: arrival) takes its inputs from when no receive thread hands
 // them over: the loop waits on the source's bell (or polls it, realtime.busy_poll) and, once it
 // moved, drains the source into its inboxes on its own thread. The daemon's sources: the receive
-// process's ring (io/rx_isolated.h, drain_in_caller; the default): the message goes from the
+// process's ring (io/transport/rx_isolated.h, drain_in_caller; the default): the message goes from the
 // process that received it to the loop with one wake-up, the loop's; or the input socket itself
-// (io/rx_in_loop.h, realtime.receive_in_loop): from the kernel to the loop with one wake-up (none when
+// (io/transport/rx_in_loop.h, realtime.receive_in_loop): from the kernel to the loop with one wake-up (none when
 // polling). Implementations must not allocate, lock, log or throw in any of the four calls.
 #pragma once
 

@@ -81,7 +81,7 @@ struct RealtimeOptions {
   // isolcpus), with sched_fifo. Off by default.
   bool busy_poll = false;
   // Event-driven estimate mode (trigger: arrival) only: the loop's thread reads the input socket
-  // itself (io/rx_in_loop.h) instead of taking states from the isolated receive process's ring; a
+  // itself (io/transport/rx_in_loop.h) instead of taking states from the isolated receive process's ring; a
   // state then goes from the kernel to the loop with one wake-up (none with busy_poll), through the
   // same bounded parser and checks, but that parser runs in the daemon's process. Off by default.
   bool receive_in_loop = false;
@@ -127,7 +127,7 @@ inline constexpr int kMinSocketBufferBytes = 4096, kMaxSocketBufferBytes = 26843
 struct ServiceConfig {
   double rate_hz = 1000.0;
   std::string lcm_url = "udpm://239.255.76.67:7667?ttl=0";  // outputs and stats (and inputs, unless lcm_url_in)
-  // Inputs (commands or measured states), received in the isolated child process (io/rx_isolated.h).
+  // Inputs (commands or measured states), received in the isolated child process (io/transport/rx_isolated.h).
   // Empty: lcm_url. Give it its own port or group so that the receiver never sees the daemon's
   // outputs and a flood on one URL cannot crowd out the other.
   std::string lcm_url_in;
@@ -142,7 +142,7 @@ struct ServiceConfig {
   std::string output_channel = "COOPDYN_OUTPUT";
   std::string stats_channel = "COOPDYN_STATS";
   std::string control_channel = "COOPDYN_CONTROL";  // control_t in (reset, pause, resume, clear fault)
-  // Authenticated inputs (io/auth.h): the shared key's file; "" = off. With a key, commands, states
+  // Authenticated inputs (io/transport/auth.h): the shared key's file; "" = off. With a key, commands, states
   // and controls must carry a good HMAC and a utime above the last accepted one on their channel.
   std::string auth_key_file;
   ServiceMode mode = ServiceMode::kSimulate;

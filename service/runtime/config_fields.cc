@@ -97,7 +97,7 @@ std::string check_url(const ConfigField& f, const FieldValue& v, const ServiceCo
 std::string check_url_in(const ConfigField& f, const FieldValue& v, const ServiceConfig& c) {
   return v.s.empty() ? "" : check_url(f, v, c);
 }
-// the receive ring (io/rx_isolated.h): slots and their size, bounded so the shared memory stays
+// the receive ring (io/transport/rx_isolated.h): slots and their size, bounded so the shared memory stays
 // below 4096 x 4 MiB and a slot holds any command of a sane scene
 std::string check_receive(const ConfigField& f, const FieldValue& v, const ServiceConfig&) {
   if (v.x >= f.lo && v.x <= f.hi && v.x == std::floor(v.x)) return "";

@@ -16,7 +16,7 @@
 // expiry the loop counted (before, each thread judged the watchdog by its own clock reading, and a
 // restart arriving between the watchdog and the next tick was accepted with no expiry counted).
 //
-// Authentication (require_auth(), io/auth.h): before decoding, the raw bytes' MAC is verified
+// Authentication (require_auth(), io/transport/auth.h): before decoding, the raw bytes' MAC is verified
 // (Reject::kUnauthenticated, kBadMac), then the replay rule: an input whose utime is not strictly
 // above the last accepted authenticated input's on this channel is Reject::kReplayed. A replay
 // older than max_input_age is also refused by the staleness rule, so the window of utimes a
@@ -31,10 +31,10 @@
 #include <limits>
 
 #include "service/dynamics/system.h"
-#include "service/io/auth.h"
-#include "service/io/codec.h"
-#include "service/io/direct_decoder.h"
-#include "service/io/messages.h"
+#include "service/io/transport/auth.h"
+#include "service/io/codec/codec.h"
+#include "service/io/codec/direct_decoder.h"
+#include "service/io/codec/messages.h"
 #include "service/runtime/triple_buffer.h"
 
 namespace coopdyn::runtime {
@@ -114,7 +114,7 @@ class Inbox {
   const InputCounters& counters() const { return counters_; }
   // Tests: replace the wall clock that utime is checked against.
   void set_wall_clock(int64_t (*now_us)()) { wall_us_ = now_us; }
-  // Inputs must be signed (io/auth.h); v outlives the inbox. Before the receive thread starts.
+  // Inputs must be signed (io/transport/auth.h); v outlives the inbox. Before the receive thread starts.
   void require_auth(const io::Verifier* v) { verifier_ = v; }
 
  private:

@@ -5,7 +5,7 @@
 
 #include <cstring>
 
-#include "service/io/lcm_bus.h"
+#include "service/io/transport/lcm_bus.h"
 
 namespace coopdyn::runtime {
 

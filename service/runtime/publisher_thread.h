@@ -17,7 +17,7 @@
 #include <thread>
 #include <vector>
 
-#include "service/io/bus.h"
+#include "service/io/transport/bus.h"
 #include "service/runtime/doorbell.h"
 
 namespace coopdyn::runtime {

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "service/io/lcm_bus.h"
+#include "service/io/transport/lcm_bus.h"
 #include "service/runtime/realtime.h"
 
 namespace coopdyn::runtime {
@@ -55,6 +55,7 @@ ServiceLoop::ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& b
       q_est_(sys.q0),
       v_est_(sys.v0),
       wrenches_(sys),
+      contacts_(sys),
       sigma_(sys),
       refit_(sys, fit_plan_),
       bound_(sys),
@@ -389,6 +390,8 @@ void ServiceLoop::put_evaluation(io::OutputFrame& f, Workspace& ws, const Diagno
   if (!ok) return;
   compute_wrenches(sys_, ws, wrenches_);
   f.wrenches = &wrenches_;
+  compute_contacts(sys_, ws, contacts_);
+  f.contacts = &contacts_;
   if (sigma_.declared) {
     if (estimated) {
       sigma_.refit = nullptr;

@@ -40,13 +40,14 @@
 
 #include <memory>
 
+#include "service/dynamics/contacts.h"
 #include "service/dynamics/holding_torque.h"
 #include "service/dynamics/integrators.h"
 #include "service/dynamics/state_fit.h"
-#include "service/dynamics/state_fit_sigma.h"
+#include "service/dynamics/sigma/state_fit_sigma.h"
 #include "service/dynamics/system.h"
-#include "service/io/bus.h"
-#include "service/io/codec.h"
+#include "service/io/transport/bus.h"
+#include "service/io/codec/codec.h"
 #include "service/runtime/arrival_source.h"
 #include "service/runtime/config.h"
 #include "service/runtime/doorbell.h"
@@ -117,14 +118,14 @@ class ServiceLoop {
   }
   bool paused() const { return paused_; }  // loop thread
   const InputCounters& input_counters() const;
-  // Fed by the daemon's receive supervision (io/rx_isolated.h), any thread; published in loop_stats_t.
+  // Fed by the daemon's receive supervision (io/transport/rx_isolated.h), any thread; published in loop_stats_t.
   void set_receiver_counters(int64_t restarts, int64_t dropped, int64_t filtered = 0, int64_t malformed = 0) {
     inputs_malformed_.store(malformed, std::memory_order_relaxed);
     receiver_restarts_.store(restarts, std::memory_order_relaxed);
     inputs_dropped_.store(dropped, std::memory_order_relaxed);
     inputs_filtered_.store(filtered, std::memory_order_relaxed);
   }
-  // The receive process's own rejections before its ring (io/rx_isolated.h), by reason (io::Reject):
+  // The receive process's own rejections before its ring (io/transport/rx_isolated.h), by reason (io::Reject):
   // of the input channel (commands, or states) and of the control channel; any thread. Counted in
   // loop_stats_t with the inboxes' (received and rejected, by reason; controls_*).
   void set_receiver_rejections(const int64_t (&input_by_reason)[io::kRejectKinds],
@@ -194,6 +195,7 @@ class ServiceLoop {
   Closure closure_;                  // simulate: drift of the step's start state
   bool closure_open_ = false;        // estimate: the last state was above closure_tolerance
   WrenchData wrenches_;              // the published wrenches of the evaluation (either mode)
+  ContactData contacts_;             // its rolling contacts (contacts.h)
   WrenchSigmaData sigma_;            // their sigma from the scene's declared noise (wrench_sigma.h)
   FitRefit refit_;                   // estimate: q and v noise moves the fitted load too (state_fit_sigma.h)
   FrictionBoundData bound_;          // estimate: their interval over the friction at rest (friction_bound.h)

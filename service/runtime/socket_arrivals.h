@@ -1,5 +1,5 @@
 // The event-driven loop's source (arrival_source.h) with realtime.receive_in_loop: the loop's own
-// thread reads the input socket (io/rx_in_loop.h), sleeping in ppoll on it (wait) or reading it at
+// thread reads the input socket (io/transport/rx_in_loop.h), sleeping in ppoll on it (wait) or reading it at
 // every poll (realtime.busy_poll); each message the gate admits goes to offer(data, len, recv_ns),
 // which puts it into the loop's inboxes. Used by coopdynd and by the tests of this mode.
 // drain() right after wait() or poll() reads nothing: they have just read the socket, and what came
@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <utility>
 
-#include "service/io/rx_in_loop.h"
+#include "service/io/transport/rx_in_loop.h"
 #include "service/runtime/arrival_source.h"
 
 namespace coopdyn::runtime {

@@ -1,4 +1,4 @@
-// Authenticated inputs (service/io/auth.h) over real LCM: memq:// through the loop running in this
+// Authenticated inputs (service/io/transport/auth.h) over real LCM: memq:// through the loop running in this
 // process (a signed command applied; an unsigned, a bad-MAC, a tampered, a replayed and a
 // wrong-channel one each rejected with its reason in loop_stats_t; a signed PAUSE applied, an
 // unsigned RESUME rejected), and udpm:// against build/bin/coopdynd with `auth.key_file`, driven by
@@ -14,8 +14,8 @@
 #include <mutex>
 #include <thread>
 
-#include "service/io/auth.h"
-#include "service/io/lcm_bus.h"
+#include "service/io/transport/auth.h"
+#include "service/io/transport/lcm_bus.h"
 #include "service/runtime/service_loop.h"
 #include "tests/support/child_process.h"
 #include "tests/support/counting_allocator.h"

@@ -24,7 +24,7 @@
 
 #include "service/dynamics/friction_bound.h"
 #include "service/dynamics/wrenches.h"
-#include "service/io/codec.h"
+#include "service/io/codec/codec.h"
 #include "service/scene/scene.h"
 #include "tests/support/child_process.h"
 

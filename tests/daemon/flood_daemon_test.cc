@@ -46,8 +46,8 @@
 #include <sstream>
 #include <thread>
 
-#include "service/io/auth.h"
-#include "service/io/lcm_bus.h"
+#include "service/io/transport/auth.h"
+#include "service/io/transport/lcm_bus.h"
 #include "tests/support/child_process.h"
 #include "tests/support/daemon_test_util.h"
 #include "tests/support/raw_udp.h"

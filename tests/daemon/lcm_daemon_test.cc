@@ -29,7 +29,7 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "service/io/lcm_bus.h"
+#include "service/io/transport/lcm_bus.h"
 #include "service/runtime/service_loop.h"
 #include "tests/support/child_process.h"
 #include "tests/support/daemon_test_util.h"
@@ -831,7 +831,7 @@ void EstimateReplay::replay_and_compare(bool joints_only) {
 
 // Hostile datagrams on the inputs (README "What the daemon guarantees"). liblcm 1.3.1 writes out of
 // bounds on a crafted LC03 fragment (offset 0xFFFFFF00) and dies; the daemon's receive process
-// parses LCM's wire format itself (service/io/lcm_wire.h), so the fragment is refused and counted
+// parses LCM's wire format itself (service/io/transport/lcm_wire.h), so the fragment is refused and counted
 // (inputs_malformed) and nothing restarts: 300 such fragments, one every 10 ms, while 300 valid
 // commands arrive at 100 Hz; each of them is applied or counted once (lost on the way: a seq gap;
 // held past max_input_age on a loaded machine: rejected as stale), and commands sent after the

@@ -8,7 +8,7 @@
 #include <random>
 
 #include "service/dynamics/friction_bound.h"
-#include "service/dynamics/wrench_sigma.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
 #include "tests/support/test_util.h"
 
 namespace coopdyn::testing {

@@ -13,7 +13,7 @@
 
 #include "service/dynamics/contacts.h"
 #include "service/dynamics/integrators.h"
-#include "service/io/codec.h"
+#include "service/io/codec/codec.h"
 #include "tests/support/child_process.h"
 #include "tests/support/test_util.h"
 
@@ -284,6 +284,9 @@ TEST(Vehicle, LiftOffAndSlipAreReportedWhereTheFormulasSay) {
   io::OutputFrame f;
   f.valid = true;
   f.ws = ws;
+  ContactData contacts(*sys);  // computed by the loop, not the codec
+  compute_contacts(*sys, *ws, contacts);
+  f.contacts = &contacts;
   Eigen::VectorXd z = Eigen::VectorXd::Zero(sys->model.nv()), qq = sys->q0;
   f.q = &qq;
   f.v = &z;

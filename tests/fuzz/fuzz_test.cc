@@ -1,12 +1,12 @@
 // Seeded mutation fuzzing of the untrusted-input boundaries:
-//   - CommandDecoder / StateDecoder (service/io/codec.h) on mutated valid encodings: bit flips,
+//   - CommandDecoder / StateDecoder (service/io/codec/codec.h) on mutated valid encodings: bit flips,
 //     truncations, inserted / deleted / duplicated bytes, count and string-length fields set to
 //     hostile values, doubles set to NaN / Inf / huge / just over the limit, splices of two seeds;
-//   - DirectStateDecoder (service/io/direct_decoder.h) on the same mutated states, against
+//   - DirectStateDecoder (service/io/codec/direct_decoder.h) on the same mutated states, against
 //     StateDecoder: the same reason for every input, the same slot for every one accepted;
 //   - load_scene_string on mutated shipped scenes (config/scenes/*.yaml) and the scene corpus;
 //   - load_config_string on mutated config/coopdynd.yaml and the config corpus;
-//   - the LCM wire parser and reassembler (service/io/lcm_wire.h) on mutated datagram sequences of
+//   - the LCM wire parser and reassembler (service/io/transport/lcm_wire.h) on mutated datagram sequences of
 //     the wire corpus (LC02, LC03 sets, the fragment that crashes liblcm 1.3.1).
 // Every input must end in a clean result or the documented error (a Reject, SceneError,
 // ConfigError): never a crash, a hang or another exception. A clean result is checked too: a
@@ -52,10 +52,10 @@
 #endif
 
 #include "service/dynamics/constrained_dynamics.h"
-#include "service/io/auth.h"
-#include "service/io/codec.h"
-#include "service/io/direct_decoder.h"
-#include "service/io/lcm_wire.h"
+#include "service/io/transport/auth.h"
+#include "service/io/codec/codec.h"
+#include "service/io/codec/direct_decoder.h"
+#include "service/io/transport/lcm_wire.h"
 #include "service/runtime/config.h"
 #include "service/scene/scene.h"
 #include "tests/support/files.h"
@@ -580,7 +580,7 @@ int write_corpus(const std::string& dir) {
   return 0;
 }
 
-// ---- the LCM wire parser and reassembler (service/io/lcm_wire.h) -------------------------------
+// ---- the LCM wire parser and reassembler (service/io/transport/lcm_wire.h) -------------------------------
 // A wire input is a sequence of datagrams, each framed as [u8 sender][u16 length, big-endian][bytes]
 // (tests/fuzz/corpus/wire/*.bin). Mutations: a datagram's bytes (mutate_bytes), an LC03 header field
 // set to a hostile value, a datagram repeated, dropped or moved, another sender.

@@ -28,8 +28,8 @@
 #include <string>
 #include <vector>
 
-#include "service/io/bus.h"
-#include "service/io/codec.h"
+#include "service/io/transport/bus.h"
+#include "service/io/codec/codec.h"
 #include "service/runtime/config.h"
 #include "service/runtime/inbox.h"
 #include "service/runtime/service_loop.h"

@@ -12,7 +12,7 @@ add_dependencies(lcm_interop_helper coopdyn_lcmtypes_python coopdyn)
 
 set(py_env PYTHONPATH=${COOPDYN_PYTHON_DIR} COOPDYN_SOURCE_DIR=${PROJECT_SOURCE_DIR}
     COOPDYN_INTEROP_HELPER=$<TARGET_FILE:lcm_interop_helper> COOPDYN=$<TARGET_FILE:coopdyn>)
-foreach(t python_types lcmlog)
+foreach(t python_types lcmlog output_fields)
   add_test(NAME python.${t} COMMAND ${COOPDYN_PYTHON3} -B ${CMAKE_CURRENT_LIST_DIR}/${t}_test.py -v)
   set_tests_properties(python.${t} PROPERTIES ENVIRONMENT "${py_env}" LABELS python TIMEOUT 120)
 endforeach()

@@ -10,7 +10,7 @@
 
 #include <algorithm>
 
-#include "service/dynamics/state_fit_sigma.h"
+#include "service/dynamics/sigma/state_fit_sigma.h"
 
 #include <unistd.h>
 
@@ -18,8 +18,8 @@
 #include <chrono>
 #include <thread>
 
-#include "service/io/lcm_bus.h"
-#include "service/io/rx_isolated.h"
+#include "service/io/transport/lcm_bus.h"
+#include "service/io/transport/rx_isolated.h"
 #include "service/runtime/publisher_thread.h"
 #include "service/runtime/service_loop.h"
 #include "tests/support/child_process.h"

@@ -13,7 +13,7 @@
 #include <thread>
 
 #include "service/dynamics/contacts.h"
-#include "service/io/lcm_bus.h"
+#include "service/io/transport/lcm_bus.h"
 #include "service/runtime/service_loop.h"
 #include "tests/support/daemon_test_util.h"
 #include "tests/support/test_util.h"

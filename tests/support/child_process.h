@@ -19,7 +19,7 @@
 
 #include <gtest/gtest.h>
 
-#include "service/io/lcm_bus.h"
+#include "service/io/transport/lcm_bus.h"
 #include "tests/support/files.h"
 #include "tests/support/private_udpm_url.h"
 #include "tests/support/wait.h"

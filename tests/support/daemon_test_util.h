@@ -16,8 +16,8 @@
 #include "service/algorithms/kinematics.h"
 #include "service/dynamics/constrained_dynamics.h"
 #include "service/dynamics/wrenches.h"
-#include "service/io/bus.h"
-#include "service/io/codec.h"
+#include "service/io/transport/bus.h"
+#include "service/io/codec/codec.h"
 #include "service/scene/scene.h"
 #include "tests/support/files.h"
 

@@ -10,7 +10,7 @@
 
 #include <Eigen/Core>
 
-#include "service/dynamics/wrench_sigma.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
 
 namespace coopdyn::testing {
 

@@ -10,7 +10,7 @@
 #include "service/dynamics/integrators.h"
 #include "service/dynamics/contacts.h"
 #include "service/dynamics/holding_torque.h"
-#include "service/dynamics/wrench_sigma.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
 #include "service/dynamics/wrenches.h"
 #include "tests/support/test_util.h"
 

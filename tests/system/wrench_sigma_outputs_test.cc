@@ -10,8 +10,8 @@
 #include <mutex>
 
 #include "clients/csv/step_csv.h"
-#include "service/dynamics/wrench_sigma.h"
-#include "service/io/codec.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
+#include "service/io/codec/codec.h"
 #include "tests/support/child_process.h"
 #include "tests/support/test_util.h"
 

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "service/io/codec.h"
+#include "service/io/codec/codec.h"
 #include "tests/support/child_process.h"
 
 using namespace coopdyn;

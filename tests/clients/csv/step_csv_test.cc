@@ -20,7 +20,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "clients/csv/step_csv.h"
-#include "service/io/lcm_bus.h"
+#include "service/io/transport/lcm_bus.h"
 #include "service/runtime/service_loop.h"
 #include "tests/support/child_process.h"
 #include "tests/support/daemon_test_util.h"

@@ -17,8 +17,8 @@
 
 #include <gtest/gtest.h>
 
-#include "service/io/codec.h"
-#include "service/io/lcm_bus.h"
+#include "service/io/codec/codec.h"
+#include "service/io/transport/lcm_bus.h"
 #include "tests/support/child_process.h"
 #include "tests/support/http_client.h"
 #include "tests/clients/view/view_test_util.h"

@@ -15,7 +15,7 @@
 #include <gtest/gtest.h>
 #include <lcm/lcm-cpp.hpp>
 
-#include "service/io/codec.h"
+#include "service/io/codec/codec.h"
 #include "tests/support/child_process.h"
 #include "tests/clients/view/view_test_util.h"
 

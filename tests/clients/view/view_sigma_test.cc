@@ -13,8 +13,8 @@
 #include <gtest/gtest.h>
 #include <lcm/lcm-cpp.hpp>
 
-#include "service/dynamics/wrench_sigma.h"
-#include "service/io/codec.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
+#include "service/io/codec/codec.h"
 #include "tests/clients/view/view_test_util.h"
 
 namespace coopdyn {
