@@ -11,6 +11,7 @@ add_library(coopdyn_io
   ${CMAKE_CURRENT_LIST_DIR}/io/input_gate.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/lcm_bus.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/lcm_wire.cc
+  ${CMAKE_CURRENT_LIST_DIR}/io/multicast_route.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/rx_in_loop.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/rx_isolated.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/udpm_socket.cc

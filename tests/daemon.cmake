@@ -9,6 +9,7 @@ coopdyn_test(coopdynd_tests
     io/rx_in_loop_test.cc
     io/direct_decoder_test.cc
     io/lcm_bus_test.cc
+    io/multicast_route_test.cc
     io/convert_test.cc
     runtime/service_loop_test.cc
     runtime/triple_buffer_test.cc
