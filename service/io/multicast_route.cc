@@ -1,7 +1,6 @@
 #include "service/io/multicast_route.h"
 
 #include <arpa/inet.h>
-#include <ifaddrs.h>
 #include <net/if.h>
 #include <netinet/in.h>
 #include <sys/ioctl.h>
@@ -9,6 +8,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 
@@ -35,28 +35,44 @@ long url_ttl(const std::string& url) {
   return ttl;
 }
 
-// the interface that holds `a` ("" if none does), its MTU in *mtu and whether it is a loopback one
-std::string interface_of(const in_addr& a, int* mtu, bool* loopback) {
-  ifaddrs* all = nullptr;
-  if (getifaddrs(&all) != 0) return "";
-  std::string name;
-  for (ifaddrs* i = all; i; i = i->ifa_next) {
-    if (!i->ifa_addr || i->ifa_addr->sa_family != AF_INET) continue;
-    if (reinterpret_cast<const sockaddr_in*>(i->ifa_addr)->sin_addr.s_addr != a.s_addr) continue;
-    name = i->ifa_name;
-    *loopback = (i->ifa_flags & IFF_LOOPBACK) != 0;
-    break;
-  }
-  freeifaddrs(all);
+// the interface of the main table's route to `group` (longest prefix, then lowest metric), as
+// `ip route get` finds it without policy rules; "" when there is none
+std::string route_interface(const in_addr& group) {
+  std::FILE* f = std::fopen("/proc/net/route", "r");
+  if (!f) return "";
+  char line[512], name[64];
+  unsigned dest = 0, gw = 0, flags = 0, refcnt = 0, use = 0, metric = 0, mask = 0;
+  std::string best;
+  long best_len = -1;
+  unsigned best_metric = 0;
+  if (std::fgets(line, sizeof line, f))  // the header
+    while (std::fgets(line, sizeof line, f)) {
+      if (std::sscanf(line, "%63s %x %x %x %u %u %u %x", name, &dest, &gw, &flags, &refcnt, &use, &metric, &mask) != 8)
+        continue;
+      if (!(flags & 1) || (group.s_addr & mask) != dest) continue;  // RTF_UP, and the group inside
+      const long len = __builtin_popcount(mask);
+      if (len > best_len || (len == best_len && metric < best_metric)) {
+        best = name;
+        best_len = len;
+        best_metric = metric;
+      }
+    }
+  std::fclose(f);
+  return best;
+}
+
+// an interface's MTU (0: unknown) and whether it is a loopback one
+void interface_facts(const std::string& name, int* mtu, bool* loopback) {
   *mtu = 0;
-  if (name.empty() || name.size() >= IFNAMSIZ) return name;
+  *loopback = name == "lo";
+  if (name.empty() || name.size() >= IFNAMSIZ) return;
   const int fd = socket(AF_INET, SOCK_DGRAM, 0);
-  if (fd < 0) return name;
+  if (fd < 0) return;
   ifreq r{};
   std::memcpy(r.ifr_name, name.c_str(), name.size());
   if (ioctl(fd, SIOCGIFMTU, &r) == 0) *mtu = r.ifr_mtu;
+  if (ioctl(fd, SIOCGIFFLAGS, &r) == 0) *loopback = (r.ifr_flags & IFF_LOOPBACK) != 0;
   close(fd);
-  return name;
 }
 
 }  // namespace
@@ -74,26 +90,23 @@ std::string loopback_multicast_problem(const std::string& given) {
   to.sin_family = AF_INET;
   to.sin_port = htons(u.port);
   if (inet_pton(AF_INET, u.group.c_str(), &to.sin_addr) != 1) return "";
+  // the kernel's verdict first (no route: connect() fails), then the route's interface
   const int fd = socket(AF_INET, SOCK_DGRAM, 0);
   if (fd < 0) return "";
-  sockaddr_in from{};
-  socklen_t len = sizeof from;
-  const bool routed = connect(fd, reinterpret_cast<const sockaddr*>(&to), sizeof to) == 0 &&
-                      getsockname(fd, reinterpret_cast<sockaddr*>(&from), &len) == 0;
+  const bool routed = connect(fd, reinterpret_cast<const sockaddr*>(&to), sizeof to) == 0;
   const int err = errno;
   close(fd);
   const std::string fix = std::string("; to fix (as root): ") + kLoopbackRouteCommand;
   if (!routed)
     return "LCM URL '" + url + "': this host has no route for multicast to " + u.group + " (" + std::strerror(err) +
            "): nothing can be sent on it" + fix;
+  const std::string dev = route_interface(to.sin_addr);
+  if (dev.empty()) return "";  // routed by a rule or table this check does not read: no verdict
   int mtu = 0;
   bool loopback = false;
-  const std::string dev = interface_of(from.sin_addr, &mtu, &loopback);
-  if (loopback || (ntohl(from.sin_addr.s_addr) >> 24) == 127) return "";
-  char src[INET_ADDRSTRLEN] = {};
-  inet_ntop(AF_INET, &from.sin_addr, src, sizeof src);
-  const std::string by = dev.empty() ? std::string("the interface of ") + src
-                                     : dev + (mtu > 0 ? " (MTU " + std::to_string(mtu) + ")" : std::string());
+  interface_facts(dev, &mtu, &loopback);
+  if (loopback) return "";
+  const std::string by = dev + (mtu > 0 ? " (MTU " + std::to_string(mtu) + ")" : std::string());
   return "LCM URL '" + url + "' has ttl=0 (this host only), but multicast to " + u.group + " leaves by " + by +
          ", not lo: datagrams above its MTU come back as IP fragments, which fill a receiver's buffer several times "
          "faster, and large messages are lost on this host" + fix;

@@ -3,8 +3,9 @@
 // Without a multicast route on lo that route is the default one (eth0, MTU 1500 or less) or none:
 // datagrams above its MTU are cut into IP fragments, which take several times their size in a
 // receiver's buffer, so large messages (LCM sends them as 64 kB datagrams) are lost on this host,
-// or nothing can be sent at all. Checked by asking the kernel which source address it would use
-// (a UDP socket's connect() to the group, then getsockname; nothing is sent). Not for the loop.
+// or nothing can be sent at all. Checked by a UDP socket's connect() to the group (nothing is sent;
+// it fails without a route) and the main routing table's route to it (/proc/net/route, longest
+// prefix: the source address alone does not tell, lo has no address of link scope). Not for the loop.
 #pragma once
 
 #include <string>
