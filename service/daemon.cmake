@@ -14,6 +14,7 @@ add_library(coopdyn_io
   ${CMAKE_CURRENT_LIST_DIR}/io/transport/rx_in_loop.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/transport/rx_isolated.cc
   ${CMAKE_CURRENT_LIST_DIR}/io/transport/udpm_socket.cc
+  ${CMAKE_CURRENT_LIST_DIR}/io/transport/multicast_route.cc
 )
 # libsodium: HMAC-SHA256 of authenticated inputs (io/transport/auth.h), allocation-free; its header is in auth.h
 pkg_check_modules(SODIUM REQUIRED IMPORTED_TARGET GLOBAL libsodium)

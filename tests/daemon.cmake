@@ -10,6 +10,7 @@ coopdyn_test(coopdynd_tests
     io/codec/direct_decoder_test.cc
     io/transport/lcm_bus_test.cc
     io/codec/convert_test.cc
+    io/transport/multicast_route_test.cc
     runtime/service_loop_test.cc
     runtime/triple_buffer_test.cc
     runtime/publisher_thread_test.cc

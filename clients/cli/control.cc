@@ -9,6 +9,7 @@
 #include "clients/cli/key_file.h"
 #include "service/io/codec/codec.h"
 #include "service/io/transport/lcm_bus.h"
+#include "clients/cli/lcm_route.h"
 #include "service/scene/scene.h"
 
 namespace coopdyn::cli {
@@ -67,6 +68,7 @@ int cmd_control(const ControlArgs& a) {
   const std::string out_channel = a.output_channel;
   // seq: the wall clock in us unless given, so that successive invocations keep increasing
   const int64_t seq = a.seq ? *a.seq : io::wall_us();
+  warn_loopback_multicast("control", url, out_url);
   try {
     io::LcmBus bus(url);
     std::unique_ptr<io::LcmBus> out_bus;

@@ -22,6 +22,7 @@
 #include "clients/csv/step_csv.h"
 #include "service/io/codec/codec.h"
 #include "service/io/transport/lcm_bus.h"
+#include "clients/cli/lcm_route.h"
 #include "service/scene/scene.h"
 
 namespace coopdyn::cli {
@@ -422,6 +423,7 @@ int cmd_send(const SendArgs& a) {
   if (const int rc = load_cli_key(a.key_file, "send", &key)) return rc;
   const std::string& url = a.lcm_url;
   const std::string channel = a.channel.value_or(src.replay ? "COOPDYN_STATE" : "COOPDYN_COMMAND");
+  warn_loopback_multicast("send", url, a.output_url.value_or(""));
   std::unique_ptr<io::LcmBus> bus, out_bus;
   try {
     bus = std::make_unique<io::LcmBus>(url);

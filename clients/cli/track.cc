@@ -17,6 +17,7 @@
 #include "clients/control/cooperative_controller.h"
 #include "service/io/codec/codec.h"
 #include "service/io/transport/lcm_bus.h"
+#include "clients/cli/lcm_route.h"
 #include "service/scene/scene.h"
 
 namespace coopdyn::cli {
@@ -201,6 +202,7 @@ int cmd_track(const TrackArgs& a) {
   std::FILE* csv = nullptr;
   if (a.out && !(csv = open_track_csv(*a.out, sys))) return 1;
   LatestOutput latest;
+  warn_loopback_multicast("track", url, out_url);
   try {
     io::LcmBus bus(url);
     std::unique_ptr<io::LcmBus> out_bus;

@@ -29,6 +29,7 @@
 #include "clients/view/view.h"
 #include "service/io/codec/codec.h"
 #include "service/io/transport/lcm_bus.h"
+#include "clients/cli/lcm_route.h"
 
 namespace coopdyn::cli {
 
@@ -276,6 +277,7 @@ int run_view_live(const System& sys, const std::string& three_js, const std::str
   websocketpp::lib::error_code ec;
   const auto ep = server.get_local_endpoint(ec);
 
+  warn_loopback_multicast("view", lcm_url);
   std::unique_ptr<io::LcmBus> bus;
   try {
     bus = std::make_unique<io::LcmBus>(lcm_url);

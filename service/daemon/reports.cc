@@ -10,6 +10,7 @@
 
 #include "service/dynamics/constrained_dynamics.h"
 #include "service/io/codec/codec.h"
+#include "service/io/transport/multicast_route.h"
 #include "service/runtime/fifo_guard.h"
 
 namespace coopdyn::daemon {
@@ -127,6 +128,10 @@ void log_startup(const coopdyn::System& sys, const coopdyn::runtime::ServiceConf
                    : "isolated receive process, queue " + std::to_string(cfg.receive_queue) + " x " +
                          std::to_string(cfg.receive_max_bytes) + " bytes",
                cfg.lcm_url, cfg.output_channel, cfg.stats_channel, cfg.stats_period_s);
+  // a ttl=0 URL whose multicast leaves by eth0 (no route on lo) loses large messages on this host
+  if (const std::string why = io::loopback_multicast_problem(cfg.lcm_url); !why.empty()) spdlog::warn("{}", why);
+  if (cfg.input_url() != cfg.lcm_url)
+    if (const std::string why = io::loopback_multicast_problem(cfg.input_url()); !why.empty()) spdlog::warn("{}", why);
 }
 
 void RejectionReport::flush(bool force, const coopdyn::runtime::ServiceLoop& loop,
@@ -224,7 +229,8 @@ void print_summary(const coopdyn::runtime::ServiceLoop& loop, const coopdyn::run
   std::printf(
       "coopdynd: stopped (%s) after %lld ticks in %.1f s: overruns %lld, skipped %lld; %s received %lld, accepted %lld, "
       "rejected %lld, out-of-order %lld, expired %lld, stale utime %lld, missed (seq gaps) %lld; receiver restarts %lld, "
-      "inputs dropped %lld, filtered %lld, malformed %lld, socket drops (kernel filter and overflow) %lld; "
+      "inputs dropped %lld, filtered %lld, malformed %lld, "
+      "socket filter discards (other channels, own outputs included) and overflow %lld; "
       "numerical errors %lld; lateness us p50 %.1f p99 %.1f p99.9 %.1f "
       "max %.1f; compute us p50 %.1f p99 %.1f p99.9 %.1f max %.1f; SCHED_FIFO stepped down: loop %lld, receive %lld\n",
       sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "duration", static_cast<long long>(s.tick), secs,
