@@ -12,7 +12,7 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "service/io/lcm_wire.h"
+#include "service/io/transport/lcm_wire.h"
 
 namespace coopdyn::io {
 namespace {
