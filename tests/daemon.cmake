@@ -32,6 +32,11 @@ coopdyn_test(coopdynd_tests
   DEPENDS coopdynd coopdyn
   PROPERTIES LABELS daemon)
 
+# The safe torque through the loop: a held subset, brought to rest (its own executable: small to build)
+coopdyn_test(coopdyn_safe_torque_tests FILES runtime/safe_torque_test.cc dynamics/joint_limits_test.cc
+  LIBS coopdyn_runtime coopdyn_scene
+  PROPERTIES LABELS daemon)
+
 # Seeded mutation fuzzing of the decoders and the scene and config loaders (tests/fuzz/fuzz_test.cc),
 # a bounded number of inputs per target; the seed corpus is tests/fuzz/corpus.
 coopdyn_test(coopdyn_fuzz_tests NO_MAIN

@@ -19,6 +19,7 @@
 #include "service/dynamics/state_fit.h"
 #include "service/dynamics/system.h"
 #include "service/dynamics/friction_bound.h"
+#include "service/dynamics/joint_limits.h"
 #include "service/dynamics/wrench_sigma.h"
 #include "service/dynamics/wrenches.h"
 #include "service/io/messages.h"
@@ -87,6 +88,8 @@ struct OutputFrame {
   const WrenchSigmaData* sigma = nullptr;  // compute_wrench_sigma() of it (declared noise) when valid
   JointLosses joint_losses = JointLosses::kNone;  // estimate: how the joints' damping and friction were taken
   const FrictionBoundData* bound = nullptr;  // estimate, compensated: compute_friction_bound() of it
+  // the joint limits (q, v, tau) exceed (check_joint_limits(); null: not checked). Not yet on the wire.
+  const LimitData* limits = nullptr;
 };
 
 class OutputEncoder {
