@@ -14,7 +14,7 @@ void register_eval(Cli& cli) {
   value(c, "--state", a.state, "FILE.json",
         "q, v, tau (each optional): a list in the scene's coordinate order (the JSON's coordinates.q and .v; in the "
         "mobile_platform form an arm's joints run from its tip to its base), or an object by coordinate name "
-        "({\"q\": {\"arm1.q1\": 0.3}}: the others keep their default); default: the scene's initial state, zero torque");
+        "({\"q\": {\"arm1.q1\": 0.3}}: the others keep their default) (default: the scene's initial state, zero torque)");
   flag(c, "--hold", a.hold,
        "add the holding torques at the state to tau (coopdynd's safe torque `hold`: the least torques, as fractions of "
        "each joint's limit, that leave the system at rest, clamped to the limits)");

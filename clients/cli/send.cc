@@ -405,8 +405,8 @@ void register_send(Cli& cli) {
   scene_options(c, a, true);
   profile_options(c, a, "torque commands; repeat to combine (see below)",
                   "lock targets in the commands (a steer angle, rad); repeat to combine (see below)");
-  value(c, "--others", a.others, "hold|zero",
-        "the joints --torque does not name: `hold` leaves them to the daemon's safe torque (its policy, `hold` by "
+  value(c, "--others", a.others, "MODE",
+        "hold or zero: the joints --torque does not name: `hold` leaves them to the daemon's safe torque (its policy, `hold` by "
         "default: they hold the system and brake it), `zero` commands 0 N*m (or N) on them (with --steer alone "
         "every joint is commanded 0)",
         Default::kShown);
