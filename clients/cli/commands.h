@@ -48,6 +48,7 @@ struct SimArgs : SceneArgs, ProfileArgs {
 struct SendArgs : SceneArgs, ProfileArgs {
   std::optional<std::string> states;
   bool joints_only = false;
+  std::string others = "hold";  // the joints --torque does not name: the daemon's safe torque, or zero
   double rate = 100;
   std::optional<double> duration;  // 2 s, or with --states the file's time span
   double t0 = 0;

@@ -18,7 +18,8 @@ void register_control(Cli& cli) {
   auto [c, a] = cli.add("control", cmd_control);
   value(c, "--action", a.action, "ACTION", "reset, reset_to_state, pause, resume or clear_fault")->required();
   scene_options(c, a, false);
-  value(c, "--state", a.state, "FILE.json", "reset_to_state: q, v in the scene's coordinate order (needs --scene)");
+  value(c, "--state", a.state, "FILE.json",
+        "reset_to_state: q, v, each a list in the scene's coordinate order or an object by coordinate name (needs --scene)");
   value(c, "--lcm-url", a.lcm_url, "URL", "LCM URL to send on", Default::kShown);
   value(c, "--output-url", a.output_url, "URL", "LCM URL of the daemon's outputs (default: --lcm-url)");
   value(c, "--channel", a.channel, "C", "control channel", Default::kShown);

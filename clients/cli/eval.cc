@@ -3,6 +3,7 @@
 
 #include "clients/cli/cli.h"
 #include "clients/cli/scene_load.h"
+#include "service/dynamics/joint_limits.h"
 #include "service/scene/scene.h"
 
 namespace coopdyn::cli {
@@ -11,7 +12,9 @@ void register_eval(Cli& cli) {
   auto [c, a] = cli.add("eval", cmd_eval);
   scene_options(c, a, true);
   value(c, "--state", a.state, "FILE.json",
-        "q, v, tau (each optional) in the scene's coordinate order (default: the scene's initial state, zero torque)");
+        "q, v, tau (each optional): a list in the scene's coordinate order (the JSON's coordinates.q and .v; in the "
+        "mobile_platform form an arm's joints run from its tip to its base), or an object by coordinate name "
+        "({\"q\": {\"arm1.q1\": 0.3}}: the others keep their default) (default: the scene's initial state, zero torque)");
   flag(c, "--hold", a.hold,
        "add the holding torques at the state to tau (coopdynd's safe torque `hold`: the least torques, as fractions of "
        "each joint's limit, that leave the system at rest, clamped to the limits)");
@@ -33,6 +36,9 @@ int cmd_eval(const EvalArgs& a) {
   const Diagnostics& d = evaluate(sys, ws, q, v, tau);
   write_eval_json(stdout, sys, ws, q, v, tau);
   warn_contacts(stderr, "eval", sys, ws);
+  LimitData ld(sys);
+  if (check_joint_limits(sys, ld, q, v, tau) > 0)
+    std::fprintf(stderr, "coopdyn eval: warning: %d joint(s) past their limits (limits_exceeded)\n", ld.exceeded);
   return d.status == Status::kError ? 3 : 0;
 }
 

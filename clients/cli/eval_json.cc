@@ -10,6 +10,7 @@
 #include "service/dynamics/free_directions.h"
 #include "service/dynamics/friction_bound.h"
 #include "service/dynamics/sigma/wrench_sigma.h"
+#include "service/dynamics/joint_limits.h"
 #include "service/dynamics/wrenches.h"
 
 namespace coopdyn::cli {
@@ -191,6 +192,24 @@ void write_stresses(std::FILE* f, const System& sys, const Workspace& ws) {
   std::fprintf(f, "%s]", n == 0 ? "" : "\n  ");
 }
 
+// The joints whose limits (q, v, tau) exceed (joint_limits.h): name and kinds, in velocity order.
+void write_limits(std::FILE* f, const System& sys, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
+                  const Eigen::VectorXd& tau) {
+  LimitData ld(sys);
+  check_joint_limits(sys, ld, q, v, tau);
+  std::fprintf(f, ",\n  \"limits_exceeded\": [");
+  int n = 0;
+  for (int d : ld.dofs) {
+    if (!ld.mask[d]) continue;
+    std::fprintf(f, "%s\n    {\"joint\": \"%s\", \"exceeded\": [", n++ ? "," : "", sys.model.v_names[d].c_str());
+    int k = 0;
+    for (LimitBit b : {kLimitPosition, kLimitVelocity, kLimitEffort})
+      if (ld.mask[d] & b) std::fprintf(f, "%s\"%s\"", k++ ? ", " : "", limit_word(b));
+    std::fprintf(f, "]}");
+  }
+  std::fprintf(f, "%s]", n == 0 ? "" : "\n  ");
+}
+
 void write_diagnostics(std::FILE* f, const Diagnostics& d) {
   std::fprintf(f, ",\n  \"diagnostics\": {\"rows\": %d, \"rank\": %d, \"indeterminate\": %d, \"condition\": ", d.rows,
                d.rank, d.indeterminate);
@@ -214,6 +233,7 @@ void write_eval_json(std::FILE* f, const System& sys, Workspace& ws, const Eigen
   write_free_directions(f, sys, wd);
   write_contacts(f, sys, ws);
   write_stresses(f, sys, ws);
+  write_limits(f, sys, q, v, tau);
   write_diagnostics(f, ws.diag);
 }
 

@@ -2,6 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -46,12 +47,37 @@ bool read_state(const std::string& path, const System& sys, Eigen::VectorXd& q, 
     std::fprintf(stderr, "coopdyn: %s:%d:%d: %s\n", path.c_str(), e.mark.line + 1, e.mark.column + 1, e.msg.c_str());
     return false;
   }
+  // a list in the scene's coordinate order, or an object by coordinate name (those not named keep
+  // their default)
+  auto by_name = [&](const char* key, const YAML::Node& x, Eigen::VectorXd& out,
+                     const std::vector<std::string>& names) -> bool {
+    for (const auto& kv : x) {
+      const std::string name = kv.first.as<std::string>("");
+      const auto it = std::find(names.begin(), names.end(), name);
+      if (it == names.end()) {
+        std::fprintf(stderr,
+                     "coopdyn: %s:%d:%d: '%s' has no coordinate '%s' (coopdyn eval lists them as coordinates.%s)\n",
+                     path.c_str(), kv.first.Mark().line + 1, kv.first.Mark().column + 1, key, name.c_str(),
+                     key[0] == 'q' ? "q" : "v");
+        return false;
+      }
+      try {
+        out[it - names.begin()] = kv.second.as<double>();
+      } catch (const YAML::Exception&) {
+        std::fprintf(stderr, "coopdyn: %s:%d:%d: '%s'.'%s' is not a number\n", path.c_str(), kv.second.Mark().line + 1,
+                     kv.second.Mark().column + 1, key, name.c_str());
+        return false;
+      }
+    }
+    return true;
+  };
   auto get = [&](const char* key, Eigen::VectorXd& out, int size) -> bool {
     const YAML::Node x = n[key];
     if (!x.IsDefined()) return true;  // keep the default
+    if (x.IsMap()) return by_name(key, x, out, key[0] == 'q' ? sys.model.q_names : sys.model.v_names);
     if (!x.IsSequence() || static_cast<int>(x.size()) != size) {
-      std::fprintf(stderr, "coopdyn: %s: '%s' must be a list of %d numbers (the scene's coordinate order)\n", path.c_str(),
-                   key, size);
+      std::fprintf(stderr, "coopdyn: %s: '%s' must be a list of %d numbers (the scene's coordinate order) or an object "
+                   "by coordinate name\n", path.c_str(), key, size);
       return false;
     }
     for (int i = 0; i < size; ++i) {

@@ -108,6 +108,11 @@ struct Source {
   TorqueProfile torque, steer;
   std::vector<int> steer_locks, steer_dofs;  // lock spec and velocity index of each steered joint
   std::vector<std::string> target_names;
+  // the joints the commands name: those of --torque (the others take the daemon's safe torque), or
+  // none (every joint, the unnamed ones 0: --others zero, or --steer alone)
+  std::vector<int> torque_dofs;
+  std::vector<std::string> torque_names;
+  std::vector<double> torque_values;
   StateTable states;
   Eigen::VectorXd tau, target_v;
   std::vector<double> targets;
@@ -154,6 +159,8 @@ int load_source(const SendArgs& a, const System& sys, Source* src, double* durat
   src->steer_dofs = src->steer.dofs();
   for (int d : src->steer_dofs) src->target_names.push_back(sys.model.v_names[static_cast<size_t>(d)]);
   src->targets.resize(src->target_names.size());
+  if (a.others == "hold") src->torque_dofs = src->torque.dofs();
+  for (int d : src->torque_dofs) src->torque_names.push_back(sys.model.v_names[static_cast<size_t>(d)]);
   src->tau.resize(sys.model.nv());
   src->target_v.resize(sys.model.nv());
   if (!src->replay) return 0;
@@ -180,12 +187,16 @@ std::vector<uint8_t> message_at(Source& src, double t, long long seq) {
     r = r == 0 ? 0 : r - 1;
     return io::encode_measured_state(io::wall_us(), seq, st.q_names, st.q[r], st.v_names, st.v[r], st.tau[r]);
   }
-  static const std::vector<std::string> no_names;
   src.torque.eval(t, src.tau);
   src.steer.eval(t, src.target_v);
   for (size_t k = 0; k < src.targets.size(); ++k) src.targets[k] = src.target_v[src.steer_dofs[k]];
-  return io::encode_torque_command(io::wall_us(), seq, no_names,
-                                   std::vector<double>(src.tau.data(), src.tau.data() + src.tau.size()), src.target_names,
+  if (src.torque_dofs.empty())
+    src.torque_values.assign(src.tau.data(), src.tau.data() + src.tau.size());
+  else {
+    src.torque_values.clear();
+    for (int d : src.torque_dofs) src.torque_values.push_back(src.tau[d]);
+  }
+  return io::encode_torque_command(io::wall_us(), seq, src.torque_names, src.torque_values, src.target_names,
                                    src.targets);
 }
 
@@ -377,6 +388,10 @@ int check_send_args(const SendArgs& a, double duration) {
     std::fprintf(stderr, "coopdyn send: --steer goes with commands, not with --states\n");
     return 2;
   }
+  if (a.others != "hold" && a.others != "zero") {
+    std::fprintf(stderr, "coopdyn send: --others must be hold or zero, got '%s'\n", a.others.c_str());
+    return 2;
+  }
   if (!(a.rate > 0 && a.rate <= 10000) || !(duration >= 0) || !std::isfinite(duration)) {
     std::fprintf(stderr, "coopdyn send: need 0 < rate <= 10000 and duration >= 0\n");
     return 2;
@@ -391,6 +406,11 @@ void register_send(Cli& cli) {
   scene_options(c, a, true);
   profile_options(c, a, "torque commands; repeat to combine (see below)",
                   "lock targets in the commands (a steer angle, rad); repeat to combine (see below)");
+  value(c, "--others", a.others, "MODE",
+        "hold or zero: the joints --torque does not name: `hold` leaves them to the daemon's safe torque (its policy, `hold` by "
+        "default: they hold the system and brake it), `zero` commands 0 N*m (or N) on them (with --steer alone "
+        "every joint is commanded 0)",
+        Default::kShown);
   value(c, "--states", a.states, "SIM.csv", "replay the states of a coopdyn sim CSV as measured_state_t instead");
   flag(c, "--joints-only", a.joints_only, "with --states: leave out the floating bodies' coordinates (the daemon fits them)");
   number(c, "--rate", a.rate, "HZ", "messages per second, (0, 10000]", Default::kShown);

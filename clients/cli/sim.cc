@@ -24,6 +24,7 @@
 #include "clients/csv/step_csv.h"
 #include "service/dynamics/contacts.h"
 #include "service/dynamics/holding_torque.h"
+#include "service/dynamics/joint_limits.h"
 #include "service/dynamics/integrators.h"
 #include "service/dynamics/sigma/wrench_sigma.h"
 #include "service/dynamics/wrenches.h"
@@ -59,6 +60,8 @@ struct SimRun {
         target(sys.model.nv()),
         q_prev(sys.model.nq()),
         v_prev(sys.model.nv()),
+        lim(sys),
+        said(sys.model.nv(), 0),
         line(columns) {
     row.contact_state.resize(cts.spec.size());
   }
@@ -70,6 +73,8 @@ struct SimRun {
   Eigen::VectorXd q, v, tau, target, q_prev, v_prev;
   Eigen::VectorXd tau_hold = Eigen::VectorXd::Zero(tau.size());
   bool hold_said = false;  // --hold: what the holding torques cannot do, said once
+  LimitData lim;              // the joint limits the step's start state and torque exceed
+  std::vector<uint8_t> said;  // (nv) the limit kinds already said per DOF
   StepRow row;
   CsvLine line;
 };
@@ -99,8 +104,30 @@ void say_contact_changes(const System& sys, double t, SimRun& r) {
   }
 }
 
+// Every step: the joint limits (q, v, tau) at the step's start exceed; each joint's first pass of
+// each of its limits is said when it happens.
+void check_limits(const System& sys, double t, SimRun& r) {
+  if (check_joint_limits(sys, r.lim, r.q_prev, r.v_prev, r.tau) == 0) return;
+  for (int d : r.lim.dofs) {
+    const uint8_t fresh = r.lim.mask[d] & ~r.said[d];
+    if (!fresh) continue;
+    r.said[d] |= fresh;
+    for (LimitBit b : {kLimitPosition, kLimitVelocity, kLimitEffort}) {
+      if (!(fresh & b)) continue;
+      const int qi = sys.model.bodies[sys.model.dof_body[d]].joint.idx_q;
+      const double x = b == kLimitPosition ? r.q_prev[qi] : b == kLimitVelocity ? r.v_prev[d] : r.tau[d];
+      const double lo = b == kLimitPosition ? sys.q_lower[d] : b == kLimitVelocity ? -sys.v_limit[d] : -sys.tau_limit[d];
+      const double hi = b == kLimitPosition ? sys.q_upper[d] : b == kLimitVelocity ? sys.v_limit[d] : sys.tau_limit[d];
+      const char* name = sys.model.v_names[d].c_str();
+      std::fprintf(stderr,
+                   "coopdyn sim: warning: t=%g: joint '%s' passes its %s limit: %.6g outside [%.6g, %.6g] "
+                   "(column limit:%s)\n", t, name, limit_word(b), x, lo, hi, name);
+    }
+  }
+}
+
 // The row of the step that started at t from the state before it (the wrenches are computed here:
-// only for the rows written), then position_error.
+// only for the rows written), then position_error and each limited joint's limits exceeded.
 void write_sim_row(const System& sys, double t, const Diagnostics& d, SimRun& r, std::FILE* out) {
   const Workspace& ws = r.st.ws;
   compute_wrenches(sys, ws, r.wd);
@@ -126,6 +153,7 @@ void write_sim_row(const System& sys, double t, const Diagnostics& d, SimRun& r,
   row.residual = d.residual;
   write_step_cells(r.line, row);
   r.line.sep(), r.line.num(ws.cd.err.size() ? ws.cd.err.cwiseAbs().maxCoeff() : 0.0);
+  for (int dof : r.lim.dofs) r.line.sep(), r.line.num(static_cast<double>(r.lim.mask[dof]));
   r.line.end();
   r.line.write(out);
 }
@@ -158,6 +186,7 @@ int simulate(const System& sys, const SimPlan& p, SimRun& r, Progress& progress,
         i < steps ? step(sys, r.st, p.integ, p.h, r.tau, r.q, r.v) : evaluate(sys, r.st.ws, r.q, r.v, r.tau);
     compute_contacts(sys, r.st.ws, r.cts);
     say_contact_changes(sys, t, r);
+    check_limits(sys, t, r);
     if (i % p.every == 0 || d.status == Status::kError) write_sim_row(sys, t, d, r, out);
     if (d.status == Status::kError) {
       progress.break_line();
@@ -225,6 +254,8 @@ int cmd_sim(const SimArgs& a) {
   const StepSchema schema = step_schema(sys, "sim");
   CsvColumns cols = shared_step_columns(schema);
   cols.add("position_error", "m or rad");
+  // per joint with a limit: the limits the row's q, v, tau exceed, bits 1 position, 2 velocity, 4 effort
+  for (int d : LimitData(sys).dofs) cols.add("limit:" + sys.model.v_names[d], "bits");
   write_step_csv_header(out, schema, cols);
 
   SimRun run(sys, cols.names.size());

@@ -20,6 +20,7 @@
 #include "service/algorithms/kinematics.h"
 #include "service/constraints/constraints.h"
 #include "service/dynamics/contacts.h"
+#include "service/dynamics/joint_limits.h"
 #include "service/dynamics/wrench_components.h"
 #include "service/dynamics/wrenches.h"
 #include "service/scene/scene.h"
@@ -150,6 +151,7 @@ void ViewFrames::clear_frames() {
   stress.clear();
   indet.clear();
   free.clear();
+  limits.clear();
 }
 
 void add_view_frame(const System& sys, Data& data, ViewSample& row, ViewFrames* vf) {
@@ -216,6 +218,7 @@ void add_view_frame(const System& sys, Data& data, ViewSample& row, ViewFrames* 
                            : std::vector<double>{});
   vf->indet.push_back(row.indet.size() == vf->wrenches.size() ? row.indet : std::vector<int>{});
   vf->free.push_back(row.free);
+  vf->limits.push_back(row.limits);
 }
 
 ViewFrames view_frames_of(const System& sys, std::vector<ViewSample>& rows, int max_frames) {
@@ -285,6 +288,10 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
   std::vector<std::array<int, 3>> c_c;
   for (const auto& c : geo.contacts)
     c_c.push_back({need(c.name + ".utilisation"), need(c.name + ".friction_needed"), need(c.name + ".contact")});
+  // the joints' limits exceeded (limit:NAME, bits 1 position, 2 velocity, 4 effort), when the CSV has them
+  std::vector<std::pair<std::string, int>> c_lim;
+  for (size_t i = 0; i < head.size(); ++i)
+    if (head[i].rfind("limit:", 0) == 0) c_lim.emplace_back(head[i].substr(6), static_cast<int>(i));
 
   std::vector<ViewSample> rows;
   int ln = hdr.line_no;
@@ -332,6 +339,12 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
         throw std::runtime_error(where + ": unknown contact state '" + st + "' in column '" + head[c[2]] +
                                  "' (ok, slip or lift_off)");
       r.contact_state.push_back(code);
+    }
+    for (const auto& [name, c] : c_lim) {
+      const int bits = static_cast<int>(num(c));
+      for (int k = 0; k < 3; ++k)
+        if (bits & (1 << k))
+          r.limits += (r.limits.empty() ? "" : ", ") + name + " " + limit_word(static_cast<LimitBit>(1 << k));
     }
     if (!configuration_valid(m, r.q)) throw std::runtime_error(where + ": not a valid configuration of scene '" + sys.name + "'");
     rows.push_back(std::move(r));
@@ -668,6 +681,7 @@ void append_frames_json(std::string& d, const ViewFrames& vf) {
   per_frame("],\"stress\":[", [&](size_t i) { jvec(d, vf.stress[i].data(), vf.stress[i].size(), "%.9g"); });
   per_frame("],\"indet\":[", [&](size_t i) { jints(d, vf.indet[i]); });
   per_frame("],\"free\":[", [&](size_t i) { d += json_string(vf.free[i]); });
+  per_frame("],\"limits\":[", [&](size_t i) { d += json_string(vf.limits[i]); });
   per_frame("],\"wrench_F\":[", [&](size_t i) { jexact(d, vf.wrench_F[i]); });
   per_frame("],\"wrench_sigma\":[", [&](size_t i) { jexact(d, vf.wrench_sigma[i]); });
   per_frame("],\"wrench_bound\":[", [&](size_t i) { jexact(d, vf.wrench_bound[i]); });

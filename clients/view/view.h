@@ -78,6 +78,7 @@ struct ViewFrames {
   std::vector<std::vector<int>> indet;          // 1 per drawn wrench: bit k, component k of [m; f] is
                                                 // not determined by the physics; empty: not in the source
   std::vector<std::string> free;                // the free directions by class ("2 wheel_normal"); "" none
+  std::vector<std::string> limits;              // the joint limits exceeded ("arm1.q1 velocity"); "" none
   void clear_frames();                          // the per-frame vectors emptied, the geometry kept
 };
 
@@ -90,6 +91,7 @@ struct ViewSample {
   std::vector<double> stress;  // per pseudo-joint (ViewFrames::pseudos); empty: unknown (a sim CSV)
   std::vector<int> indet;      // per drawn wrench, indeterminate_mask; empty: unknown
   std::string free;            // the free directions by class, "" none
+  std::string limits;          // the joint limits exceeded ("arm1.q1 velocity, ..."), "" none or unknown
   std::vector<double> contact_u;  // per contact (ViewFrames::contacts): utilisation, friction needed;
                                   // empty: unknown
   std::vector<int> contact_state;  // per contact, ContactState; empty: unknown

@@ -69,7 +69,8 @@ Every command that reads a scene takes `--scene FILE` (YAML, `config/scenes/`;
 ## Profiles
 
 `--torque` and `--steer` (of `sim` and `send`) take a `PROFILE`, repeatable; the terms of one joint
-add up, and a joint without any term gets 0:
+add up. In `sim` a joint without any term gets 0 (`--hold` adds the holding torques to every
+joint); in `send` it is left to the daemon's safe torque (`--others zero`: 0):
 
 | profile | value |
 |---|---|
@@ -79,7 +80,12 @@ add up, and a joint without any term gets 0:
 | `JOINT:ramp:VALUE:T0:T1` | 0 until T0, linear to VALUE at T1 |
 | `FILE.csv` | header `t,JOINT,...`; piecewise constant between rows |
 
-`JOINT` is a velocity coordinate of the scene (`coopdyn eval` lists them). A torque is N*m or N
+`JOINT` is a velocity coordinate of the scene (`coopdyn eval` lists them as `coordinates.v`). Every
+positional list (`eval --state`'s and `control --state`'s `q`, `v`, `tau`) is in the scene's
+coordinate order, `coordinates.q` and `coordinates.v`: each arm's joints from base to tip, except in
+the `mobile_platform` form, where an arm's chain is rooted at the load and its joints run from tip
+to base (`arm.q6 ... arm.q1`). A state file may give each list as an object by name instead,
+`{"q": {"arm1.q1": 0.3}}`, in any form. A torque is N*m or N
 along the joint axis; a `--steer` value is the position target (rad or m) of a locked joint, a
 pseudo-joint whose scene entry declares a `target_limit` (a car's `fl_steer`). The timing of
 profiles: [conventions.md](../conventions.md#time-and-torque-profiles).

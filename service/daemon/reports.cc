@@ -86,6 +86,16 @@ void log_event(const coopdyn::System& sys, const coopdyn::runtime::Event& e) {
         spdlog::error("the loop should step down from SCHED_FIFO at tick {} ({}) but the kernel refused", e.b,
                       fifo_verdict_text(-e.a, e.x));
       break;
+    case EventCode::kLimitPassed: {
+      const int d = static_cast<int>(e.a);
+      std::string kinds;
+      for (int k = 0; k < 3; ++k)
+        if (e.b & (1 << k))
+          kinds += (kinds.empty() ? "" : " and ") + std::string(limit_word(static_cast<LimitBit>(1 << k)));
+      spdlog::warn("t = {:.3f} s: joint {} passes its {} limit (the first time; loop_stats_t counts every tick over a "
+                   "limit)", e.x, d >= 0 && d < sys.model.nv() ? sys.model.v_names[d] : std::string("?"), kinds);
+      break;
+    }
     case EventCode::kOverrun: break;  // aggregated by OverrunReport
   }
 }

@@ -41,6 +41,7 @@ HoldWorkspace::HoldWorkspace(const System& sys, const std::vector<unsigned char>
   mu.setZero(m);
   nu_rhs.setZero(nu);
   f.setZero(n);
+  hb.setZero(n);
   // reference path: G^T padded to n x max(m, 1) columns: its left singular vectors U span range(G^T)
   // (first rank columns) and the null space of G (the rest), one fixed size whatever the rank
   Gt.setZero(n, std::max(m, 1));
@@ -57,11 +58,10 @@ HoldWorkspace::HoldWorkspace(const System& sys, const std::vector<unsigned char>
 namespace {
 
 // Gs Gs^T into hw.H and g = Gs b (b = h scaled), summed per pair of specs over the DOFs both touch
-void gram(const System& sys, HoldWorkspace& hw, const Workspace& ws) {
+void gram(const System& sys, HoldWorkspace& hw, const Workspace& ws, const Eigen::VectorXd& h) {
   const ConstraintSet& cs = sys.constraints;
   const int ns = static_cast<int>(cs.specs.size());
   const Eigen::MatrixXd& G = ws.cd.G;
-  const Eigen::VectorXd& h = ws.data.h;
   for (int s = 0; s < ns; ++s) {
     HoldWorkspace::Block& B = hw.Gb[s];
     const int r0 = cs.row_offset[s], nk = cs.row_count[s];
@@ -149,11 +149,11 @@ void backward(const HoldWorkspace& hw, int r, double* x) {
 }
 
 // The factorization path (holding_torque.h); false where it cannot decide (the caller takes the SVDs).
-bool hold_factored(const System& sys, HoldWorkspace& hw, const Workspace& ws, Eigen::VectorXd& tau) {
+bool hold_factored(const System& sys, HoldWorkspace& hw, const Workspace& ws, const Eigen::VectorXd& h,
+                   Eigen::VectorXd& tau) {
   const int m = sys.constraints.rows, nu = static_cast<int>(hw.unact.size());
   const Eigen::MatrixXd& G = ws.cd.G;
-  const Eigen::VectorXd& h = ws.data.h;
-  gram(sys, hw, ws);
+  gram(sys, hw, ws, h);
   int r = 0;
   if (!pivoted_cholesky(hw, m, &r)) return false;
   // z = L^-1 g_r and Z = L^-1 G_u,r in pivot order; S = Z^T Z, rhs h_u - Z^T z
@@ -206,15 +206,13 @@ bool hold_factored(const System& sys, HoldWorkspace& hw, const Workspace& ws, Ei
   return true;
 }
 
-}  // namespace
-
-bool holding_torque_svd(const System& sys, HoldWorkspace& hw, const Workspace& ws, Eigen::VectorXd& tau) {
+bool hold_svd(const System& sys, HoldWorkspace& hw, const Workspace& ws, const Eigen::VectorXd& h,
+              Eigen::VectorXd& tau) {
   const int n = sys.model.nv(), m = sys.constraints.rows, na = static_cast<int>(hw.act.size());
   tau.setZero();
   hw.residual = 0;
   hw.factored = false;
   if (na == 0) return true;
-  const Eigen::VectorXd& h = ws.data.h;
   int r = 0;  // rank of G
   if (m > 0) {
     hw.Gt.leftCols(m) = ws.cd.G.transpose();
@@ -250,16 +248,50 @@ bool holding_torque_svd(const System& sys, HoldWorkspace& hw, const Workspace& w
   return false;
 }
 
-bool holding_torque(const System& sys, HoldWorkspace& hw, const Workspace& ws, Eigen::VectorXd& tau) {
+// The hold for the bias h: the factorization path, else the SVDs.
+bool hold(const System& sys, HoldWorkspace& hw, const Workspace& ws, const Eigen::VectorXd& h, Eigen::VectorXd& tau) {
   tau.setZero();
   hw.residual = 0;
   hw.factored = false;
   if (hw.act.empty()) return true;
-  if (hold_factored(sys, hw, ws, tau) && tau.allFinite()) {
+  if (hold_factored(sys, hw, ws, h, tau) && tau.allFinite()) {
     hw.factored = true;
     return true;
   }
-  return holding_torque_svd(sys, hw, ws, tau);
+  return hold_svd(sys, hw, ws, h, tau);
+}
+
+}  // namespace
+
+bool holding_torque_svd(const System& sys, HoldWorkspace& hw, const Workspace& ws, Eigen::VectorXd& tau) {
+  return hold_svd(sys, hw, ws, ws.data.h, tau);
+}
+
+bool holding_torque(const System& sys, HoldWorkspace& hw, const Workspace& ws, Eigen::VectorXd& tau) {
+  return hold(sys, hw, ws, ws.data.h, tau);
+}
+
+void mass_times(const Model& model, const Data& data, const Eigen::VectorXd& v, Eigen::VectorXd& out) {
+  out.setZero();
+  for (int k = 0; k < model.nv(); ++k) {
+    const double* row = data.Mc.data() + model.dof_row_offset[k];
+    const int* path = model.dof_path.data() + model.dof_path_offset[k];
+    const int depth = model.dof_depth[k];
+    double s = row[depth] * v[k];
+    for (int i = 0; i < depth; ++i) {
+      s += row[i] * v[path[i]];
+      out[path[i]] += row[i] * v[k];
+    }
+    out[k] += s;
+  }
+}
+
+bool braking_torque(const System& sys, HoldWorkspace& hw, const Workspace& ws, const Eigen::VectorXd& v,
+                    double time_constant, Eigen::VectorXd& tau) {
+  if (!(time_constant > 0)) return hold(sys, hw, ws, ws.data.h, tau);
+  mass_times(sys.model, ws.data, v, hw.hb);
+  hw.hb = ws.data.h - hw.hb / time_constant;
+  return hold(sys, hw, ws, hw.hb, tau);
 }
 
 bool holding_torque(const System& sys, HoldWorkspace& hw, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
@@ -271,6 +303,17 @@ bool holding_torque(const System& sys, HoldWorkspace& hw, const Eigen::VectorXd&
     return false;
   }
   return holding_torque(sys, hw, hw.ws, tau);
+}
+
+bool braking_torque(const System& sys, HoldWorkspace& hw, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
+                    double time_constant, Eigen::VectorXd& tau) {
+  if (!begin_evaluation(sys, hw.ws, q, v)) {
+    tau.setZero();
+    hw.residual = 0;
+    hw.factored = false;
+    return false;
+  }
+  return braking_torque(sys, hw, hw.ws, v, time_constant, tau);
 }
 
 int clamp_to_torque_limits(const System& sys, const HoldWorkspace& hw, Eigen::VectorXd& tau) {

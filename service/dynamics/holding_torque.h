@@ -60,6 +60,7 @@ struct HoldWorkspace {
   Eigen::MatrixXd Gt, A;           // (nv x rows) G^T padded, (nv x na) V^T S_a^T with the range rows zeroed
   Eigen::VectorXd b, x;            // (nv), (na)
   Eigen::VectorXd w;               // (na) column weights: each joint's torque limit (1 without one)
+  Eigen::VectorXd hb;              // (nv) braking_torque(): the bias it balances, h - M v / T
   double residual = 0;             // |N^T (S_a^T tau_a - h)| of the last solve (N*m or N); on the
                                    // factorization path |h_u + G_u^T mu|, an upper bound of it
 };
@@ -82,6 +83,19 @@ bool holding_torque(const System& sys, HoldWorkspace& hw, const Eigen::VectorXd&
 // The reference solve (two SVDs) from ws: the definition above, the factorization path's fallback
 // and its test oracle. Allocation-free, ~10x slower.
 bool holding_torque_svd(const System& sys, HoldWorkspace& hw, const Workspace& ws, Eigen::VectorXd& tau);
+
+// The braking hold (the safe torque `hold` of coopdynd): torques that give every motion the
+// constraints allow the acceleration -v / T, M (-v / T) + h = S_a^T tau_a + G^T lambda, the load's
+// and every other unactuated body's inertia included: each velocity decays as exp(-t / T) while
+// the actuators can supply it (a first-order, overdamped brake; at rest it is the holding torque).
+// It is holding_torque() for the bias h - M v / T (the same rule and paths). T <= 0: the holding
+// torque. Allocation-free; the (q, v) form evaluates in hw.ws as holding_torque()'s does.
+bool braking_torque(const System& sys, HoldWorkspace& hw, const Workspace& ws, const Eigen::VectorXd& v,
+                    double time_constant, Eigen::VectorXd& tau);
+bool braking_torque(const System& sys, HoldWorkspace& hw, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
+                    double time_constant, Eigen::VectorXd& tau);
+// out = M v from the path-compact rows Data::Mc (filled by every evaluation), O(tree nonzeros).
+void mass_times(const Model& model, const Data& data, const Eigen::VectorXd& v, Eigen::VectorXd& out);
 
 // The holding torques as coopdynd applies them: each actuated DOF's (hw.act) clamped to +-its torque
 // limit (sys.tau_limit), a joint that cannot hold its share then holds what it can. Returns how many

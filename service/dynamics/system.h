@@ -62,6 +62,11 @@ struct System {
   Eigen::VectorXd q0, v0;     // initial state (satisfies the constraints)
   Eigen::VectorXd tau_limit;  // (nv) |tau| allowed per DOF (commands above are rejected); inf = none,
                               // 0 = unactuated (load platform, floating root, pseudo-joint unless declared)
+  // (nv) each 1-DOF joint's limits, by velocity index: position lower and upper (rad or m; URDF
+  // <limit lower upper>, a DH link's `limits: [LO, HI]`; the joint's q index is
+  // model.bodies[dof_body[d]].joint.idx_q) and speed (rad/s or m/s; URDF <limit velocity>, a DH link's
+  // `v_limit`). -inf / +inf = none. Reported when exceeded (joint_limits.h), never enforced.
+  Eigen::VectorXd q_lower, q_upper, v_limit;
   WrenchSet wrenches;         // what is reported as wrenches (wrench_outputs.h); compiled
   Eigen::VectorXd tau_noise;  // (nv) standard deviation of each DOF's torque noise, N m or N (scene key
                               // `noise`; 0 = none, on every DOF when the scene declares none):

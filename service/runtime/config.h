@@ -17,9 +17,10 @@ class ConfigError : public std::runtime_error {
 enum class ServiceMode { kSimulate, kEstimate };
 enum class SafeTorque {
   kZero,     // tau = 0 on every DOF
-  kHold,     // the holding torques (dynamics/holding_torque.h): the minimum-norm actuator torques
-             // that make the constrained accelerations vanish at the current state (gravity and
-             // velocity terms balanced), minus damping * v on the same DOFs, clamped to tau_limit
+  kHold,     // the braking hold (dynamics/holding_torque.h braking_torque): the least-squares actuator
+             // torques that give the constrained motion the acceleration -v / time_constant at the
+             // current state (gravity and velocity terms balanced: at rest it holds still), minus
+             // damping * v on the same DOFs, clamped to tau_limit
   kDamping,  // tau = -damping * v on the DOFs with a finite tau_limit (the actuated joints),
              // clamped to the limit; 0 elsewhere
 };
@@ -166,7 +167,8 @@ struct ServiceConfig {
   // bound (friction_bound.h); false: the measured torques taken as reaching the links.
   bool compensate_joint_losses = true;
   SafeTorque safe_torque = SafeTorque::kHold;
-  double damping = 0.0;        // N*m*s/rad (or N*s/m) for kDamping
+  double damping = 0.0;        // N*m*s/rad (or N*s/m) for kDamping, added to kHold's brake
+  double time_constant = 0.1;  // s, kHold: every velocity decays as exp(-t / time_constant); 0: no brake
   OverrunPolicy overrun = OverrunPolicy::kCatchUp;
   int max_catch_up = 10;       // ticks
   double stats_period_s = 1.0;

@@ -138,6 +138,10 @@ std::string check_damping(const ConfigField&, const FieldValue& v, const Service
   if (v.x >= 0 && std::isfinite(v.x)) return "";
   return "safe_torque.damping must be finite and >= 0";
 }
+std::string check_time_constant(const ConfigField&, const FieldValue& v, const ServiceConfig&) {
+  if (v.x >= 0 && v.x <= 1e3) return "";
+  return "safe_torque.time_constant must be in [0, 1000] s, got " + num(v.x);
+}
 std::string check_catch_up(const ConfigField& f, const FieldValue& v, const ServiceConfig&) {
   if (v.n >= f.lo && v.n <= f.hi) return "";
   return "overrun.max_catch_up must be in [" + integer(f.lo) + ", " + integer(f.hi) + "] ticks, got " + std::to_string(v.n);
@@ -259,9 +263,15 @@ const std::vector<ConfigField> kFields = {
      COOPDYN_CHOICE(SafeTorque, safe_torque, kSafeTorqueWords, SafeTorque::kHold, SafeTorque::kZero,
                     SafeTorque::kDamping),
      nullptr, "",
-     "applied when no command has arrived or the last one expired: `hold` the least-squares actuator torques (in "
-     "fractions of each joint's limit) that keep the system still under its constraints, minus `damping * v`; "
+     "applied when no command has arrived or the last one expired, and to the joints a command does not name: `hold` "
+     "the least-squares actuator torques (in fractions of each joint's limit) that balance gravity and the velocity "
+     "terms under the constraints and brake every motion to rest with the time constant `time_constant` (the "
+     "acceleration `-v / time_constant`, the load's inertia included), minus `damping * v`, clamped to `tau_limit`; "
      "`zero`; `damping` (`tau = -damping * v` on joints with a finite `tau_limit`)"},
+    {"safe_torque", "time_constant", K::kReal, "a number (s)", 0, 1e3, "[0, 1000]", {}, false,
+     COOPDYN_MEMBER(S::time_constant, x), check_time_constant, "",
+     "s, policy `hold`: every velocity decays as `exp(-t / time_constant)` while the joints' `tau_limit` allow it "
+     "(two PUMAs holding a box stop from 14 rad/s within 2 s); 0: hold without braking"},
     {"safe_torque", "damping", K::kReal, "a number (N*m*s/rad)", kNone, kNone, "", {}, false, COOPDYN_MEMBER(S::damping, x), check_damping, "", "N*m*s/rad (N*s/m for prismatic joints)"},
     {"overrun", "policy", K::kChoice, "a string", kNone, kNone, "", {kOverrunWords, kOverrunWords + 2}, false,
      COOPDYN_CHOICE(OverrunPolicy, overrun, kOverrunWords, OverrunPolicy::kCatchUp, OverrunPolicy::kSkip), nullptr,

@@ -24,6 +24,8 @@ enum class EventCode : int32_t {
   kFifoDemoted,     // the loop stepped down from SCHED_FIFO to SCHED_OTHER (fifo_guard.h): a: the
                     // verdict (FifoGuard::Verdict), b: tick, x: the window's busy share; a < 0: the
                     // kernel refused the step down
+  kLimitPassed,     // a joint passed a limit for the first time since start (or a reset): a: its
+                    // velocity index, b: the LimitBit(s) newly passed (joint_limits.h), x: sim_time s
 };
 
 // Why a reset_to_state was refused.

@@ -33,6 +33,7 @@ ServiceLoop::ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& b
       commands_(sys, cfg.max_input_age_us(),
                 [&](io::CommandSlot& s) {
                   s.tau = Eigen::VectorXd::Zero(sys.model.nv());
+                  s.named.assign(static_cast<size_t>(sys.model.nv()), 1);
                   s.lock_target = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(sys.constraints.specs.size()));
                 }),
       states_(sys, cfg.max_input_age_us(),
@@ -59,6 +60,8 @@ ServiceLoop::ServiceLoop(const System& sys, const ServiceConfig& cfg, io::Bus& b
       sigma_(sys),
       refit_(sys, fit_plan_),
       bound_(sys),
+      limits_(sys),
+      limits_said_(static_cast<size_t>(sys.model.nv()), 0),
       q_(sys.q0),
       v_(sys.v0),
       tau_(Eigen::VectorXd::Zero(sys.model.nv())),
@@ -102,10 +105,10 @@ void ServiceLoop::safe_torque(const Eigen::VectorXd& q, const Eigen::VectorXd& v
     // from the step's own first evaluation (h and G at (q, v)), which the step then finishes;
     // latched in a fault, the stepper's workspace keeps the last good evaluation
     if (faulted_.load(std::memory_order_relaxed)) {
-      holding_torque(sys_, *hold_, q, v, tau_);
+      braking_torque(sys_, *hold_, q, v, cfg_.time_constant, tau_);
     } else {
       start_begun_ = begin_evaluation(sys_, stepper_.ws, q, v);
-      if (start_begun_) holding_torque(sys_, *hold_, stepper_.ws, tau_);
+      if (start_begun_) braking_torque(sys_, *hold_, stepper_.ws, v, cfg_.time_constant, tau_);
     }
     for (int i : hold_->act) tau_[i] -= cfg_.damping * v[i];
     clamp_to_torque_limits(sys_, *hold_, tau_);
@@ -130,6 +133,7 @@ void ServiceLoop::handle_control(const io::ControlSlot& c) {
   } else {
     switch (c.action) {
       case ControlAction::kReset:
+        std::fill(limits_said_.begin(), limits_said_.end(), 0);
         q_ = sys_.q0;
         v_ = sys_.v0;
         faulted_.store(false, std::memory_order_relaxed);
@@ -163,6 +167,7 @@ void ServiceLoop::handle_control(const io::ControlSlot& c) {
                         why == ResetRefusal::kClosure ? cl.value[kind] : 0.0});
         }
         if (ok) {
+          std::fill(limits_said_.begin(), limits_said_.end(), 0);
           q_ = c.q;
           v_ = c.v;
           faulted_.store(false, std::memory_order_relaxed);
@@ -214,7 +219,25 @@ void ServiceLoop::tick(long long now) {
   take_control(f);
   if (cfg_.mode == ServiceMode::kSimulate) simulate(now, f);
   else estimate(now, f);
+  check_limits(f);
   publish_output(f);
+}
+
+// The joint limits the published state and torque exceed: in the frame, and counted per kind.
+void ServiceLoop::check_limits(io::OutputFrame& f) {
+  if (!f.q || !f.v || !f.tau) return;
+  f.limits = &limits_;
+  if (check_joint_limits(sys_, limits_, *f.q, *f.v, *f.tau) == 0) return;
+  limit_ticks_[0].fetch_add(1, std::memory_order_relaxed);
+  for (int k = 0; k < 3; ++k)
+    if (limits_.any & (1u << k)) limit_ticks_[k + 1].fetch_add(1, std::memory_order_relaxed);
+  for (int d : limits_.dofs) {  // each joint's first pass of each limit, to the daemon's log
+    const size_t i = static_cast<size_t>(d);
+    const uint8_t fresh = static_cast<uint8_t>(limits_.mask[i] & ~limits_said_[i]);
+    if (!fresh) continue;
+    limits_said_[i] |= fresh;
+    events_.push({EventCode::kLimitPassed, d, fresh, f.sim_time});
+  }
 }
 
 void ServiceLoop::take_control(io::OutputFrame& f) {
@@ -272,8 +295,16 @@ void ServiceLoop::simulate(long long now, io::OutputFrame& f) {
 void ServiceLoop::apply_command(io::Input in, const io::CommandSlot& c) {
   start_begun_ = false;
   if (in == io::Input::kCommand) {
-    tau_ = c.tau;
     for (int k : locks_) set_lock_target(stepper_, k, c.lock_target[k]);
+    bool partial = false;  // an actuated DOF the command does not name: it takes the safe torque
+    for (int i = 0; i < sys_.model.nv() && !partial; ++i) partial = actuated_[i] && !c.named[i];
+    if (!partial) {
+      tau_ = c.tau;
+      return;
+    }
+    safe_torque(q_, v_);  // after the targets: the hold's evaluation reads them
+    for (int i = 0; i < sys_.model.nv(); ++i)
+      if (c.named[i]) tau_[i] = c.tau[i];
   } else {
     // no command, or it expired: every lock holds the scene's q again (before the safe torque: the
     // hold begins the step's evaluation, whose constraint errors read the targets)

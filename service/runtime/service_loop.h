@@ -110,6 +110,11 @@ class ServiceLoop {
   int64_t fifo_demotions() const { return fifo_demotions_.load(std::memory_order_relaxed); }
   bool faulted() const { return faulted_.load(std::memory_order_relaxed); }
   int64_t closure_rejections() const { return closure_rejected_.load(std::memory_order_relaxed); }
+  // ticks whose published state or torque exceeded a joint limit (joint_limits.h): kind 0 any, then
+  // 1 position, 2 velocity, 3 effort
+  int64_t limit_ticks(int kind = 0) const { return limit_ticks_[kind].load(std::memory_order_relaxed); }
+  // the joint limits of the last published output (loop thread)
+  const LimitData& limits() const { return limits_; }
   // output_t and loop_stats_t messages the bus refused (publish() != 0: the publisher thread's ring
   // full, lcm_publish failing) or accepted and then failed to send (the publisher thread's
   // lcm_publish failing: Bus::failed_after_accept); loop_stats_t outputs_dropped
@@ -163,6 +168,7 @@ class ServiceLoop {
   void put_evaluation(io::OutputFrame& f, Workspace& ws, const Diagnostics& d, bool ok,
                       const io::StateSlot* estimated = nullptr);
   void publish_output(io::OutputFrame& f);
+  void check_limits(io::OutputFrame& f);
 
   void safe_torque(const Eigen::VectorXd& q, const Eigen::VectorXd& v);
   void handle_control(const io::ControlSlot& c);
@@ -199,6 +205,8 @@ class ServiceLoop {
   WrenchSigmaData sigma_;            // their sigma from the scene's declared noise (wrench_sigma.h)
   FitRefit refit_;                   // estimate: q and v noise moves the fitted load too (state_fit_sigma.h)
   FrictionBoundData bound_;          // estimate: their interval over the friction at rest (friction_bound.h)
+  LimitData limits_;                 // the joint limits the published state and torque exceed
+  std::vector<uint8_t> limits_said_;  // (nv) the limits each joint passed since start or a reset (events)
   io::JointLosses joint_losses_ = io::JointLosses::kNone;  // estimate: compensated, ignored or none declared
   Eigen::VectorXd q_, v_, tau_;      // (nq), (nv), (nv): simulated state, applied torque
   Eigen::VectorXd q_prev_, v_prev_;  // state at the start of the last step (what is published)
@@ -230,6 +238,7 @@ class ServiceLoop {
   std::atomic<int64_t> ticks_{0}, overruns_{0}, skipped_{0}, expired_{0}, numerical_errors_{0};
   std::atomic<int64_t> receiver_restarts_{0}, inputs_dropped_{0}, inputs_filtered_{0}, inputs_malformed_{0};
   std::atomic<int64_t> rx_input_rejected_[io::kRejectKinds] = {}, rx_control_rejected_[io::kRejectKinds] = {};
+  std::atomic<int64_t> limit_ticks_[4] = {};  // limit_ticks(kind)
   std::atomic<int64_t> closure_rejected_{0};  // estimate: measured states above closure_tolerance
   std::atomic<int64_t> outputs_dropped_{0};   // messages the bus refused
   std::atomic<int64_t> fifo_demotions_{0};

@@ -77,6 +77,7 @@ int add_chain(Builder& B, const ArmSpec& s, int parent, const std::string& by_ba
     Transform X_PJ = (i == 1 ? s.X_W_base : Transform()) * cj.X_origin;
     if (held) X_PJ = X_PJ * chain_motion(cj, s.q[i - 1]);
     parent = B.add(s.name + "." + cj.link_name, parent, X_PJ, j, cj.I, {s.q[i - 1]}, {s.v[i - 1]}, cj.tau_limit, s.node);
+    B.set_limits(parent, cj.lower, cj.upper, cj.v_limit);
     const std::string by = i > 1 ? s.name + "." + J[i - 2].link_name : by_base;
     outs.push_back(joint_output(s.name + "." + cj.name, s.name + "." + cj.link_name, by, parent, false, parent,
                                 Transform(), held ? 0x3f : bearing_mask(j.type, cj.axis, cj.axis)));
@@ -284,6 +285,7 @@ void hang_arm_from_load(Builder& B, const ArmSpec& s, int L, const std::string& 
     const Inertia I = i > 1 ? J[i - 2].I.transformed(cj.X_origin.inverse()) : Inertia(0.0, Vec3::Zero(), 1e-3 * Mat3::Identity());
     const std::string body = s.name + "." + (i > 1 ? J[i - 2].link_name : s.robot->base_link);
     parent = B.add(body, parent, X_PJ, j, I, {s.q[i - 1]}, {s.v[i - 1]}, cj.tau_limit, s.node);
+    B.set_limits(parent, cj.lower, cj.upper, cj.v_limit);  // the same coordinate (axis and motion reversed)
     if (i == 1 && !held && cj.armature == 0.0) nominal_body = parent;
     // the reaction of link i-1 on link i is the tree's reaction negated, framed in link i: the
     // joint frame of the reversed joint (X_PJ without a held joint's motion)

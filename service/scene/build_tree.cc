@@ -200,6 +200,7 @@ void add_robot_tree(Builder& B, const YAML::Node& b, const Robot& r, const std::
     const int id = B.add(name + "." + cj.link_name, body_of.at(t.joints[k].parent_link), X_PJ, j, cj.I,
                          s.q_given[k] ? std::vector<double>{s.q[k]} : std::vector<double>{},
                          s.v_given[k] ? std::vector<double>{s.v[k]} : std::vector<double>{}, cj.tau_limit, b);
+    B.set_limits(id, cj.lower, cj.upper, cj.v_limit);
     body_of[cj.link_name] = id;
     outs.push_back(joint_output(j.name, name + "." + cj.link_name, parent_body, id, false, id, Transform(),
                                 held ? 0x3f : bearing_mask(j.type, cj.axis, cj.axis)));

@@ -37,6 +37,7 @@ struct Builder {
   std::vector<double> q0, v0;  // indexed like the model as it grows
   std::vector<unsigned char> q_given;  // (nq) the scene gave this coordinate's initial value
   std::vector<double> tau_lim;
+  std::vector<double> q_lo, q_hi, v_lim;  // per velocity index: System::q_lower, q_upper, v_limit
   std::vector<int> q_floating_idx;
   std::vector<std::pair<int, double>> target_limits;  // (velocity index, |target| allowed) of pseudo-joints
   // the bodies placed from a whole URDF tree (build_tree.cc): body name -> (the tree, its link), for
@@ -65,8 +66,19 @@ struct Builder {
     for (int k = 0; k < jj.nv; ++k) {
       v0.push_back(k < static_cast<int>(jv.size()) ? jv[k] : 0.0);
       tau_lim.push_back(tau_limit);
+      q_lo.push_back(-std::numeric_limits<double>::infinity());
+      q_hi.push_back(std::numeric_limits<double>::infinity());
+      v_lim.push_back(std::numeric_limits<double>::infinity());
     }
     return id;
+  }
+  // the position and speed limits of body id's joint, when it has one DOF (a held joint: none)
+  void set_limits(int id, double lower, double upper, double v_limit) {
+    const Joint& jj = sys.model.bodies[id].joint;
+    if (jj.nv != 1) return;
+    q_lo[static_cast<size_t>(jj.idx_v)] = lower;
+    q_hi[static_cast<size_t>(jj.idx_v)] = upper;
+    v_lim[static_cast<size_t>(jj.idx_v)] = v_limit;
   }
 };
 

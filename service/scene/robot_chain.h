@@ -30,6 +30,7 @@ struct ChainJoint {
   double tau_limit = std::numeric_limits<double>::infinity();
   double lower = -std::numeric_limits<double>::infinity();  // joint limits (URDF <limit lower upper>)
   double upper = std::numeric_limits<double>::infinity();
+  double v_limit = std::numeric_limits<double>::infinity();  // |v| allowed (URDF <limit velocity>), rad/s or m/s
   std::string source;  // where the joint was declared ("URDF PATH:LINE"), for messages
 };
 struct Robot {

@@ -13,6 +13,22 @@ struct DhLink {
 // K_i = Tz(d) Tx(a) Rx(alpha): the fixed part of the standard DH transform T_{i-1,i} = Rz(theta) K_i
 Transform dh_fixed(const DhLink& l) { return trans(0, 0, l.d) * trans(l.a, 0, 0) * rot_x(l.alpha); }
 
+// A link's position limits `limits: [LOWER, UPPER]` (angles as the link's others, lengths for a
+// prismatic link) and speed limit `v_limit` (rad/s or m/s): reported when exceeded, never enforced.
+void dh_limits(const Ctx& c, const YAML::Node& l, const std::string& w, bool prismatic, ChainJoint* j) {
+  if (const YAML::Node lim = l["limits"]) {
+    if (!lim.IsSequence() || lim.size() != 2) fail(c, lim, w + ": limits must be [LOWER, UPPER]");
+    auto at = [&](size_t k) {
+      return prismatic ? as_length(c, lim[k], w + ".limits") : as_angle(c, lim[k], w + ".limits");
+    };
+    j->lower = at(0);
+    j->upper = at(1);
+    if (!(j->lower < j->upper)) fail(c, lim, w + ": limits must be [LOWER, UPPER] with LOWER < UPPER");
+  }
+  j->v_limit = get_double(c, l, "v_limit", std::numeric_limits<double>::infinity(), w);
+  if (!(j->v_limit > 0)) fail(c, l["v_limit"], w + ": v_limit must be > 0 (rad/s or m/s; absent = no limit)");
+}
+
 Robot parse_robot(const Ctx& c, const YAML::Node& n, const std::string& name) {
   check_keys(c, n, {"source", "convention", "links", "file"}, "robot '" + name + "'");
   const std::string conv = get_string(c, n, "convention", "standard_dh");
@@ -25,7 +41,7 @@ Robot parse_robot(const Ctx& c, const YAML::Node& n, const std::string& name) {
   for (size_t i = 0; i < links.size(); ++i) {
     const YAML::Node& l = links[i];
     const std::string w = "robot '" + name + "' link " + std::to_string(i + 1);
-    check_keys(c, l, {"type", "a", "d", "alpha", "offset", "theta", "mass", "com", "inertia", "armature", "damping", "friction", "tau_limit", "accept_inertia"}, w);
+    check_keys(c, l, {"type", "a", "d", "alpha", "offset", "theta", "mass", "com", "inertia", "armature", "damping", "friction", "tau_limit", "limits", "v_limit", "accept_inertia"}, w);
     const std::string type = get_string(c, l, "type", "revolute");
     if (type != "revolute" && type != "prismatic") fail(c, l["type"], w + ": type must be revolute or prismatic");
     const bool prismatic = type == "prismatic";
@@ -59,6 +75,7 @@ Robot parse_robot(const Ctx& c, const YAML::Node& n, const std::string& name) {
     j.friction = get_joint_loss(c, l, "friction", w);
     j.tau_limit = get_double(c, l, "tau_limit", std::numeric_limits<double>::infinity(), w);
     if (!(j.tau_limit >= 0)) fail(c, l["tau_limit"], w + ": tau_limit must be >= 0 (N*m or N; absent = no limit)");
+    dh_limits(c, l, w, prismatic, &j);
     r.joints.push_back(j);
     K_prev = K;
   }

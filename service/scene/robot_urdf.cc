@@ -175,6 +175,7 @@ ChainJoint urdf_chain_joint(const Ctx& c, const YAML::Node& where, const UrdfFil
   }
   if (!j.fixed && !(j.axis.norm() > 0)) fail(c, where, "URDF joint '" + jt.name + "': zero axis");
   if (!j.fixed && jt.limits && jt.limits->effort > 0) j.tau_limit = jt.limits->effort;
+  if (!j.fixed && jt.limits && jt.limits->velocity > 0) j.v_limit = jt.limits->velocity;
   // a continuous joint has no position limits; urdfdom leaves lower = upper = 0 when none is given
   if (jt.limits && jt.type != urdf::Joint::CONTINUOUS && !j.fixed && jt.limits->upper > jt.limits->lower) {
     j.lower = jt.limits->lower;

@@ -67,6 +67,9 @@ void copy_initial_state(const Builder& B, System& sys) {
   sys.q0 = Eigen::Map<const Eigen::VectorXd>(B.q0.data(), static_cast<Eigen::Index>(B.q0.size()));
   sys.v0 = Eigen::Map<const Eigen::VectorXd>(B.v0.data(), static_cast<Eigen::Index>(B.v0.size()));
   sys.tau_limit = Eigen::Map<const Eigen::VectorXd>(B.tau_lim.data(), static_cast<Eigen::Index>(B.tau_lim.size()));
+  sys.q_lower = Eigen::Map<const Eigen::VectorXd>(B.q_lo.data(), static_cast<Eigen::Index>(B.q_lo.size()));
+  sys.q_upper = Eigen::Map<const Eigen::VectorXd>(B.q_hi.data(), static_cast<Eigen::Index>(B.q_hi.size()));
+  sys.v_limit = Eigen::Map<const Eigen::VectorXd>(B.v_lim.data(), static_cast<Eigen::Index>(B.v_lim.size()));
 }
 
 // pseudo-joint locks are rows of the solve, except in the explicit Schur form (24)-(26)

@@ -246,5 +246,45 @@ TEST(HoldingTorque, EvaluationHalvesAndTheStepAfterThemAreEvaluateAndStepBitForB
   }
 }
 
+// The braking hold: at a moving state, the braking torque's accelerations are the hold's less v / T
+// (both balance h along the free motions; the brake adds M (-v / T), and G (-v / T) = 0 for a
+// closing v), on every arm scene; and mass_times is M v of crba's dense M.
+TEST(HoldingTorque, BrakingAddsMinusVOverTToTheHoldsAccelerations) {
+  for (const char* name : {"two_puma_load", "two_iiwa_load", "planar_arms_load"}) {
+    SCOPED_TRACE(name);
+    const System sys = load(name);
+    HoldWorkspace hw(sys, default_actuated(sys));
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> u(-0.2, 0.2);
+    Eigen::VectorXd v(sys.model.nv());
+    for (Eigen::Index i = 0; i < v.size(); ++i) v[i] = u(rng);
+    Workspace cw(sys);
+    forward_kinematics(sys.model, cw.data, sys.q0, v);
+    constraint_rows(sys.model, cw.data, sys.constraints, sys.q0, v, cw.cd);
+    Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(cw.cd.G);
+    v -= cod.solve(cw.cd.G * v);  // a closing velocity
+    const double T = 0.1;
+    Eigen::VectorXd th(sys.model.nv()), tb(sys.model.nv());
+    ASSERT_TRUE(holding_torque(sys, hw, sys.q0, v, th));
+    ASSERT_LT(hw.residual, 1e-8);
+    ASSERT_TRUE(braking_torque(sys, hw, sys.q0, v, T, tb));
+    ASSERT_LT(hw.residual, 1e-8);
+    Workspace wh(sys), wb(sys);
+    ASSERT_NE(evaluate(sys, wh, sys.q0, v, th).status, Status::kError);
+    ASSERT_NE(evaluate(sys, wb, sys.q0, v, tb).status, Status::kError);
+    const Eigen::VectorXd diff = wb.vdot - wh.vdot + v / T;
+    EXPECT_LT(diff.cwiseAbs().maxCoeff(), 1e-7 * (1 + v.cwiseAbs().maxCoeff() / T)) << "rad/s^2";
+    // M v from the path-compact rows equals the dense M's
+    crba(sys.model, wb.data);
+    Eigen::VectorXd Mv(sys.model.nv());
+    mass_times(sys.model, wb.data, v, Mv);
+    EXPECT_LT((Mv - wb.data.M * v).cwiseAbs().maxCoeff(), 1e-12 * (1 + (wb.data.M * v).cwiseAbs().maxCoeff()));
+    // at rest the brake is the hold
+    ASSERT_TRUE(braking_torque(sys, hw, sys.q0, Eigen::VectorXd::Zero(sys.model.nv()), T, tb));
+    ASSERT_TRUE(holding_torque(sys, hw, sys.q0, Eigen::VectorXd::Zero(sys.model.nv()), th));
+    EXPECT_LT((tb - th).cwiseAbs().maxCoeff(), 1e-9);
+  }
+}
+
 }  // namespace
 }  // namespace coopdyn::testing

@@ -75,9 +75,12 @@ TEST(ServiceLoop, SimulateOutputsEqualOfflineEvaluateAndStep) {
   }
 }
 
-// Named partial commands: the named DOFs get their torque, the others 0.
+// Named partial commands: the named DOFs get their torque, the others the safe torque (policy zero
+// here: 0; the hold: tests/runtime/safe_torque_test.cc).
 TEST(ServiceLoop, NamedCommandMapsByName) {
   Rig r("two_puma_load");
+  r.cfg.safe_torque = runtime::SafeTorque::kZero;
+  r.reset();
   const auto& names = r.sys.model.v_names;
   const int a = 7, b = 15;
   ASSERT_EQ(r.send(io::encode_torque_command(runtime::realtime_us(), 1, {names[b], names[a]}, {-3.0, 2.0}), 0), Offer::kAccepted);

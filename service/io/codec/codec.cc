@@ -301,6 +301,10 @@ Reject CommandDecoder::decode(const void* data, int len, CommandSlot& out) {
   const Reject rj = map_named(m.v_index, m.msg.names, m.msg.tau.data(), m.msg.num_torques, nv, m.seen, 0.0, out.tau,
                               false);
   if (rj != Reject::kNone) return rj;
+  // a slot sized by its owner never resizes
+  if (out.named.size() != static_cast<size_t>(nv)) out.named.resize(static_cast<size_t>(nv));
+  if (m.msg.names.empty()) std::fill(out.named.begin(), out.named.end(), 1);
+  else std::copy(m.seen.begin(), m.seen.begin() + nv, out.named.begin());
   for (int i = 0; i < nv; ++i) {
     const double lim = m.sys.tau_limit[i];
     if (lim == 0) {  // unactuated: only an exact 0 (or -0) is allowed

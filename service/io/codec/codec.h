@@ -21,6 +21,7 @@
 #include "service/dynamics/system.h"
 #include "service/dynamics/friction_bound.h"
 #include "service/dynamics/sigma/wrench_sigma.h"
+#include "service/dynamics/joint_limits.h"
 #include "service/dynamics/wrenches.h"
 #include "service/io/codec/messages.h"
 
@@ -89,6 +90,8 @@ struct OutputFrame {
   JointLosses joint_losses = JointLosses::kNone;  // estimate: how the joints' damping and friction were taken
   const FrictionBoundData* bound = nullptr;  // estimate, compensated: compute_friction_bound() of it
   const ContactData* contacts = nullptr;     // compute_contacts() of it when valid (none: 0 and -1, as on error)
+  // the joint limits (q, v, tau) exceed (check_joint_limits(); null: not checked). Not yet on the wire.
+  const LimitData* limits = nullptr;
 };
 
 class OutputEncoder {

@@ -31,6 +31,9 @@ struct CommandSlot {
   int64_t recv_ns = 0;  // CLOCK_MONOTONIC at receipt, ns
   int64_t id = 0;       // acceptance number (1, 2, ...), set by the inbox
   Eigen::VectorXd tau;  // (nv) N*m or N
+  // (nv) 1 where the command gives the DOF's torque: every DOF of a command without names, the named
+  // ones of a command with names; the others (tau 0 here) take the daemon's safe torque
+  std::vector<unsigned char> named;
   // (constraint specs) the target of each lock spec, rad or m: the command's where it names the
   // lock's joint, else the scene's (ConstraintSpec::q_target); unused entries of other kinds
   Eigen::VectorXd lock_target;

@@ -5,6 +5,7 @@
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -333,6 +334,88 @@ TEST(Cli, EvalAndSimHoldTheRobotStillWithHold) {
     if (head[k].rfind("q:", 0) == 0) {
       EXPECT_NEAR(std::stod(last[k]), std::stod(first[k]), 1e-6) << head[k];
     }
+}
+
+// A state file by coordinate name is the positional one (mobile_platform: an arm's joints run from
+// its tip to its base, so a positional list is easy to get wrong), and an unknown name is an error
+// at its line.
+TEST(Cli, EvalStateByNameEqualsThePositionalList) {
+  const std::string s = scene("two_puma_load");
+  const Result base = run({COOPDYN_PATH, "eval", "--scene", s}, "byname_base");
+  ASSERT_EQ(base.rc, 0) << base.err;
+  const YAML::Node b = YAML::Load(base.out);
+  std::vector<std::string> vn;
+  for (const auto& x : b["coordinates"]["v"]) vn.push_back(x.as<std::string>());
+  std::vector<double> tau(vn.size(), 0.0);
+  const size_t q1 = static_cast<size_t>(std::find(vn.begin(), vn.end(), "arm1.q1") - vn.begin());
+  ASSERT_LT(q1, vn.size());
+  tau[q1] = 2.5;
+  std::ostringstream pos;
+  pos << "{\"tau\": [";
+  for (size_t i = 0; i < tau.size(); ++i) pos << (i ? ", " : "") << tau[i];
+  pos << "]}";
+  const std::string fp = "/tmp/coopdyn_cli_state_pos.json", fn = "/tmp/coopdyn_cli_state_name.json",
+                    fb = "/tmp/coopdyn_cli_state_bad.json";
+  std::ofstream(fp) << pos.str();
+  std::ofstream(fn) << "{\"tau\": {\"arm1.q1\": 2.5}}";
+  std::ofstream(fb) << "{\"tau\": {\n  \"arm1.q9\": 2.5}}";
+  const Result a = run({COOPDYN_PATH, "eval", "--scene", s, "--state", fp}, "byname_pos");
+  const Result n = run({COOPDYN_PATH, "eval", "--scene", s, "--state", fn}, "byname_name");
+  ASSERT_EQ(a.rc, 0) << a.err;
+  ASSERT_EQ(n.rc, 0) << n.err;
+  EXPECT_EQ(a.out, n.out);
+  EXPECT_NE(a.out, base.out) << "the torque was applied";
+  const Result bad = run({COOPDYN_PATH, "eval", "--scene", s, "--state", fb}, "byname_bad");
+  EXPECT_EQ(bad.rc, 1);
+  EXPECT_TRUE(has(bad.err, fb + ":2:3: 'tau' has no coordinate 'arm1.q9'")) << bad.err;
+}
+
+// Limits exceeded are reported per joint: eval's limits_exceeded, sim's limit:JOINT columns and its
+// warning (two iiwa arms: URDF speed limit of joint 1 1.4835 rad/s).
+TEST(Cli, EvalAndSimReportTheJointLimitsExceeded) {
+  const std::string s = scene("two_iiwa_load"), f = "/tmp/coopdyn_cli_state_fast.json";
+  std::ofstream(f) << "{\"v\": {\"arm1.iiwa_joint_1\": 1.5}}";
+  const Result e = run({COOPDYN_PATH, "eval", "--scene", s, "--state", f}, "limits_eval");
+  ASSERT_EQ(e.rc, 0) << e.err;
+  const YAML::Node lim = YAML::Load(e.out)["limits_exceeded"];
+  ASSERT_TRUE(lim.IsSequence()) << e.out;
+  bool found = false;
+  for (const auto& x : lim)
+    if (x["joint"].as<std::string>() == "arm1.iiwa_joint_1") found = x["exceeded"][0].as<std::string>() == "velocity";
+  EXPECT_TRUE(found) << e.out;
+  EXPECT_TRUE(has(e.err, "past their limits")) << e.err;
+  const Result within = run({COOPDYN_PATH, "eval", "--scene", s}, "limits_within");
+  ASSERT_EQ(within.rc, 0);
+  EXPECT_EQ(YAML::Load(within.out)["limits_exceeded"].size(), 0u);
+  // 0.3 s without torques: the arms fall past their speed limits, column by column
+  const Result sim = run({COOPDYN_PATH, "sim", "--scene", s, "--duration", "0.3", "--dt", "0.001"}, "limits_sim");
+  ASSERT_EQ(sim.rc, 0) << sim.err;
+  EXPECT_TRUE(has(sim.err, "passes its velocity limit")) << sim.err;
+  std::vector<std::string> rows;
+  std::istringstream in(sim.out);
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty() && line[0] != '#') rows.push_back(line);
+  const std::vector<std::string> head = split(rows[0]), first = split(rows[1]), last = split(rows.back());
+  int flagged = 0;
+  for (size_t k = 0; k < head.size(); ++k) {
+    if (head[k].rfind("limit:", 0) != 0) continue;
+    EXPECT_EQ(first[k], "0") << head[k] << ": the scene starts within its limits";
+    const int bits = std::stoi(last[k]);
+    if (!(bits & 2)) continue;
+    ++flagged;
+    const size_t vc = static_cast<size_t>(std::find(head.begin(), head.end(), "v:" + head[k].substr(6)) - head.begin());
+    ASSERT_LT(vc, head.size());
+    EXPECT_GT(std::abs(std::stod(last[vc])), 1.3) << head[k] << ": flagged past a speed limit of 1.31 rad/s or more";
+  }
+  EXPECT_GT(flagged, 0);
+}
+
+// send --others takes hold or zero, nothing else.
+TEST(Cli, SendOthersIsHoldOrZero) {
+  const Result r = run({COOPDYN_PATH, "send", "--scene", scene("two_puma_load"), "--torque", "arm1.q1:constant:1",
+                        "--others", "free", "--no-check", "--duration", "0"}, "others");
+  EXPECT_EQ(r.rc, 2);
+  EXPECT_TRUE(has(r.err, "--others must be hold or zero")) << r.err;
 }
 
 TEST(Cli, SendReplaysEveryRowOfAOneKilohertzCsvOnceAtOneKilohertz) {
