@@ -119,8 +119,8 @@ ViewFrames read_view_frames(const System& sys, const std::string& csv_path, int 
 // q, the drawn wrenches, the stresses, the indeterminate components and the free directions. An
 // error output (no state, a stale one, a failed evaluation: its numbers are no values) has no
 // wrenches (zeros: no arrows; the page's plot has a gap there), the reason as its note, and, when
-// its q is not a configuration of the scene (a no-state output's zeros), the pose `held` (the last
-// valid one; the scene's initial one when null). False, with the reason in *why, when it is of
+// it has no state (no_state, state_stale: its q is no state) or its q is not a configuration of the
+// scene, the pose of `held` (the last valid sample; the scene's initial pose when null). False, with the reason in *why, when it is of
 // another scene (other coordinates or wrenches, by name) or a valid output's q is not a
 // configuration of it. Used by --log and --live (clients/view/view_log.cc).
 bool sample_of_output(const System& sys, const ViewFrames& geo, const io::DecodedOutput& o, ViewSample* s,

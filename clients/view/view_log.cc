@@ -54,13 +54,15 @@ bool sample_of_output(const System& sys, const ViewFrames& geo, const io::Decode
   r->q = Eigen::Map<const Eigen::VectorXd>(o.q.data(), static_cast<Eigen::Index>(o.q.size()));
   const bool error = r->status == status_name(Status::kError);
   r->note = error ? std::string(io::reason_key(o.reason)) : std::string();
+  // without a fresh state (estimate mode) the output's q is no state (with a free body, zeros: not
+  // even a configuration): the last valid pose is shown, as for any error whose q is not one
+  const bool no_state = r->note == "no_state" || r->note == "state_stale";
   r->pose_held = false;
-  if (!configuration_valid(m, r->q)) {
+  if (no_state || !configuration_valid(m, r->q)) {
     if (!error) {
       *why = "not a valid configuration of scene '" + sys.name + "'";
       return false;
     }
-    // an error output's q is no value (zeros when there is no state): the last valid pose, greyed
     const bool have = held && held->q.size() == m.nq();
     r->q = have ? held->q : sys.q0;
     r->pose_held = true;
