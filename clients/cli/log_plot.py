@@ -63,7 +63,10 @@ class Table:
     def load(self, names):
         """Parses the numbers of these columns at once (a whole-file C parser; the slow way when a cell is not one)."""
         names = [n for n in dict.fromkeys(names) if n not in self._num]
-        if not names or not self.n:
+        if not self.n:
+            self._num.update((n, np.zeros(0)) for n in names)
+            return
+        if not names:
             return
         try:
             a = np.loadtxt(self.lines, delimiter=",", usecols=[self.index[n] for n in names], dtype=float, ndmin=2,
