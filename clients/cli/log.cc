@@ -178,27 +178,33 @@ void write_output_row(CsvLine& l, StepRow& r, const io::DecodedOutput& o, double
   l.write(f);
 }
 
-// Runs the plotter (clients/cli/log_plot.py) on a per-step CSV and a stats CSV ('' when none).
-int plot(const LogArgs& a, const std::string& out, const std::string& steps_csv, const std::string& stats_csv) {
+// Runs the plotter (clients/cli/log_plot.py) on a per-step CSV and a stats CSV ('' when none); it
+// reports its stages on stderr when `progress` is on. The plotter itself tells a Python without
+// matplotlib (exit 3): one Python start, not two.
+int plot(const LogArgs& a, const std::string& out, const std::string& steps_csv, const std::string& stats_csv,
+         bool progress) {
   std::fflush(stdout);  // the table before the plotter's own lines
   const std::string py = a.python;
-  if (std::system((shell_quote(py) + " -c 'import matplotlib' >/dev/null 2>&1").c_str()) != 0) {
-    std::printf(
-        "coopdyn log: no PNG plots: %s cannot import matplotlib (Debian: apt-get install python3-matplotlib); "
-        "the CSVs above are complete\n",
-        py.c_str());
-    return 0;
-  }
   const std::string script = out + "/.plot.py";
   if (std::FILE* f = std::fopen(script.c_str(), "w")) {
     std::fputs(kPlotScript, f);
     std::fclose(f);
   }
-  const int rc = std::system((shell_quote(py) + " " + shell_quote(script) + " " + shell_quote(out) + " " +
-                              shell_quote(steps_csv) + " " + shell_quote(stats_csv))
+  if (progress) std::fprintf(stderr, "coopdyn log: plotting %s with %s\n", steps_csv.c_str(), py.c_str());
+  const int rc = std::system((shell_quote(py) + " " + shell_quote(script) + (progress ? " --progress " : " ") +
+                              shell_quote(out) + " " + shell_quote(steps_csv) + " " + shell_quote(stats_csv))
                                  .c_str());
   std::remove(script.c_str());
-  if (rc != 0) std::printf("coopdyn log: plotting failed (exit %d); the CSVs are complete\n", rc);
+  const int status = rc != -1 && WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+  if (status == 127)
+    std::printf("coopdyn log: no PNG plots: cannot run %s; the CSVs above are complete\n", py.c_str());
+  else if (status == 3)
+    std::printf(
+        "coopdyn log: no PNG plots: %s cannot import matplotlib (Debian: apt-get install python3-matplotlib); "
+        "the CSVs above are complete\n",
+        py.c_str());
+  else if (status != 0)
+    std::printf("coopdyn log: plotting failed (exit %d); the CSVs are complete\n", status);
   return 0;
 }
 
@@ -431,7 +437,7 @@ int cmd_log(const LogArgs& a) {
       std::fprintf(stderr, "coopdyn log: cannot create directory '%s'\n", out.c_str());
       return 1;
     }
-    return plot(a, out, in, "");
+    return plot(a, out, in, "", a.progress || isatty(STDERR_FILENO));
   }
   std::unique_ptr<System> sys;
   if (a.scene) {
@@ -463,7 +469,7 @@ int cmd_log(const LogArgs& a) {
   std::string out_csv, stats_csv;
   print_summary(cv.chans, &out_csv, &stats_csv);
   if (a.no_plot || out_csv.empty()) return 0;
-  return plot(a, out, out_csv, stats_csv);
+  return plot(a, out, out_csv, stats_csv, progress.on());
 }
 
 }  // namespace coopdyn::cli

@@ -152,6 +152,7 @@ void ViewFrames::clear_frames() {
   indet.clear();
   free.clear();
   limits.clear();
+  note.clear();
 }
 
 void add_view_frame(const System& sys, Data& data, ViewSample& row, ViewFrames* vf) {
@@ -219,6 +220,7 @@ void add_view_frame(const System& sys, Data& data, ViewSample& row, ViewFrames* 
   vf->indet.push_back(row.indet.size() == vf->wrenches.size() ? row.indet : std::vector<int>{});
   vf->free.push_back(row.free);
   vf->limits.push_back(row.limits);
+  vf->note.push_back(row.note);
 }
 
 ViewFrames view_frames_of(const System& sys, std::vector<ViewSample>& rows, int max_frames) {
@@ -430,6 +432,7 @@ std::string view_frame_json(const ViewFrames& vf, size_t i) {
   d += ",\"indet\":";
   jints(d, vf.indet[i]);
   d += ",\"free\":" + json_string(vf.free[i]);
+  d += ",\"note\":" + json_string(vf.note[i]);
   d += ",\"wf\":";
   jexact(d, vf.wrench_F[i]);
   d += ",\"ws\":";
@@ -682,6 +685,7 @@ void append_frames_json(std::string& d, const ViewFrames& vf) {
   per_frame("],\"indet\":[", [&](size_t i) { jints(d, vf.indet[i]); });
   per_frame("],\"free\":[", [&](size_t i) { d += json_string(vf.free[i]); });
   per_frame("],\"limits\":[", [&](size_t i) { d += json_string(vf.limits[i]); });
+  per_frame("],\"note\":[", [&](size_t i) { d += json_string(vf.note[i]); });
   per_frame("],\"wrench_F\":[", [&](size_t i) { jexact(d, vf.wrench_F[i]); });
   per_frame("],\"wrench_sigma\":[", [&](size_t i) { jexact(d, vf.wrench_sigma[i]); });
   per_frame("],\"wrench_bound\":[", [&](size_t i) { jexact(d, vf.wrench_bound[i]); });

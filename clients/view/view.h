@@ -79,6 +79,8 @@ struct ViewFrames {
                                                 // not determined by the physics; empty: not in the source
   std::vector<std::string> free;                // the free directions by class ("2 wheel_normal"); "" none
   std::vector<std::string> limits;              // the joint limits exceeded ("arm1.q1 velocity"); "" none
+  std::vector<std::string> note;                // what the status line adds ("no state; the pose of
+                                                // t = 1.5 s held"); "" none
   void clear_frames();                          // the per-frame vectors emptied, the geometry kept
 };
 
@@ -97,6 +99,8 @@ struct ViewSample {
   std::vector<int> contact_state;  // per contact, ContactState; empty: unknown
   std::vector<Vec6> sigma;  // per drawn wrench: standard deviation of each component of w; empty: none
   std::vector<Vec6> bound;  // per drawn wrench: its friction bound (joints at rest); empty: none
+  std::string note;         // what the status line adds; "" none
+  bool pose_held = false;   // q is an earlier sample's (this one's was not a configuration)
 };
 
 // The shapes, links and drawn wrenches of the scene, no frames yet.
@@ -114,10 +118,15 @@ std::string view_frame_json(const ViewFrames& vf, size_t i);
 ViewFrames read_view_frames(const System& sys, const std::string& csv_path, int max_frames);
 
 // The sample of one output_t of coopdynd running `sys` (`geo`: view_geometry(sys)): time, status,
-// q, the drawn wrenches, the stresses, the indeterminate components and the free directions. False,
-// with the reason in *why, when it is of another scene (other coordinates or wrenches, by name) or
-// its q is not a configuration of it. Used by --log and --live (clients/view/view_log.cc).
-bool sample_of_output(const System& sys, const ViewFrames& geo, const io::DecodedOutput& o, ViewSample* s, std::string* why);
+// q, the drawn wrenches, the stresses, the indeterminate components and the free directions. An
+// error output (no state, a stale one, a failed evaluation: its numbers are no values) has no
+// wrenches (zeros: no arrows; the page's plot has a gap there), the reason as its note, and, when
+// it has no state (no_state, state_stale: its q is no state) or its q is not a configuration of the
+// scene, the pose of `held` (the last valid sample; the scene's initial pose when null). False, with the reason in *why, when it is of
+// another scene (other coordinates or wrenches, by name) or a valid output's q is not a
+// configuration of it. Used by --log and --live (clients/view/view_log.cc).
+bool sample_of_output(const System& sys, const ViewFrames& geo, const io::DecodedOutput& o, ViewSample* s,
+                      std::string* why, const ViewSample* held = nullptr);
 
 // Reads the output_t messages on `channel` of an lcm-logger file recorded from coopdynd running
 // `sys` (clients/view/view_log.cc). Throws std::runtime_error naming the file when it cannot be read,

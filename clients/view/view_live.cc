@@ -235,7 +235,7 @@ struct FrameMaker {
   const long long min_gap_ns;
   long long last_ns = 0;
   bool warned = false;
-  ViewSample s;
+  ViewSample s, last_pose;  // last_pose: the last sample with its own pose (held by error outputs)
 
   void on_output(const void* d, int n, long long recv_ns) {
     Counters& count = live.count;
@@ -248,13 +248,14 @@ struct FrameMaker {
       ++count.undecodable;
       return;
     }
-    if (!sample_of_output(sys, vf, o, &s, &why)) {
+    if (!sample_of_output(sys, vf, o, &s, &why, &last_pose)) {
       if (!warned) std::fprintf(stderr, "coopdyn view: an output on '%s' %s: ignored\n", channel.c_str(), why.c_str());
       warned = true;
       ++count.mismatched;
       return;
     }
     last_ns = recv_ns;
+    if (!s.pose_held) last_pose = s;
     vf.clear_frames();
     add_view_frame(sys, data, s, &vf);
     auto json = std::make_shared<const std::string>(view_frame_json(vf, 0));

@@ -9,6 +9,7 @@
 #include "clients/view/view.h"
 #include "service/dynamics/wrenches.h"
 #include "service/io/codec/codec.h"
+#include "service/io/codec/messages.h"
 
 namespace coopdyn::cli {
 
@@ -21,7 +22,8 @@ std::string joined(const std::vector<std::string>& v, size_t max = 6) {
 }
 }  // namespace
 
-bool sample_of_output(const System& sys, const ViewFrames& geo, const io::DecodedOutput& o, ViewSample* r, std::string* why) {
+bool sample_of_output(const System& sys, const ViewFrames& geo, const io::DecodedOutput& o, ViewSample* r,
+                      std::string* why, const ViewSample* held) {
   const Model& m = sys.model;
   const auto& outs = sys.wrenches.outputs;
   bool same_wrenches = o.wrench_names.size() == outs.size();
@@ -50,27 +52,41 @@ bool sample_of_output(const System& sys, const ViewFrames& geo, const io::Decode
                   ? status_name(static_cast<Status>(o.status))
                   : status_name(Status::kError);
   r->q = Eigen::Map<const Eigen::VectorXd>(o.q.data(), static_cast<Eigen::Index>(o.q.size()));
-  if (!configuration_valid(m, r->q)) {
-    *why = "not a valid configuration of scene '" + sys.name + "'";
-    return false;
+  const bool error = r->status == status_name(Status::kError);
+  r->note = error ? std::string(io::reason_key(o.reason)) : std::string();
+  // without a fresh state (estimate mode) the output's q is no state (with a free body, zeros: not
+  // even a configuration): the last valid pose is shown, as for any error whose q is not one
+  const bool no_state = r->note == "no_state" || r->note == "state_stale";
+  r->pose_held = false;
+  if (no_state || !configuration_valid(m, r->q)) {
+    if (!error) {
+      *why = "not a valid configuration of scene '" + sys.name + "'";
+      return false;
+    }
+    const bool have = held && held->q.size() == m.nq();
+    r->q = have ? held->q : sys.q0;
+    r->pose_held = true;
+    char when[64];
+    std::snprintf(when, sizeof when, "; the pose of t = %.3f s held", have ? held->t : 0.0);
+    r->note += have ? when : "; no pose yet: the scene's initial pose shown";
   }
   r->w.clear();
   r->indet.clear();
-  for (int k : geo.wrenches) {
-    r->w.push_back(Eigen::Map<const Vec6>(o.wrench[static_cast<size_t>(k)].data()));
-    r->indet.push_back(o.indeterminate_mask[static_cast<size_t>(k)] & 0x3f);
+  for (int k : geo.wrenches) {  // an error output's wrenches are no values: none drawn
+    r->w.push_back(error ? Vec6::Zero().eval() : Vec6(Eigen::Map<const Vec6>(o.wrench[static_cast<size_t>(k)].data())));
+    r->indet.push_back(error ? 0 : o.indeterminate_mask[static_cast<size_t>(k)] & 0x3f);
   }
   // each wrench's sigma (declared noise) and friction bound (joints at rest), when the message has them
   r->sigma.clear();
   r->bound.clear();
-  const bool sigma_on = o.sigma_source != 0 && o.wrench_sigma.size() == outs.size();
-  const bool bound_on = o.friction_resting > 0 && o.wrench_bound.size() == outs.size();
+  const bool sigma_on = !error && o.sigma_source != 0 && o.wrench_sigma.size() == outs.size();
+  const bool bound_on = !error && o.friction_resting > 0 && o.wrench_bound.size() == outs.size();
   for (int k : geo.wrenches) {
     if (sigma_on) r->sigma.push_back(Eigen::Map<const Vec6>(o.wrench_sigma[static_cast<size_t>(k)].data()));
     if (bound_on) r->bound.push_back(Eigen::Map<const Vec6>(o.wrench_bound[static_cast<size_t>(k)].data()));
   }
   r->stress.clear();
-  for (const auto& p : geo.pseudos) {
+  for (const auto& p : error ? std::vector<ViewFrames::Pseudo>{} : geo.pseudos) {
     const auto it = std::find(o.stress_names.begin(), o.stress_names.end(), p.name);
     if (it == o.stress_names.end()) {
       r->stress.clear();  // a formulation that does not report it: no colours rather than wrong ones
@@ -82,7 +98,8 @@ bool sample_of_output(const System& sys, const ViewFrames& geo, const io::Decode
   r->contact_u.clear();
   r->contact_state.clear();
   const size_t nc = o.contact_names.size();
-  const bool contacts_sized = o.contact_utilisation.size() == nc && o.contact_friction_needed.size() == nc && o.contact_state.size() == nc;
+  const bool contacts_sized = !error && o.contact_utilisation.size() == nc && o.contact_friction_needed.size() == nc &&
+                              o.contact_state.size() == nc;
   for (const auto& c : geo.contacts) {
     const auto it = std::find(o.contact_names.begin(), o.contact_names.end(), c.name);
     if (!contacts_sized || it == o.contact_names.end()) {
@@ -109,7 +126,7 @@ std::vector<ViewSample> read_log_samples(const System& sys, const std::string& p
   const ViewFrames geo = view_geometry(sys);
   std::vector<ViewSample> out;
   std::map<std::string, std::pair<io::MessageType, long>> seen;  // channel -> type of its first message, count
-  long undecodable = 0, n = 0;
+  long undecodable = 0, n = 0, last_pose = -1;  // last_pose: the last sample with its own pose
   io::DecodedOutput o;
   std::string why;
   read_lcm_log(path, [&](const LogMessage& ev) {
@@ -122,9 +139,10 @@ std::vector<ViewSample> read_log_samples(const System& sys, const std::string& p
       return true;
     }
     ViewSample r;
-    if (!sample_of_output(sys, geo, o, &r, &why))
+    if (!sample_of_output(sys, geo, o, &r, &why, last_pose >= 0 ? &out[static_cast<size_t>(last_pose)] : nullptr))
       throw std::runtime_error(path + ": output_t " + std::to_string(n) + " on channel '" + channel + "' (tick " +
                                std::to_string(o.tick) + ") " + why);
+    if (!r.pose_held) last_pose = static_cast<long>(out.size());
     out.push_back(std::move(r));
     return true;
   });

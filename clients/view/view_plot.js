@@ -21,6 +21,8 @@ function ViewPlot(V, at) {
     return out;
   }
   function tNum(x) { return +x.toPrecision(4) + ''; }
+  // component c of wrench k at frame i; NaN in an error frame (its numbers are no values: a gap)
+  function val(i, k, c) { return V.status[i] === 'error' ? NaN : V.wrench_F[i][6 * k + c]; }
   // the plot's bands (the bar's +-sigma checkbox, #bands=0): about each component's curve, the
   // +-sigma band of the frames that carry a sigma (a translucent fill in the trace's colour) and the
   // friction bound of those that carry one (dashed lines in the trace's colour), in the component's
@@ -35,7 +37,7 @@ function ViewPlot(V, at) {
     var N = V.t.length;
     var runs = [], run = null;
     for (var i = 0; i < N; ++i) {
-      var v = V.wrench_F[i][6 * k + c], d = bandHalf(i, k, c, key);
+      var v = val(i, k, c), d = bandHalf(i, k, c, key);
       if (!isFinite(d) || !isFinite(v)) { run = null; continue; }
       var x = X(V.t[i]), col = Math.floor(x), p = run && run[run.length - 1];
       if (dec && p && p.col === col) { p.lo = Math.min(p.lo, v - d); p.hi = Math.max(p.hi, v + d); p.i1 = i; continue; }
@@ -86,7 +88,8 @@ function ViewPlot(V, at) {
     var N = V.t.length;
     var lo = 0, hi = 0;
     for (var i = 0; i < N; ++i) for (var c = 3 * p; c < 3 * p + 3; ++c) {
-      var v = V.wrench_F[i][6 * k + c], s = V.wrench_sigma[i], b = V.wrench_bound[i];
+      var v = val(i, k, c), s = V.wrench_sigma[i], b = V.wrench_bound[i];
+      if (!isFinite(v)) continue;
       var d = Math.max(s.length ? Math.abs(s[6 * k + c]) : 0, b.length ? Math.abs(b[6 * k + c]) : 0);
       if (!isFinite(d)) d = 0;  // (not drawn either)
       if (v - d < lo) lo = v - d;
@@ -118,6 +121,8 @@ function ViewPlot(V, at) {
     if (p === 0 && at.bands() && (sg || bd))
       g.fillText([sg ? '\u00b1\u03c3 shaded' : '', bd ? 'bound dashed' : ''].filter(Boolean).join(', '), ax.left + 98, ax.top - 4);
   }
+  // each component's curve: every frame, or per pixel column (more than two frames a column) its
+  // first, lowest and highest value; an error frame (or a value that is not finite) breaks it
   function drawTraces(g, ax, k, p) {
     var N = V.t.length;
     var dec = N > 2 * ax.width;
@@ -125,16 +130,20 @@ function ViewPlot(V, at) {
     for (var j = 0; j < 3; ++j) {
       g.strokeStyle = TRACE[j];
       g.beginPath();
-      var col = null, cmin = 0, cmax = 0;
-      for (var i = 0; i < N; ++i) {  // per pixel column its first, lowest and highest value
-        var x = ax.X(V.t[i]), v = V.wrench_F[i][6 * k + 3 * p + j], c = Math.floor(x);
-        if (!dec || c !== col) {
-          if (col !== null && dec) { g.lineTo(col + 0.5, ax.Yv(cmin)); g.lineTo(col + 0.5, ax.Yv(cmax)); }
-          if (i === 0) g.moveTo(x, ax.Yv(v)); else g.lineTo(x, ax.Yv(v));
-          col = c; cmin = cmax = v;
+      var col = null, cmin = 0, cmax = 0, pen = false;
+      var flush = function () {
+        if (col !== null && dec) { g.lineTo(col + 0.5, ax.Yv(cmin)); g.lineTo(col + 0.5, ax.Yv(cmax)); }
+      };
+      for (var i = 0; i < N; ++i) {
+        var x = ax.X(V.t[i]), v = val(i, k, 3 * p + j), c = Math.floor(x);
+        if (!isFinite(v)) { if (pen) flush(); pen = false; col = null; continue; }
+        if (!pen || !dec || c !== col) {
+          if (pen) flush();
+          if (pen) g.lineTo(x, ax.Yv(v)); else g.moveTo(x, ax.Yv(v));
+          pen = true; col = c; cmin = cmax = v;
         } else { cmin = Math.min(cmin, v); cmax = Math.max(cmax, v); }
       }
-      if (col !== null && dec) { g.lineTo(col + 0.5, ax.Yv(cmin)); g.lineTo(col + 0.5, ax.Yv(cmax)); }
+      if (pen) flush();
       g.stroke();
     }
   }
@@ -173,7 +182,10 @@ function ViewPlot(V, at) {
     });
     if (at.bands()) shown = drawn;
     if (at.plotdata) {
-      var series = COMP.map(function (c, j) { return V.wrench_F.map(function (w) { return w[6 * k + j]; }); });
+      // per component its value per frame; null in an error frame (a gap)
+      var series = COMP.map(function (c, j) {
+        return V.t.map(function (t, i) { var v = val(i, k, j); return isFinite(v) ? v : null; });
+      });
       at.plotdata.textContent = JSON.stringify({ wrench: V.wrenches[k].name, t: V.t, components: COMP, values: series });
     }
   }
@@ -194,7 +206,8 @@ function ViewPlot(V, at) {
     g.beginPath();
     axes.forEach(function (a) { g.moveTo(x, a.top + 1); g.lineTo(x, a.top + a.height - 1); });
     g.stroke();
-    var k = at.wrench(), w = V.wrench_F[frame], f = function (j) { return (+w[6 * k + j].toPrecision(4)) + ''; };
+    var k = at.wrench();
+    var f = function (j) { var v = val(frame, k, j); return isFinite(v) ? (+v.toPrecision(4)) + '' : '-'; };
     at.title.innerHTML = '';
     at.title.appendChild(document.createTextNode(V.wrenches[k].name + ' in ' + V.wrenches[k].frame + ' (by ' + V.wrenches[k].by + ')'));
     at.title.appendChild(document.createElement('br'));

@@ -7,6 +7,7 @@
 #include <condition_variable>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -34,7 +35,8 @@ struct Received {
 // runs it), stops it with SIGTERM, and returns every message it published on the output and stats
 // channels, in arrival order; empty when LCM cannot start (no multicast route).
 std::vector<Received> record_daemon(const std::string& url, const std::string& scene, int rate, size_t outputs,
-                                    std::string* daemon_err, const std::string& config = "") {
+                                    std::string* daemon_err, const std::string& config = "",
+                                    const std::function<void()>& during = {}) {
   auto bus = daemon_test::try_bus(url);
   if (!bus) return {};
   std::mutex mu;
@@ -59,6 +61,13 @@ std::vector<Received> record_daemon(const std::string& url, const std::string& s
     std::unique_lock<std::mutex> lk(mu);
     EXPECT_TRUE(cv.wait_for(lk, std::chrono::seconds(60), [&] { return n_out >= outputs && n_stats >= 1; }))
         << "in 60 s: " << n_out << " of " << outputs << " outputs, " << n_stats << " stats messages received";
+  }
+  if (during) {  // then as many outputs again after it
+    during();
+    std::unique_lock<std::mutex> lk(mu);
+    const size_t want = n_out + outputs;
+    EXPECT_TRUE(cv.wait_for(lk, std::chrono::seconds(60), [&] { return n_out >= want; }))
+        << "in 60 s after: " << n_out << " of " << want << " outputs";
   }
   d.signal(SIGTERM);
   EXPECT_EQ(d.wait(), 0) << daemon_test::slurp(d.err);
@@ -383,6 +392,129 @@ TEST(ViewLog, ContactReportIsTheMessages) {
     }
   }
   std::printf("largest utilisation of the car held at rest: %.3g\n", umax);
+}
+
+// The numbers of a JSON array's text, NaN for null.
+std::vector<double> numbers_or_null(const std::string& s) {
+  std::vector<double> out;
+  for (size_t at = 0; at < s.size();) {
+    size_t end = s.find(',', at);
+    if (end == std::string::npos) end = s.size();
+    const std::string cell = s.substr(at, end - at);
+    out.push_back(cell == "null" ? NAN : std::stod(cell));
+    at = end + 1;
+  }
+  return out;
+}
+
+// Frames of a page's per-frame key: frame i's array.
+std::vector<std::string> frame_arrays(const std::string& page, const std::string& key) {
+  std::vector<std::string> out;
+  const std::string all = between(page, "\"" + key + "\":[[", "]]");
+  for (size_t at = 0, next; at < all.size(); at = next + 3) {
+    next = all.find("],[", at);
+    if (next == std::string::npos) next = all.size();
+    out.push_back(all.substr(at, next - at));
+  }
+  return out;
+}
+
+// An estimate-mode log whose states expire: before the first state (no state: the outputs' q is
+// no state, with a free body not even a configuration), while `coopdyn send --states` replays a simulated run, and after
+// the last one expired. `coopdyn view --log` shows every output: an error output in the last valid
+// pose (the scene's initial one before any), greyed, its reason on the status line, no arrows, and
+// a gap in the page's plot (null in the plotted series, in Chromium) where its numbers are zeros.
+TEST(ViewLog, EstimateLogWithExpiredStatesRenders) {
+  TempDir dir("estimate");
+  ASSERT_EQ(sim("two_puma_load", 0.2, 0.005, dir / "sim.csv", dir / "e"), 0);
+  const std::string url = private_udpm_url(6);
+  std::string derr;
+  const std::vector<Received> msgs = record_daemon(url, "two_puma_load", 200, 40, &derr, "mode: estimate\n", [&] {
+    daemon_test::Child s({kBin, "send", "--scene", scene_file("two_puma_load"), "--lcm-url", url, "--states",
+                          dir / "sim.csv", "--rate", "200"},
+                         "view_send");
+    s.wait();  // (its exit status: whether the daemon rejected a state on a loaded machine; not this test's)
+  });
+  if (msgs.empty()) GTEST_SKIP() << "LCM over udpm unavailable (multicast route? ip route add 224.0.0.0/4 dev lo)";
+  const std::vector<io::DecodedOutput> outs = outputs_of(msgs);
+  ASSERT_GE(outs.size(), 80u) << derr;
+  // the log has each kind: no state yet, a valid estimate, a stale state
+  const auto reason_of = [](const io::DecodedOutput& o) { return std::string(io::reason_key(o.reason)); };
+  size_t first_ok = outs.size(), last_ok = 0, stale_after = 0;
+  for (size_t i = 0; i < outs.size(); ++i) {
+    if (outs[i].status != static_cast<int>(Status::kError)) {
+      first_ok = std::min(first_ok, i), last_ok = i;
+    } else if (reason_of(outs[i]) == "state_stale" && i > last_ok && first_ok < i) {
+      stale_after = stale_after ? stale_after : i;
+    }
+  }
+  ASSERT_LT(first_ok, outs.size()) << "no output of a state";
+  ASSERT_GT(first_ok, 0u);
+  EXPECT_EQ(reason_of(outs[0]), "no_state");
+  ASSERT_GT(stale_after, last_ok) << "no expired state after the replay";
+  write_log(dir / "est.lcmlog", msgs);
+
+  std::string err;
+  ASSERT_EQ(run("'" + kBin + "' view --scene '" + scene_file("two_puma_load") + "' --log '" + dir / "est.lcmlog" +
+                    "' --out '" + dir / "v.html" + "' --max-frames 100000",
+                dir / "e", &err),
+            0)
+      << err;
+  const std::string page = slurp(dir / "v.html");
+  const std::vector<std::string> poses = frame_arrays(page, "shape_pose"), wrenches = frame_arrays(page, "wrench");
+  ASSERT_EQ(poses.size(), outs.size());
+  const std::string notes = between(page, "\"note\":[", "]");
+  const std::string statuses = "," + between(page, "\"status\":[", "]") + ",";
+  size_t at = 0;
+  for (size_t i = 0; i < outs.size(); ++i) {
+    const bool error = outs[i].status == static_cast<int>(Status::kError);
+    // the page's status: the message's
+    const std::string want = std::string(",\"") + status_name(static_cast<Status>(outs[i].status)) + "\",";
+    EXPECT_EQ(statuses.compare(at, want.size(), want), 0) << "frame " << i;
+    at = statuses.find(',', at + 1);
+    if (!error) continue;
+    const std::vector<double> ww = numbers(wrenches[i]);
+    for (size_t k = 0; k < ww.size(); k += 9)
+      for (int j = 3; j < 9; ++j) EXPECT_EQ(ww[k + j], 0.0) << "an arrow in error frame " << i;
+    if (i > last_ok) EXPECT_EQ(poses[i], poses[last_ok]) << "frame " << i << ": not the last valid pose";
+    if (i < first_ok) EXPECT_EQ(poses[i], poses[0]) << "frame " << i;
+  }
+  char held[64];
+  std::snprintf(held, sizeof held, "state_stale; the pose of t = %.3f s held", outs[last_ok].sim_time);
+  EXPECT_NE(notes.find(held), std::string::npos) << notes.substr(0, 400);
+  EXPECT_NE(notes.find("no_state; no pose yet: the scene's initial pose shown"), std::string::npos)
+      << notes.substr(0, 400);
+
+  REQUIRE_BROWSER();
+  DevTools browser(chromium, dir / "v");
+  const size_t shown = stale_after;
+  const Browse b =
+      browse(browser, dir / "v.html", "frame=" + std::to_string(shown) + "&paused=1&wrench=arm1.ee&plotdata=1", true);
+  ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
+  const PageState p = page_state(b.dom);
+  ASSERT_EQ(p.title, "coopdyn view: two_puma_load") << "a JavaScript error, or the page did not finish";
+  ASSERT_EQ(p.frame, static_cast<int>(shown));
+  const std::string status = between(b.dom, "<span id=\"status\" class=\"error\">", "</span>");
+  EXPECT_EQ(status, std::string("error: ") + held) << b.dom.substr(b.dom.find("id=\"status\""), 160);
+  // the plotted series: the message's numbers where it has them, null (a gap) in every error frame
+  std::vector<std::vector<double>> series;
+  const std::string values = between(b.dom, "\"values\":[[", "]]}");
+  for (size_t at = 0, next; at < values.size(); at = next + 3) {
+    next = values.find("],[", at);
+    if (next == std::string::npos) next = values.size();
+    series.push_back(numbers_or_null(values.substr(at, next - at)));
+  }
+  ASSERT_EQ(series.size(), 6u);
+  size_t ee = 0;
+  while (outs[0].wrench_names[ee] != "arm1.ee") ++ee;
+  for (int j = 0; j < 6; ++j) {
+    ASSERT_EQ(series[static_cast<size_t>(j)].size(), outs.size());
+    for (size_t i = 0; i < outs.size(); ++i) {
+      const double v = series[static_cast<size_t>(j)][i];
+      if (outs[i].status == static_cast<int>(Status::kError)) EXPECT_TRUE(std::isnan(v)) << "frame " << i << ": " << v;
+      else EXPECT_EQ(v, outs[i].wrench[ee][static_cast<size_t>(j)]) << "frame " << i;
+    }
+  }
 }
 
 }  // namespace
