@@ -198,7 +198,10 @@ int main(int argc, char** argv) {
   rejections.log_socket_drops = cfg.input_url() != cfg.lcm_url;
   std::unique_ptr<runtime::ArrivalSource> arrivals;
   if (in_loop) {
-    auto offer = [&loop, &rejections](const void* d, int n, long long t) { offer_input(loop, false, rejections, d, n, t); };
+    io::InLoopReceiver& r = *in_loop;
+    auto offer = [&loop, &rejections, &r](const void* d, int n, long long t) {
+      offer_input(loop, false, rejections, r, d, n, t);
+    };
     arrivals = std::make_unique<runtime::SocketArrivals<decltype(offer)>>(*in_loop, offer);
     loop.take_arrivals_from(arrivals.get());
     log_receive_socket(*in_loop, cfg);

@@ -115,8 +115,8 @@ void log_startup(const coopdyn::System& sys, const coopdyn::runtime::ServiceConf
                cfg.overrun == runtime::OverrunPolicy::kSkip ? "skip"
                                                            : "catch_up (max " + std::to_string(cfg.max_catch_up) + ")");
   if (!cfg.auth_key_file.empty())
-    spdlog::info("authentication on (key {}): inputs need an HMAC-SHA256 and a utime above the last accepted; "
-                 "unsigned, bad-MAC and replayed ones are rejected", cfg.auth_key_file);
+    spdlog::info("authentication on (key {}): inputs need an HMAC-SHA256 and a utime above the last accepted and "
+                 "the daemon's start; unsigned, bad-MAC and replayed ones are rejected", cfg.auth_key_file);
   else
     spdlog::info("authentication off: any host that reaches the input URL can command (auth.key_file turns it on)");
   spdlog::info("LCM in {}: {} {} ({}); out {}: {} (output), {} (stats every {} s)", cfg.input_url(),
