@@ -11,13 +11,13 @@
 // parser, no liblcm) that copies raw bytes into a shared ring, drained by the receive thread here
 // (-> decode -> triple buffer), which also restarts the child when it dies (trigger: arrival: the
 // loop drains the ring itself, woken by the child, and the receive thread only supervises). spdlog's
-// async logger thread; and this main thread, which waits for SIGINT/SIGTERM (or --duration), drains
+// async logger thread; and this main thread, which waits for a stop signal (or --duration), drains
 // the loop's event ring into the log and prints the summary line at exit.
 //
 // This file is the orchestration: parse -> load (daemon/options.h) -> start (logging, bus, publisher,
 // loop, receive path: daemon/receive.h, which waits for the receive process's subscription) -> run
-// (logs `running; SIGINT or SIGTERM stops`: inputs sent from then on are received) -> report
-// (daemon/reports.h).
+// (logs `running; SIGINT or SIGTERM stops, as do SIGHUP and SIGQUIT`: inputs sent from then on are
+// received) -> report (daemon/reports.h).
 #include <signal.h>
 #include <sys/prctl.h>
 #include <spdlog/spdlog.h>
@@ -47,6 +47,7 @@ namespace {
 
 using namespace coopdyn::daemon;
 
+constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT};
 std::atomic<bool> g_stop{false};
 std::atomic<int> g_signal{0};
 void on_signal(int sig) {
@@ -80,12 +81,13 @@ std::unique_ptr<coopdyn::runtime::PublisherThread> make_publisher(const coopdyn:
   return p;
 }
 
+// SIGINT, SIGTERM, SIGHUP (a closed terminal or ssh session) and SIGQUIT each stop the daemon the
+// same way: the loop ends, the log is flushed, the summary line is printed, exit 0
 void install_signal_handlers() {
   struct sigaction sa {};
   sa.sa_handler = on_signal;
   sigemptyset(&sa.sa_mask);
-  sigaction(SIGINT, &sa, nullptr);
-  sigaction(SIGTERM, &sa, nullptr);
+  for (const int sig : kStopSignals) sigaction(sig, &sa, nullptr);
 }
 
 // run: the loop in its thread (real-time options applied there); this thread drains the loop's
@@ -110,7 +112,7 @@ std::chrono::steady_clock::time_point run(coopdyn::runtime::ServiceLoop& loop, c
   }
   // after the receive process's subscription (main: wait_for_receiver): an input sent once this line
   // is out is received
-  spdlog::info("running; SIGINT or SIGTERM stops");
+  spdlog::info("running; SIGINT or SIGTERM stops, as do SIGHUP and SIGQUIT");
 
   const auto t_start = std::chrono::steady_clock::now();
   runtime::Event e;
@@ -155,6 +157,7 @@ int main(int argc, char** argv) {
   using namespace coopdyn::daemon;
   // the isolated receive process (io/rx_isolated.h): this binary, exec'd by the daemon itself
   if (argc > 1 && std::strcmp(argv[1], "--rx-child") == 0) return io::rx_child_main(argc, argv);
+  install_signal_handlers();  // from here on a stop signal ends the daemon cleanly, whatever it is doing
   Options opt;
   if (const int rc = parse_args(argc, argv, &opt); rc >= 0) return rc;
   runtime::ServiceConfig cfg;
@@ -193,7 +196,6 @@ int main(int argc, char** argv) {
   }
   const io::ReceiverCounters& rx = isolated ? static_cast<const io::ReceiverCounters&>(*isolated) : *in_loop;
   log_startup(sys, cfg, opt.scene_path);
-  install_signal_handlers();
   RejectionReport rejections;
   rejections.log_socket_drops = cfg.input_url() != cfg.lcm_url;
   std::unique_ptr<runtime::ArrivalSource> arrivals;

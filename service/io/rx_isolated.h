@@ -28,7 +28,7 @@
 // and respawned at once, then with a backoff doubling from 1 ms to 1 s while it keeps dying within
 // a second of its start. The loop keeps ticking and publishing meanwhile; commands expire through
 // the watchdog and the safe torque applies. The child dies with the daemon (PR_SET_PDEATHSIG) and
-// ignores SIGINT, SIGTERM and SIGHUP (a stop signalled to the process group is the daemon's: it
+// ignores SIGINT, SIGTERM, SIGHUP and SIGQUIT (a stop signalled to the process group is the daemon's: it
 // stops the child itself, and that is no restart). Messages larger than a slot, or arriving when
 // the ring is full, are dropped and counted by the child in the shared header.
 //
