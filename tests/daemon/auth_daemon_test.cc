@@ -11,6 +11,7 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <future>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -542,4 +543,96 @@ TEST(AuthDaemon, RecordedCommandsRefusedAfterARestart) {
   EXPECT_TRUE(sink.any_output(1000));
   for (int64_t seq = 1; seq <= kRecorded; ++seq)
     EXPECT_FALSE(sink.any_output(seq)) << "recorded seq " << seq << " applied";
+}
+
+namespace {
+
+// read_key_file's verdict on path: "" (a key read) or its message
+std::string key_verdict(const std::string& path) {
+  try {
+    io::read_key_file(path);
+    return "";
+  } catch (const io::KeyError& e) {
+    return e.what();
+  }
+}
+
+}  // namespace
+
+// The key-file matrix: a regular file and a symlink chain to one (a Kubernetes secret volume's
+// layout: key -> ..data/key -> ..2026_12_07/key) read; a FIFO (no writer: a read would wait
+// forever), a directory, a symlink to a file others can read, a long, a short key and a file
+// others can read each refused at once, the message naming the file and what is wrong (the length
+// the file has, not the length read).
+TEST(AuthKeyFile, MatrixOfKindsAndSizesEachReadOrRefusedNamingTheFile) {
+  const std::string dir = tmp_path("keydir");
+  std::system(("rm -rf '" + dir + "'").c_str());
+  ASSERT_EQ(mkdir(dir.c_str(), 0700), 0);
+  auto file = [&](const std::string& name, const std::string& text, mode_t mode) {
+    const std::string p = dir + "/" + name;
+    std::ofstream(p) << text;
+    chmod(p.c_str(), mode);
+    return p;
+  };
+  const std::string regular = file("regular", std::string(kKeyHex) + "\n", 0600);
+  EXPECT_EQ(key_verdict(regular), "");
+  // a secret volume: the file is a symlink into ..data, itself a symlink to the timestamped folder
+  ASSERT_EQ(mkdir((dir + "/..2026_12_07").c_str(), 0700), 0);
+  file("..2026_12_07/key", kKeyHex, 0400);
+  ASSERT_EQ(symlink("..2026_12_07", (dir + "/..data").c_str()), 0);
+  ASSERT_EQ(symlink("..data/key", (dir + "/key").c_str()), 0);
+  EXPECT_EQ(key_verdict(dir + "/key"), "");
+  const std::string fifo = dir + "/fifo";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  const std::string open_key = file("open_key", kKeyHex, 0644);
+  const std::string link_to_open = dir + "/link_to_open";
+  ASSERT_EQ(symlink(open_key.c_str(), link_to_open.c_str()), 0);
+  const std::pair<std::string, std::string> refused[] = {
+      {fifo, fifo + ": the key file is a FIFO (named pipe), not a regular file"},
+      {dir + "/..2026_12_07", dir + "/..2026_12_07: the key file is a directory, not a regular file"},
+      {link_to_open, link_to_open + ": the key file is readable or writable by group or others (mode 0644)"},
+      {open_key, open_key + ": the key file is readable or writable by group or others (mode 0644)"},
+      {file("long", std::string(kKeyHex) + std::string(36, 'a'), 0600), "found 100 characters"},
+      {file("huge", std::string(10000, 'a'), 0600), "found 10000 bytes"},
+      {file("short", "abcd\n", 0600), "expected 64 hex digits (32 bytes) and at most a newline, found 4 characters"},
+      {dir + "/missing", dir + "/missing: cannot open the key file: No such file or directory"},
+  };
+  for (const auto& [path, why] : refused) {
+    // a refusal that waited (the FIFO without a writer) would never come back: read on another thread
+    auto verdict = std::async(std::launch::async, key_verdict, path);
+    ASSERT_EQ(verdict.wait_for(kEventLimit), std::future_status::ready) << path << ": read_key_file blocks";
+    const std::string w = verdict.get();
+    EXPECT_NE(w.find(path), std::string::npos) << w;
+    EXPECT_NE(w.find(why), std::string::npos) << "expected '" << why << "' in: " << w;
+  }
+  std::system(("rm -rf '" + dir + "'").c_str());
+}
+
+// coopdynd resolves a relative auth.key_file against its config file's folder (not its working
+// directory), and refuses a FIFO as the key file at start (exit 2, naming the file), as it
+// refuses any other bad key file.
+TEST(AuthDaemon, RelativeKeyFileIsTheConfigFoldersAndAFifoIsRefusedAtStart) {
+  const std::string dir = tmp_path("keycfg");
+  std::system(("rm -rf '" + dir + "'").c_str());
+  ASSERT_EQ(mkdir(dir.c_str(), 0700), 0);
+  {
+    std::ofstream(dir + "/rel.key") << kKeyHex;
+    chmod((dir + "/rel.key").c_str(), 0600);
+    std::ofstream(dir + "/rel.yaml") << "auth:\n  key_file: rel.key\n";
+  }
+  const Result ok = run_command({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", dir + "/rel.yaml",
+                                 "--lcm-url", "memq://", "--duration", "0.2"},
+                                "auth_relative");
+  EXPECT_EQ(ok.rc, 0) << ok.err;
+  EXPECT_NE(ok.err.find("authentication on"), std::string::npos) << ok.err;
+  EXPECT_NE(ok.err.find(dir + "/rel.key"), std::string::npos) << ok.err;
+  ASSERT_EQ(mkfifo((dir + "/fifo.key").c_str(), 0600), 0);
+  std::ofstream(dir + "/fifo.yaml") << "auth:\n  key_file: fifo.key\n";
+  const Result fifo = run_command({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config",
+                                   dir + "/fifo.yaml", "--lcm-url", "memq://", "--duration", "0.2"},
+                                  "auth_fifo");
+  EXPECT_EQ(fifo.rc, 2) << fifo.err;
+  EXPECT_NE(fifo.err.find("auth.key_file: " + dir + "/fifo.key: the key file is a FIFO"), std::string::npos)
+      << fifo.err;
+  std::system(("rm -rf '" + dir + "'").c_str());
 }
