@@ -22,6 +22,7 @@
 #include <sys/prctl.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -70,14 +71,21 @@ std::unique_ptr<coopdyn::runtime::PublisherThread> make_publisher(const coopdyn:
   }
   const int max_bytes = runtime::ServiceLoop::max_message_bytes(sys);
   auto p = std::make_unique<runtime::PublisherThread>(bus, max_bytes);
+  // SCHED_FIFO just below the loop when the loop asks for it: the processes loading the machine
+  // cannot hold the outputs back (nice -20 could: bench/README.md, "Outputs under load")
+  const int fifo = runtime::loop_asks_fifo(cfg.realtime) ? std::max(1, cfg.realtime.priority - 1) : 0;
   try {
-    p->start(cfg.realtime.cpu);
+    p->start(cfg.realtime.cpu, fifo);
   } catch (const std::system_error& e) {  // no thread to be had (a process or cgroup limit)
     spdlog::warn("publisher thread not started ({}): the loop publishes its outputs itself", e.what());
     return nullptr;
   }
-  spdlog::info("outputs published by a publisher thread{} ({} slots of {} bytes)",
-               cfg.realtime.cpu >= 0 ? " off the loop's CPU" : "", runtime::PublisherThread::kSlots, max_bytes);
+  while (!p->scheduled()) std::this_thread::yield();  // the thread has applied its priority
+  spdlog::info("outputs published by a publisher thread{} ({} slots of {} bytes){}",
+               cfg.realtime.cpu >= 0 ? " off the loop's CPU" : "", runtime::PublisherThread::kSlots, max_bytes,
+               fifo == 0               ? std::string("")
+               : p->priority_granted() ? fmt::format(", SCHED_FIFO priority {} (below the loop's)", fifo)
+                                       : fmt::format(" (SCHED_FIFO {} refused: no privilege)", fifo));
   return p;
 }
 
