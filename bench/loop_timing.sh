@@ -11,11 +11,16 @@
 #                                         # itself (realtime.receive_in_loop), sleeping and busy polling
 #                                         # with a polling client, alternated for ROUNDS rounds (default
 #                                         # 3), next to cyclictest FIFO
-#   ROWS=inplace bench/loop_timing.sh ... # the default config against the same with
-#                                         # realtime.sched_fifo: false, in place (simulate) and on arrival
+#   ROWS=inplace bench/loop_timing.sh ... # the default config (commands at 100 Hz and at 1 kHz) against
+#                                         # the same with realtime.sched_fifo: false, in place (simulate) and on arrival
 #                                         # (estimate; also with receive_priority 70 and with
 #                                         # receive_in_loop), alternated for ROUNDS rounds (default 3),
 #                                         # next to cyclictest SCHED_OTHER and SCHED_FIFO 80
+#   ROWS=loaded bench/loop_timing.sh ...  # a loaded soak: the default config with commands at 1 kHz while
+#                                         # two `yes > /dev/null` load the machine (each bounded by
+#                                         # SECONDS), against the same idle, alternated for ROUNDS rounds
+#                                         # (default 3); the outputs the publisher thread dropped in the
+#                                         # ticks column (BASELINE=DIR: also that build's, loaded)
 #   BASELINE=DIR bench/loop_timing.sh ... # also the event-driven rows of another build's coopdynd
 #                                         # (DIR/bin/coopdynd: before and after a change, in one run)
 #
@@ -23,7 +28,8 @@
 #   daemon rows: coopdynd on a private URL (event-driven rows: heartbeats at 10 Hz, so that their
 #     lateness and compute are the states') while `coopdyn send --measure-latency` publishes at
 #     100 Hz (torque commands in simulate mode, the states of a short `coopdyn sim` in estimate
-#     mode) and times each one from its publish to the first output carrying its seq. The
+#     mode; "commands at 1 kHz": every tick a new command, as a controller sends) and times each one
+#     from its publish to the first output carrying its seq. The
 #     daemon's summary gives wake-up lateness (wake-up minus the deadline; in the event-driven
 #     row, wake-up minus the state's receipt in the receive process) and compute (wake-up to the
 #     end of the tick: handoff, dynamics, wrenches, encoding, and the hand-off of the bytes to the
@@ -76,9 +82,9 @@ echo "== load before: $(cut -d' ' -f1-3 /proc/loadavg)"
 "$BUILD/bin/coopdyn" sim --scene "$SCENE" --duration 2 --dt 0.001 --out "$TMP/states.csv" 2>/dev/null
 joint=$("$BUILD/bin/coopdyn" eval --scene "$SCENE" | python3 -c 'import json,sys; print(json.load(sys.stdin)["coordinates"]["v"][-1])')
 
-# daemon ROW_NAME MODE EXTRA_YAML [trigger [BUILD_DIR of coopdynd [flags of coopdyn send]]]
+# daemon ROW_NAME MODE EXTRA_YAML [trigger [BUILD_DIR of coopdynd [flags of coopdyn send [send rate, Hz]]]]
 daemon() {
-  local name=$1 mode=$2 extra=$3 trigger=${4:-tick} url_in=$URL bin=${5:-$BUILD}/bin send_flags=${6:-}
+  local name=$1 mode=$2 extra=$3 trigger=${4:-tick} url_in=$URL bin=${5:-$BUILD}/bin send_flags=${6:-} rate=${7:-100}
   {
     # on arrival the rate is only the heartbeat's without a fresh state: at 10 Hz the few heartbeats
     # (before the first state, after the last) leave the lateness and compute columns to the states
@@ -93,17 +99,18 @@ daemon() {
   local pid=$!
   sleep 1
   if [ "$mode" = simulate ]; then
-    "${NS[@]}" "$BUILD/bin/coopdyn" send --scene "$SCENE" --lcm-url "$url_in" --output-url "$URL" --rate 100 \
+    "${NS[@]}" "$BUILD/bin/coopdyn" send --scene "$SCENE" --lcm-url "$url_in" --output-url "$URL" --rate "$rate" \
       --duration "$((DUR - 3))" --torque "$joint:constant:0.1" --measure-latency $send_flags > "$TMP/s.out" 2>&1 || true
   else
-    "${NS[@]}" "$BUILD/bin/coopdyn" send --scene "$SCENE" --lcm-url "$url_in" --output-url "$URL" --rate 100 \
+    "${NS[@]}" "$BUILD/bin/coopdyn" send --scene "$SCENE" --lcm-url "$url_in" --output-url "$URL" --rate "$rate" \
       --duration "$((DUR - 3))" --states "$TMP/states.csv" --measure-latency $send_flags > "$TMP/s.out" 2>&1 || true
   fi
   wait $pid
   grep -E "refused|not held" "$TMP/d.err" | sed 's/^/   /' >&2 || true
-  python3 - "$name" "$TMP/d.out" "$TMP/s.out" >> "$TMP/rows" <<'PY'
+  python3 - "$name" "$TMP/d.out" "$TMP/s.out" "$TMP/d.err" >> "$TMP/rows" <<'PY'
 import re, sys
 name, d, s = sys.argv[1], open(sys.argv[2]).read(), open(sys.argv[3]).read()
+dropped = re.search(r"publisher thread: (\d+) message\(s\) dropped", open(sys.argv[4]).read())
 m = re.search(r"after (\d+) ticks.*?overruns (\d+).*lateness us p50 ([\d.]+) p99 ([\d.]+) p99.9 ([\d.]+) max ([\d.]+); "
               r"compute us p50 ([\d.]+) p99 ([\d.]+) p99.9 ([\d.]+) max ([\d.]+)", d)
 l = re.search(r"over (\d+) commands: min ([\d.]+) us, p50 ([\d.]+) us, p99 ([\d.]+) us", s)
@@ -111,7 +118,8 @@ if not m:
     print(f"{name}|daemon summary missing|" + d.strip().replace("|", "/")[:200]); sys.exit()
 t, ov, lp50, lp99, lp999, lmax, cp50, cp99, cp999, cmax = m.groups()
 lat = f"{l.group(2)}|{l.group(3)}|{l.group(4)}|{l.group(1)}" if l else "|||0"
-print(f"{name}|{lp50}|{lp99}|{lp999}|{lmax}|{cp50}|{cp99}|{cp999}|{t}/{ov}|{lat}")
+drops = f" ({dropped.group(1)} outputs dropped)" if dropped else ""
+print(f"{name}|{lp50}|{lp99}|{lp999}|{lmax}|{cp50}|{cp99}|{cp999}|{t}/{ov}{drops}|{lat}")
 PY
 }
 
@@ -166,6 +174,7 @@ inplace_rounds() {
   cyclic "cyclictest, SCHED_FIFO 80 -m" -p 80 -m
   for r in $(seq "${ROUNDS:-3}"); do
     daemon "coopdynd simulate, default config (round $r)" simulate ""
+    daemon "coopdynd simulate, default config, commands at 1 kHz (round $r)" simulate "" tick "$BUILD" "" 1000
     daemon "coopdynd simulate, sched_fifo: false (round $r)" simulate "realtime: {sched_fifo: false}"
     daemon "coopdynd estimate on arrival, default config (round $r)" estimate "" arrival
     daemon "coopdynd estimate on arrival, receive_priority: 70 (round $r)" estimate "realtime: {receive_priority: 70}" arrival
@@ -173,13 +182,33 @@ inplace_rounds() {
     daemon "coopdynd estimate on arrival, sched_fifo: false (round $r)" estimate "realtime: {sched_fifo: false}" arrival
   done
 }
+# loaded: two CPU hogs at SCHED_OTHER (each ended by timeout after SECONDS + 2 s), the daemon's row
+# under them, then the same row idle
+loaded_rounds() {
+  for r in $(seq "${ROUNDS:-3}"); do
+    timeout "$((DUR + 2))" yes > /dev/null & timeout "$((DUR + 2))" yes > /dev/null &
+    daemon "coopdynd simulate, default config, commands at 1 kHz, 2 x yes (round $r)" simulate "" tick "$BUILD" "" 1000
+    wait || true
+    if [ -n "${BASELINE:-}" ]; then
+      timeout "$((DUR + 2))" yes > /dev/null & timeout "$((DUR + 2))" yes > /dev/null &
+      daemon "coopdynd simulate, default config, commands at 1 kHz, 2 x yes, BASELINE build (round $r)" simulate "" \
+        tick "$(cd "$BASELINE" && pwd)" "" 1000
+      wait || true
+    fi
+    daemon "coopdynd simulate, default config, commands at 1 kHz, idle (round $r)" simulate "" tick "$BUILD" "" 1000
+  done
+}
 if [ "${ROWS:-all}" = receive ]; then
   receive_rounds
+elif [ "${ROWS:-all}" = loaded ]; then
+  loaded_rounds
 elif [ "${ROWS:-all}" = inplace ]; then
   inplace_rounds
 else
   if [ "${ROWS:-all}" != arrival ]; then
     daemon "coopdynd simulate, default config" simulate ""
+    # as a controller sends: a new command every tick (1 kHz), from another process
+    daemon "coopdynd simulate, default config, commands at 1 kHz" simulate "" tick "$BUILD" "" 1000
     daemon "coopdynd simulate, SCHED_OTHER" simulate "realtime: {sched_fifo: false}"
     # the same with the loop publishing each output itself (lcm_publish inside its compute window)
     daemon "coopdynd simulate, SCHED_OTHER, the loop publishing" simulate "realtime: {sched_fifo: false, publisher_thread: false}"

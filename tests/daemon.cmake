@@ -25,6 +25,7 @@ coopdyn_test(coopdynd_tests
     daemon/flood_daemon_test.cc
     daemon/netns_test.cc
     daemon/auth_daemon_test.cc
+    daemon/signals_daemon_test.cc
     daemon/sched_fifo_daemon_test.cc
     dynamics/vehicle_test.cc
     clients/cli/sim_test.cc

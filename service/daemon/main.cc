@@ -11,17 +11,18 @@
 // parser, no liblcm) that copies raw bytes into a shared ring, drained by the receive thread here
 // (-> decode -> triple buffer), which also restarts the child when it dies (trigger: arrival: the
 // loop drains the ring itself, woken by the child, and the receive thread only supervises). spdlog's
-// async logger thread; and this main thread, which waits for SIGINT/SIGTERM (or --duration), drains
+// async logger thread; and this main thread, which waits for a stop signal (or --duration), drains
 // the loop's event ring into the log and prints the summary line at exit.
 //
 // This file is the orchestration: parse -> load (daemon/options.h) -> start (logging, bus, publisher,
 // loop, receive path: daemon/receive.h, which waits for the receive process's subscription) -> run
-// (logs `running; SIGINT or SIGTERM stops`: inputs sent from then on are received) -> report
-// (daemon/reports.h).
+// (logs `running; SIGINT or SIGTERM stops, as do SIGHUP and SIGQUIT`: inputs sent from then on are
+// received) -> report (daemon/reports.h).
 #include <signal.h>
 #include <sys/prctl.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -47,6 +48,7 @@ namespace {
 
 using namespace coopdyn::daemon;
 
+constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT};
 std::atomic<bool> g_stop{false};
 std::atomic<int> g_signal{0};
 void on_signal(int sig) {
@@ -69,23 +71,31 @@ std::unique_ptr<coopdyn::runtime::PublisherThread> make_publisher(const coopdyn:
   }
   const int max_bytes = runtime::ServiceLoop::max_message_bytes(sys);
   auto p = std::make_unique<runtime::PublisherThread>(bus, max_bytes);
+  // SCHED_FIFO just below the loop when the loop asks for it: the processes loading the machine
+  // cannot hold the outputs back (nice -20 could: bench/README.md, "Outputs under load")
+  const int fifo = runtime::loop_asks_fifo(cfg.realtime) ? std::max(1, cfg.realtime.priority - 1) : 0;
   try {
-    p->start(cfg.realtime.cpu);
+    p->start(cfg.realtime.cpu, fifo);
   } catch (const std::system_error& e) {  // no thread to be had (a process or cgroup limit)
     spdlog::warn("publisher thread not started ({}): the loop publishes its outputs itself", e.what());
     return nullptr;
   }
-  spdlog::info("outputs published by a publisher thread{} ({} slots of {} bytes)",
-               cfg.realtime.cpu >= 0 ? " off the loop's CPU" : "", runtime::PublisherThread::kSlots, max_bytes);
+  while (!p->scheduled()) std::this_thread::yield();  // the thread has applied its priority
+  spdlog::info("outputs published by a publisher thread{} ({} slots of {} bytes){}",
+               cfg.realtime.cpu >= 0 ? " off the loop's CPU" : "", runtime::PublisherThread::kSlots, max_bytes,
+               fifo == 0               ? std::string("")
+               : p->priority_granted() ? fmt::format(", SCHED_FIFO priority {} (below the loop's)", fifo)
+                                       : fmt::format(" (SCHED_FIFO {} refused: no privilege)", fifo));
   return p;
 }
 
+// SIGINT, SIGTERM, SIGHUP (a closed terminal or ssh session) and SIGQUIT each stop the daemon the
+// same way: the loop ends, the log is flushed, the summary line is printed, exit 0
 void install_signal_handlers() {
   struct sigaction sa {};
   sa.sa_handler = on_signal;
   sigemptyset(&sa.sa_mask);
-  sigaction(SIGINT, &sa, nullptr);
-  sigaction(SIGTERM, &sa, nullptr);
+  for (const int sig : kStopSignals) sigaction(sig, &sa, nullptr);
 }
 
 // run: the loop in its thread (real-time options applied there); this thread drains the loop's
@@ -110,7 +120,7 @@ std::chrono::steady_clock::time_point run(coopdyn::runtime::ServiceLoop& loop, c
   }
   // after the receive process's subscription (main: wait_for_receiver): an input sent once this line
   // is out is received
-  spdlog::info("running; SIGINT or SIGTERM stops");
+  spdlog::info("running; SIGINT or SIGTERM stops, as do SIGHUP and SIGQUIT");
 
   const auto t_start = std::chrono::steady_clock::now();
   runtime::Event e;
@@ -155,6 +165,7 @@ int main(int argc, char** argv) {
   using namespace coopdyn::daemon;
   // the isolated receive process (io/transport/rx_isolated.h): this binary, exec'd by the daemon itself
   if (argc > 1 && std::strcmp(argv[1], "--rx-child") == 0) return io::rx_child_main(argc, argv);
+  install_signal_handlers();  // from here on a stop signal ends the daemon cleanly, whatever it is doing
   Options opt;
   if (const int rc = parse_args(argc, argv, &opt); rc >= 0) return rc;
   runtime::ServiceConfig cfg;
@@ -193,12 +204,14 @@ int main(int argc, char** argv) {
   }
   const io::ReceiverCounters& rx = isolated ? static_cast<const io::ReceiverCounters&>(*isolated) : *in_loop;
   log_startup(sys, cfg, opt.scene_path);
-  install_signal_handlers();
   RejectionReport rejections;
   rejections.log_socket_drops = cfg.input_url() != cfg.lcm_url;
   std::unique_ptr<runtime::ArrivalSource> arrivals;
   if (in_loop) {
-    auto offer = [&loop, &rejections](const void* d, int n, long long t) { offer_input(loop, false, rejections, d, n, t); };
+    io::InLoopReceiver& r = *in_loop;
+    auto offer = [&loop, &rejections, &r](const void* d, int n, long long t) {
+      offer_input(loop, false, rejections, r, d, n, t);
+    };
     arrivals = std::make_unique<runtime::SocketArrivals<decltype(offer)>>(*in_loop, offer);
     loop.take_arrivals_from(arrivals.get());
     log_receive_socket(*in_loop, cfg);

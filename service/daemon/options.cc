@@ -88,6 +88,11 @@ int load(const Options& o, coopdyn::runtime::ServiceConfig* cfg_out, coopdyn::Sy
   runtime::ServiceConfig& cfg = *cfg_out;
   try {
     if (!o.config_path.empty()) cfg = runtime::load_config(o.config_path);
+    // a relative auth.key_file is the config's: resolved against the config file's folder
+    if (!o.config_path.empty() && !cfg.auth_key_file.empty() && cfg.auth_key_file[0] != '/') {
+      const size_t slash = o.config_path.rfind('/');
+      if (slash != std::string::npos) cfg.auth_key_file = o.config_path.substr(0, slash + 1) + cfg.auth_key_file;
+    }
     if (!o.url_override.empty()) cfg.lcm_url = o.url_override;
     if (o.rate_override > 0) cfg.rate_hz = o.rate_override;
     if (!o.mode_override.empty() && !runtime::parse_mode(o.mode_override, &cfg.mode))

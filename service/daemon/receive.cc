@@ -13,6 +13,7 @@
 
 #include "service/io/transport/auth.h"
 #include "service/io/codec/codec.h"
+#include "service/io/transport/lcm_bus.h"
 #include "service/io/transport/lcm_wire.h"
 #include "service/runtime/realtime.h"
 
@@ -43,6 +44,7 @@ std::unique_ptr<coopdyn::io::IsolatedReceiver> make_receiver(const coopdyn::runt
   // authentication on: the receive process verifies MACs before its ring (a flood of forged inputs
   // cannot fill it); the inboxes verify again
   if (!cfg.auth_key_file.empty()) rx->set_auth_key(io::read_key_file(cfg.auth_key_file));
+  rx->open_window(io::wall_us());  // nothing stamped before the daemon's start: no replay across restarts
   return rx;
 }
 
@@ -53,6 +55,7 @@ std::unique_ptr<coopdyn::io::InLoopReceiver> make_in_loop_receiver(const coopdyn
       std::vector<int64_t>{io::fingerprint(io::MessageType::kMeasuredState), io::fingerprint(io::MessageType::kControl)},
       cfg.receive_max_bytes, cfg.receive_socket_buffer);
   if (!cfg.auth_key_file.empty()) rx->set_auth_key(io::read_key_file(cfg.auth_key_file));
+  rx->open_window(io::wall_us());
   return rx;
 }
 
@@ -68,15 +71,17 @@ void feed_receiver_counters(coopdyn::runtime::ServiceLoop& loop, const coopdyn::
 }
 
 coopdyn::runtime::Offer offer_input(coopdyn::runtime::ServiceLoop& loop, bool simulate, RejectionReport& rejections,
-                                    const void* d, int n, long long t) {
+                                    coopdyn::io::ReceiverCounters& rx, const void* d, int n, long long t) {
   using namespace coopdyn;
   io::Reject why = io::Reject::kNone;
   runtime::Offer r;
-  if (io::identify(d, n) == io::MessageType::kControl) r = loop.controls().offer(d, n, t, &why);
+  const bool control = io::identify(d, n) == io::MessageType::kControl;
+  if (control) r = loop.controls().offer(d, n, t, &why);
   else if (simulate) r = loop.commands().offer(d, n, t, &why);
   else r = loop.states().offer(d, n, t, &why);
   if (r == runtime::Offer::kRejected) rejections.rejected_by[static_cast<int>(why) % io::kRejectKinds].fetch_add(1);
   if (r == runtime::Offer::kOutOfOrder) rejections.out_of_order.fetch_add(1);
+  if (r == runtime::Offer::kAccepted) rx.note_accepted(control ? 1 : 0, io::raw_utime(d, n));  // channel 1: control
   return r;
 }
 
@@ -97,7 +102,7 @@ void start_receiving(coopdyn::io::IsolatedReceiver& rx, coopdyn::runtime::Servic
   const bool simulate = cfg.mode == runtime::ServiceMode::kSimulate;
   rx.start(
       [simulate, &loop, &rx, &rejections](const void* d, int n, long long t) {  // they outlive the receiver
-        const runtime::Offer r = offer_input(loop, simulate, rejections, d, n, t);
+        const runtime::Offer r = offer_input(loop, simulate, rejections, rx, d, n, t);
         if (!simulate && r == runtime::Offer::kAccepted) loop.doorbell().ring();  // event-driven mode wakes on it
         feed_receiver_counters(loop, rx);
       },

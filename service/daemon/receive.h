@@ -27,10 +27,12 @@ std::unique_ptr<coopdyn::io::InLoopReceiver> make_in_loop_receiver(const coopdyn
 // replayed), channel 0 the input, 1 the control channel
 void feed_receiver_counters(coopdyn::runtime::ServiceLoop& loop, const coopdyn::io::ReceiverCounters& rx);
 
-// One input from the receive process's ring into the loop's inbox of its type; what is not applied is
-// counted for the log. Returns the offer's outcome. No allocation (the loop's thread runs it on arrival).
+// One input from the receive path into the loop's inbox of its type; what is not applied is counted
+// for the log; an accepted one moves its channel's replay window in rx (io/input_gate.h: the receive
+// process refuses its utime and older ones from then on). Returns the offer's outcome. No allocation
+// (the loop's thread runs it on arrival).
 coopdyn::runtime::Offer offer_input(coopdyn::runtime::ServiceLoop& loop, bool simulate, RejectionReport& rejections,
-                                    const void* d, int n, long long t);
+                                    coopdyn::io::ReceiverCounters& rx, const void* d, int n, long long t);
 
 // trigger: arrival: the loop drains the receive process's ring itself, woken by the bell the process
 // rings (io/transport/rx_isolated.h drain_in_caller): no receive thread between a state's receipt and the loop
@@ -43,7 +45,7 @@ struct RingArrivals : coopdyn::runtime::ArrivalSource {
   uint32_t bell() const override { return rx.bell(); }
   void wait(uint32_t seen, long long deadline_ns) override { rx.wait_bell(seen, deadline_ns); }
   void drain() override {
-    rx.drain([this](const void* d, int n, long long t) { offer_input(loop, false, rejections, d, n, t); });
+    rx.drain([this](const void* d, int n, long long t) { offer_input(loop, false, rejections, rx, d, n, t); });
   }
 };
 

@@ -126,8 +126,8 @@ void log_startup(const coopdyn::System& sys, const coopdyn::runtime::ServiceConf
                cfg.overrun == runtime::OverrunPolicy::kSkip ? "skip"
                                                            : "catch_up (max " + std::to_string(cfg.max_catch_up) + ")");
   if (!cfg.auth_key_file.empty())
-    spdlog::info("authentication on (key {}): inputs need an HMAC-SHA256 and a utime above the last accepted; "
-                 "unsigned, bad-MAC and replayed ones are rejected", cfg.auth_key_file);
+    spdlog::info("authentication on (key {}): inputs need an HMAC-SHA256 and a utime above the last accepted and "
+                 "the daemon's start; unsigned, bad-MAC and replayed ones are rejected", cfg.auth_key_file);
   else
     spdlog::info("authentication off: any host that reaches the input URL can command (auth.key_file turns it on)");
   spdlog::info("LCM in {}: {} {} ({}); out {}: {} (output), {} (stats every {} s)", cfg.input_url(),
@@ -243,7 +243,12 @@ void print_summary(const coopdyn::runtime::ServiceLoop& loop, const coopdyn::run
       "socket filter discards (other channels, own outputs included) and overflow %lld; "
       "numerical errors %lld; lateness us p50 %.1f p99 %.1f p99.9 %.1f "
       "max %.1f; compute us p50 %.1f p99 %.1f p99.9 %.1f max %.1f; SCHED_FIFO stepped down: loop %lld, receive %lld\n",
-      sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "duration", static_cast<long long>(s.tick), secs,
+      sig == SIGINT    ? "SIGINT"
+      : sig == SIGTERM ? "SIGTERM"
+      : sig == SIGHUP  ? "SIGHUP"
+      : sig == SIGQUIT ? "SIGQUIT"
+                       : "duration",
+      static_cast<long long>(s.tick), secs,
       static_cast<long long>(s.overruns), static_cast<long long>(s.skipped_periods),
       cfg.mode == runtime::ServiceMode::kSimulate ? "commands" : "states", static_cast<long long>(s.received),
       static_cast<long long>(s.accepted), static_cast<long long>(s.rejected), static_cast<long long>(s.out_of_order),

@@ -2,6 +2,9 @@
 
 #include <pthread.h>
 #include <sched.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 
 #include <cstring>
 
@@ -15,15 +18,25 @@ PublisherThread::PublisherThread(io::Bus& inner, int max_bytes) : inner_(inner),
 
 PublisherThread::~PublisherThread() { stop(); }
 
-void PublisherThread::start(int avoid_cpu) {
+void PublisherThread::start(int avoid_cpu, int fifo_priority, int nice) {
   if (thread_.joinable()) return;
   stop_.store(false);
-  thread_ = std::thread([this, avoid_cpu] {
+  fifo_.store(0);
+  thread_ = std::thread([this, avoid_cpu, fifo_priority, nice] {
     cpu_set_t set;
     if (avoid_cpu >= 0 && avoid_cpu < CPU_SETSIZE && sched_getaffinity(0, sizeof set, &set) == 0) {
       CPU_CLR(avoid_cpu, &set);
       if (CPU_COUNT(&set) > 0) pthread_setaffinity_np(pthread_self(), sizeof set, &set);
     }
+    bool raised = false;
+    if (fifo_priority > 0) {
+      sched_param p{};
+      p.sched_priority = fifo_priority;
+      raised = pthread_setschedparam(pthread_self(), SCHED_FIFO, &p) == 0;  // refused without the privilege
+    } else if (nice != 0) {
+      raised = setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), nice) == 0;  // this thread only
+    }
+    fifo_.store(raised ? 1 : -1);
     run();
   });
 }

@@ -10,6 +10,10 @@
 // publish() does not allocate, lock, block or throw; when every slot is still waiting (the thread has
 // not run for kSlots messages) the message is dropped and counted, never waited for. A queued message
 // the inner bus refuses is counted too (failed(), Bus::failed_after_accept()).
+// Priority (start()): SCHED_FIFO (coopdynd: just below the loop) or a nice value, so that the
+// processes loading the machine at SCHED_OTHER cannot hold the thread off for kSlots ticks (outputs
+// dropped); it only ever runs for what the loop queued, so it cannot hog a CPU. What each costs the
+// loop and saves: bench/README.md, "Outputs under load".
 #pragma once
 
 #include <atomic>
@@ -32,8 +36,14 @@ class PublisherThread : public io::Bus {
   PublisherThread(const PublisherThread&) = delete;
   PublisherThread& operator=(const PublisherThread&) = delete;
 
-  // Starts the thread; avoid_cpu >= 0 keeps it off that CPU (the loop's) when another is allowed.
-  void start(int avoid_cpu = -1);
+  // Starts the thread; avoid_cpu >= 0 keeps it off that CPU (the loop's) when another is allowed;
+  // fifo_priority > 0: SCHED_FIFO at that priority, else nice != 0: SCHED_OTHER at that nice value
+  // (either refused without the privilege: priority_granted() false).
+  void start(int avoid_cpu = -1, int fifo_priority = 0, int nice = 0);
+  // the priority asked of start() was granted (known once scheduled(): false before)
+  bool priority_granted() const { return fifo_.load() > 0; }
+  // whether the thread has applied its scheduling request (priority_granted() is then final)
+  bool scheduled() const { return fifo_.load() != 0; }
   // Publishes what is queued, then joins the thread. Idempotent.
   void stop();
   // One producer thread (the loop's). Returns 0 when queued, -1 when dropped (ring full or too long).
@@ -61,6 +71,7 @@ class PublisherThread : public io::Bus {
   alignas(64) std::atomic<uint64_t> tail_{0};  // next slot the thread publishes
   alignas(64) std::atomic<int64_t> published_{0}, dropped_{0}, failed_{0};
   std::atomic<bool> stop_{false};
+  std::atomic<int> fifo_{0};  // 0: not yet known, 1: the priority asked granted, -1: not (or none asked)
   Doorbell bell_;
   std::thread thread_;
 };

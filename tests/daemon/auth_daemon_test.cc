@@ -11,6 +11,9 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <future>
+#include <limits>
+#include <memory>
 #include <mutex>
 #include <thread>
 
@@ -430,4 +433,206 @@ TEST(AuthDaemon, KeyFileReadableByOthersRefusedAtStart) {
       EXPECT_NE(c.err.find(why), std::string::npos) << c.err;
     }
   }
+}
+
+namespace {
+
+// coopdynd with authentication on a private udpm URL (and the config lines extra), started once its
+// outputs arrive at sink.
+std::unique_ptr<Child> start_auth_daemon(const std::string& url, const std::string& key, const std::string& tag,
+                                         Sink& sink, const std::string& extra = "") {
+  const std::string config = write_file(tag + "_config.yaml", "auth:\n  key_file: " + key + "\n" + extra, 0600);
+  auto d = std::make_unique<Child>(std::vector<std::string>{COOPDYND_PATH, "--scene", scene_path("two_puma_load"),
+                                                            "--config", config, "--lcm-url", url, "--duration",
+                                                            kDaemonDuration},
+                                   tag);
+  {
+    std::lock_guard<std::mutex> lk(sink.mu);
+    sink.outs.clear();
+    sink.stats.clear();
+  }
+  EXPECT_TRUE(sink.wait_output([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
+  return d;
+}
+
+std::vector<uint8_t> signed_command(const System& sys, int64_t utime, int64_t seq) {
+  auto b = io::encode_torque_command(utime, seq, {}, stdvec(some_torque(sys, 3, 0.1)));
+  io::sign(b, "COOPDYN_COMMAND", test_key(), io::MessageType::kTorqueCommand);
+  return b;
+}
+
+}  // namespace
+
+// A signed command stamped 10 s ahead and one stamped INT64_MAX, sent first, are refused by the
+// daemon (future_utime) and lock nothing out: the valid signed commands sent after them through
+// the real receive process are applied (at least 99 of 100; none refused as replayed).
+TEST(AuthDaemon, FutureStampedSignedCommandsLockNothingOut) {
+  const std::string url = private_udpm_url(6);
+  auto bus = try_bus(url);
+  if (!bus) GTEST_SKIP() << "LCM udpm unavailable (no multicast route? 'ip route add 224.0.0.0/4 dev lo')";
+  const System sys = load_scene(scene_path("two_puma_load"));
+  const std::string key = write_file("key_future", std::string(kKeyHex) + "\n", 0600);
+  Sink sink;
+  sink.attach(*bus);
+  bus->start();
+  auto d = start_auth_daemon(url, key, "auth_future", sink);
+  auto send = [&](const std::vector<uint8_t>& b) {
+    bus->publish("COOPDYN_COMMAND", b.data(), static_cast<int>(b.size()));
+    std::this_thread::sleep_for(2ms);
+  };
+  send(signed_command(sys, io::wall_us() + 10000000, 1));
+  send(signed_command(sys, std::numeric_limits<int64_t>::max(), 2));
+  const int kValid = 100;
+  for (int k = 0; k < kValid; ++k) send(signed_command(sys, io::wall_us(), 3 + k));
+  io::StatsFrame s;
+  const bool counted =
+      sink.wait_stats([&](const io::StatsFrame& x) { return x.received >= kValid + 2; }, kEventLimit, &s);
+  d->signal(SIGTERM);
+  EXPECT_EQ(d->wait(), 0) << slurp(d->err);
+  bus->stop();
+  ASSERT_TRUE(counted) << "the valid commands never reached the daemon's inbox (refused as replayed?)";
+  EXPECT_EQ(by(s, io::Reject::kFuture), 2);
+  EXPECT_EQ(by(s, io::Reject::kReplayed), 0);
+  EXPECT_GE(s.accepted, 99) << "of " << kValid << " valid signed commands after the future-stamped ones";
+}
+
+// No replay across restarts: 50 signed commands recorded while one daemon runs, resent byte for
+// byte to a daemon started after it stopped, are all refused as replayed (stamped before its
+// start) and counted, whatever max_input_age_ms allows (60 s here: the staleness rule alone would
+// accept them); a new signed command is applied.
+TEST(AuthDaemon, RecordedCommandsRefusedAfterARestart) {
+  const std::string url = private_udpm_url(6);
+  auto bus = try_bus(url);
+  if (!bus) GTEST_SKIP() << "LCM udpm unavailable (no multicast route? 'ip route add 224.0.0.0/4 dev lo')";
+  const System sys = load_scene(scene_path("two_puma_load"));
+  const std::string key = write_file("key_restart", std::string(kKeyHex) + "\n", 0600);
+  Sink sink;
+  sink.attach(*bus);
+  bus->start();
+  const int kRecorded = 50;
+  std::vector<std::vector<uint8_t>> recorded;
+  auto send = [&](const std::vector<uint8_t>& b) {
+    bus->publish("COOPDYN_COMMAND", b.data(), static_cast<int>(b.size()));
+    std::this_thread::sleep_for(2ms);
+  };
+  {
+    auto first = start_auth_daemon(url, key, "auth_restart1", sink, kPatientInputs);
+    for (int k = 0; k < kRecorded; ++k) {
+      recorded.push_back(signed_command(sys, io::wall_us(), 1 + k));
+      send(recorded.back());
+    }
+    io::StatsFrame s;
+    EXPECT_TRUE(sink.wait_stats([&](const io::StatsFrame& x) { return x.received >= kRecorded; }, kEventLimit, &s));
+    EXPECT_GE(s.accepted, 1);  // the recording is of commands the first daemon applied
+    first->signal(SIGTERM);
+    EXPECT_EQ(first->wait(), 0) << slurp(first->err);
+  }
+  auto second = start_auth_daemon(url, key, "auth_restart2", sink, kPatientInputs);
+  for (const auto& b : recorded) send(b);
+  send(signed_command(sys, io::wall_us(), 1000));
+  io::StatsFrame s;
+  const bool counted =
+      sink.wait_stats([&](const io::StatsFrame& x) { return x.received >= kRecorded + 1 && x.accepted >= 1; },
+                      kEventLimit, &s);
+  second->signal(SIGTERM);
+  EXPECT_EQ(second->wait(), 0) << slurp(second->err);
+  bus->stop();
+  ASSERT_TRUE(counted) << "the new command was not applied after the recorded ones";
+  EXPECT_EQ(s.accepted, 1) << "a recorded command of the first run was applied by the second";
+  EXPECT_EQ(by(s, io::Reject::kReplayed), kRecorded);
+  EXPECT_TRUE(sink.any_output(1000));
+  for (int64_t seq = 1; seq <= kRecorded; ++seq)
+    EXPECT_FALSE(sink.any_output(seq)) << "recorded seq " << seq << " applied";
+}
+
+namespace {
+
+// read_key_file's verdict on path: "" (a key read) or its message
+std::string key_verdict(const std::string& path) {
+  try {
+    io::read_key_file(path);
+    return "";
+  } catch (const io::KeyError& e) {
+    return e.what();
+  }
+}
+
+}  // namespace
+
+// The key-file matrix: a regular file and a symlink chain to one (a Kubernetes secret volume's
+// layout: key -> ..data/key -> ..2026_12_07/key) read; a FIFO (no writer: a read would wait
+// forever), a directory, a symlink to a file others can read, a long, a short key and a file
+// others can read each refused at once, the message naming the file and what is wrong (the length
+// the file has, not the length read).
+TEST(AuthKeyFile, MatrixOfKindsAndSizesEachReadOrRefusedNamingTheFile) {
+  const std::string dir = tmp_path("keydir");
+  std::system(("rm -rf '" + dir + "'").c_str());
+  ASSERT_EQ(mkdir(dir.c_str(), 0700), 0);
+  auto file = [&](const std::string& name, const std::string& text, mode_t mode) {
+    const std::string p = dir + "/" + name;
+    std::ofstream(p) << text;
+    chmod(p.c_str(), mode);
+    return p;
+  };
+  const std::string regular = file("regular", std::string(kKeyHex) + "\n", 0600);
+  EXPECT_EQ(key_verdict(regular), "");
+  // a secret volume: the file is a symlink into ..data, itself a symlink to the timestamped folder
+  ASSERT_EQ(mkdir((dir + "/..2026_12_07").c_str(), 0700), 0);
+  file("..2026_12_07/key", kKeyHex, 0400);
+  ASSERT_EQ(symlink("..2026_12_07", (dir + "/..data").c_str()), 0);
+  ASSERT_EQ(symlink("..data/key", (dir + "/key").c_str()), 0);
+  EXPECT_EQ(key_verdict(dir + "/key"), "");
+  const std::string fifo = dir + "/fifo";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  const std::string open_key = file("open_key", kKeyHex, 0644);
+  const std::string link_to_open = dir + "/link_to_open";
+  ASSERT_EQ(symlink(open_key.c_str(), link_to_open.c_str()), 0);
+  const std::pair<std::string, std::string> refused[] = {
+      {fifo, fifo + ": the key file is a FIFO (named pipe), not a regular file"},
+      {dir + "/..2026_12_07", dir + "/..2026_12_07: the key file is a directory, not a regular file"},
+      {link_to_open, link_to_open + ": the key file is readable or writable by group or others (mode 0644)"},
+      {open_key, open_key + ": the key file is readable or writable by group or others (mode 0644)"},
+      {file("long", std::string(kKeyHex) + std::string(36, 'a'), 0600), "found 100 characters"},
+      {file("huge", std::string(10000, 'a'), 0600), "found 10000 bytes"},
+      {file("short", "abcd\n", 0600), "expected 64 hex digits (32 bytes) and at most a newline, found 4 characters"},
+      {dir + "/missing", dir + "/missing: cannot open the key file: No such file or directory"},
+  };
+  for (const auto& [path, why] : refused) {
+    // a refusal that waited (the FIFO without a writer) would never come back: read on another thread
+    auto verdict = std::async(std::launch::async, key_verdict, path);
+    ASSERT_EQ(verdict.wait_for(kEventLimit), std::future_status::ready) << path << ": read_key_file blocks";
+    const std::string w = verdict.get();
+    EXPECT_NE(w.find(path), std::string::npos) << w;
+    EXPECT_NE(w.find(why), std::string::npos) << "expected '" << why << "' in: " << w;
+  }
+  std::system(("rm -rf '" + dir + "'").c_str());
+}
+
+// coopdynd resolves a relative auth.key_file against its config file's folder (not its working
+// directory), and refuses a FIFO as the key file at start (exit 2, naming the file), as it
+// refuses any other bad key file.
+TEST(AuthDaemon, RelativeKeyFileIsTheConfigFoldersAndAFifoIsRefusedAtStart) {
+  const std::string dir = tmp_path("keycfg");
+  std::system(("rm -rf '" + dir + "'").c_str());
+  ASSERT_EQ(mkdir(dir.c_str(), 0700), 0);
+  {
+    std::ofstream(dir + "/rel.key") << kKeyHex;
+    chmod((dir + "/rel.key").c_str(), 0600);
+    std::ofstream(dir + "/rel.yaml") << "auth:\n  key_file: rel.key\n";
+  }
+  const Result ok = run_command({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config", dir + "/rel.yaml",
+                                 "--lcm-url", "memq://", "--duration", "0.2"},
+                                "auth_relative");
+  EXPECT_EQ(ok.rc, 0) << ok.err;
+  EXPECT_NE(ok.err.find("authentication on"), std::string::npos) << ok.err;
+  EXPECT_NE(ok.err.find(dir + "/rel.key"), std::string::npos) << ok.err;
+  ASSERT_EQ(mkfifo((dir + "/fifo.key").c_str(), 0600), 0);
+  std::ofstream(dir + "/fifo.yaml") << "auth:\n  key_file: fifo.key\n";
+  const Result fifo = run_command({COOPDYND_PATH, "--scene", scene_path("two_puma_load"), "--config",
+                                   dir + "/fifo.yaml", "--lcm-url", "memq://", "--duration", "0.2"},
+                                  "auth_fifo");
+  EXPECT_EQ(fifo.rc, 2) << fifo.err;
+  EXPECT_NE(fifo.err.find("auth.key_file: " + dir + "/fifo.key: the key file is a FIFO"), std::string::npos)
+      << fifo.err;
+  std::system(("rm -rf '" + dir + "'").c_str());
 }

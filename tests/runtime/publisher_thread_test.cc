@@ -5,6 +5,12 @@
 
 #include <gtest/gtest.h>
 
+#include <pthread.h>
+#include <sched.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <atomic>
 #include <string>
 #include <thread>
@@ -84,4 +90,49 @@ TEST(PublisherThread, NeverWaitsForTheInnerBusAndCountsWhatItDrops) {
   ASSERT_EQ(static_cast<int>(inner.got.size()), PublisherThread::kSlots);
   for (int k = 0; k < PublisherThread::kSlots; ++k) EXPECT_EQ(inner.got[k].bytes, message(k)) << k;
   EXPECT_EQ(pub.published(), PublisherThread::kSlots);
+}
+
+// With a SCHED_FIFO priority, or a nice value, the thread that calls the inner bus runs at it
+// (where the process may take it: root or CAP_SYS_NICE), so processes at SCHED_OTHER cannot hold the
+// outputs back; without one, or refused, it runs SCHED_OTHER at nice 0 and says so. Every message
+// still goes out.
+TEST(PublisherThread, RunsAtThePriorityItIsGiven) {
+  struct PolicyBus : RecordingBus {
+    std::atomic<int> policy{-1}, priority{-1}, nice{100};
+    int publish(const char* channel, const void* data, int len) override {
+      sched_param p{};
+      int pol = 0;
+      pthread_getschedparam(pthread_self(), &pol, &p);
+      policy.store(pol);
+      priority.store(p.sched_priority);
+      nice.store(getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid))));
+      return RecordingBus::publish(channel, data, len);
+    }
+  };
+  struct Asked {
+    int fifo, nice;
+  };
+  for (const Asked asked : {Asked{0, 0}, Asked{79, 0}, Asked{0, -20}}) {
+    SCOPED_TRACE(std::to_string(asked.fifo) + " " + std::to_string(asked.nice));
+    PolicyBus inner;
+    PublisherThread pub(inner, 5000);
+    pub.start(-1, asked.fifo, asked.nice);
+    while (!pub.scheduled()) std::this_thread::yield();
+    const auto m = message(1);
+    ASSERT_EQ(pub.publish("OUT", m.data(), static_cast<int>(m.size())), 0);
+    pub.stop();
+    ASSERT_EQ(inner.got.size(), 1u);
+    const bool asked_any = asked.fifo > 0 || asked.nice != 0;
+    EXPECT_EQ(inner.policy.load(), pub.priority_granted() && asked.fifo > 0 ? SCHED_FIFO : SCHED_OTHER);
+    if (pub.priority_granted()) {
+      EXPECT_TRUE(asked_any);
+      if (asked.fifo > 0) EXPECT_EQ(inner.priority.load(), asked.fifo);
+      else EXPECT_EQ(inner.nice.load(), asked.nice);
+    } else if (asked_any) {  // refused only where the process may not raise a thread's priority
+      std::thread probe([] { EXPECT_NE(setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), -20), 0); });
+      probe.join();
+    } else {
+      EXPECT_EQ(inner.nice.load(), getpriority(PRIO_PROCESS, 0));  // the process's own
+    }
+  }
 }

@@ -60,28 +60,67 @@ AuthKey parse_key(const std::string& text, const std::string& name) {
   return k;
 }
 
+namespace {
+
+const char* file_kind(mode_t m) {
+  if (S_ISDIR(m)) return "a directory";
+  if (S_ISFIFO(m)) return "a FIFO (named pipe)";
+  if (S_ISSOCK(m)) return "a socket";
+  if (S_ISCHR(m)) return "a character device";
+  if (S_ISBLK(m)) return "a block device";
+  return "not a regular file";
+}
+
+}  // namespace
+
 AuthKey read_key_file(const std::string& path) {
-  const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
+  // O_NONBLOCK: a FIFO (or a device) opens at once instead of waiting for a writer; it is refused
+  // after the fstat below, before anything is read. Symlinks are followed (a secrets volume's files
+  // are symlinks); what they lead to is checked.
+  const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
   if (fd < 0) throw KeyError(path + ": cannot open the key file: " + std::strerror(errno));
   struct stat st {};
   if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    const std::string kind = file_kind(st.st_mode);
     close(fd);
-    throw KeyError(path + ": the key file is not a regular file");
+    throw KeyError(path + ": the key file is " + kind + ", not a regular file (64 hex digits)");
   }
   if (st.st_mode & 077) {
     close(fd);
     throw KeyError(path + ": the key file is readable or writable by group or others (mode " + mode_text(st.st_mode) +
                    "); anyone who reads it can command the daemon: chmod 600 " + path);
   }
-  char buf[2 * kKeyBytes + 8];
-  const ssize_t n = read(fd, buf, sizeof buf);
+  constexpr long long kMaxBytes = 4096;  // a key is 64 hex digits and a newline; larger is not read
+  if (st.st_size > kMaxBytes) {
+    close(fd);
+    throw KeyError(path + ": not a key: expected " + std::to_string(2 * kKeyBytes) + " hex digits (" +
+                   std::to_string(kKeyBytes) + " bytes) and at most a newline, found " +
+                   std::to_string(static_cast<long long>(st.st_size)) + " bytes");
+  }
+  char buf[kMaxBytes + 1];
+  size_t n = 0;
+  for (;;) {  // to the end of the file, a short read or an interrupted one continued
+    const ssize_t r = read(fd, buf + n, sizeof buf - n);
+    if (r < 0 && errno == EINTR) continue;
+    if (r < 0) {
+      const int e = errno;
+      close(fd);
+      sodium_memzero(buf, sizeof buf);
+      throw KeyError(path + ": cannot read the key file: " + std::strerror(e));
+    }
+    if (r == 0 || (n += static_cast<size_t>(r)) == sizeof buf) break;
+  }
   close(fd);
-  if (n < 0) throw KeyError(path + ": cannot read the key file: " + std::strerror(errno));
-  std::string text(buf, static_cast<size_t>(n));
-  const AuthKey k = parse_key(text, path);
+  std::string text(buf, n);
   sodium_memzero(buf, sizeof buf);
-  sodium_memzero(text.data(), text.size());
-  return k;
+  try {
+    const AuthKey k = parse_key(text, path);
+    sodium_memzero(text.data(), text.size());
+    return k;
+  } catch (...) {
+    sodium_memzero(text.data(), text.size());
+    throw;
+  }
 }
 
 Verifier::Verifier(const AuthKey& key, const std::string& channel, MessageType t) : type_(t) {

@@ -10,7 +10,9 @@
 // on any other (another daemon's, or the control channel).
 //
 // The key file: 64 hex digits (32 bytes), one optional trailing newline, nothing else; a regular
-// file neither readable nor writable by group or others (mode & 077 == 0). Make one with
+// file neither readable nor writable by group or others (mode & 077 == 0). A symlink is followed
+// and what it leads to checked (a Kubernetes secret volume's files are symlinks: give the volume
+// defaultMode 0400). A FIFO, directory or device is refused without waiting for it. Make one with
 //   head -c 32 /dev/urandom | xxd -p -c 64 > coopdyn.key; chmod 600 coopdyn.key
 //
 // Verifier::check runs on the receive thread for every input: no allocation, no exception, no log.
@@ -40,7 +42,8 @@ class KeyError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Reads and checks a key file (above). Throws KeyError.
+// Reads and checks a key file (above); a relative path is the caller's to resolve (the daemon: against
+// its config file's folder). Throws KeyError naming the file and what is wrong, without blocking.
 AuthKey read_key_file(const std::string& path);
 // The key in a key file's text; name is the file, for the message. Throws KeyError.
 AuthKey parse_key(const std::string& text, const std::string& name);

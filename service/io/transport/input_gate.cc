@@ -93,6 +93,17 @@ long long ReceiverCounters::rejected(int channel, Reject why) const {
 long long ReceiverCounters::socket_drops() const { return static_cast<long long>(counters_->socket_drops.load()); }
 long long ReceiverCounters::socket_buffer() const { return static_cast<long long>(counters_->rcvbuf.load()); }
 int ReceiverCounters::filter_state() const { return static_cast<int>(counters_->filter.load()); }
+void ReceiverCounters::open_window(int64_t utime_us) {
+  for (auto& w : counters_->accepted_utime) w.store(utime_us, std::memory_order_release);
+}
+void ReceiverCounters::note_accepted(int channel, int64_t utime_us) {
+  if (channel < 0 || channel >= kRxChannels) return;
+  std::atomic<int64_t>& w = counters_->accepted_utime[channel];
+  if (utime_us > w.load(std::memory_order_relaxed)) w.store(utime_us, std::memory_order_release);  // one writer
+}
+int64_t ReceiverCounters::window(int channel) const {
+  return channel < 0 || channel >= kRxChannels ? 0 : counters_->accepted_utime[channel].load(std::memory_order_acquire);
+}
 
 std::vector<InputChannel> input_channels(const std::vector<std::string>& channels, const std::vector<int64_t>& fingerprints) {
   if (channels.size() != fingerprints.size()) throw std::invalid_argument("receive path: one fingerprint per channel");
@@ -133,27 +144,34 @@ uint64_t kernel_drops(int fd) {
   return 0;
 }
 
-// Authentication on: each accepted channel's verifier (its type from the channel's fingerprint) and
-// the utime of the last message that verified on it (the replay rule, as the inboxes apply it).
+// Authentication on: each accepted channel's verifier (its type from the channel's fingerprint), the
+// window the daemon moves (RxCounters::accepted_utime) and the utime of the last message let through
+// on each channel (the replay rule, input_gate.h).
 struct InputGate::Auth {
   std::vector<Verifier> verifiers;
-  std::vector<int64_t> last_utime;
-  Auth(const AuthKey& key, const std::vector<InputChannel>& acc) {
+  std::vector<int64_t> last_passed;
+  std::vector<bool> passed;
+  const RxCounters* c;
+  Auth(const AuthKey& key, const std::vector<InputChannel>& acc, const RxCounters* counters) : c(counters) {
     for (const InputChannel& a : acc) {
       verifiers.emplace_back(key, a.channel, a.type);
-      last_utime.push_back(std::numeric_limits<int64_t>::min());
+      last_passed.push_back(0);
+      passed.push_back(false);
     }
   }
-  // kNone: a signed message of channel k, newer than the last one that verified there. The MAC is
-  // computed last: a message without one, or whose utime is not above the last verified one's (which
-  // no MAC can make acceptable), costs no HMAC; such a message with a forged MAC counts as replayed.
+  // kNone: a signed message of channel k above its window and not the one let through last. The MAC
+  // is computed last: a message without one, or whose utime no MAC can make acceptable, costs no
+  // HMAC; such a message with a forged MAC counts as replayed. Only a message that verifies is
+  // remembered; the window itself is the daemon's (it moves when the daemon accepts).
   Reject check(int k, MessageType t, const uint8_t* data, int len) {
     Reject r = mac_form(t, data, len);
     if (r != Reject::kNone) return r;
+    const size_t i = static_cast<size_t>(k);
     const int64_t u = raw_utime(data, len);
-    if (u <= last_utime[static_cast<size_t>(k)]) return Reject::kReplayed;
-    r = verifiers[static_cast<size_t>(k)].check(data, len);
-    if (r == Reject::kNone) last_utime[static_cast<size_t>(k)] = u;
+    if (u <= c->accepted_utime[k].load(std::memory_order_acquire) || (passed[i] && u == last_passed[i]))
+      return Reject::kReplayed;
+    r = verifiers[i].check(data, len);
+    if (r == Reject::kNone) last_passed[i] = u, passed[i] = true;
     return r;
   }
 };
@@ -169,7 +187,7 @@ InputGate::InputGate(std::vector<InputChannel> channels, int max_message_bytes, 
 
 InputGate::~InputGate() = default;
 
-void InputGate::set_auth_key(const AuthKey& key) { auth_ = std::make_unique<Auth>(key, channels_); }
+void InputGate::set_auth_key(const AuthKey& key) { auth_ = std::make_unique<Auth>(key, channels_, c_); }
 
 int InputGate::read_batch(int sock) {
   if (sock < 0) return 0;

@@ -10,9 +10,14 @@
 //     malformed_by), the channel and fingerprint checked again (a first fragment before it takes a
 //     reassembly slot; `filtered`), a complete message's fields walked up to the MAC field (junk
 //     after a fingerprint: Reject::kDecode), and with authentication on its MAC and the replay rule
-//     (its utime above the last one that verified on its channel), each refusal counted by channel
-//     and reason in rejected_by;
+//     (below), each refusal counted by channel and reason in rejected_by;
 //   - reading (InputGate::read_batch): recvmmsg of up to kBatch datagrams without waiting.
+// The replay rule: a signed message is refused as replayed when its utime is not above the window of
+// its channel (RxCounters::accepted_utime: the utime of the last input the daemon accepted there, or
+// the daemon's start; ReceiverCounters::open_window, note_accepted), or equals the utime of the
+// last message this gate let through on it (a datagram delivered twice, a flood of one recording).
+// Only the daemon moves the window, once it has accepted the input: a signed input it refuses (a
+// utime in the future or stale by its clock, a NaN) never locks the channel's later inputs out.
 // Everything is allocated by the constructors and set_auth_key; admit and read_batch allocate
 // nothing, lock nothing, log nothing and throw nothing (they run on the loop's thread in-loop).
 #pragma once
@@ -48,6 +53,9 @@ struct RxCounters {
   // messages rejected by channel (the order given) and reason (Reject: malformed, and with
   // authentication unauthenticated, bad_mac, replayed)
   std::atomic<uint64_t> rejected_by[kRxChannels][kRejectKinds] = {};
+  // the replay window of each channel (authentication on): the utime (us) of the last input the
+  // daemon accepted there, or the daemon's start before that; written by the daemon only
+  std::atomic<int64_t> accepted_utime[kRxChannels] = {};
 };
 static_assert(std::atomic<uint64_t>::is_always_lock_free, "the counters must be lock-free across processes");
 
@@ -64,9 +72,16 @@ class ReceiverCounters {
   long long rejected(int channel, Reject why) const;  // messages of channel k (the order given) rejected for why
   long long socket_buffer() const;  // SO_RCVBUF the kernel reports (0 until known)
   int filter_state() const;         // 1 attached, 0 not yet, -1 no receive socket, -2 refused
+  // The replay window (input_gate.h, authentication on). open_window: every channel's at utime_us
+  // (the daemon's start: nothing stamped before it is accepted; before the receive path starts).
+  // note_accepted: the daemon accepted an input of channel k stamped utime_us (the thread that
+  // offers the inputs; no allocation, lock or throw). window(k): the current one.
+  void open_window(int64_t utime_us);
+  void note_accepted(int channel, int64_t utime_us);
+  int64_t window(int channel) const;
 
  protected:
-  const RxCounters* counters_ = nullptr;  // set by the derived class's constructor
+  RxCounters* counters_ = nullptr;  // set by the derived class's constructor
 };
 
 // An input channel: its name, its type's fingerprint (big-endian, as on the wire) and that type.

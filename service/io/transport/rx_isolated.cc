@@ -315,7 +315,7 @@ int rx_child_main(int argc, char** argv) {
   prctl(PR_SET_PDEATHSIG, SIGKILL);
   // a stop (Ctrl-C, a service manager's SIGTERM to the process group) is the daemon's to handle:
   // it stops this process itself; the receive process dies with it (PR_SET_PDEATHSIG)
-  for (int sig : {SIGINT, SIGTERM, SIGHUP}) signal(sig, SIG_IGN);
+  for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT}) signal(sig, SIG_IGN);
   const pid_t parent = getppid();
   const int shm_fd = std::atoi(argv[3]), event_fd = std::atoi(argv[4]);
   const long rcvbuf = std::strtol(argv[5], nullptr, 10);

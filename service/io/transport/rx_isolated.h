@@ -28,7 +28,7 @@
 // and respawned at once, then with a backoff doubling from 1 ms to 1 s while it keeps dying within
 // a second of its start. The loop keeps ticking and publishing meanwhile; commands expire through
 // the watchdog and the safe torque applies. The child dies with the daemon (PR_SET_PDEATHSIG) and
-// ignores SIGINT, SIGTERM and SIGHUP (a stop signalled to the process group is the daemon's: it
+// ignores SIGINT, SIGTERM, SIGHUP and SIGQUIT (a stop signalled to the process group is the daemon's: it
 // stops the child itself, and that is no restart). Messages larger than a slot, or arriving when
 // the ring is full, are dropped and counted by the child in the shared header.
 //
@@ -48,8 +48,10 @@
 // rejected_by as below), with or without authentication: it never takes a ring slot.
 //
 // Authentication (set_auth_key, auth.h): the child verifies each complete message's MAC under the
-// key for its channel, then the replay rule (its utime above the last one that verified on that
-// channel), before the message takes a ring slot; what fails is counted by channel and reason
+// key for its channel, then the replay rule (input_gate.h: its utime above the last one the daemon
+// accepted on that channel, or the daemon's start; the daemon moves that window in the shared
+// header, and a respawned child keeps it), before the message takes a ring slot; what fails is
+// counted by channel and reason
 // (rejected_by: malformed, unauthenticated, bad_mac, replayed) and never reaches the daemon, so a
 // flood of unsigned, forged or replayed inputs cannot fill the ring ahead of the signed ones. The
 // daemon verifies what arrives through the ring again (the inboxes, inbox.h). The key is handed over

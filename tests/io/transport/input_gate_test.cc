@@ -142,3 +142,76 @@ TEST(InputGate, WithAKeyUnsignedBadMacAndReplayedRefusedByReason) {
   EXPECT_EQ(r[static_cast<int>(io::Reject::kBadMac)].load(), 1u);
   EXPECT_EQ(r[static_cast<int>(io::Reject::kReplayed)].load(), 1u);
 }
+
+namespace {
+
+// The daemon's side of the replay window (what service/daemon/receive.cc does with the receive path's counters).
+struct Window : io::ReceiverCounters {
+  explicit Window(io::RxCounters* c) { counters_ = c; }
+};
+
+}  // namespace
+
+// A signed state stamped in the future (10 s ahead, or INT64_MAX) passes the gate, but only the
+// daemon moves the window, when it accepts: the state it refuses (future_utime) locks nothing out,
+// and every later signed state is let through; once the daemon accepts one, its utime and older
+// ones are refused as replayed.
+TEST(InputGate, OnlyWhatTheDaemonAcceptsMovesTheReplayWindow) {
+  io::RxCounters c;
+  io::InputGate gate(state_and_control(), 65536, &c);
+  Window daemon(&c);
+  const io::AuthKey key = io::parse_key(std::string(64, 'c'), "key");
+  gate.set_auth_key(key);
+  Loopback lo;
+  io::wire::Message m;
+  auto state = [&](int64_t utime) {
+    auto b = io::encode_measured_state(utime, 1, {"a"}, {0.5}, {"a"}, {0.1}, {0.2});
+    io::sign(b, "COOPDYN_STATE", key, io::MessageType::kMeasuredState);
+    return lc02("COOPDYN_STATE", b);
+  };
+  const int64_t now = 1700000000000000;
+  EXPECT_EQ(admit_one(lo, gate, state(now + 10000000), &m), 0);  // the daemon refuses it: future_utime
+  EXPECT_EQ(admit_one(lo, gate, state(INT64_MAX), &m), 0);        // and this one
+  int admitted = 0;
+  for (int k = 1; k <= 100; ++k) admitted += admit_one(lo, gate, state(now + k), &m) == 0;
+  EXPECT_EQ(admitted, 100) << "a refused future utime locked the channel out";
+  daemon.note_accepted(0, now + 100);  // the daemon accepted the last one
+  EXPECT_EQ(admit_one(lo, gate, state(now + 100), &m), -1);
+  EXPECT_EQ(admit_one(lo, gate, state(now + 50), &m), -1);
+  EXPECT_EQ(admit_one(lo, gate, state(now + 101), &m), 0);
+  daemon.note_accepted(0, now + 20);  // never moves back
+  EXPECT_EQ(daemon.window(0), now + 100);
+  EXPECT_EQ(c.rejected_by[0][static_cast<int>(io::Reject::kReplayed)].load(), 2u);
+}
+
+// The window opened at the daemon's start: a signed state stamped before it (a recording of an
+// earlier run) is refused as replayed, on every channel; one stamped after it is let through.
+TEST(InputGate, NothingStampedBeforeTheWindowOpenedIsLetThrough) {
+  io::RxCounters c;
+  io::InputGate gate(state_and_control(), 65536, &c);
+  Window daemon(&c);
+  const io::AuthKey key = io::parse_key(std::string(64, 'c'), "key");
+  gate.set_auth_key(key);
+  const int64_t start = 1700000000000000;
+  daemon.open_window(start);
+  Loopback lo;
+  io::wire::Message m;
+  auto state = [&](int64_t utime) {
+    auto b = io::encode_measured_state(utime, 1, {"a"}, {0.5}, {"a"}, {0.1}, {0.2});
+    io::sign(b, "COOPDYN_STATE", key, io::MessageType::kMeasuredState);
+    return lc02("COOPDYN_STATE", b);
+  };
+  auto control = [&](int64_t utime) {
+    auto b = io::encode_control(utime, 1, io::ControlAction::kPause);
+    io::sign(b, "COOPDYN_CONTROL", key, io::MessageType::kControl);
+    return lc02("COOPDYN_CONTROL", b);
+  };
+  for (const int64_t u : {start - 92000, start - 1, start}) {
+    EXPECT_EQ(admit_one(lo, gate, state(u), &m), -1) << u;
+    EXPECT_EQ(admit_one(lo, gate, control(u), &m), -1) << u;
+  }
+  EXPECT_EQ(c.rejected_by[0][static_cast<int>(io::Reject::kReplayed)].load(), 3u);
+  EXPECT_EQ(c.rejected_by[1][static_cast<int>(io::Reject::kReplayed)].load(), 3u);
+  EXPECT_EQ(admit_one(lo, gate, state(start + 1), &m), 0);
+  EXPECT_EQ(admit_one(lo, gate, control(start + 1), &m), 1);
+}

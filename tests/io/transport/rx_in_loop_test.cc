@@ -39,12 +39,14 @@ using coopdyn::testing::kCountingAvailable;
 namespace {
 
 // What the daemon's source in this mode offers to (service/daemon/receive.cc offer_input, without its log
-// counters): controls to the control inbox, states to the state inbox.
+// counters): controls to the control inbox, states to the state inbox; an accepted one moves its
+// channel's replay window (channel 1 the control channel).
 runtime::SocketArrivals<std::function<void(const void*, int, long long)>> socket_source(io::InLoopReceiver& rx,
                                                                                       runtime::ServiceLoop& loop) {
-  return {rx, [&loop](const void* d, int n, long long t) {
-            if (io::identify(d, n) == io::MessageType::kControl) loop.controls().offer(d, n, t);
-            else loop.states().offer(d, n, t);
+  return {rx, [&loop, &rx](const void* d, int n, long long t) {
+            const bool control = io::identify(d, n) == io::MessageType::kControl;
+            const runtime::Offer r = control ? loop.controls().offer(d, n, t) : loop.states().offer(d, n, t);
+            if (r == runtime::Offer::kAccepted) rx.note_accepted(control ? 1 : 0, io::raw_utime(d, n));
           }};
 }
 
