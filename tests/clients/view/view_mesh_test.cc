@@ -134,6 +134,59 @@ TEST(ViewMeshes, MissingMeshIsACapsuleWithAWarning) {
   EXPECT_EQ(num_after(vis, "\"capsules\":"), 2) << "l1 and l2 as capsules: " << vis;
 }
 
+// OBJ and COLLADA meshes, found through --package-path and ROS_PACKAGE_PATH: both read by three.js's
+// loaders, their triangles in the scene graph (a tetrahedron's 4, a COLLADA triangle's 1), no warning.
+TEST(ViewMeshes, ObjAndColladaFromPackagePaths) {
+  REQUIRE_BROWSER();
+  TempDir dir("objdae");
+  fs::create_directories(dir.path / "a" / "pa" / "m");
+  fs::create_directories(dir.path / "b" / "pb" / "m");
+  std::ofstream(dir / "a/pa/m/tet.obj") << "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n";
+  std::ofstream(dir / "b/pb/m/tri.dae") << R"(<?xml version="1.0"?>
+<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
+  <asset><unit meter="1"/><up_axis>Z_UP</up_axis></asset>
+  <library_geometries><geometry id="g"><mesh>
+    <source id="p"><float_array id="pa" count="9">0 0 0 0.2 0 0 0 0.2 0</float_array>
+      <technique_common><accessor source="#pa" count="3" stride="3"><param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/></accessor></technique_common></source>
+    <vertices id="v"><input semantic="POSITION" source="#p"/></vertices>
+    <triangles count="1"><input semantic="VERTEX" source="#v" offset="0"/><p>0 1 2</p></triangles>
+  </mesh></geometry></library_geometries>
+  <library_visual_scenes><visual_scene id="s"><node id="n"><instance_geometry url="#g"/></node></visual_scene></library_visual_scenes>
+  <scene><instance_visual_scene url="#s"/></scene>
+</COLLADA>
+)";
+  {
+    std::ofstream u(dir / "r.urdf");
+    u << R"(<robot name="r">
+  <link name="l0"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+    <visual><geometry><mesh filename="package://pa/m/tet.obj" scale="2 2 2"/></geometry></visual></link>
+  <link name="l1"><inertial><origin xyz="0 0 -0.25"/><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+    <visual><origin xyz="0 0 -0.3"/><geometry><mesh filename="package://pb/m/tri.dae"/></geometry></visual></link>
+  <joint name="j1" type="revolute"><parent link="l0"/><child link="l1"/><origin xyz="0 0 -0.5"/><axis xyz="0 1 0"/><limit effort="100" lower="-3" upper="3" velocity="1"/></joint>
+</robot>
+)";
+    std::ofstream(dir / "r.yaml") << "name: r\ngravity: [0, 0, -9.81]\nrobots:\n  r: {urdf: r.urdf}\nbodies:\n"
+                                     "  - {name: arm, robot: r, parent: world, placement: {xyz: [0, 0, 1]}, root: fixed, q: {j1: 0.5}}\n";
+  }
+  std::string err;
+  ASSERT_EQ(run("ROS_PACKAGE_PATH='" + dir / "b" + "' '" + kBin + "' view --scene '" + dir / "r.yaml" + "' --out '" + dir / "r.html" +
+                    "' --package-path '" + dir / "a" + "'",
+                dir / "e", &err),
+            0)
+      << err;
+  EXPECT_EQ(err.find("warning: mesh"), std::string::npos) << err;
+  DevTools browser(chromium, dir / "b2");
+  const Browse b = browse(browser, dir / "r.html", "paused=1", false);
+  ASSERT_TRUE(b.ok) << b.log.substr(0, 3000);
+  const PageState p = page_state(b.dom);
+  ASSERT_EQ(p.title, "coopdyn view: r");
+  const std::string vis = between(p.probe, "\"visuals\":{", "}");
+  EXPECT_EQ(num_after(vis, "\"mesh_files\":"), 2) << vis;
+  EXPECT_EQ(num_after(vis, "\"meshes_loaded\":"), 2) << vis;
+  EXPECT_EQ(num_after(vis, "\"mesh_triangles\":"), 5) << vis;
+  EXPECT_NE(vis.find("\"warnings\":[]"), std::string::npos) << vis;
+}
+
 // The scene without a run, with the holding torques: one frame at the scene's initial state, its
 // status ok, each wrench's force as `coopdyn eval --hold` computes it (its norm: the page shows world
 // axes, eval the report frame's), the mimic couplings' forces (the fingers' <mimic>) with the
