@@ -6,7 +6,7 @@
 #
 #   bench/view_mesh_fps.sh [SCENE=pr2_box] [BUILD_DIR=build] [STEPS=60]
 #
-# 1 s of `coopdyn sim --hold` at 0.01 s, the page with and without meshes; a script appended to each
+# 0.5 s of `coopdyn sim --hold` at 1 ms, the page with and without meshes; a script appended to each
 # page moves the slider STEPS times and prints the median time of a frame, and frames per second.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -16,7 +16,7 @@ STEPS=${3:-60}
 chromium=$(command -v chromium || command -v chromium-browser)
 [ -x "$BUILD/bin/coopdyn" ] || { echo "build first: cmake --build $BUILD --target coopdyn" >&2; exit 1; }
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
-"$BUILD/bin/coopdyn" sim --scene "config/scenes/$SCENE.yaml" --duration 1 --dt 0.01 --hold --out "$tmp/run.csv" 2>/dev/null
+"$BUILD/bin/coopdyn" sim --scene "config/scenes/$SCENE.yaml" --duration 0.5 --dt 0.001 --hold --out "$tmp/run.csv" 2>/dev/null
 "$BUILD/bin/coopdyn" view --scene "config/scenes/$SCENE.yaml" --csv "$tmp/run.csv" --out "$tmp/meshes.html" 2>/dev/null
 "$BUILD/bin/coopdyn" view --scene "config/scenes/$SCENE.yaml" --csv "$tmp/run.csv" --out "$tmp/capsules.html" --capsules 2>/dev/null
 for page in meshes capsules; do
