@@ -1,14 +1,14 @@
 // coopdyn view: the <visual> elements of the scene's URDFs, found and attached to the model's bodies.
+#include <urdf_parser/urdf_parser.h>
+#include <yaml-cpp/yaml.h>
+
+#include <Eigen/Geometry>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
-
-#include <Eigen/Geometry>
-#include <urdf_parser/urdf_parser.h>
-#include <yaml-cpp/yaml.h>
 
 #include "clients/view/view.h"
 
@@ -26,7 +26,8 @@ bool is_file(const fs::path& p) {
 // The mesh a <mesh filename> names: package://NAME/REST under the URDF's folder, each --package-path
 // and each ROS_PACKAGE_PATH entry (as DIR/NAME/REST, or DIR/REST when DIR itself is NAME); a relative
 // path from the URDF's folder; file:// and absolute paths as they are. "" when none exists.
-std::string resolve_mesh(const std::string& uri, const fs::path& urdf_dir, const std::vector<std::string>& package_paths) {
+std::string resolve_mesh(const std::string& uri, const fs::path& urdf_dir,
+                         const std::vector<std::string>& package_paths) {
   std::string u = uri;
   if (u.rfind("file://", 0) == 0) return is_file(u.substr(7)) ? u.substr(7) : "";
   if (u.rfind("package://", 0) == 0) {
@@ -60,7 +61,8 @@ std::vector<std::pair<std::string, std::string>> placed_urdfs(const std::string&
   std::map<std::string, std::string> urdf_of;
   if (root["robots"] && root["robots"].IsMap())
     for (const auto& kv : root["robots"])
-      if (kv.second.IsMap() && kv.second["urdf"]) urdf_of[kv.first.as<std::string>()] = (dir / kv.second["urdf"].as<std::string>()).string();
+      if (kv.second.IsMap() && kv.second["urdf"])
+        urdf_of[kv.first.as<std::string>()] = (dir / kv.second["urdf"].as<std::string>()).string();
   for (const char* key : {"bodies", "arms"}) {
     if (!root[key] || !root[key].IsSequence()) continue;
     for (const auto& b : root[key])
@@ -73,13 +75,14 @@ std::vector<std::pair<std::string, std::string>> placed_urdfs(const std::string&
 Transform pose_of(const urdf::Pose& p) {
   double x, y, z, w;
   p.rotation.getQuaternion(x, y, z, w);
-  return Transform(Eigen::Quaterniond(w, x, y, z).normalized().toRotationMatrix(), Vec3(p.position.x, p.position.y, p.position.z));
+  return Transform(Eigen::Quaterniond(w, x, y, z).normalized().toRotationMatrix(),
+                   Vec3(p.position.x, p.position.y, p.position.z));
 }
 
 // One <visual> as the page draws it; false (with *why) when its geometry is none of mesh, box,
 // cylinder, sphere.
-bool visual_of(const urdf::Visual& v, const fs::path& urdf_dir, const std::vector<std::string>& package_paths, ViewVisual* out,
-               std::string* why) {
+bool visual_of(const urdf::Visual& v, const fs::path& urdf_dir, const std::vector<std::string>& package_paths,
+               ViewVisual* out, std::string* why) {
   out->X_BV = pose_of(v.origin);
   if (v.material) {
     const urdf::Color& c = v.material->color;
@@ -122,7 +125,8 @@ bool visual_of(const urdf::Visual& v, const fs::path& urdf_dir, const std::vecto
 
 }  // namespace
 
-ViewVisuals read_view_visuals(const System& sys, const std::string& scene_path, const std::vector<std::string>& package_paths) {
+ViewVisuals read_view_visuals(const System& sys, const std::string& scene_path,
+                              const std::vector<std::string>& package_paths) {
   ViewVisuals vis;
   std::vector<std::pair<std::string, std::string>> placed;
   try {
@@ -140,7 +144,8 @@ ViewVisuals read_view_visuals(const System& sys, const std::string& scene_path, 
     } catch (const std::exception&) {
     }
     if (!model) {
-      vis.warnings.push_back(path + ": visuals not read (urdfdom cannot parse it): links of '" + prefix + "' drawn as capsules");
+      vis.warnings.push_back(path + ": visuals not read (urdfdom cannot parse it): links of '" + prefix +
+                             "' drawn as capsules");
       continue;
     }
     const fs::path dir = fs::path(path).parent_path();
@@ -175,8 +180,9 @@ ViewVisuals read_view_visuals(const System& sys, const std::string& scene_path, 
           continue;
         }
         if (out.kind == "mesh" && out.file.empty())
-          vis.warnings.push_back("mesh '" + out.uri + "' of link '" + out.link + "' (" + path +
-                                 ") not found (searched the URDF's folder, --package-path, ROS_PACKAGE_PATH): drawn as a capsule");
+          vis.warnings.push_back(
+              "mesh '" + out.uri + "' of link '" + out.link + "' (" + path +
+              ") not found (searched the URDF's folder, --package-path, ROS_PACKAGE_PATH): drawn as a capsule");
         out.X_BV = X_BL * out.X_BV;
         if (!slot.count(body)) {
           slot[body] = static_cast<int>(vis.bodies.size());

@@ -3,11 +3,11 @@
 // scale per kind of wrench chosen from the wrenches shown (with zoom and log lengths): in headless
 // Chromium, checked against this process's own reading of the URDF, the mesh files, `coopdyn eval`
 // and the CSV.
+#include <urdf_parser/urdf_parser.h>
+
 #include <cstdint>
 #include <cstring>
 #include <set>
-
-#include <urdf_parser/urdf_parser.h>
 
 #include "tests/clients/view/view_test_util.h"
 
@@ -37,8 +37,8 @@ int scene_page(const std::string& scene, const std::string& html, const std::str
 
 // The PR2 of pr2_box is drawn from its URDF's visuals: every mesh file it names is embedded once and
 // read (STL), and the triangles of the meshes in the page's scene graph are those of the files, once
-// per <visual> that names them (the URDF's boxes and cylinders besides); nothing is left as a capsule and nothing is warned about. The page is of the scene
-// alone (no run).
+// per <visual> that names them (the URDF's boxes and cylinders besides); nothing is left as a capsule and nothing is
+// warned about. The page is of the scene alone (no run).
 TEST(ViewMeshes, Pr2DrawnFromItsMeshes) {
   REQUIRE_BROWSER();
   TempDir dir("pr2mesh");
@@ -79,7 +79,8 @@ TEST(ViewMeshes, Pr2DrawnFromItsMeshes) {
   EXPECT_GT(num_after(vis, "\"triangles\":"), static_cast<double>(triangles)) << "and the boxes and cylinders: " << vis;
   EXPECT_NE(vis.find("\"warnings\":[]"), std::string::npos) << vis;
   EXPECT_EQ(num_after(vis, "\"capsules\":"), 0) << vis;
-  std::fprintf(stderr, "pr2_box: %zu mesh files, %d mesh visuals, %ld triangles\n", files.size(), mesh_visuals, triangles);
+  std::fprintf(stderr, "pr2_box: %zu mesh files, %d mesh visuals, %ld triangles\n", files.size(), mesh_visuals,
+               triangles);
   // the robot is drawn: the canvas is not only the background and the grid
   int lit = 0;
   for (int y = 0; y < b.shot.h; y += 2)
@@ -100,19 +101,26 @@ TEST(ViewMeshes, MissingMeshIsACapsuleWithAWarning) {
     std::ofstream(dir / "bad.stl") << "this is not an STL file\n";
     std::ofstream u(dir / "two.urdf");
     u << R"(<robot name="two">
-  <link name="l0"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
-    <visual><geometry><box size="0.1 0.1 0.1"/></geometry><material name="red"><color rgba="1 0 0 1"/></material></visual></link>
-  <link name="l1"><inertial><origin xyz="0 0 -0.25"/><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+  <link name="l0"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/>
+    </inertial>
+    <visual><geometry><box size="0.1 0.1 0.1"/></geometry><material name="red"><color rgba="1 0 0 1"/></material>
+      </visual></link>
+  <link name="l1"><inertial><origin xyz="0 0 -0.25"/><mass value="1"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
     <visual><geometry><mesh filename="package://nowhere/meshes/upper.stl"/></geometry></visual></link>
-  <link name="l2"><inertial><origin xyz="0 0 -0.25"/><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+  <link name="l2"><inertial><origin xyz="0 0 -0.25"/><mass value="1"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
     <visual><geometry><mesh filename="bad.stl"/></geometry></visual></link>
-  <joint name="j1" type="revolute"><parent link="l0"/><child link="l1"/><origin xyz="0 0 -0.5"/><axis xyz="0 1 0"/><limit effort="100" lower="-3" upper="3" velocity="1"/></joint>
-  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0 0 -0.5"/><axis xyz="0 1 0"/><limit effort="100" lower="-3" upper="3" velocity="1"/></joint>
+  <joint name="j1" type="revolute"><parent link="l0"/><child link="l1"/><origin xyz="0 0 -0.5"/><axis xyz="0 1 0"/>
+    <limit effort="100" lower="-3" upper="3" velocity="1"/></joint>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/><origin xyz="0 0 -0.5"/><axis xyz="0 1 0"/>
+    <limit effort="100" lower="-3" upper="3" velocity="1"/></joint>
 </robot>
 )";
     std::ofstream s(dir / "two.yaml");
     s << "name: two\ngravity: [0, 0, -9.81]\nrobots:\n  two: {urdf: two.urdf}\nbodies:\n"
-         "  - {name: arm, robot: two, parent: world, placement: {xyz: [0, 0, 1]}, root: fixed, q: {j1: 0.5, j2: 0.3}}\n";
+         "  - {name: arm, robot: two, parent: world, placement: {xyz: [0, 0, 1]}, root: fixed, q: {j1: 0.5, j2: "
+         "0.3}}\n";
   }
   std::string err;
   ASSERT_EQ(scene_page(dir / "two.yaml", dir / "t.html", dir / "e", &err), 0) << err;
@@ -141,36 +149,43 @@ TEST(ViewMeshes, ObjAndColladaFromPackagePaths) {
   TempDir dir("objdae");
   fs::create_directories(dir.path / "a" / "pa" / "m");
   fs::create_directories(dir.path / "b" / "pb" / "m");
-  std::ofstream(dir / "a/pa/m/tet.obj") << "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n";
+  std::ofstream(dir / "a/pa/m/tet.obj")
+      << "v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n";
   std::ofstream(dir / "b/pb/m/tri.dae") << R"(<?xml version="1.0"?>
 <COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
   <asset><unit meter="1"/><up_axis>Z_UP</up_axis></asset>
   <library_geometries><geometry id="g"><mesh>
     <source id="p"><float_array id="pa" count="9">0 0 0 0.2 0 0 0 0.2 0</float_array>
-      <technique_common><accessor source="#pa" count="3" stride="3"><param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/></accessor></technique_common></source>
+      <technique_common><accessor source="#pa" count="3" stride="3"><param name="X" type="float"/>
+        <param name="Y" type="float"/><param name="Z" type="float"/></accessor></technique_common></source>
     <vertices id="v"><input semantic="POSITION" source="#p"/></vertices>
     <triangles count="1"><input semantic="VERTEX" source="#v" offset="0"/><p>0 1 2</p></triangles>
   </mesh></geometry></library_geometries>
-  <library_visual_scenes><visual_scene id="s"><node id="n"><instance_geometry url="#g"/></node></visual_scene></library_visual_scenes>
+  <library_visual_scenes><visual_scene id="s"><node id="n"><instance_geometry url="#g"/></node></visual_scene>
+    </library_visual_scenes>
   <scene><instance_visual_scene url="#s"/></scene>
 </COLLADA>
 )";
   {
     std::ofstream u(dir / "r.urdf");
     u << R"(<robot name="r">
-  <link name="l0"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+  <link name="l0"><inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/>
+    </inertial>
     <visual><geometry><mesh filename="package://pa/m/tet.obj" scale="2 2 2"/></geometry></visual></link>
-  <link name="l1"><inertial><origin xyz="0 0 -0.25"/><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+  <link name="l1"><inertial><origin xyz="0 0 -0.25"/><mass value="1"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
     <visual><origin xyz="0 0 -0.3"/><geometry><mesh filename="package://pb/m/tri.dae"/></geometry></visual></link>
-  <joint name="j1" type="revolute"><parent link="l0"/><child link="l1"/><origin xyz="0 0 -0.5"/><axis xyz="0 1 0"/><limit effort="100" lower="-3" upper="3" velocity="1"/></joint>
+  <joint name="j1" type="revolute"><parent link="l0"/><child link="l1"/><origin xyz="0 0 -0.5"/><axis xyz="0 1 0"/>
+    <limit effort="100" lower="-3" upper="3" velocity="1"/></joint>
 </robot>
 )";
-    std::ofstream(dir / "r.yaml") << "name: r\ngravity: [0, 0, -9.81]\nrobots:\n  r: {urdf: r.urdf}\nbodies:\n"
-                                     "  - {name: arm, robot: r, parent: world, placement: {xyz: [0, 0, 1]}, root: fixed, q: {j1: 0.5}}\n";
+    std::ofstream(dir / "r.yaml")
+        << "name: r\ngravity: [0, 0, -9.81]\nrobots:\n  r: {urdf: r.urdf}\nbodies:\n"
+           "  - {name: arm, robot: r, parent: world, placement: {xyz: [0, 0, 1]}, root: fixed, q: {j1: 0.5}}\n";
   }
   std::string err;
-  ASSERT_EQ(run("ROS_PACKAGE_PATH='" + dir / "b" + "' '" + kBin + "' view --scene '" + dir / "r.yaml" + "' --out '" + dir / "r.html" +
-                    "' --package-path '" + dir / "a" + "'",
+  ASSERT_EQ(run("ROS_PACKAGE_PATH='" + dir / "b" + "' '" + kBin + "' view --scene '" + dir / "r.yaml" + "' --out '" +
+                    dir / "r.html" + "' --package-path '" + dir / "a" + "'",
                 dir / "e", &err),
             0)
       << err;
@@ -197,7 +212,9 @@ TEST(ViewScene, RendersWithoutARun) {
   std::string err;
   ASSERT_EQ(scene_page(scene_file("pr2_box"), dir / "h.html", dir / "e", &err, "--hold"), 0) << err;
   ASSERT_EQ(scene_page(scene_file("pr2_box"), dir / "z.html", dir / "e2", &err), 0) << err;
-  ASSERT_EQ(run("'" + kBin + "' eval --hold --scene '" + scene_file("pr2_box") + "' > '" + dir / "eval.json" + "'", dir / "e3"), 0)
+  ASSERT_EQ(run("'" + kBin + "' eval --hold --scene '" + scene_file("pr2_box") + "' > '" + dir / "eval.json" + "'",
+                dir / "e3"),
+            0)
       << slurp(dir / "e3");
   const std::string ev = slurp(dir / "eval.json");
   const System sys = load_scene(scene_file("pr2_box"));
@@ -237,7 +254,8 @@ TEST(ViewScene, RendersWithoutARun) {
     }
     EXPECT_GT(couplings, 0) << "the PR2's finger couplings are listed with their forces";
   }
-  EXPECT_GT(std::abs(zero_norm - hold_norm), 1e-3 * hold_norm) << "zero torque and holding torques give the same grasp force";
+  EXPECT_GT(std::abs(zero_norm - hold_norm), 1e-3 * hold_norm)
+      << "zero torque and holding torques give the same grasp force";
 }
 
 // The arrows' scale follows the wrenches shown: the car driven hard on its left rear wheel (2000 N*m)
@@ -256,12 +274,15 @@ TEST(ViewArrows, ScaleFollowsTheWrenchesShown) {
   std::string err;
   ASSERT_EQ(view(scene_file("four_wheel_car"), dir / "c.csv", dir / "c.html", dir / "e", &err), 0) << err;
   const coopdyn::testing::CsvText table = coopdyn::testing::read_csv_text(dir / "c.csv");
-  auto col = [&](const std::string& n) { return static_cast<size_t>(std::find(table.head.begin(), table.head.end(), n) - table.head.begin()); };
+  auto col = [&](const std::string& n) {
+    return static_cast<size_t>(std::find(table.head.begin(), table.head.end(), n) - table.head.begin());
+  };
   auto fmax = [&](const std::vector<std::string>& names) {  // the largest |f| of these wrenches over the rows
     double m = 0;
     for (const auto& r : table.rows)
       for (const auto& n : names)
-        m = std::max(m, Vec3(std::stod(r[col(n + ".fx")]), std::stod(r[col(n + ".fy")]), std::stod(r[col(n + ".fz")])).norm());
+        m = std::max(
+            m, Vec3(std::stod(r[col(n + ".fx")]), std::stod(r[col(n + ".fy")]), std::stod(r[col(n + ".fz")])).norm());
     return m;
   };
   auto nice_ceil = [](double x) {
@@ -283,7 +304,8 @@ TEST(ViewArrows, ScaleFollowsTheWrenchesShown) {
   const Browse zoomed = browse(browser, dir / "c.html", "t=0.2&paused=1&wrench=fl&zoom=4", false);
   const Browse logged = browse(browser, dir / "c.html", "t=0.2&paused=1&wrench=fl&log=1", false);
   for (const Browse* b : {&all, &one, &zoomed, &logged}) ASSERT_TRUE(b->ok) << b->log.substr(0, 3000);
-  const PageState pa = page_state(all.dom), p1 = page_state(one.dom), pz = page_state(zoomed.dom), pl = page_state(logged.dom);
+  const PageState pa = page_state(all.dom), p1 = page_state(one.dom), pz = page_state(zoomed.dom),
+                  pl = page_state(logged.dom);
   const double size = num_after(pa.probe, "\"size\":");
   ASSERT_GT(size, 0);
   const std::string at = "{\"name\":\"fl\",\"group\"";
@@ -291,7 +313,8 @@ TEST(ViewArrows, ScaleFollowsTheWrenchesShown) {
   EXPECT_EQ(s_all, nice_ceil(fmax(wheel_wrenches) / (0.4 * size))) << pa.probe;
   EXPECT_EQ(s_one, nice_ceil(fmax({"fl"}) / (0.4 * size))) << p1.probe;
   EXPECT_LT(s_one, s_all) << "the scale did not follow the wrenches shown";
-  EXPECT_NE(one.dom.find("<span id=\"fscale\">1 m = " + between(p1.probe, "\"force_scale\":", ",") + " N</span>"), std::string::npos);
+  EXPECT_NE(one.dom.find("<span id=\"fscale\">1 m = " + between(p1.probe, "\"force_scale\":", ",") + " N</span>"),
+            std::string::npos);
   EXPECT_EQ(p1.force_scale, s_one);
 
   // the arrow's length: |f| / scale, x4 zoomed, log
