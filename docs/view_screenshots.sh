@@ -5,9 +5,12 @@
 # plot of arm1's end-effector wrench in two_puma_load at 0.7 s; and its +-sigma bands (at the arrows
 # and in its plot) under declared torque noise (exaggerated, 20 N m on every joint, so that they
 # show at the arrows' scale).
-#   bash docs/view_screenshots.sh [build/bin] [docs/views]
+# The PR2 and the TIAGo Pro are drawn with their meshes (the TIAGo Pro's after
+# bash config/robots/fetch_meshes.sh). A third argument, scene names separated by commas, makes only
+# those scenes' screenshots.
+#   bash docs/view_screenshots.sh [build/bin] [docs/views] [SCENE,...]
 set -euo pipefail
-bin=${1:-build/bin}; out=${2:-docs/views}
+bin=${1:-build/bin}; out=${2:-docs/views}; only=${3:-}
 mkdir -p "$out"
 bin=$(cd "$bin" && pwd); out=$(cd "$out" && pwd); here=$(pwd)
 chromium=$(command -v chromium || command -v chromium-browser)
@@ -21,6 +24,7 @@ declare -A torque=(
 )
 for f in config/scenes/*.yaml; do
   s=$(basename "$f" .yaml)
+  if [ -n "$only" ] && [[ ",$only," != *",$s,"* ]]; then continue; fi
   # shellcheck disable=SC2086
   "$bin/coopdyn" sim --scene "$f" --duration 1 --dt 0.001 ${torque[$s]:-} --out "$tmp/$s.csv" 2>/dev/null
   # the page names its CSV: a relative name, not this machine's temporary folder
@@ -30,6 +34,7 @@ for f in config/scenes/*.yaml; do
     --virtual-time-budget=3000 --screenshot="$out/view_$s.png" "file://$tmp/$s.html#t=0.5&paused=1" 2>/dev/null
   echo "$out/view_$s.png"
 done
+[ -z "$only" ] || exit 0
 # the plot of a selected wrench: arm1's end-effector wrench of the falling arms (docs/guide/viewer.md)
 timeout 120 "$chromium" --headless --no-sandbox --disable-gpu --use-angle=swiftshader --enable-unsafe-swiftshader \
   --hide-scrollbars --mute-audio --no-first-run --user-data-dir="$tmp/profile" --window-size=1100,600 \

@@ -105,6 +105,9 @@ struct ViewArgs : SceneArgs {
   double rate = 50;
   int queue = 32;
   std::string three_js = "/usr/share/javascript/three/three.min.js";
+  std::vector<std::string> package_path;  // where package://NAME/... meshes are looked for
+  bool hold = false;                      // --scene alone: the wrenches with the holding torques
+  bool capsules = false;                  // links as capsules, the URDFs' visuals not drawn
 };
 
 struct BenchArgs : SceneArgs {

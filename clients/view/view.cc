@@ -2,9 +2,11 @@
 #include "clients/view/view.h"
 
 #include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -16,11 +18,14 @@
 
 #include "clients/cli/cli.h"
 #include "clients/cli/common.h"
+#include "clients/cli/scene_load.h"
 #include "clients/csv/step_csv.h"
 #include "service/algorithms/kinematics.h"
 #include "service/constraints/constraints.h"
+#include "service/dynamics/constrained_dynamics.h"
 #include "service/dynamics/contacts.h"
 #include "service/dynamics/joint_limits.h"
+#include "service/dynamics/holding_torque.h"
 #include "service/dynamics/wrench_components.h"
 #include "service/dynamics/wrenches.h"
 #include "service/scene/scene.h"
@@ -44,9 +49,10 @@ Mat3 y_to(const Vec3& a) {
 
 }  // namespace
 
-ViewFrames view_geometry(const System& sys) {
+ViewFrames view_geometry(const System& sys, const ViewVisuals* vis) {
   ViewFrames out;
   ViewFrames* vf = &out;
+  if (vis) out.visuals = *vis;
   const Model& m = sys.model;
   std::vector<char> is_shape(m.nbodies(), 0);
   for (const ConstraintSpec& c : sys.constraints.specs) {
@@ -131,6 +137,19 @@ ViewFrames view_geometry(const System& sys) {
     p.unit = m.bodies[p.body].joint.type == JointType::kPrismatic ? "N" : "N*m";
     vf->pseudos.push_back(p);
   }
+  // then each joint coupling (<mimic>): its force on the mimicking joint, in Workspace::stress's order
+  for (int k = static_cast<int>(m.pseudo_dofs.size()); k < num_stresses(sys); ++k) {
+    const std::string name = stress_name(sys, k);
+    const auto it = std::find(m.v_names.begin(), m.v_names.end(), name);
+    if (it == m.v_names.end()) break;
+    ViewFrames::Pseudo p;
+    p.dof = static_cast<int>(it - m.v_names.begin());
+    p.body = m.dof_body[p.dof];
+    p.name = name;
+    p.unit = stress_unit(sys, k);
+    p.coupling = true;
+    vf->pseudos.push_back(p);
+  }
   return out;
 }
 
@@ -139,6 +158,7 @@ void ViewFrames::clear_frames() {
   status.clear();
   shape_pose.clear();
   seg_ends.clear();
+  body_pose.clear();
   wrench_W.clear();
   wrench_F.clear();
   wrench_sigma.clear();
@@ -162,7 +182,12 @@ void add_view_frame(const System& sys, Data& data, ViewSample& row, ViewFrames* 
   forward_kinematics(m, data, row.q, v0);
   vf->t.push_back(row.t);
   vf->status.push_back(row.status);
-  std::vector<double> sp, se, ww, wr;
+  std::vector<double> sp, se, ww, wr, bp;
+  for (int b : vf->visuals.bodies) {
+    const Transform& X = data.X_WB[b];
+    const Eigen::Quaterniond qq(X.R);
+    bp.insert(bp.end(), {X.p.x(), X.p.y(), X.p.z(), qq.x(), qq.y(), qq.z(), qq.w()});
+  }
   const size_t nw = vf->wrenches.size();
   const bool has_sigma = row.sigma.size() == nw && nw > 0, has_bound = row.bound.size() == nw && nw > 0;
   for (const auto& s : vf->shapes) {
@@ -211,6 +236,7 @@ void add_view_frame(const System& sys, Data& data, ViewSample& row, ViewFrames* 
   vf->contact_state.push_back(contacts_known ? row.contact_state : std::vector<int>{});
   vf->shape_pose.push_back(std::move(sp));
   vf->seg_ends.push_back(std::move(se));
+  vf->body_pose.push_back(std::move(bp));
   vf->wrench_W.push_back(std::move(ww));
   vf->pseudo_p.push_back(std::move(pp));
   // the pseudo-joints' stresses lead (joint couplings' follow; the view draws the pseudo-joints')
@@ -223,8 +249,8 @@ void add_view_frame(const System& sys, Data& data, ViewSample& row, ViewFrames* 
   vf->note.push_back(row.note);
 }
 
-ViewFrames view_frames_of(const System& sys, std::vector<ViewSample>& rows, int max_frames) {
-  ViewFrames vf = view_geometry(sys);
+ViewFrames view_frames_of(const System& sys, std::vector<ViewSample>& rows, int max_frames, const ViewVisuals* vis) {
+  ViewFrames vf = view_geometry(sys, vis);
   // evenly spaced rows, the first and the last always
   const size_t n = rows.size(), keep = std::min(n, static_cast<size_t>(std::max(2, max_frames)));
   std::vector<size_t> pick;
@@ -251,7 +277,7 @@ std::vector<std::array<int, 6>> wrench_columns(const System& sys, const ViewFram
 }
 }  // namespace
 
-ViewFrames read_view_frames(const System& sys, const std::string& path, int max_frames) {
+ViewFrames read_view_frames(const System& sys, const std::string& path, int max_frames, const ViewVisuals* vis) {
   const Model& m = sys.model;
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot open '" + path + "'");
@@ -352,7 +378,7 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
     rows.push_back(std::move(r));
   }
   if (rows.empty()) throw std::runtime_error(path + ": no rows after the header");
-  return view_frames_of(sys, rows, max_frames);
+  return view_frames_of(sys, rows, max_frames, vis);
 }
 
 namespace {
@@ -423,6 +449,8 @@ std::string view_frame_json(const ViewFrames& vf, size_t i) {
   jvec(d, vf.shape_pose[i].data(), vf.shape_pose[i].size());
   d += ",\"seg\":";
   jvec(d, vf.seg_ends[i].data(), vf.seg_ends[i].size());
+  d += ",\"bp\":";
+  jvec(d, vf.body_pose[i].data(), vf.body_pose[i].size(), "%.9g");
   d += ",\"w\":";
   jvec(d, vf.wrench_W[i].data(), vf.wrench_W[i].size());
   d += ",\"pj\":";
@@ -660,7 +688,74 @@ void append_parts_json(std::string& d, const System& sys, const ViewFrames& vf) 
   }
   d += "],\"pseudos\":[";
   for (size_t k = 0; k < vf.pseudos.size(); ++k)
-    d += (k ? ",{\"name\":" : "{\"name\":") + json_string(vf.pseudos[k].name) + ",\"unit\":" + json_string(vf.pseudos[k].unit) + "}";
+    d += (k ? ",{\"name\":" : "{\"name\":") + json_string(vf.pseudos[k].name) + ",\"unit\":" + json_string(vf.pseudos[k].unit) +
+         ",\"coupling\":" + (vf.pseudos[k].coupling ? "true}" : "false}");
+}
+
+std::string base64(const std::string& in) {
+  static const char* k = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((in.size() + 2) / 3 * 4);
+  for (size_t i = 0; i < in.size(); i += 3) {
+    const unsigned n = static_cast<unsigned char>(in[i]) << 16 |
+                       (i + 1 < in.size() ? static_cast<unsigned char>(in[i + 1]) << 8 : 0u) |
+                       (i + 2 < in.size() ? static_cast<unsigned char>(in[i + 2]) : 0u);
+    out += k[n >> 18 & 63];
+    out += k[n >> 12 & 63];
+    out += i + 1 < in.size() ? k[n >> 6 & 63] : '=';
+    out += i + 2 < in.size() ? k[n & 63] : '=';
+  }
+  return out;
+}
+
+// "visuals", "vbodies", "meshes" (each mesh file once, base64) and "seg_vb" (each segment's body
+// among vbodies, -1: none, -2: a link the URDF draws nothing for; the page hides the capsule of a
+// body whose visuals all drew, and of -2).
+void append_visuals_json(std::string& d, const System& sys, const ViewFrames& vf) {
+  const ViewVisuals& vis = vf.visuals;
+  std::map<std::string, int> mesh_of;
+  std::vector<std::string> files;
+  d += "],\"visuals\":[";
+  for (size_t k = 0; k < vis.visuals.size(); ++k) {
+    const ViewVisual& v = vis.visuals[k];
+    int mesh = -1;
+    if (!v.file.empty()) {
+      auto it = mesh_of.find(v.file);
+      if (it == mesh_of.end()) it = mesh_of.emplace(v.file, static_cast<int>(files.size())).first, files.push_back(v.file);
+      mesh = it->second;
+    }
+    const Eigen::Quaterniond q(v.X_BV.R);
+    const double X[7] = {v.X_BV.p.x(), v.X_BV.p.y(), v.X_BV.p.z(), q.x(), q.y(), q.z(), q.w()};
+    d += (k ? ",{\"link\":" : "{\"link\":") + json_string(v.link) + ",\"kind\":" + json_string(v.kind) + ",\"uri\":" +
+         json_string(v.uri) + ",\"body\":" + std::to_string(v.body) + ",\"mesh\":" + std::to_string(mesh) + ",\"X\":";
+    jvec(d, X, 7, "%.9g");
+    d += ",\"size\":";
+    jvec(d, v.size.data(), 3, "%.9g");
+    d += ",\"scale\":";
+    jvec(d, v.scale.data(), 3, "%.9g");
+    d += ",\"rgba\":";
+    jvec(d, v.rgba.data(), 4, "%.4g");
+    d += "}";
+  }
+  d += "],\"vbodies\":[";
+  for (size_t b = 0; b < vis.bodies.size(); ++b) d += (b ? "," : "") + json_string(sys.model.bodies[vis.bodies[b]].name);
+  d += "],\"meshes\":[";
+  for (size_t f = 0; f < files.size(); ++f) {
+    std::ifstream in(files[f], std::ios::binary);
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    std::string ext = std::filesystem::path(files[f]).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    d += (f ? ",{\"file\":" : "{\"file\":") + json_string(files[f]) + ",\"ext\":" + json_string(ext) + ",\"data\":\"" +
+         (in ? base64(ss.str()) : std::string()) + "\"}";
+  }
+  d += "],\"seg_vb\":[";
+  for (size_t s = 0; s < vf.segments.size(); ++s) {
+    const int body = vf.segments[s].body_b;
+    const auto it = std::find(vis.bodies.begin(), vis.bodies.end(), body);
+    const bool bare = std::find(vis.bare.begin(), vis.bare.end(), body) != vis.bare.end();
+    d += (s ? "," : "") + std::to_string(it != vis.bodies.end() ? static_cast<int>(it - vis.bodies.begin()) : bare ? -2 : -1);
+  }
 }
 
 // "t" .. "contact_state": one array over the frames per key.
@@ -679,6 +774,7 @@ void append_frames_json(std::string& d, const ViewFrames& vf) {
   };
   per_frame("],\"shape_pose\":[", [&](size_t i) { jvec(d, vf.shape_pose[i].data(), vf.shape_pose[i].size()); });
   per_frame("],\"seg\":[", [&](size_t i) { jvec(d, vf.seg_ends[i].data(), vf.seg_ends[i].size()); });
+  per_frame("],\"bp\":[", [&](size_t i) { jvec(d, vf.body_pose[i].data(), vf.body_pose[i].size(), "%.9g"); });
   per_frame("],\"wrench\":[", [&](size_t i) { jvec(d, vf.wrench_W[i].data(), vf.wrench_W[i].size()); });
   per_frame("],\"pj\":[", [&](size_t i) { jvec(d, vf.pseudo_p[i].data(), vf.pseudo_p[i].size()); });
   per_frame("],\"stress\":[", [&](size_t i) { jvec(d, vf.stress[i].data(), vf.stress[i].size(), "%.9g"); });
@@ -697,21 +793,24 @@ void append_frames_json(std::string& d, const ViewFrames& vf) {
 }
 
 // The page template with the data, three.js and the plot's script in their places.
-std::string fill_page(const std::string& data, const std::string& three_js) {
+std::string fill_page(const std::string& data, const std::string& three_js, const std::string& loaders) {
   // three.js inline: a "</script" in it would end the element early
-  std::string js = three_js;
-  for (size_t at = 0; (at = js.find("</script", at)) != std::string::npos; at += 2) js.replace(at, 2, "<\\/");
+  auto inline_js = [](std::string js) {
+    for (size_t at = 0; (at = js.find("</script", at)) != std::string::npos; at += 2) js.replace(at, 2, "<\\/");
+    return js;
+  };
   std::string page = kPage;
   page = replace_once(page, "/*@VIEW_DATA@*/", data);
   page = replace_once(page, "/*@PLOT_JS@*/", kPlotJs);
-  page = replace_once(page, "/*@THREE_JS@*/", js);
+  page = replace_once(page, "/*@LOADERS_JS@*/", inline_js(loaders));
+  page = replace_once(page, "/*@THREE_JS@*/", inline_js(three_js));
   return page;
 }
 
 }  // namespace
 
 std::string view_page(const System& sys, const ViewFrames& vf, const std::string& three_js, const std::string& source,
-                      bool live) {
+                      bool live, const std::string& loaders) {
   const PageLayout layout = page_layout(sys, vf);
   std::string d;
   d.reserve(vf.t.size() * (vf.shapes.size() * 7 + vf.segments.size() * 6 + vf.wrenches.size() * 9) * 11 + 4096);
@@ -719,8 +818,10 @@ std::string view_page(const System& sys, const ViewFrames& vf, const std::string
        ",\"size\":";
   append_layout_json(d, layout);
   append_parts_json(d, sys, vf);
+  append_visuals_json(d, sys, vf);
   append_frames_json(d, vf);
-  return fill_page(d, three_js);
+  const bool meshes = std::any_of(vf.visuals.visuals.begin(), vf.visuals.visuals.end(), [](const ViewVisual& v) { return !v.file.empty(); });
+  return fill_page(d, three_js, meshes ? loaders : std::string());
 }
 
 bool read_three_js(const std::string& three_path, std::string* three) {
@@ -742,6 +843,62 @@ bool read_three_js(const std::string& three_path, std::string* three) {
   return true;
 }
 
+std::string read_three_loaders(const std::string& three_path, std::string* why) {
+  // three.min.js beside examples/ (Debian's /usr/share/javascript/three/) or in build/ beside it
+  const std::filesystem::path up = std::filesystem::path(three_path).parent_path();
+  std::filesystem::path dir = up / "examples" / "js" / "loaders";
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir, ec)) dir = up.parent_path() / "examples" / "js" / "loaders";
+  std::string out;
+  for (const char* name : {"STLLoader.js", "ColladaLoader.js", "OBJLoader.js"}) {
+    std::ifstream f(dir / name, std::ios::binary);
+    if (!f) {
+      *why = "three.js's " + std::string(name) + " not found in '" + dir.string() +
+             "' (Debian: apt-get install libjs-three): meshes drawn as capsules";
+      return "";
+    }
+    std::ostringstream ss;
+    ss << f.rdbuf();
+    out += ss.str() + "\n";
+  }
+  return out;
+}
+
+namespace {
+// --scene alone: the scene's initial state, at rest, with zero torque or (hold) the holding torques,
+// evaluated once: its wrenches, status, stresses and contact report as the daemon would publish them.
+bool scene_sample(const System& sys, const ViewFrames& geo, bool hold, ViewSample* s) {
+  Eigen::VectorXd q = sys.q0, v = Eigen::VectorXd::Zero(sys.model.nv()), tau = Eigen::VectorXd::Zero(sys.model.nv());
+  if (hold) {
+    HoldWorkspace hw(sys, default_actuated(sys));
+    Eigen::VectorXd th(sys.model.nv());
+    bool said = false;
+    if (!holding_torques("view", sys, hw, q, v, th, &said)) return false;
+    tau += th;
+  }
+  Workspace ws(sys);
+  const Diagnostics& d = evaluate(sys, ws, q, v, tau);
+  WrenchData wd(sys);
+  compute_wrenches(sys, ws, wd);
+  s->t = 0;
+  s->status = status_name(d.status);
+  s->q = q;
+  for (int k : geo.wrenches) {
+    s->w.push_back(wd.W[static_cast<size_t>(k)]);
+    s->indet.push_back(wd.indeterminate[static_cast<size_t>(k)]);
+  }
+  s->stress.assign(ws.stress.data(), ws.stress.data() + ws.stress.size());
+  ContactData cts(sys);
+  compute_contacts(sys, ws, cts);
+  for (size_t k = 0; k < geo.contacts.size(); ++k) {
+    s->contact_u.push_back(cts.utilisation[k]);
+    s->contact_u.push_back(cts.friction_needed[k]);
+    s->contact_state.push_back(static_cast<int>(cts.state[k]));
+  }
+  return true;
+}
+}  // namespace
+
 void register_view(Cli& cli) {
   auto [c, a] = cli.add("view", cmd_view);
   scene_options(c, a, true);
@@ -761,14 +918,22 @@ void register_view(Cli& cli) {
   number(c, "--queue", a.queue, "N", "--live: frames queued per client at most; a client that falls behind loses the oldest",
          Default::kShown);
   value(c, "--three-js", a.three_js, "FILE", "three.js to inline (Debian libjs-three)", Default::kShown);
+  flag(c, "--capsules", a.capsules, "draw links as capsules, not the URDFs' <visual>s (a smaller page)");
+  flag(c, "--hold", a.hold, "without a run: the wrenches with the holding torques (default: zero torque)");
+  repeated(c, "--package-path", a.package_path, "DIR",
+           "where a URDF's package://NAME/... meshes are found (as DIR/NAME/...; also the URDF's folder and ROS_PACKAGE_PATH)");
 }
 
 int cmd_view(const ViewArgs& a) {
   const int sources = a.csv.has_value() + a.log.has_value() + a.live;
-  if (sources != 1 || (!a.live && !a.out)) {
+  if (sources > 1 || (!a.live && !a.out)) {
     std::fprintf(stderr,
-                 "coopdyn view: --scene FILE and one of --csv SIM.csv --out VIEW.html, --log RUN.lcmlog --out VIEW.html "
-                 "or --live are required\n");
+                 "coopdyn view: --scene FILE and one of --out VIEW.html (the scene alone), --csv SIM.csv --out VIEW.html, "
+                 "--log RUN.lcmlog --out VIEW.html or --live are required\n");
+    return 2;
+  }
+  if (a.hold && sources) {
+    std::fprintf(stderr, "coopdyn view: --hold is for the scene alone (without --csv, --log or --live)\n");
     return 2;
   }
   System sys;
@@ -780,6 +945,14 @@ int cmd_view(const ViewArgs& a) {
   }
   std::string three;
   if (!read_three_js(a.three_js, &three)) return 1;
+  // the robots' own visuals: what cannot be drawn is said once, and drawn as a capsule
+  const ViewVisuals vis = a.capsules ? ViewVisuals{} : read_view_visuals(sys, *a.scene, a.package_path);
+  for (const std::string& w : vis.warnings) std::fprintf(stderr, "coopdyn view: warning: %s\n", w.c_str());
+  std::string loaders, why;
+  if (std::any_of(vis.visuals.begin(), vis.visuals.end(), [](const ViewVisual& v) { return !v.file.empty(); })) {
+    loaders = read_three_loaders(a.three_js, &why);
+    if (!why.empty()) std::fprintf(stderr, "coopdyn view: warning: %s\n", why.c_str());
+  }
   const std::string channel = a.channel;
   if (a.live) {
     const double rate = a.rate;
@@ -788,7 +961,7 @@ int cmd_view(const ViewArgs& a) {
       std::fprintf(stderr, "coopdyn view: --rate must be > 0 and --queue >= 1\n");
       return 2;
     }
-    return run_view_live(sys, three, a.listen, a.lcm_url, channel,
+    return run_view_live(sys, vis, three, loaders, a.listen, a.lcm_url, channel,
                          rate, queue);
   }
   std::string page;
@@ -797,13 +970,20 @@ int cmd_view(const ViewArgs& a) {
     std::string source;
     if (a.csv) {
       source = *a.csv;
-      vf = read_view_frames(sys, source, max_frames);
+      vf = read_view_frames(sys, source, max_frames, &vis);
+    } else if (!a.log) {
+      source = std::string("the scene at rest, ") + (a.hold ? "holding torques" : "zero torque");
+      vf = view_geometry(sys, &vis);
+      ViewSample s;
+      if (!scene_sample(sys, vf, a.hold, &s)) return 1;
+      Data data(sys.model);
+      add_view_frame(sys, data, s, &vf);
     } else {
       source = *a.log;
       std::vector<ViewSample> samples = read_log_samples(sys, source, channel);
-      vf = view_frames_of(sys, samples, max_frames);
+      vf = view_frames_of(sys, samples, max_frames, &vis);
     }
-    page = view_page(sys, vf, three, source);
+    page = view_page(sys, vf, three, source, false, loaders);
     std::fprintf(stderr, "coopdyn view: %zu frames (t %g .. %g s), %zu shapes, %zu links, %zu wrenches\n", vf.t.size(),
                  vf.t.front(), vf.t.back(), vf.shapes.size(), vf.segments.size(), vf.wrenches.size());
   } catch (const std::runtime_error& e) {

@@ -16,6 +16,29 @@ struct DecodedOutput;
 
 namespace coopdyn::cli {
 
+// A <visual> of a URDF link placed in the scene (clients/view/view_visuals.cc).
+struct ViewVisual {
+  std::string link;           // PREFIX.LINK, the model's name of its link
+  std::string kind;           // "mesh" | "box" | "cylinder" | "sphere"
+  std::string uri, file;      // mesh: the filename as the URDF gives it; the file found ("" none: a capsule)
+  int body = -1;              // index into ViewVisuals::bodies
+  Transform X_BV;             // the visual's frame in its body's frame (<origin>, a fixed link's place)
+  Vec3 size = Vec3::Zero();   // box: edges; cylinder: (radius, length, 0) along z; sphere: (radius, 0, 0)
+  Vec3 scale = Vec3::Ones();  // mesh: <mesh scale>
+  std::array<double, 4> rgba = {-1, 0, 0, 0};  // <material><color>; rgba[0] < 0: none given
+};
+struct ViewVisuals {
+  std::vector<int> bodies;    // the model's bodies that carry visuals
+  std::vector<ViewVisual> visuals;
+  std::vector<std::string> warnings;  // what is not drawn as the URDF says (a missing mesh: its file and link)
+  std::vector<int> bare;      // bodies of links without a <visual> in a robot drawn by its visuals (at least
+                              // half its links with mass have one): no capsule
+};
+// The visuals of every robot the scene at scene_path places (its `bodies` and `arms` with a `robot`
+// whose `urdf` is given), meshes resolved from the URDF's folder, package_paths and ROS_PACKAGE_PATH
+// (package://NAME/REST as DIR/NAME/REST). Never throws: what cannot be read is a warning.
+ViewVisuals read_view_visuals(const System& sys, const std::string& scene_path, const std::vector<std::string>& package_paths);
+
 // What the page draws, in world coordinates.
 struct ViewFrames {
   struct Shape {  // a load (box sized from its inertia) or a wheel (disk)
@@ -34,6 +57,7 @@ struct ViewFrames {
     std::string name, unit;  // the joint's name; "N*m" (revolute) or "N" (prismatic)
     int body = -1;           // the body after the joint: its origin is the joint's place
     int dof = -1;            // velocity index
+    bool coupling = false;   // a joint coupling (<mimic>): its force on the mimicking joint, the joint's place
   };
   struct Contact {  // a wheel's rolling contact (service/dynamics/contacts.h), in constraint order
     std::string name;  // the rolling constraint's name (its wrench's, its CSV columns' NAME.*)
@@ -47,15 +71,17 @@ struct ViewFrames {
   };
   std::vector<Shape> shapes;
   std::vector<Segment> segments;
-  std::vector<Pseudo> pseudos;
+  std::vector<Pseudo> pseudos;  // the pseudo-joints, then the joint couplings (Workspace::stress's order)
   std::vector<Contact> contacts;
   std::vector<Ground> grounds;  // the distinct planes of the contacts (none without wheels)
   std::vector<int> wrenches;  // the outputs drawn as arrows (every one but the joint reactions)
+  ViewVisuals visuals;        // the URDFs' visuals; none: links drawn as capsules
   // per frame
   std::vector<double> t;
   std::vector<std::string> status;
   std::vector<std::vector<double>> shape_pose;  // 7 per shape: position, quaternion x y z w
   std::vector<std::vector<double>> seg_ends;    // 6 per segment: both ends
+  std::vector<std::vector<double>> body_pose;   // 7 per body of visuals.bodies: position, quaternion x y z w
   std::vector<std::vector<double>> wrench_W;    // 9 per drawn wrench: origin, force, moment (world)
   std::vector<std::vector<double>> wrench_F;    // 6 per drawn wrench: [moment; force] in its report frame,
                                                 // the source's numbers (the page's plot)
@@ -104,18 +130,19 @@ struct ViewSample {
 };
 
 // The shapes, links and drawn wrenches of the scene, no frames yet.
-ViewFrames view_geometry(const System& sys);
+// `vis`: the visuals to draw (copied), whose bodies' poses every frame then carries.
+ViewFrames view_geometry(const System& sys, const ViewVisuals* vis = nullptr);
 // Appends the frame of sample s to vf (normalises s.q). `data` is a workspace of sys.model.
 void add_view_frame(const System& sys, Data& data, ViewSample& s, ViewFrames* vf);
 // At most max_frames of the samples (evenly, the first and the last always), with their geometry.
-ViewFrames view_frames_of(const System& sys, std::vector<ViewSample>& samples, int max_frames);
+ViewFrames view_frames_of(const System& sys, std::vector<ViewSample>& samples, int max_frames, const ViewVisuals* vis = nullptr);
 // Frame i as the JSON object the live page appends: {"t":..,"status":..,"sp":[..],"seg":[..],"w":[..],..}.
 std::string view_frame_json(const ViewFrames& vf, size_t i);
 
 // Reads a `coopdyn sim` CSV written for `sys`: keeps at most max_frames rows (evenly, the first and
 // the last always) and computes their geometry. Throws std::runtime_error naming the file on a
 // missing column, a column of another scene, a malformed row or no rows.
-ViewFrames read_view_frames(const System& sys, const std::string& csv_path, int max_frames);
+ViewFrames read_view_frames(const System& sys, const std::string& csv_path, int max_frames, const ViewVisuals* vis = nullptr);
 
 // The sample of one output_t of coopdynd running `sys` (`geo`: view_geometry(sys)): time, status,
 // q, the drawn wrenches, the stresses, the indeterminate components and the free directions. An
@@ -137,14 +164,20 @@ std::vector<ViewSample> read_log_samples(const System& sys, const std::string& l
 // The page: `three_js` is the text of three.min.js, inlined; `source` names the run (the file). A
 // live page (live = true) has vf's frames as a placeholder, opens a WebSocket to the server it was
 // loaded from and appends the frames it receives.
+// `loaders`: the text of three.js's STLLoader, ColladaLoader and OBJLoader (read_three_loaders), inlined
+// when a visual has a mesh; the mesh files are embedded (base64), so the page stays one file.
 std::string view_page(const System& sys, const ViewFrames& vf, const std::string& three_js,
-                      const std::string& source, bool live = false);
+                      const std::string& source, bool live = false, const std::string& loaders = "");
+// three.js's mesh loaders beside three_js_path (../examples/js/loaders/, Debian libjs-three); "" and a
+// warning in *why when one is missing.
+std::string read_three_loaders(const std::string& three_js_path, std::string* why);
 
 // Reads and checks three.js; prints the reason (naming the file) and returns false when it cannot.
 bool read_three_js(const std::string& path, std::string* text);
 
 // coopdyn view --live (clients/view/view_live.cc): serves the live page and a WebSocket of frames.
-int run_view_live(const System& sys, const std::string& three_js, const std::string& listen,
+int run_view_live(const System& sys, const ViewVisuals& vis, const std::string& three_js, const std::string& loaders,
+                  const std::string& listen,
                   const std::string& lcm_url, const std::string& channel, double max_rate_hz, int queue_frames);
 
 }  // namespace coopdyn::cli

@@ -74,8 +74,9 @@ bool parse_listen(const std::string& listen, std::string* host, std::string* por
 }
 
 // The page: the scene at its initial state stands in until the first frame arrives.
-std::string live_page(const System& sys, const std::string& three_js, const std::string& source) {
-  ViewFrames vf = view_geometry(sys);
+std::string live_page(const System& sys, const ViewVisuals& vis, const std::string& three_js, const std::string& loaders,
+                      const std::string& source) {
+  ViewFrames vf = view_geometry(sys, &vis);
   Data data(sys.model);
   ViewSample s0;
   s0.t = 0;
@@ -83,7 +84,7 @@ std::string live_page(const System& sys, const std::string& three_js, const std:
   s0.q = sys.q0;
   s0.w.assign(vf.wrenches.size(), Vec6::Zero());
   add_view_frame(sys, data, s0, &vf);
-  return view_page(sys, vf, three_js, source, true);
+  return view_page(sys, vf, three_js, source, true, loaders);
 }
 
 // The server thread's state, and the inbox the LCM thread fills.
@@ -221,8 +222,8 @@ struct LiveServer {
 // The LCM receive thread's own state: each output taken (at most max_rate_hz) becomes a frame's
 // JSON in the server's inbox.
 struct FrameMaker {
-  FrameMaker(const System& sys_, const std::string& channel_, double max_rate_hz, LiveServer& live_)
-      : sys(sys_), channel(channel_), live(live_), vf(view_geometry(sys_)), data(sys_.model),
+  FrameMaker(const System& sys_, const ViewVisuals& vis, const std::string& channel_, double max_rate_hz, LiveServer& live_)
+      : sys(sys_), channel(channel_), live(live_), vf(view_geometry(sys_, &vis)), data(sys_.model),
         min_gap_ns(static_cast<long long>(1e9 / max_rate_hz)) {}
 
   const System& sys;
@@ -266,11 +267,12 @@ struct FrameMaker {
 
 }  // namespace
 
-int run_view_live(const System& sys, const std::string& three_js, const std::string& listen, const std::string& lcm_url,
-                  const std::string& channel, double max_rate_hz, int queue_frames) {
+int run_view_live(const System& sys, const ViewVisuals& vis, const std::string& three_js, const std::string& loaders,
+                  const std::string& listen, const std::string& lcm_url, const std::string& channel, double max_rate_hz,
+                  int queue_frames) {
   std::string host, port;
   if (!parse_listen(listen, &host, &port)) return 2;
-  LiveServer live(static_cast<size_t>(queue_frames), live_page(sys, three_js, "live: " + channel + " on " + lcm_url));
+  LiveServer live(static_cast<size_t>(queue_frames), live_page(sys, vis, three_js, loaders, "live: " + channel + " on " + lcm_url));
   Server& server = live.server;
   if (!live.start()) return 1;
   live.set_handlers();
@@ -286,7 +288,7 @@ int run_view_live(const System& sys, const std::string& three_js, const std::str
     std::fprintf(stderr, "coopdyn view: %s\n", e.what());
     return 1;
   }
-  FrameMaker frames(sys, channel, max_rate_hz, live);
+  FrameMaker frames(sys, vis, channel, max_rate_hz, live);
   bus->subscribe(channel, [&](const void* d, int n, long long recv_ns) { frames.on_output(d, n, recv_ns); });
 
   asio::signal_set stop_signals(server.get_io_service(), SIGINT, SIGTERM);

@@ -4,7 +4,8 @@
 #include "clients/view/view.h"
 
 namespace coopdyn::cli {
-int run_view_live(const System&, const std::string&, const std::string&, const std::string&, const std::string&, double, int) {
+int run_view_live(const System&, const ViewVisuals&, const std::string&, const std::string&, const std::string&, const std::string&,
+                  const std::string&, double, int) {
   std::fprintf(stderr,
                "coopdyn view: --live is not in this build: it needs websocketpp and standalone asio (Debian: apt-get install "
                "libwebsocketpp-dev libasio-dev), then cmake again\n");

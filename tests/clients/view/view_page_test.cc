@@ -137,7 +137,7 @@ TEST(ViewBrowser, TimeSliderChangesFrame) {
     EXPECT_EQ(p.time_text, text);
     const WorldForce wf = world_force(sys, dir / "u.csv", t, "wheel");
     EXPECT_NEAR(wf.force.z(), 3 * 9.81, 0.5);  // the wheel's weight, up, at the contact point
-    const Eigen::Vector2d o = project(p, wf.origin), tip = project(p, wf.origin + wf.force / p.force_scale);
+    const Eigen::Vector2d o = project(p, wf.origin), tip = project(p, wf.origin + wf.force / wrench_scale(p.probe, "wheel"));
     expect_arrow_at(br.shot, p, o, tip, "wheel at frame " + std::to_string(frame));
     tips.push_back(tip);
     const int cyan = count_in_canvas(br.shot, p, is_moment_colour);
@@ -359,7 +359,6 @@ TEST(ViewPlot, ClickedWrenchPlottedWithACursorOnTheSlider) {
   ASSERT_EQ(pa.title, "coopdyn view: two_puma_load");
   EXPECT_EQ(pa.probe.find("\"plot\":null") != std::string::npos, true) << "no plot before a wrench is picked";
   // a point on arm1.ee's force arrow 8 px or more from every other arrow drawn
-  const double moment_scale = num_after(pa.probe, "\"moment_scale\":");
   auto seg_dist = [](const Eigen::Vector2d& x, const Eigen::Vector2d& a0, const Eigen::Vector2d& a1) {
     const Eigen::Vector2d d = a1 - a0;
     const double s = d.squaredNorm() > 0 ? std::clamp((x - a0).dot(d) / d.squaredNorm(), 0.0, 1.0) : 0.0;
@@ -370,10 +369,11 @@ TEST(ViewPlot, ClickedWrenchPlottedWithACursorOnTheSlider) {
   for (const WrenchOutput& w : sys.wrenches.outputs) {
     if (w.kind == WrenchKind::kJoint) continue;
     const WorldForce wf = world_force(sys, dir / "p.csv", f1 * 0.005, w.name);
-    const Eigen::Vector2d o = project(pa, wf.origin), tf = project(pa, wf.origin + wf.force / pa.force_scale);
+    const double fs = wrench_scale(pa.probe, w.name), ms = wrench_scale(pa.probe, w.name, "moment");
+    const Eigen::Vector2d o = project(pa, wf.origin), tf = project(pa, wf.origin + wf.force / fs);
     if (w.name == "arm1.ee") o1 = o, t1 = tf;
     else others.emplace_back(o, tf);
-    others.emplace_back(o, project(pa, wf.origin + wf.moment / moment_scale));
+    others.emplace_back(o, project(pa, wf.origin + wf.moment / ms));
   }
   ASSERT_GT((t1 - o1).norm(), 30);
   Eigen::Vector2d click(-1, -1);

@@ -155,6 +155,48 @@ TEST(ViewSigma, BandHalfAxesAreSigmaOverTheArrowScale) {
   EXPECT_TRUE(legend == "display:none" || legend == "display: none;") << "the legend of the bands shows: " << legend;
 }
 
+// A sigma of at least 5 % of its force stays visible however short the arrow: arm1's end-effector
+// force under 30 N*m of torque noise, its arrow zoomed down 1000 times (#zoom=0.001), has its
+// ellipsoid's largest half-axis at 1 % of the scene's radius, its half-axes in the ratios of the CSV
+// row's sigma, at the arrow's tip; at zoom 1 it is sigma over the scale, not floored.
+TEST(ViewSigma, EllipsoidVisibleWhenSigmaIsFivePercent) {
+  REQUIRE_BROWSER();
+  TempDir dir("sigmafloor");
+  const std::string scene = noisy_scene(dir, "\nnoise: {tau: 30}\n");
+  std::string err;
+  ASSERT_EQ(run("'" + kBin + "' sim --scene '" + scene + "' --duration 0.8 --dt 0.005 --out '" + dir / "p.csv" + "'", dir / "sim.err", &err), 0)
+      << err;
+  ASSERT_EQ(view(scene, dir / "p.csv", dir / "p.html", dir / "e", &err), 0) << err;
+  const auto row = csv_row(dir / "p.csv", 0.7);
+  ASSERT_FALSE(row.empty());
+  static const char* axis[3] = {"x", "y", "z"};
+  Vec3 sf, f;
+  for (int j = 0; j < 3; ++j) {
+    sf[j] = std::stod(row.at(std::string("arm1.ee.sigma_f") + axis[j]));
+    f[j] = std::stod(row.at(std::string("arm1.ee.f") + axis[j]));
+  }
+  ASSERT_GE(sf.maxCoeff(), 0.05 * f.norm()) << "the case this test is about: sigma " << sf.transpose() << " N, |f| " << f.norm();
+  DevTools browser(chromium, dir / "b");
+  const Browse small = browse(browser, dir / "p.html", "t=0.7&paused=1&wrench=arm1.ee&zoom=0.001", false);
+  const Browse plain = browse(browser, dir / "p.html", "t=0.7&paused=1&wrench=arm1.ee", false);
+  ASSERT_TRUE(small.ok && plain.ok) << small.log.substr(0, 2000) << plain.log.substr(0, 2000);
+  const PageState ps = page_state(small.dom), pp = page_state(plain.dom);
+  const double radius = num_after(ps.probe, "\"radius\":");
+  ASSERT_GT(radius, 0);
+  const Drawn d = drawn(ps.probe, "arm1.ee", "sigma_f");
+  ASSERT_TRUE(d.found) << ps.probe;
+  EXPECT_NEAR(d.half.maxCoeff(), 0.01 * radius, 1e-9 * radius) << d.half.transpose();
+  for (int j = 0; j < 3; ++j)
+    EXPECT_NEAR(d.half[j] / d.half.maxCoeff(), sf[j] / sf.maxCoeff(), 1e-6) << "along " << axis[j];
+  const std::string at = ps.probe.substr(ps.probe.find("{\"name\":\"arm1.ee\",\"group\""));
+  EXPECT_LT((d.centre - vec_after(at, "\"tip_f\":[")).norm(), 1e-9 * radius + 1e-12);
+  EXPECT_NE(ps.probe.find("\"floored\":true"), std::string::npos);
+  const Drawn d1 = drawn(pp.probe, "arm1.ee", "sigma_f");
+  ASSERT_TRUE(d1.found);
+  for (int j = 0; j < 3; ++j) EXPECT_NEAR(d1.half[j], sf[j] / pp.force_scale, 1e-7 * sf[j] / pp.force_scale + 1e-12) << axis[j];
+  EXPECT_GT(d1.half.maxCoeff(), 0.01 * radius) << "at its own scale the ellipsoid needs no floor";
+}
+
 // The plot of arm1.ee with declared torque noise (20 N*m on every joint): about each of its six
 // curves, at the cursor's frame, a band from value - sigma to value + sigma of the CSV row (to
 // round-off), at the y its axes map those values to; no friction joint, no bound. In the

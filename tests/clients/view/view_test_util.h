@@ -107,6 +107,13 @@ inline Vec3 vec_after(const std::string& s, const std::string& key) {  // key en
   return v;
 }
 
+// The arrow scale (N or N*m per metre, key "force" or "moment") the page draws wrench `name` at: one
+// per kind of wrench, from the wrenches shown, times its zoom.
+inline double wrench_scale(const std::string& probe, const std::string& name, const std::string& key = "force") {
+  const size_t i = probe.find("{\"name\":\"" + name + "\",\"group\"");
+  return i == std::string::npos ? NAN : num_after(probe.substr(i), "\"" + key + "\":");
+}
+
 // What a page's DOM says about itself.
 struct PageState {
   std::string title, time_text, probe, error;
