@@ -263,8 +263,8 @@ void add_joint_couplings(const Ctx& c, const YAML::Node& where, const Model& mod
 }
 
 Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path, const std::string& name,
-                 std::string base, std::string tip, bool keep_branches) {
-  const UrdfFile f = read_urdf(c, where, path);
+                 std::string base, std::string tip, bool keep_branches, bool repair_inertia) {
+  const UrdfFile f = read_urdf(c, where, path, repair_inertia, "robots." + name + ".repair_inertia: true");
   const std::vector<urdf::JointConstSharedPtr> chain = chain_joints(c, where, f, base, tip);
   Robot r;
   r.name = name;

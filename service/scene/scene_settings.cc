@@ -46,7 +46,8 @@ void read_solver(const Ctx& c, const YAML::Node& so, System& sys) {
 // scene places it whole; `arms` take a chain)
 Robot read_robot(const Ctx& c, const std::string& rn, YAML::Node rnode, bool whole) {
   if (rnode["urdf"]) {
-    check_keys(c, rnode, {"urdf", "base", "tip", "source", "branches"}, "robot '" + rn + "'");
+    check_keys(c, rnode, {"urdf", "base", "tip", "source", "branches", "repair_inertia"}, "robot '" + rn + "'");
+    const bool repair = get_bool(c, rnode, "repair_inertia", false);
     const std::string path = (std::filesystem::path(c.dir) / rnode["urdf"].as<std::string>()).string();
     if (whole && !rnode["base"] && !rnode["tip"]) {
       if (rnode["branches"])
@@ -54,7 +55,7 @@ Robot read_robot(const Ctx& c, const std::string& rn, YAML::Node rnode, bool who
                                    "robot of a `bodies` scene is loaded whole, every branch included");
       Robot r;
       r.name = rn;
-      r.tree = read_urdf_tree(c, rnode["urdf"], path, &r.warnings);
+      r.tree = read_urdf_tree(c, rnode["urdf"], path, &r.warnings, rn, repair);
       r.base_link = r.tree->root_link;
       return r;
     }
@@ -62,7 +63,7 @@ Robot read_robot(const Ctx& c, const std::string& rn, YAML::Node rnode, bool who
     if (br != "report" && br != "keep")
       fail(c, rnode["branches"], "robot '" + rn + "': branches must be report (default: listed as left out) or keep");
     return parse_urdf(c, rnode["urdf"], path, rn, get_string(c, rnode, "base", ""), get_string(c, rnode, "tip", ""),
-                      br == "keep");
+                      br == "keep", repair);
   }
   if (rnode["file"]) {
     const std::string rel = rnode["file"].as<std::string>();

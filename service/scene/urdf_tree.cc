@@ -34,9 +34,10 @@ std::vector<UrdfCylinder> link_cylinders(const urdf::Link& l) {
 }  // namespace
 
 std::shared_ptr<const UrdfTree> read_urdf_tree(const Ctx& c, const YAML::Node& where, const std::string& path,
-                                               std::vector<std::string>* warnings) {
+                                               std::vector<std::string>* warnings, const std::string& name,
+                                               bool repair_inertia) {
   auto t = std::make_shared<UrdfTree>();
-  auto file = std::make_shared<UrdfFile>(read_urdf(c, where, path));
+  auto file = std::make_shared<UrdfFile>(read_urdf(c, where, path, repair_inertia, "robots." + name + ".repair_inertia: true"));
   t->file = file;
   const UrdfFile& f = *file;
   const urdf::LinkConstSharedPtr root = f.model->getRoot();

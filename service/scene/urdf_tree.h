@@ -37,8 +37,10 @@ struct UrdfTree {
 
 // Reads the URDF at `path` whole; its errors (the file, an unreadable <inertial>, a joint type the
 // scene cannot model) are errors at `where`, its findings (a moving link without mass) warnings.
+// name: the robot's name in `robots` (for messages); repair_inertia: every non-PSD inertia repaired.
 std::shared_ptr<const UrdfTree> read_urdf_tree(const Ctx& c, const YAML::Node& where, const std::string& path,
-                                               std::vector<std::string>* warnings);
+                                               std::vector<std::string>* warnings, const std::string& name = "<name>",
+                                               bool repair_inertia = false);
 
 // A wheel link's spin axis: the axis of the (moving) URDF joint above it, in the link frame; false
 // for the root link and a link on a fixed joint.
