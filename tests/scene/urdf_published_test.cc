@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <sstream>
 #include <string>
 #include <map>
 #include <set>
@@ -312,6 +313,36 @@ TEST(UrdfPublished, AFilesOwnFloatingOrPlanarRootJointIsTheScenesRoot) {
   // root: planar without a planar joint in the file is refused
   const std::string e = error_of(whole_scene(bare, "", ", root: planar"), dir.path() + "/s.yaml");
   EXPECT_NE(e.find("root: planar takes its plane from the URDF's planar root joint"), std::string::npos) << e;
+}
+
+TEST(UrdfPublished, TheClosedValuesArePrintedSoThatPastedBackTheyCloseToRoundOff) {
+  TempDir dir;
+  const std::string urdf = dir.write("hand.urdf", arm_with_hand(0.2));
+  // f2 = -hand + 0.1 open by 0.0234567891: least change moves hand and f2 by half of it each
+  const System sys = load_scene_string(whole_scene(urdf, "", ", q: {hand: 0.1234567891, f1: 0.1234567891, f2: 0}"),
+                                       dir.path() + "/s.yaml");
+  std::string w;
+  for (const std::string& x : sys.warnings)
+    if (x.find("closed to") != std::string::npos) w = x;
+  ASSERT_FALSE(w.empty());
+  auto value_after = [&](const std::string& name) {
+    const size_t p = w.find(" " + name + " ");
+    EXPECT_NE(p, std::string::npos) << w;
+    return std::strtod(w.c_str() + w.find("-> ", p) + 3, nullptr);
+  };
+  const double hand = value_after("arm.hand"), f1 = value_after("arm.f1"), f2 = value_after("arm.f2");
+  EXPECT_NEAR(hand, 0.1234567891 - 0.0234567891 / 3, 1e-12);  // three coordinates share the change (f1 follows hand)
+  // the printed values pasted back, close_initial_state off: closed to round-off (6 digits left 1e-7)
+  std::ostringstream q;
+  q.precision(17);
+  q << ", q: {hand: " << hand << ", f1: " << f1 << ", f2: " << f2 << "}";
+  const System back = load_scene_string("close_initial_state: false\n" + whole_scene(urdf, "", q.str()), dir.path() + "/s.yaml");
+  const Model& m = back.model;
+  const double qh = back.q0[m.bodies[m.joint_index("arm.hand")].joint.idx_q];
+  const double q1 = back.q0[m.bodies[m.joint_index("arm.f1")].joint.idx_q];
+  const double q2 = back.q0[m.bodies[m.joint_index("arm.f2")].joint.idx_q];
+  EXPECT_LT(std::abs(q1 - qh), 1e-15);
+  EXPECT_LT(std::abs(q2 - (-qh + 0.1)), 1e-15);
 }
 
 }  // namespace
