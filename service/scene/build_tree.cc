@@ -18,13 +18,14 @@ namespace {
 struct TreeSpec {
   std::string name;  // the prefix
   const UrdfTree* t = nullptr;
-  bool floating = false;
+  bool floating = false, planar = false;  // root: floating (6 DOF) or planar (x, y along the plane, a rotation about its normal)
   Transform X_P_root;              // the root link's pose in the parent (initial pose when floating)
   std::vector<double> root_v;      // floating root: its 6 velocity coordinates
   std::vector<double> q, v;        // per tree joint (0 for a fixed one)
   std::vector<unsigned char> q_given, v_given;
-  std::set<int> held;              // tree joints held fixed (fixed_joints)
+  std::set<int> held;              // tree joints held fixed (fixed_joints, and the followers of a held or fixed leader)
   Transform tool;                  // an unbranched tree's PREFIX.ee frame on its last link
+  std::vector<UrdfMimic> couplings;  // the <mimic>s between moving joints, as rows (URDF joint names)
 };
 
 // the tree joint named jn (the URDF's name), -1 if none
@@ -126,22 +127,74 @@ void read_held(const Ctx& c, const YAML::Node& fj, TreeSpec& s) {
   }
 }
 
+// The file's <mimic>s read against what the scene moves: one between two moving joints is a
+// coupling row; a follower of a joint held by fixed_joints is held with it, at m * q_leader + o; a
+// follower of a joint the file makes fixed is held at m * 0 + o (a warning); a mimic of a joint the
+// file lacks, or of a follower the file makes fixed, couples nothing (a warning: the follower moves
+// on its own, or stays fixed). A follower held while its leader moves is an error (hold the leader).
+void resolve_tree_mimics(const Ctx& c, const YAML::Node& b, TreeSpec& s) {
+  const UrdfTree& t = *s.t;
+  std::vector<UrdfMimic> pending = read_mimics(*t.file);
+  for (bool changed = true; changed;) {  // a follower of a held follower is held in a later pass
+    changed = false;
+    for (auto it = pending.begin(); it != pending.end();) {
+      const UrdfMimic& mm = *it;
+      const int j = tree_joint(t, mm.joint), i = tree_joint(t, mm.mimicked);
+      const std::string what = mm.source + ": joint '" + mm.joint + "' mimics '" + mm.mimicked + "'";
+      bool done = true;
+      if (j < 0 || t.joints[j].j.fixed) {
+        warn(c, b, what + (j < 0 ? ", but the file has no joint of that name" : ", but the file makes it fixed") +
+                       ": the mimic couples nothing");
+      } else if (i < 0) {
+        warn(c, b, what + ", which the file does not have: '" + mm.joint + "' moves on its own");
+      } else if (t.joints[i].j.fixed || s.held.count(i)) {
+        const double qi = t.joints[i].j.fixed ? 0.0 : s.q[i];
+        const double qj = mm.multiplier * qi + mm.offset;
+        if (s.q_given[j] && std::abs(s.q[j] - qj) > 1e-12 * (1 + std::abs(qj)))
+          warn(c, b, what + ": its given q " + std::to_string(s.q[j]) + " is replaced by m * q_leader + o = " + std::to_string(qj));
+        if (t.joints[i].j.fixed)
+          warn(c, b, what + ", which the file makes fixed: '" + mm.joint + "' is held at m * 0 + o = " + std::to_string(qj));
+        s.q[j] = qj;
+        s.q_given[j] = 1;
+        s.held.insert(j);
+        changed = true;
+      } else if (s.held.count(j)) {
+        fail(c, b["fixed_joints"], "robot body '" + s.name + "'.fixed_joints holds '" + mm.joint + "', which mimics '" +
+                                       mm.mimicked + "' (" + mm.source + "): hold its leader '" + mm.mimicked +
+                                       "' instead (a leader held holds its followers)");
+      } else {
+        done = false;  // both move: a coupling row, unless its leader is held in a later pass
+      }
+      it = done ? pending.erase(it) : it + 1;
+    }
+  }
+  s.couplings = pending;
+}
+
 TreeSpec read_tree_spec(const Ctx& c, const YAML::Node& b, const Robot& r, const std::string& name) {
   check_keys(c, b, {"name", "robot", "parent", "placement", "root", "root_v", "q", "v", "fixed_joints", "tool"}, "robot body");
   TreeSpec s;
   s.name = name;
   s.t = r.tree.get();
-  const std::string root = get_string(c, b, "root", "fixed");
-  if (root != "fixed" && root != "floating")
-    fail(c, b["root"], "robot body '" + name + "': root must be fixed (welded at its placement) or floating (a 6-DOF joint)");
+  // the default: the file's own free base joint (floating or planar), else fixed
+  const std::string root = get_string(c, b, "root", s.t->root_joint.empty() ? "fixed" : s.t->root_joint);
+  if (root != "fixed" && root != "floating" && root != "planar")
+    fail(c, b["root"], "robot body '" + name + "': root must be fixed (welded at its placement), floating (a 6-DOF joint) "
+                       "or planar (three coordinates in the plane of the URDF's planar joint)");
+  if (root == "planar" && s.t->root_joint != "planar")
+    fail(c, b["root"], "robot body '" + name + "': root: planar takes its plane from the URDF's planar root joint, which "
+                       "this file does not have (use floating, or a `bodies` chain of joints)");
   s.floating = root == "floating";
-  s.X_P_root = get_pose(c, b["placement"], "robot body '" + name + "'.placement");
+  s.planar = root == "planar";
+  // placement places the link above the file's free joint (its `world`); the joint's origin follows
+  s.X_P_root = get_pose(c, b["placement"], "robot body '" + name + "'.placement") * s.t->X_above_root;
   if (b["root_v"] && !s.floating) fail(c, b["root_v"], "robot body '" + name + "': root_v applies to a floating root (root: floating)");
   s.root_v = b["root_v"] ? as_list(c, b["root_v"], 6, "robot body '" + name + "'.root_v") : std::vector<double>(6, 0.0);
   read_tree_values(c, b["q"], s, "q", s.q, s.q_given);
   read_tree_values(c, b["v"], s, "v", s.v, s.v_given);
   warn_tree_values(c, b["q"], s);
   read_held(c, b["fixed_joints"], s);
+  resolve_tree_mimics(c, b, s);
   if (b["tool"] && !s.t->branch_link.empty())
     fail(c, b["tool"], "robot body '" + name + "': tool applies to a chain's end-effector; the URDF branches below '" +
                            s.t->branch_link + "' (name a link frame '" + name + ".<link>' or add one under 'frames')");
@@ -149,10 +202,10 @@ TreeSpec read_tree_spec(const Ctx& c, const YAML::Node& b, const Robot& r, const
   return s;
 }
 
-// The tree's <mimic>s: each coupling q_j = m q_i + o appended as a constraint row on the joints the
-// model now has as PREFIX.<joint> (a mimic of a fixed joint, a loop of mimics: errors there).
-void tree_mimics(const Ctx& c, const YAML::Node& where, const UrdfTree& t, const std::string& prefix, Builder& B) {
-  std::vector<UrdfMimic> m = read_mimics(*t.file);
+// The tree's couplings (resolve_tree_mimics): each q_j = m q_i + o appended as a constraint row on
+// the joints the model now has as PREFIX.<joint> (a loop of mimics: an error there).
+void tree_mimics(const Ctx& c, const YAML::Node& where, const TreeSpec& s, const std::string& prefix, Builder& B) {
+  std::vector<UrdfMimic> m = s.couplings;
   for (UrdfMimic& x : m) {
     x.joint = prefix + "." + x.joint;
     x.mimicked = prefix + "." + x.mimicked;
@@ -169,9 +222,24 @@ void add_robot_tree(Builder& B, const YAML::Node& b, const Robot& r, const std::
   const TreeSpec s = read_tree_spec(c, b, r, name);
   const UrdfTree& t = *s.t;
   // the root link: welded at its placement, or on a floating joint whose q is the placement
+  if (s.planar) {  // two massless carriages along the plane, the root link turning about its normal
+    const Vec3 n = t.root_normal;
+    const Vec3 e1 = (std::abs(n.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY()).cross(n).cross(n).normalized() * -1.0;
+    const Vec3 e2 = n.cross(e1);
+    int at = parent;
+    for (const auto& [suffix, axis] : {std::pair<const char*, Vec3>{".planar_x", e1}, {".planar_y", e2}}) {
+      Joint jp;
+      jp.name = name + suffix;
+      jp.type = JointType::kPrismatic;
+      jp.axis = axis;
+      at = B.add(name + suffix, at, at == parent ? s.X_P_root : Transform(), jp, Inertia(), {}, {}, 0.0, b);
+    }
+    parent = at;
+  }
   Joint jr;
   jr.name = name;
-  jr.type = s.floating ? JointType::kFloating : JointType::kFixed;
+  jr.type = s.floating ? JointType::kFloating : s.planar ? JointType::kRevolute : JointType::kFixed;
+  jr.axis = t.root_normal;
   std::vector<double> rq;
   if (s.floating) {
     Eigen::VectorXd tmp(7);
@@ -179,9 +247,9 @@ void add_robot_tree(Builder& B, const YAML::Node& b, const Robot& r, const std::
     rq.assign(tmp.data(), tmp.data() + 7);
   }
   const std::string root_body = name + "." + t.root_link;
-  const int root = B.add(root_body, parent, s.floating ? Transform() : s.X_P_root, jr, t.root_inertia, rq,
-                         s.floating ? s.root_v : std::vector<double>{}, 0.0, b);  // a floating root is unactuated
-  if (!s.floating)  // the parent's wrench on the root link (a floating joint transmits nothing)
+  const int root = B.add(root_body, parent, s.floating || s.planar ? Transform() : s.X_P_root, jr, t.root_inertia, rq,
+                         s.floating ? s.root_v : std::vector<double>{}, 0.0, b);  // a free root is unactuated
+  if (!s.floating && !s.planar)  // the parent's wrench on the root link (a floating joint transmits nothing)
     outs.push_back(joint_output(name, root_body, by, root, false, root, Transform(), 0x3f));
   std::map<std::string, int> body_of = {{t.root_link, root}};
   for (size_t k = 0; k < t.joints.size(); ++k) {
@@ -218,7 +286,7 @@ void add_robot_tree(Builder& B, const YAML::Node& b, const Robot& r, const std::
   } catch (const std::invalid_argument& e) {
     fail(c, b, e.what());
   }
-  tree_mimics(c, b, t, name, B);  // the tree's joints are in the model now, as PREFIX.<joint>
+  tree_mimics(c, b, s, name, B);  // the tree's joints are in the model now, as PREFIX.<joint>
 }
 
 }  // namespace coopdyn::scene_detail

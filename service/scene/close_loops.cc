@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <sstream>
 
 #include "service/algorithms/kinematics.h"
@@ -125,7 +126,8 @@ bool close_initial_state(System& sys, const std::vector<unsigned char>& q_given,
     os << "initial state: the constraints were open by " << e0 << " (rad, m); closed to " << left << " by moving " << which << ":";
     for (int i = 0; i < m.nq(); ++i)
       if (std::abs(sys.q0[i] - q_scene[i]) > 1e-12) {
-        os << " " << m.q_names[i] << " " << q_scene[i] << " -> " << sys.q0[i];
+        // the closed value in 17 digits: pasted back into the scene, it closes to round-off
+        os << " " << m.q_names[i] << " " << q_scene[i] << " -> " << std::setprecision(17) << sys.q0[i] << std::setprecision(6);
       }
     os << " (close_initial_state: false keeps the scene's values and makes this an error)";
     warnings->push_back(os.str());

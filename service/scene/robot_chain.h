@@ -76,7 +76,8 @@ std::vector<UrdfMimic> placed_mimics(const Robot& r, const std::string& prefix);
 // another at m * 0 + o, following its chain of mimics) to the chain link they hang from, instead of
 // reported as left out. A <mimic> between chain joints is kept in Robot::mimics; one that couples
 // a chain joint with a joint off the chain, or mimics a fixed joint, is an error.
+// repair_inertia: every non-PSD <inertia> repaired (urdf_file.h), not only a tiny one.
 Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path, const std::string& name,
-                 std::string base, std::string tip, bool keep_branches);
+                 std::string base, std::string tip, bool keep_branches, bool repair_inertia = false);
 
 }  // namespace coopdyn::scene_detail

@@ -196,8 +196,28 @@ ChainJoint urdf_chain_joint(const Ctx& c, const YAML::Node& where, const UrdfFil
 
 namespace {
 
-// The file's <mimic>s that couple joints of the chain, kept for the builders; one that couples a
-// chain joint with a joint off it, or mimics a fixed joint, is an error (it would be lost).
+// Where a chain ending at a mimic follower could keep its coupling: the advice of the error.
+std::string keep_coupling_advice(const UrdfFile& f, const UrdfMimic& mm, const std::string& base) {
+  const urdf::JointConstSharedPtr ji = f.model->getJoint(mm.mimicked), jj = f.model->getJoint(mm.joint);
+  std::set<std::string> above_j;  // the links above the follower's child link, itself included
+  for (urdf::LinkConstSharedPtr l = f.model->getLink(jj->child_link_name); l; l = l->getParent()) above_j.insert(l->name);
+  if (above_j.count(ji->child_link_name))  // the leader is above the follower: the chain starts below it
+    return "give a base at or above '" + ji->parent_link_name + "' (the leader's parent link; the base is '" + base +
+           "') so that both joints are on the chain, or load the whole tree (a `bodies` robot without base and tip)";
+  urdf::LinkConstSharedPtr common = f.model->getLink(ji->child_link_name);
+  while (common && !above_j.count(common->name)) common = common->getParent();
+  const std::string fork = common ? common->name : base;
+  return "no chain holds both (the leader is on a branch beside it, from '" + fork + "'): load the whole tree (a "
+         "`bodies` robot without base and tip) to keep the coupling, or end the chain at '" + fork +
+         "' (tip) with branches: keep to carry both at their values m * 0 + o, rigidly";
+}
+
+// The file's <mimic>s read against the chain: one between chain joints is kept for the builders; a
+// follower on the chain whose leader the file makes fixed is made fixed at m * 0 + o, and one whose
+// leader the file lacks moves on its own (warnings); a mimic off the chain concerns a part the scene
+// does not load (nothing, or a warning when the chain's joint leads it and its link is left out); a
+// chain joint that follows a moving joint off the chain is an error that says which tip or branches
+// choice keeps the coupling.
 void read_chain_mimics(const Ctx& c, const YAML::Node& where, const UrdfFile& f,
                        const std::vector<urdf::JointConstSharedPtr>& chain, bool keep_branches, Robot& r) {
   std::set<std::string> on;
@@ -205,17 +225,32 @@ void read_chain_mimics(const Ctx& c, const YAML::Node& where, const UrdfFile& f,
   for (const UrdfMimic& mm : read_mimics(f)) {
     const urdf::JointConstSharedPtr ji = f.model->getJoint(mm.mimicked), jj = f.model->getJoint(mm.joint);
     const std::string what = mm.source + ": joint '" + mm.joint + "' mimics '" + mm.mimicked + "'";
-    if (!ji) fail(c, where, what + ", which the file does not have");
-    if (ji->type == urdf::Joint::FIXED || jj->type == urdf::Joint::FIXED)
-      fail(c, where, what + ", but a fixed joint has no coordinate to follow or to couple");
     const bool j_on = on.count(mm.joint) > 0, i_on = on.count(mm.mimicked) > 0;
-    if (j_on && i_on)
+    if (!j_on) {
+      if (i_on && !keep_branches) r.warnings.push_back(what + " on the chain; its link is left out with the links off the chain");
+      continue;  // a part the scene does not load (branches: keep holds it at m * 0 + o)
+    }
+    if (jj->type == urdf::Joint::FIXED) {
+      r.warnings.push_back(what + ", but the file makes it fixed: the mimic couples nothing");
+    } else if (!ji) {
+      r.warnings.push_back(what + ", which the file does not have: '" + mm.joint + "' moves on its own");
+    } else if (ji->type == urdf::Joint::FIXED) {
+      for (ChainJoint& cj : r.joints)
+        if (cj.name == mm.joint) {
+          cj.X_origin = cj.X_origin * chain_motion(cj, mm.offset);
+          cj.fixed = true;
+          cj.lower = -std::numeric_limits<double>::infinity(), cj.upper = std::numeric_limits<double>::infinity();
+        }
+      std::ostringstream os;
+      os.precision(17);
+      os << what << ", which the file makes fixed: '" << mm.joint << "' is held at m * 0 + o = " << mm.offset;
+      r.warnings.push_back(os.str());
+    } else if (i_on) {
       r.mimics.push_back(mm);
-    else if (j_on)
+    } else {
       fail(c, where, what + ", which is off the chain " + r.base_link + " .. " + chain.back()->child_link_name +
-                         ": the coupling would be lost (choose base and tip so that both joints are on the chain)");
-    else if (i_on && !keep_branches)
-      r.warnings.push_back(what + " on the chain; its link is left out with the links off the chain");
+                         ": the coupling would be lost; " + keep_coupling_advice(f, mm, r.base_link));
+    }
   }
 }
 
@@ -264,8 +299,8 @@ void add_joint_couplings(const Ctx& c, const YAML::Node& where, const Model& mod
 }
 
 Robot parse_urdf(const Ctx& c, const YAML::Node& where, const std::string& path, const std::string& name,
-                 std::string base, std::string tip, bool keep_branches) {
-  const UrdfFile f = read_urdf(c, where, path);
+                 std::string base, std::string tip, bool keep_branches, bool repair_inertia) {
+  const UrdfFile f = read_urdf(c, where, path, repair_inertia, "robots." + name + ".repair_inertia: true");
   const std::vector<urdf::JointConstSharedPtr> chain = chain_joints(c, where, f, base, tip);
   Robot r;
   r.name = name;

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <limits>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include "service/algorithms/crba.h"
@@ -145,14 +146,31 @@ void check_initial_state_closes(const Ctx& c, const YAML::Node& root, const Syst
   }
 }
 
-// every velocity coordinate must move some mass at the initial state
-void check_mass_matrix_regular(const Ctx& c, const YAML::Node& root, const Model& model, Data& data) {
+// every velocity coordinate must move some mass at the initial state; the message names every
+// coordinate that moves none (a massless hand and its mimic fingers), its leaders apart
+void check_mass_matrix_regular(const Ctx& c, const YAML::Node& root, const Model& model, const ConstraintSet& cs,
+                               Data& data) {
   crba(model, data);
   int bad = -1;
-  if (!tree_cholesky_factor(model, data, 1e-13, &bad)) {
-    fail(c, root, "mass matrix is singular at the initial state: velocity coordinate '" + model.v_names[bad] +
-                      "' moves no mass (give its subtree a mass or inertia, or the joint an armature)");
-  }
+  const Eigen::VectorXd d = data.M.diagonal();
+  if (tree_cholesky_factor(model, data, 1e-13, &bad)) return;
+  std::set<int> followers;
+  for (const ConstraintSpec& s : cs.specs)
+    if (s.kind == ConstraintKind::kCouple) followers.insert(s.dof);
+  std::string group, leaders;
+  int n = 0;
+  for (int i = 0; i < model.nv(); ++i)
+    if (i == bad || !(d[i] > 1e-13 * d.cwiseAbs().maxCoeff())) {
+      group += (n++ < 30 ? (group.empty() ? "'" : ", '") + model.v_names[i] + "'" : "");
+      const std::string& v = model.v_names[i];  // PREFIX.JOINT: the URDF's name after the robot body's
+      if (!followers.count(i)) leaders += (leaders.empty() ? "" : ", ") + v.substr(v.find('.') == std::string::npos ? 0 : v.find('.') + 1);
+    }
+  if (n > 30) group += ", ... (" + std::to_string(n) + " in all)";
+  fail(c, root, "mass matrix is singular at the initial state: velocity coordinate" + std::string(n > 1 ? "s " : " ") + group +
+                    (n > 1 ? " move" : " moves") + " no mass (a massless subtree). Either hold " + (n > 1 ? "them" : "it") +
+                    ": a robot body's fixed_joints: [" + leaders + "] (the URDF's joint names; a mimic leader held holds "
+                    "its followers), or give " + (n > 1 ? "them" : "it") + " an armature: robots.<name>.armature (a number "
+                    "for every joint, or {joint: armature}) or a body joint's armature; or give the subtree a mass");
 }
 
 // The scene compiler's passes, in order, on a parsed scene. root and the stages that look keys up
@@ -187,7 +205,7 @@ System compile_scene(Builder& B, YAML::Node root, const SceneOverrides& ov) {
   const bool closed = !close || close_initial_state(sys, B.q_given, keep, &sys.warnings, B.held_bodies, &q_closest);
   close_grasps_check(B, closed ? sys.q0 : q_closest, closed);  // arms + load: a grasp that stays open, at its line
   check_initial_state_closes(c, root, sys, data, close);
-  check_mass_matrix_regular(c, root, sys.model, data);
+  check_mass_matrix_regular(c, root, sys.model, sys.constraints, data);
   return sys;
 }
 

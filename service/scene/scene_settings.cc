@@ -42,11 +42,39 @@ void read_solver(const Ctx& c, const YAML::Node& so, System& sys) {
   if (!(sys.options.max_speed > 0)) fail(c, ms, "solver.max_speed must be > 0 (rad/s or m/s per DOF) or 'off'");
 }
 
+// `armature: A` (every moving joint, kg*m^2 or kg) or `{JOINT: A, ...}` (the URDF's joint names) of
+// a URDF robot entry, applied to the chain's or the whole tree's joints
+void read_urdf_armature(const Ctx& c, const YAML::Node& a, const std::string& rn, std::vector<ChainJoint*> joints) {
+  const std::string what = "robot '" + rn + "'.armature";
+  auto value = [&](const YAML::Node& n, const std::string& w) {
+    const double x = as_double(c, n, w);
+    if (!(x >= 0)) fail(c, n, w + " must be >= 0 (kg*m^2 for a revolute joint, kg for a prismatic one)");
+    return x;
+  };
+  if (a.IsScalar()) {
+    const double x = value(a, what);
+    for (ChainJoint* j : joints)
+      if (!j->fixed) j->armature = x;
+    return;
+  }
+  if (!a.IsMap()) fail(c, a, what + " must be a number (every moving joint) or a mapping {joint: armature}");
+  for (const auto& kv : a) {
+    const std::string jn = kv.first.IsScalar() ? kv.first.Scalar() : "";
+    ChainJoint* hit = nullptr;
+    for (ChainJoint* j : joints)
+      if (j->name == jn) hit = j;
+    if (!hit) fail(c, kv.first, what + ": no joint '" + jn + "' in the robot");
+    if (hit->fixed) fail(c, kv.first, what + ": joint '" + jn + "' is fixed in the URDF: it has no armature");
+    hit->armature = value(kv.second, what + "." + jn);
+  }
+}
+
 // one entry of `robots`; whole: a URDF without base and tip is read as its whole tree (a `bodies`
 // scene places it whole; `arms` take a chain)
 Robot read_robot(const Ctx& c, const std::string& rn, YAML::Node rnode, bool whole) {
   if (rnode["urdf"]) {
-    check_keys(c, rnode, {"urdf", "base", "tip", "source", "branches"}, "robot '" + rn + "'");
+    check_keys(c, rnode, {"urdf", "base", "tip", "source", "branches", "repair_inertia", "armature"}, "robot '" + rn + "'");
+    const bool repair = get_bool(c, rnode, "repair_inertia", false);
     const std::string path = (std::filesystem::path(c.dir) / rnode["urdf"].as<std::string>()).string();
     if (whole && !rnode["base"] && !rnode["tip"]) {
       if (rnode["branches"])
@@ -54,15 +82,27 @@ Robot read_robot(const Ctx& c, const std::string& rn, YAML::Node rnode, bool who
                                    "robot of a `bodies` scene is loaded whole, every branch included");
       Robot r;
       r.name = rn;
-      r.tree = read_urdf_tree(c, rnode["urdf"], path, &r.warnings);
+      auto tree = std::make_shared<UrdfTree>(*read_urdf_tree(c, rnode["urdf"], path, &r.warnings, rn, repair));
+      if (rnode["armature"]) {
+        std::vector<ChainJoint*> js;
+        for (UrdfTreeJoint& tj : tree->joints) js.push_back(&tj.j);
+        read_urdf_armature(c, rnode["armature"], rn, js);
+      }
+      r.tree = tree;
       r.base_link = r.tree->root_link;
       return r;
     }
     const std::string br = get_string(c, rnode, "branches", "report");
     if (br != "report" && br != "keep")
       fail(c, rnode["branches"], "robot '" + rn + "': branches must be report (default: listed as left out) or keep");
-    return parse_urdf(c, rnode["urdf"], path, rn, get_string(c, rnode, "base", ""), get_string(c, rnode, "tip", ""),
-                      br == "keep");
+    Robot r = parse_urdf(c, rnode["urdf"], path, rn, get_string(c, rnode, "base", ""), get_string(c, rnode, "tip", ""),
+                         br == "keep", repair);
+    if (rnode["armature"]) {
+      std::vector<ChainJoint*> js;
+      for (ChainJoint& j : r.joints) js.push_back(&j);
+      read_urdf_armature(c, rnode["armature"], rn, js);
+    }
+    return r;
   }
   if (rnode["file"]) {
     const std::string rel = rnode["file"].as<std::string>();

@@ -6,6 +6,8 @@
 #include <cstring>
 #include <functional>
 #include <set>
+#include <iomanip>
+#include <limits>
 #include <sstream>
 
 #include <Eigen/Eigenvalues>
@@ -208,12 +210,30 @@ void index_elements(UrdfFile& f) {
   });
 }
 
+// The file's mass times its size squared (kg*m^2): the total mass of its links and the largest
+// distance of a link frame from the root link's frame with every joint at zero.
+double robot_inertia_scale(const UrdfFile& f) {
+  double mass = 0, size = 0;
+  std::vector<std::pair<urdf::LinkConstSharedPtr, Transform>> todo;
+  todo.emplace_back(f.model->getRoot(), Transform());
+  while (!todo.empty()) {
+    const auto [l, X_RL] = todo.back();
+    todo.pop_back();
+    if (l->inertial && l->inertial->mass > 0) mass += l->inertial->mass;
+    size = std::max(size, X_RL.p.norm());
+    for (const auto& ch : l->child_links)
+      if (ch->parent_joint) todo.emplace_back(ch, X_RL * urdf_pose(ch->parent_joint->parent_to_joint_origin_transform));
+  }
+  return std::isfinite(mass * size * size) ? mass * size * size : 0.0;
+}
+
 }  // namespace
 
 std::string urdf_at(const UrdfFile& f) { return "URDF " + f.path; }
 std::string urdf_at(const UrdfFile& f, size_t pos) { return "URDF " + f.path + ":" + std::to_string(line_of(f.xml, pos)); }
 
-UrdfFile read_urdf(const Ctx& c, const YAML::Node& where, const std::string& path) {
+UrdfFile read_urdf(const Ctx& c, const YAML::Node& where, const std::string& path, bool repair_any,
+                   const std::string& repair_option) {
   UrdfFile f;
   f.path = path;
   std::string& xml = f.xml;
@@ -233,6 +253,8 @@ UrdfFile read_urdf(const Ctx& c, const YAML::Node& where, const std::string& pat
   if (!f.model) fail(c, where, urdf_at(f) + ": could not be parsed (see the urdfdom message above)");
   check_mimic_elements(c, where, f);
   index_elements(f);
+  f.repair_option = repair_option;
+  f.repair_limit = repair_any ? std::numeric_limits<double>::infinity() : kInertiaRepairTolerance * robot_inertia_scale(f);
   return f;
 }
 
@@ -347,6 +369,43 @@ bool same_inertial(const TextInertial& t, const urdf::Inertial& u) {
   return same && (a.R - b.R).cwiseAbs().maxCoeff() <= 1e-12 && (a.p - b.p).cwiseAbs().maxCoeff() <= 1e-12 * (1 + a.p.norm());
 }
 
+// a number in 3 significant digits
+std::string fmt_g(double x) {
+  std::ostringstream os;
+  os.precision(3);
+  os << x;
+  return os.str();
+}
+
+// A non-PSD tensor I replaced in `in` (urdfdom's model) by the nearest positive semi-definite one in
+// the Frobenius norm (its negative eigenvalues set to zero), when within f.repair_limit; else an
+// error naming the option. Returns the warning.
+std::string repair_inertia(const Ctx& c, const YAML::Node& where, const UrdfFile& f, const std::string& at, const Mat3& I,
+                           urdf::Inertial& in) {
+  const Eigen::SelfAdjointEigenSolver<Mat3> es(I);
+  const Vec3 lam = es.eigenvalues();
+  std::ostringstream os;
+  os.precision(3);
+  os << "inertia tensor is not positive semi-definite (eigenvalues " << lam[0] << ", " << lam[1] << ", " << lam[2]
+     << " kg*m^2)";
+  if (!(-lam[0] <= f.repair_limit))
+    fail(c, where, at + ": " + os.str() + ", beyond the repair tolerance " + fmt_g(f.repair_limit) + " kg*m^2 (" +
+                       fmt_g(kInertiaRepairTolerance) + " of the robot's mass times its size squared): correct the file, "
+                       "or give " + f.repair_option + " to replace it by the nearest positive semi-definite tensor");
+  const Mat3 R = es.eigenvectors() * lam.cwiseMax(0.0).asDiagonal() * es.eigenvectors().transpose();
+  const Mat3 J = 0.5 * (R + R.transpose());
+  // the tensor as written is in the <inertial>'s frame, as urdfdom's numbers are
+  in.ixx = J(0, 0), in.iyy = J(1, 1), in.izz = J(2, 2), in.ixy = J(0, 1), in.ixz = J(0, 2), in.iyz = J(1, 2);
+  os.precision(17);
+  os << "; replaced by the nearest positive semi-definite tensor (its negative eigenvalues set to 0; a change of "
+     << std::setprecision(3) << (J - I).norm() << " kg*m^2, within " << (std::isfinite(f.repair_limit) ? "the tolerance " +
+        fmt_g(f.repair_limit) + " kg*m^2" : f.repair_option) << "): ixx " << std::setprecision(17) << J(0, 0)
+     << " iyy " << J(1, 1) << " izz " << J(2, 2) << " ixy " << J(0, 1) << " ixz " << J(0, 2) << " iyz " << J(1, 2);
+  const Vec3 p = lam.cwiseMax(0.0);
+  if (p[0] + p[1] < p[2] * (1 - 1e-9)) os << " (its principal moments break the triangle inequality)";
+  return os.str();
+}
+
 }  // namespace
 
 bool check_urdf_inertial(const Ctx& c, const YAML::Node& where, const UrdfFile& f, const std::string& link,
@@ -362,7 +421,10 @@ bool check_urdf_inertial(const Ctx& c, const YAML::Node& where, const UrdfFile& 
   if (t.mass < 0) fail(c, where, at + ": negative mass");
   Mat3 I;
   I << t.I[0], t.I[3], t.I[4], t.I[3], t.I[1], t.I[5], t.I[4], t.I[5], t.I[2];
-  if (!inertia_psd(I)) fail(c, where, at + ": inertia tensor is not positive semi-definite");
+  if (!inertia_psd(I)) {
+    warnings->push_back(at + ": " + repair_inertia(c, where, f, at, I, *f.model->links_.at(link)->inertial));
+    return true;
+  }
   if (const std::string w = inertia_plausibility(t.mass, I); !w.empty()) warnings->push_back(at + ": " + w);
   return true;
 }

@@ -24,12 +24,24 @@ struct UrdfFile {
   // where each <link> and <joint> element (children of <robot>, outside comments) is in xml:
   // name -> [begin, end), filled by read_urdf (one scan, so lookups stay linear in the file)
   std::map<std::string, std::pair<size_t, size_t>> link_at, joint_at;
+  // A non-positive-semi-definite <inertia> whose most negative eigenvalue is within repair_limit
+  // (kg*m^2) is replaced by the nearest positive semi-definite tensor (check_urdf_inertial), with a
+  // warning; beyond it, an error naming repair_option. read_urdf sets the limit to
+  // kInertiaRepairTolerance times the file's total mass times its size squared (the largest
+  // distance of a link frame from the root link's frame, every joint at zero), or to infinity.
+  double repair_limit = 0;
+  std::string repair_option;
 };
 
-// Reads and parses `path`; a file too large or nested too deep, a xacro macro (an element or an
+// the tolerance of a tiny non-PSD inertia, relative to the robot's mass times its size squared
+constexpr double kInertiaRepairTolerance = 1e-6;
+
+// Reads and parses `path` (repair_any: every non-PSD inertia is repaired, repair_option names the
+// scene's key that asks for it); a file too large or nested too deep, a xacro macro (an element or an
 // attribute in the xacro namespace outside comments and CDATA), what urdfdom cannot parse and a
 // <mimic> element it would misread are errors at `where`.
-UrdfFile read_urdf(const Ctx& c, const YAML::Node& where, const std::string& path);
+UrdfFile read_urdf(const Ctx& c, const YAML::Node& where, const std::string& path, bool repair_any = false,
+                   const std::string& repair_option = "robots.<name>.repair_inertia: true");
 
 // the line (1-based) of position pos in text
 int line_of(const std::string& text, size_t pos);
@@ -52,8 +64,10 @@ Inertia link_inertia(const Ctx& c, const YAML::Node& where, const urdf::Link& l)
 // The <inertial> of link `link` read from the text and checked: an element or attribute urdfdom
 // cannot read (a misspelt or missing <mass>, <inertia> or one of its six moments, a value that is not
 // a number), numbers that urdfdom read otherwise, and an inertia that is not positive semi-definite
-// are errors naming the file, line and link; a triangle-inequality violation or a mass above 1e5 kg
-// a warning (into *warnings). Returns whether the link has an <inertial>.
+// beyond f.repair_limit are errors naming the file, line and link; within it the tensor is repaired
+// (urdfdom's model holds the repaired one; one warning). A triangle-inequality violation or a mass
+// above 1e5 kg is a warning (into *warnings). Returns whether the link has an <inertial>. Called
+// once per link.
 bool check_urdf_inertial(const Ctx& c, const YAML::Node& where, const UrdfFile& f, const std::string& link,
                          std::vector<std::string>* warnings);
 // Nothing the file gives is lost silently: the child link of `jt` checked (check_urdf_inertial), a

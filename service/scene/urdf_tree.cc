@@ -34,12 +34,26 @@ std::vector<UrdfCylinder> link_cylinders(const urdf::Link& l) {
 }  // namespace
 
 std::shared_ptr<const UrdfTree> read_urdf_tree(const Ctx& c, const YAML::Node& where, const std::string& path,
-                                               std::vector<std::string>* warnings) {
+                                               std::vector<std::string>* warnings, const std::string& name,
+                                               bool repair_inertia) {
   auto t = std::make_shared<UrdfTree>();
-  auto file = std::make_shared<UrdfFile>(read_urdf(c, where, path));
+  auto file = std::make_shared<UrdfFile>(read_urdf(c, where, path, repair_inertia, "robots." + name + ".repair_inertia: true"));
   t->file = file;
   const UrdfFile& f = *file;
-  const urdf::LinkConstSharedPtr root = f.model->getRoot();
+  urdf::LinkConstSharedPtr root = f.model->getRoot();
+  if (root->child_links.size() == 1 && !(root->inertial && root->inertial->mass > 0) && root->child_links[0]->parent_joint &&
+      (root->child_links[0]->parent_joint->type == urdf::Joint::FLOATING ||
+       root->child_links[0]->parent_joint->type == urdf::Joint::PLANAR)) {  // the file's own free base
+    const urdf::Joint& jt = *root->child_links[0]->parent_joint;
+    t->root_joint = jt.type == urdf::Joint::FLOATING ? "floating" : "planar";
+    t->root_joint_name = jt.name;
+    t->above_root_link = root->name;
+    t->X_above_root = urdf_pose(jt.parent_to_joint_origin_transform);
+    const Vec3 n(jt.axis.x, jt.axis.y, jt.axis.z);
+    if (jt.type == urdf::Joint::PLANAR && !(n.norm() > 0)) fail(c, where, urdf_at(f) + ": planar joint '" + jt.name + "': zero axis");
+    if (jt.type == urdf::Joint::PLANAR) t->root_normal = n.normalized();
+    root = root->child_links[0];
+  }
   t->root_link = root->name;
   {  // the root link's <inertial> read as every other link's (a joint of type fixed: no warning without one)
     urdf::Joint above;

@@ -33,12 +33,19 @@ struct UrdfTree {
   std::vector<UrdfTreeJoint> joints;  // every joint below the root, parents first (depth-first, in the file's order)
   std::map<std::string, std::vector<UrdfCylinder>> cylinders;  // per link: <collision> cylinders, then <visual> ones
   std::string branch_link;            // the first link with two or more children ("" for a chain)
+  // The file's own free base: a massless root link (a `world`) whose only joint is floating or
+  // planar; root_link is then that joint's child. root_joint "" (none), "floating" or "planar".
+  std::string root_joint, root_joint_name, above_root_link;
+  Transform X_above_root;                // the joint's origin in the link above
+  Vec3 root_normal = Vec3::UnitZ();      // a planar joint's axis (the plane's normal), in the joint frame
 };
 
 // Reads the URDF at `path` whole; its errors (the file, an unreadable <inertial>, a joint type the
 // scene cannot model) are errors at `where`, its findings (a moving link without mass) warnings.
+// name: the robot's name in `robots` (for messages); repair_inertia: every non-PSD inertia repaired.
 std::shared_ptr<const UrdfTree> read_urdf_tree(const Ctx& c, const YAML::Node& where, const std::string& path,
-                                               std::vector<std::string>* warnings);
+                                               std::vector<std::string>* warnings, const std::string& name = "<name>",
+                                               bool repair_inertia = false);
 
 // A wheel link's spin axis: the axis of the (moving) URDF joint above it, in the link frame; false
 // for the root link and a link on a fixed joint.

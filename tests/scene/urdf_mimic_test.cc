@@ -206,12 +206,13 @@ TEST(UrdfMimic, CouplingsThatWouldBeLostAreRefused) {
   std::string e = bench_error(mimic_urdf("<mimic joint=\"jf\"/>"));
   EXPECT_NE(e.find("joint 'j2' mimics 'jf', which is off the chain base .. tool: the coupling would be lost"), std::string::npos) << e;
   EXPECT_NE(e.find(":13: joint 'j2'"), std::string::npos) << "the <mimic>'s line: " << e;
-  // a fixed joint mimicked
+  // a fixed joint mimicked: j2 is held at m * 0 + o, so the chain has one moving joint (the bench's
+  // two values are one too many; tests/scene/urdf_published_test.cc loads such files)
   e = bench_error(mimic_urdf("<mimic joint=\"flange\"/>"));
-  EXPECT_NE(e.find("but a fixed joint has no coordinate to follow or to couple"), std::string::npos) << e;
-  // a joint the file does not have
+  EXPECT_NE(e.find("'arm'.q must have 1 entries, got 2"), std::string::npos) << e;
+  // a joint the file does not have: j2 moves on its own (a warning), the file loads
   e = bench_error(mimic_urdf("<mimic joint=\"j9\"/>"));
-  EXPECT_NE(e.find("joint 'j2' mimics 'j9', which the file does not have"), std::string::npos) << e;
+  EXPECT_EQ(e, "") << e;
   // a misspelt attribute (urdfdom would take multiplier 1)
   e = bench_error(mimic_urdf("<mimic joint=\"j1\" multipler=\"2\"/>"));
   EXPECT_NE(e.find(":13: <mimic> attribute 'multipler' is not one of joint, multiplier, offset"), std::string::npos) << e;

@@ -261,7 +261,7 @@ TEST(UrdfTree, ErrorsNameTheProblemAndItsLine) {
 TEST(UrdfTree, AMimicJointInATreeIsCoupled) {
   // arm_right_4 mimics arm_left_4 (multiplier -1; the scene's -0.2 and 0.2 satisfy it): a coupling
   // row in the tree holding the box, the right wrist's accelerations the left's negated, the
-  // coupling's force reported as the right wrist's stress; a mimic of a fixed joint is refused
+  // coupling's force reported as the right wrist's stress; a mimic of a fixed joint holds its follower
   std::string urdf = slurp(data_path("two_arm_torso.urdf"));
   const std::string j = "<joint name=\"arm_right_4_joint\" type=\"revolute\">";
   const std::string path = ::testing::TempDir() + "coopdyn_tree_" + std::to_string(::getpid()) + ".urdf";
@@ -281,8 +281,8 @@ TEST(UrdfTree, AMimicJointInATreeIsCoupled) {
   std::ofstream(path) << replace_once(urdf, j, j + "<mimic joint=\"arm_left_tool_joint\"/>");
   const std::string e = error_of(scene, data_path("two_arm_torso_box.yaml"));
   std::remove(path.c_str());
-  EXPECT_NE(e.find("URDF " + path + ":71: joint 'duo.arm_right_4_joint' mimics 'duo.arm_left_tool_joint', but "
-                   "'duo.arm_left_tool_joint' is not a moving one-DOF joint of the scene"), std::string::npos) << e;
+  // a mimic of a joint the file makes fixed: the follower held at m * 0 + o (a warning), the file loads
+  EXPECT_EQ(e, "(loaded)") << e;
 }
 
 TEST(UrdfTree, AFloatingRootMovesFreely) {
