@@ -71,6 +71,7 @@ def main():
             mm = [np.linalg.norm(r[2][n][:3]) for r in rows]
             ax[0].plot(hs * 100, fz, marker="o", label=n)
             ax[1].plot(hs * 100, mm, marker="o", label=n)
+        ax[0].axhline(-3.0 * 9.81 / 2, color="gray", ls="--", label="half the box's weight (3 kg)")
         ax[0].set(xlabel="grasp height on the box (cm)", ylabel="force on the hand, world z (N)",
                   title="Vertical force at each grasp")
         ax[1].set(xlabel="grasp height on the box (cm)", ylabel="|moment| at the grasp (N·m)",

@@ -53,10 +53,11 @@ pyb::array_t<double> as_doubles(pyb::handle obj, const char* arg) {
 
 }  // namespace
 
-int index_of(const std::vector<std::string>& names, const std::string& name, const char* arg, const char* what) {
+int index_of(const std::vector<std::string>& names, const std::string& name, const char* arg, const char* what,
+             const char* hint) {
   for (size_t i = 0; i < names.size(); ++i)
     if (names[i] == name) return static_cast<int>(i);
-  throw pyb::value_error(std::string(arg) + ": unknown " + what + " '" + name + "'");
+  throw pyb::value_error(std::string(arg) + ": unknown " + what + " '" + name + "'" + hint);
 }
 
 void read_vector(pyb::handle obj, const char* arg, const std::vector<std::string>& names, const char* order,
@@ -67,7 +68,7 @@ void read_vector(pyb::handle obj, const char* arg, const std::vector<std::string
   const auto n = static_cast<pyb::ssize_t>(names.size());
   if (a.ndim() != 1 || a.shape(0) != n)
     throw pyb::value_error(std::string(arg) + ": expected shape (" + std::to_string(n) + ",) in the order of the scene's " +
-                           order + ", got " + shape_text(a));
+                           order + ", got shape " + shape_text(a));
   const double* x = a.data();
   for (pyb::ssize_t i = 0; i < n; ++i)
     if (!std::isfinite(x[i])) not_finite(arg, "[" + std::to_string(i) + "]", names[static_cast<size_t>(i)], x[i]);
@@ -87,7 +88,7 @@ pyb::array_t<double> read_stack(pyb::handle obj, const char* arg, const std::vec
   pyb::array_t<double> a = as_doubles(obj, arg);
   if (a.ndim() != 2 || a.shape(1) != n)
     throw pyb::value_error(std::string(arg) + ": expected shape (N, " + std::to_string(n) + "), columns in the order of the scene's " +
-                           order + ", got " + shape_text(a));
+                           order + ", got shape " + shape_text(a));
   if (*rows >= 0 && a.shape(0) != *rows)
     throw pyb::value_error(std::string(arg) + ": has " + std::to_string(a.shape(0)) + " rows, the other inputs " +
                            std::to_string(*rows));

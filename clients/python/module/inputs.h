@@ -25,7 +25,8 @@ void read_vector(pyb::handle obj, const char* arg, const std::vector<std::string
 pyb::array_t<double> read_stack(pyb::handle obj, const char* arg, const std::vector<std::string>& names,
                                 const char* order, const Eigen::VectorXd& def, long* rows);
 
-// The index of name in names, else ValueError "arg: unknown WHAT 'name'".
-int index_of(const std::vector<std::string>& names, const std::string& name, const char* arg, const char* what);
+// The index of name in names, else ValueError "arg: unknown WHAT 'name'HINT".
+int index_of(const std::vector<std::string>& names, const std::string& name, const char* arg, const char* what,
+             const char* hint = "");
 
 }  // namespace coopdyn::py

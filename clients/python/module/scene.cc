@@ -73,7 +73,7 @@ Eigen::VectorXd Scene::holding_torque() {
 }
 
 int Scene::frame_index(const std::string& frame) const {
-  return index_of(names_->frame, frame, "name", "frame (see Scene.frame_names)");
+  return index_of(names_->frame, frame, "name", "frame", " (see Scene.frame_names)");
 }
 
 void Scene::kinematics() { forward_kinematics(sys_->model, kin_, q_, Eigen::VectorXd::Zero(sys_->model.nv())); }

@@ -12,9 +12,11 @@ if(NOT pytest_rc EQUAL 0)
 endif()
 set(bindings_env PYTHONPATH=${COOPDYN_PYTHON_DIR} COOPDYN_SOURCE_DIR=${PROJECT_SOURCE_DIR} COOPDYN=$<TARGET_FILE:coopdyn>
     COOPDYND=$<TARGET_FILE:coopdynd>)
-foreach(t evaluate inputs batch simulate kinematics)
+foreach(t evaluate inputs batch simulate kinematics client)
   add_test(NAME python.bindings.${t}
            COMMAND ${COOPDYN_PYTHON3} -B -m pytest -q -p no:cacheprovider ${CMAKE_CURRENT_LIST_DIR}/test_${t}.py)
   set_tests_properties(python.bindings.${t} PROPERTIES ENVIRONMENT "${bindings_env}" LABELS "python;bindings"
                        TIMEOUT 120)
 endforeach()
+# the Client against coopdynd over udpm on loopback (private ports, ttl=0)
+set_tests_properties(python.bindings.client PROPERTIES LABELS "python;bindings;daemon")

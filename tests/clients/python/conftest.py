@@ -29,7 +29,7 @@ def cli_eval(scene, state=None, tmp_path=None, hold=False):
         args.append("--hold")
     rc, out, err = run_cli(*args)
     assert rc in (0, 3), err
-    return json.loads(out)
+    return json.loads(out, parse_int=float)  # -0 keeps its sign
 
 
 @pytest.fixture(scope="session")
