@@ -65,15 +65,9 @@ pyb::dict evaluate_batch(const Scene& s, pyb::handle Q, pyb::handle V, pyb::hand
   pyb::array_t<double> cond(N), resid(N);
   pyb::array_t<std::int32_t> rank(N);
   pyb::array_t<std::int8_t> status(N), reason(N);
-  std::vector<pyb::array_t<double>> W, S;
-  std::vector<double*> Wp, Sp;
-  for (int k = 0; k < nw; ++k) {
-    W.emplace_back(std::vector<pyb::ssize_t>{N, 6});
-    Wp.push_back(W.back().mutable_data());
-    if (!sig) continue;
-    S.emplace_back(std::vector<pyb::ssize_t>{N, 6});
-    Sp.push_back(S.back().mutable_data());
-  }
+  // every wrench of a state side by side (one contiguous write per state), then one view per name
+  pyb::array_t<double> W({N, static_cast<long>(nw), 6L}), S({sig ? N : 0L, static_cast<long>(nw), 6L});
+  double *Wp = W.mutable_data(), *Sp = S.mutable_data();
   const double *qp = in.q.data(), *vp = in.v.data(), *tp = in.tau.data();
   double *vd = vdot.mutable_data(), *st = stress.mutable_data(), *cp = cond.mutable_data(), *rp = resid.mutable_data();
   std::int32_t* rk = rank.mutable_data();
@@ -89,8 +83,8 @@ pyb::dict evaluate_batch(const Scene& s, pyb::handle Q, pyb::handle V, pyb::hand
       const Diagnostics& d = evaluate_into(sys, b, q, v, tau);
       Eigen::Map<Eigen::VectorXd>(vd + r * nv, nv) = b.ws.vdot;
       for (int k = 0; k < nw; ++k) {
-        Eigen::Map<Vec6>(Wp[k] + r * 6) = b.wd.W[k];
-        if (sig) Eigen::Map<Vec6>(Sp[k] + r * 6) = b.sd.valid ? b.sd.sigma[k] : Vec6::Constant(std::nan(""));
+        Eigen::Map<Vec6>(Wp + (r * nw + k) * 6) = b.wd.W[k];
+        if (sig) Eigen::Map<Vec6>(Sp + (r * nw + k) * 6) = b.sd.valid ? b.sd.sigma[k] : Vec6::Constant(std::nan(""));
       }
       if (ns) Eigen::Map<Eigen::VectorXd>(st + r * ns, ns) = b.ws.stress;
       cp[r] = d.condition, rp[r] = d.residual, rk[r] = d.rank;
@@ -99,15 +93,17 @@ pyb::dict evaluate_batch(const Scene& s, pyb::handle Q, pyb::handle V, pyb::hand
     }
   }
   pyb::dict out, wrenches, sigma;
+  const pyb::object all = pyb::slice(pyb::none(), pyb::none(), pyb::none());
   for (int k = 0; k < nw; ++k) {
-    wrenches[pyb::str(nm.wrench[k])] = W[k];
-    if (sig) sigma[pyb::str(nm.wrench[k])] = S[k];
+    wrenches[pyb::str(nm.wrench[k])] = W[pyb::make_tuple(all, k, all)];
+    if (sig) sigma[pyb::str(nm.wrench[k])] = S[pyb::make_tuple(all, k, all)];
   }
   std::vector<const char*> status_words, reason_words;
   for (int c = 0; c < 3; ++c) status_words.push_back(status_name(static_cast<Status>(c)));
   for (int c = 0; c < 128; ++c) reason_words.push_back(reason_key(static_cast<Reason>(c)));
   out["vdot"] = vdot;
   out["wrenches"] = wrenches;
+  out["wrench_stack"] = W;
   out["sigma"] = sigma;
   out["stresses"] = stress;
   out["status"] = strings(status_words, status);
