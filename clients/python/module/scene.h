@@ -6,11 +6,10 @@
 
 #include <pybind11/pybind11.h>
 
+#include <Eigen/Core>
 #include <memory>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "service/dynamics/constrained_dynamics.h"
 #include "service/dynamics/holding_torque.h"
@@ -60,9 +59,9 @@ class Scene {
   EvalResult evaluate(bool hold);
   // The holding torques at (q, v) clamped to the torque limits (coopdynd's safe torque `hold`).
   Eigen::VectorXd holding_torque();
-  Transform frame_pose(const std::string& frame);   // at q_
+  Transform frame_pose(const std::string& frame);      // at q_
   Eigen::MatrixXd jacobian(const std::string& frame);  // at q_: 6 x nv, world axes, [angular; linear]
-  Eigen::MatrixXd mass_matrix();                      // at q_
+  Eigen::MatrixXd mass_matrix();                       // at q_
 
   Eigen::VectorXd q_, v_, tau_;
 
