@@ -49,12 +49,11 @@ Mat3 y_to(const Vec3& a) {
 
 }  // namespace
 
-ViewFrames view_geometry(const System& sys, const ViewVisuals* vis) {
-  ViewFrames out;
-  ViewFrames* vf = &out;
-  if (vis) out.visuals = *vis;
+namespace {
+
+// The shapes drawn whole: each rolling wheel, and each free body as the box of its inertia.
+void add_view_shapes(const System& sys, ViewFrames* vf, std::vector<char>& is_shape) {
   const Model& m = sys.model;
-  std::vector<char> is_shape(m.nbodies(), 0);
   for (const ConstraintSpec& c : sys.constraints.specs) {
     if (c.kind != ConstraintKind::kRolling || c.body < 0 || is_shape[c.body]) continue;
     ViewFrames::Shape s;
@@ -88,6 +87,37 @@ ViewFrames view_geometry(const System& sys, const ViewVisuals* vis) {
     vf->shapes.push_back(s);
     is_shape[b] = 1;
   }
+}
+
+// The rolling contacts in the contact report's order (ContactData::spec) and the distinct planes
+// they roll on: the scene's `ground`, or a wheel's own.
+void add_view_contacts(const System& sys, ViewFrames* vf) {
+  const ContactData cd(sys);
+  for (int s : cd.spec) {
+    const ConstraintSpec& c = sys.constraints.specs[static_cast<size_t>(s)];
+    vf->contacts.push_back({c.name, s, c.mu});
+    const int k = static_cast<int>(vf->contacts.size()) - 1;
+    auto same = [&](const ViewFrames::Ground& g) {
+      return (g.n - c.ground_n).norm() < 1e-12 && std::abs(g.d - c.ground_d) < 1e-12;
+    };
+    auto it = std::find_if(vf->grounds.begin(), vf->grounds.end(), same);
+    if (it == vf->grounds.end()) {
+      vf->grounds.push_back({c.ground_n, c.ground_d, {}});
+      it = vf->grounds.end() - 1;
+    }
+    it->contacts.push_back(k);
+  }
+}
+
+}  // namespace
+
+ViewFrames view_geometry(const System& sys, const ViewVisuals* vis) {
+  ViewFrames out;
+  ViewFrames* vf = &out;
+  if (vis) out.visuals = *vis;
+  const Model& m = sys.model;
+  std::vector<char> is_shape(m.nbodies(), 0);
+  add_view_shapes(sys, vf, is_shape);
   // links: from the parent's origin (or the joint's place in the world) to the body's origin, and
   // from a link's origin to the operational frames fixed in it (a cut, a tool point)
   for (int b = 0; b < m.nbodies(); ++b) {
@@ -114,21 +144,7 @@ ViewFrames view_geometry(const System& sys, const ViewVisuals* vis) {
   }
   for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k)
     if (sys.wrenches.outputs[k].kind != WrenchKind::kJoint) vf->wrenches.push_back(static_cast<int>(k));
-  // the rolling contacts in the contact report's order (ContactData::spec) and the distinct planes
-  // they roll on: the scene's `ground`, or a wheel's own
-  const ContactData cd(sys);
-  for (int s : cd.spec) {
-    const ConstraintSpec& c = sys.constraints.specs[static_cast<size_t>(s)];
-    vf->contacts.push_back({c.name, s, c.mu});
-    const int k = static_cast<int>(vf->contacts.size()) - 1;
-    auto same = [&](const ViewFrames::Ground& g) { return (g.n - c.ground_n).norm() < 1e-12 && std::abs(g.d - c.ground_d) < 1e-12; };
-    auto it = std::find_if(vf->grounds.begin(), vf->grounds.end(), same);
-    if (it == vf->grounds.end()) {
-      vf->grounds.push_back({c.ground_n, c.ground_d, {}});
-      it = vf->grounds.end() - 1;
-    }
-    it->contacts.push_back(k);
-  }
+  add_view_contacts(sys, vf);
   for (int dof : m.pseudo_dofs) {
     ViewFrames::Pseudo p;
     p.dof = dof;
@@ -275,6 +291,28 @@ std::vector<std::array<int, 6>> wrench_columns(const System& sys, const ViewFram
   }
   return cols;
 }
+// A row's contact report (utilisation, friction needed, state) and the joints' limits it flags.
+template <class Num>
+void read_report_cells(const std::vector<std::string>& cells, const std::vector<std::string>& head,
+                       const std::string& where, const std::vector<std::array<int, 3>>& c_c,
+                       const std::vector<std::pair<std::string, int>>& c_lim, const Num& num, ViewSample* r) {
+  for (const auto& c : c_c) {
+    r->contact_u.push_back(num(c[0]));
+    r->contact_u.push_back(num(c[1]));
+    const std::string& st = cells[c[2]];
+    const int code = st == "ok" ? 0 : st == "slip" ? 1 : st == "lift_off" ? 2 : -1;
+    if (code < 0)
+      throw std::runtime_error(where + ": unknown contact state '" + st + "' in column '" + head[c[2]] +
+                               "' (ok, slip or lift_off)");
+    r->contact_state.push_back(code);
+  }
+  for (const auto& [name, c] : c_lim) {
+    const int bits = static_cast<int>(num(c));
+    for (int k = 0; k < 3; ++k)
+      if (bits & (1 << k))
+        r->limits += (r->limits.empty() ? "" : ", ") + name + " " + limit_word(static_cast<LimitBit>(1 << k));
+  }
+}
 }  // namespace
 
 ViewFrames read_view_frames(const System& sys, const std::string& path, int max_frames, const ViewVisuals* vis) {
@@ -358,22 +396,7 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
     wrenches6(c_w, &r.w);
     wrenches6(c_sigma, &r.sigma);
     wrenches6(c_bound, &r.bound);
-    for (const auto& c : c_c) {
-      r.contact_u.push_back(num(c[0]));
-      r.contact_u.push_back(num(c[1]));
-      const std::string& st = cells[c[2]];
-      const int code = st == "ok" ? 0 : st == "slip" ? 1 : st == "lift_off" ? 2 : -1;
-      if (code < 0)
-        throw std::runtime_error(where + ": unknown contact state '" + st + "' in column '" + head[c[2]] +
-                                 "' (ok, slip or lift_off)");
-      r.contact_state.push_back(code);
-    }
-    for (const auto& [name, c] : c_lim) {
-      const int bits = static_cast<int>(num(c));
-      for (int k = 0; k < 3; ++k)
-        if (bits & (1 << k))
-          r.limits += (r.limits.empty() ? "" : ", ") + name + " " + limit_word(static_cast<LimitBit>(1 << k));
-    }
+    read_report_cells(cells, head, where, c_c, c_lim, num, &r);
     if (!configuration_valid(m, r.q)) throw std::runtime_error(where + ": not a valid configuration of scene '" + sys.name + "'");
     rows.push_back(std::move(r));
   }
