@@ -22,6 +22,9 @@ def columns(spec):
     joints = [s.v_names[i] for i in act]
     hands = hand_names(s)
     cols = ["sample"] + [v.name for v in spec.variables] + ["status"]
+    if spec.kind == "evaluate":
+        return cols + ["feasible", "binding", "util_max"] + [f"{h}.{c}" for h in hands
+                                                              for c in ("mx", "my", "mz", "fx", "fy", "fz")]
     if spec.kind == "payload":
         cols += ["payload", "binding", "feasible_empty", "util_empty"]
     else:
@@ -67,6 +70,8 @@ def run_chunk(spec, k):
     hands = hand_names(base)
     names = [v.name for v in spec.variables]
     ncol = len(columns(spec))
+    if spec.kind == "evaluate":
+        return _evaluate_chunk(spec, idx, values, act, limit, hands)
     rows = []
     for r, i in enumerate(idx):
         head = [int(i)] + [float(values[n][r]) for n in names]
@@ -131,3 +136,29 @@ def _payload_sample(spec, q, act, limit, hands):
     out += [float(x) for x in tau[act]] + [float(x) for x in np.abs(tau[act]) / limit]
     out += [float(x) for h in hands for x in w[h]] + [_internal_force(s0, q, w, hands)]
     return out
+
+
+def _evaluate_chunk(spec, idx, values, act, limit, hands):
+    """kind evaluate: the chunk's states and torques in one Scene.evaluate_batch (GIL released), the
+    torques' utilisation of their limits and the hands' wrenches (in the hand frames)."""
+    s = spec.scene
+    n = len(idx)
+    Q = np.tile(np.asarray(s.q0), (n, 1))
+    TAU = np.zeros((n, s.nv))
+    for name, col in values.items():
+        if name.startswith("tau."):
+            TAU[:, s.v_names.index(name[4:])] = col
+        else:
+            Q[:, s.q_names.index(name)] = col
+    b = s.evaluate_batch(Q, np.tile(np.asarray(s.v0), (n, 1)), TAU)
+    util = np.abs(TAU[:, act]) / limit
+    names = [v.name for v in spec.variables]
+    W = np.concatenate([b["wrenches"][h] for h in hands], axis=1) if hands else np.zeros((n, 0))
+    rows = []
+    for r in range(n):
+        st = b["status"][r]
+        rows.append(tuple([int(idx[r])] + [float(values[m][r]) for m in names] +
+                          ["ok" if st in ("ok", 0) else str(st), bool(np.all(util[r] <= 1.0)),
+                           s.v_names[act[int(np.argmax(util[r]))]], float(np.max(util[r]))] +
+                          W[r].tolist()))
+    return rows

@@ -9,7 +9,7 @@ import os
 
 import yaml
 
-KINDS = ("hold", "payload")
+KINDS = ("hold", "payload", "evaluate")
 LOAD_OFFSETS = ("load.x", "load.y", "load.z")   # m, the load's position offset from the scene's pose
 ERRORS = ("load.mass_error",)                    # relative error of the model's load mass (1 = 100 %)
 SAMPLERS = ("grid", "values", "uniform", "normal")
@@ -93,11 +93,12 @@ def _number(where, line, key, x):
     return float(x)
 
 
-def _variable(where, name, body, line, scene_q):
+def _variable(where, name, body, line, scene_q, scene_v):
     known = LOAD_OFFSETS + ("load.mass",) + ERRORS
-    if name not in known and name not in scene_q:
+    if name not in known and name not in scene_q and not (name.startswith("tau.") and name[4:] in scene_v):
         _fail(where, line, f"variables.{name}", "unknown variable (known: " + ", ".join(known) +
-              ", or a joint of the scene: " + ", ".join(scene_q) + ")")
+              ", a joint of the scene: " + ", ".join(scene_q) +
+              ", or tau.<joint> for kind evaluate)")
     if not isinstance(body, dict) or len(body) != 1:
         _fail(where, line, f"variables.{name}", "one of {grid: [start, stop, count]}, {values: [...]}, "
               "{uniform: [low, high]}, {normal: [mean, sd]}")
@@ -167,7 +168,8 @@ def load(source, base=None, where=None):
     if not isinstance(variables, _Lined):
         _fail(where, line("variables"), "variables", "a mapping name -> {sampler: [...]}")
     q_names = list(spec.scene.q_names)
-    spec.variables = [_variable(where, n, b, variables.lines[n], q_names) for n, b in variables.items()]
+    v_names = list(spec.scene.v_names)
+    spec.variables = [_variable(where, n, b, variables.lines[n], q_names, v_names) for n, b in variables.items()]
     names = [v.name for v in spec.variables]
     has_load = any(n in LOAD_OFFSETS + ("load.mass",) + ERRORS for n in names) or spec.kind == "payload"
     if has_load and "load" not in "".join(q_names[:1]):
@@ -181,6 +183,11 @@ def load(source, base=None, where=None):
     if spec.draws_vars and "draws" not in data:
         v = spec.draws_vars[0]
         _fail(where, variables.lines[v.name], f"variables.{v.name}", "a random variable needs draws: N at the top")
+    for n in names:
+        if n.startswith("tau.") and spec.kind != "evaluate":
+            _fail(where, variables.lines[n], f"variables.{n}", "torque variables need kind: evaluate")
+        if spec.kind == "evaluate" and not (n.startswith("tau.") or n in q_names and n not in LOAD_OFFSETS):
+            _fail(where, variables.lines[n], f"variables.{n}", "kind evaluate takes joint states and tau.<joint> only")
     if spec.kind == "payload" and "load.mass" in names:
         _fail(where, variables.lines["load.mass"], "variables.load.mass", "the payload study finds the mass itself")
     return spec
