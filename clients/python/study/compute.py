@@ -61,8 +61,8 @@ def _state(spec, s, values, r):
 
 
 def run_chunk(spec, k):
-    """The rows of chunk k: a list of tuples (float, or str for status and binding), NaN where a
-    sample has no value (status says why)."""
+    """The rows of chunk k: a list of tuples (float; int for the index and 0/1 flags; str for status
+    and binding), NaN where a sample has no value (status says why)."""
     base = spec.scene
     idx, values = samples.chunk_values(spec, k)
     act = [i for i, L in enumerate(base.tau_limit) if L > 0]
@@ -97,7 +97,7 @@ def _hold_sample(spec, values, r, q, act, limit, hands):
     tau = s.holding_torque(q, clamp=False)
     util = np.abs(tau[act]) / limit
     w, st = _hold_at(s, q, tau)
-    out = ["ok" if st in ("ok", 0) else str(st), bool(np.all(util <= 1.0)),
+    out = ["ok" if st in ("ok", 0) else str(st), int(np.all(util <= 1.0)),
            s.v_names[act[int(np.argmax(util))]], float(np.max(util))]
     out += [float(x) for x in tau[act]] + [float(x) for x in util]
     out += [float(x) for h in hands for x in w[h]] + [_internal_force(s, q, w, hands)]
@@ -132,7 +132,7 @@ def _payload_sample(spec, q, act, limit, hands):
     w1, _ = _hold_at(s1, q, t1)
     w = {h: w0[h] + m * (w1[h] - w0[h]) for h in hands}
     util0 = np.abs(a) / limit
-    out = ["ok", m, s0.v_names[act[j]], bool(np.all(util0 <= 1.0)), float(np.max(util0))]
+    out = ["ok", m, s0.v_names[act[j]], int(np.all(util0 <= 1.0)), float(np.max(util0))]
     out += [float(x) for x in tau[act]] + [float(x) for x in np.abs(tau[act]) / limit]
     out += [float(x) for h in hands for x in w[h]] + [_internal_force(s0, q, w, hands)]
     return out
@@ -152,13 +152,11 @@ def _evaluate_chunk(spec, idx, values, act, limit, hands):
             Q[:, s.q_names.index(name)] = col
     b = s.evaluate_batch(Q, np.tile(np.asarray(s.v0), (n, 1)), TAU)
     util = np.abs(TAU[:, act]) / limit
-    names = [v.name for v in spec.variables]
-    W = np.concatenate([b["wrenches"][h] for h in hands], axis=1) if hands else np.zeros((n, 0))
-    rows = []
-    for r in range(n):
-        st = b["status"][r]
-        rows.append(tuple([int(idx[r])] + [float(values[m][r]) for m in names] +
-                          ["ok" if st in ("ok", 0) else str(st), bool(np.all(util[r] <= 1.0)),
-                           s.v_names[act[int(np.argmax(util[r]))]], float(np.max(util[r]))] +
-                          W[r].tolist()))
-    return rows
+    v_names = s.v_names
+    binding = [v_names[act[j]] for j in np.argmax(util, axis=1)]
+    feasible = np.all(util <= 1.0, axis=1).astype(int).tolist()
+    status = ["ok" if st in ("ok", 0) else str(st) for st in b["status"]]
+    head = np.column_stack([values[v.name] for v in spec.variables]).tolist() if spec.variables else [[]] * n
+    W = np.concatenate([b["wrenches"][h] for h in hands], axis=1).tolist() if hands else [[]] * n
+    umax = np.max(util, axis=1).tolist()
+    return [tuple([int(idx[r])] + head[r] + [status[r], feasible[r], binding[r], umax[r]] + W[r]) for r in range(n)]

@@ -5,7 +5,6 @@ per sample in sample order. A chunk is written whole, in one write, only after e
 a file cut short (SIGINT, a crash) ends on a chunk boundary, and resume=True continues after it.
 Chunks lost with a worker are recomputed by Dask; each chunk is written once, so each sample appears once.
 """
-import math
 import os
 import sys
 import time
@@ -16,12 +15,14 @@ from . import spec as specmod
 _specs = {}
 
 
-def _task(text, base, where, k):
-    """Worker side: the rows of chunk k (the spec parsed once per process)."""
+def _task(text, base, where, k, as_text=True):
+    """Worker side: chunk k's rows, as CSV text (formatted where they are computed) or as tuples (the
+    spec parsed once per process)."""
     key = (text, base)
     if key not in _specs:
         _specs[key] = specmod.load(text, base=base, where=where)
-    return k, compute.run_chunk(_specs[key], k)
+    rows = compute.run_chunk(_specs[key], k)
+    return k, (format_rows(rows) if as_text else rows)
 
 
 def commit():
@@ -33,11 +34,18 @@ def commit():
 
 
 def _fmt(x):
-    if isinstance(x, bool):
-        return "1" if x else "0"
-    if isinstance(x, float):
-        return "" if math.isnan(x) else repr(x)
-    return str(x)
+    if x != x:  # NaN: no value (status says why)
+        return ""
+    return str(x)  # a float's shortest repr: it reads back to the same double
+
+
+def format_rows(rows):
+    """CSV text of rows (floats, ints, strs): the fast join, the slow path only for rows with a NaN."""
+    out = []
+    for r in rows:
+        line = ",".join(map(str, r))
+        out.append(",".join(map(_fmt, r)) if "nan" in line else line)
+    return "\n".join(out) + "\n" if out else ""
 
 
 def header(spec):
@@ -102,24 +110,24 @@ def run(source, out=None, workers=None, scheduler=None, client=None, resume=Fals
     bar = _Progress(nchunks, progress)
     bar(start, 0)
 
-    def write(k, rows):
-        text = "".join(",".join(_fmt(x) for x in r) + "\n" for r in rows)
+    def write(k, chunk):
         if sink is not None:
-            sink.write(text)
+            sink.write(chunk)
             sink.flush()
         else:
-            rows_all.extend(rows)
-        bar(k + 1, len(rows))
+            rows_all.extend(chunk)
+        bar(k + 1, min(spec.chunk, spec.count - k * spec.chunk))
         if on_chunk is not None:
             on_chunk(k)
 
     args = (spec.text, spec.base, spec.path)
+    as_text = sink is not None
     try:
         if workers == 0 and client is None and scheduler is None:
             for k in range(start, nchunks):
-                write(k, _task(*args, k)[1])
+                write(k, _task(*args, k, as_text)[1])
         else:
-            _run_dask(args, range(start, nchunks), write, workers, scheduler, client)
+            _run_dask(args + (as_text,), range(start, nchunks), write, workers, scheduler, client)
     finally:
         if sink is not None:
             sink.close()
@@ -144,7 +152,7 @@ def _run_dask(args, chunks, write, workers, scheduler, client):
         pending = {}
         futures = as_completed()
         for k in todo:
-            futures.add(client.submit(_task, *args, k, pure=False))
+            futures.add(client.submit(_task, *args[:3], k, args[3], pure=False))
             if futures.count() >= window:
                 break
         nxt = min(chunks) if len(chunks) else 0
@@ -157,7 +165,7 @@ def _run_dask(args, chunks, write, workers, scheduler, client):
                 nxt += 1
             k2 = next(todo, None)
             if k2 is not None:
-                futures.add(client.submit(_task, *args, k2, pure=False))
+                futures.add(client.submit(_task, *args[:3], k2, args[3], pure=False))
     finally:
         for o in own:
             o.close()
