@@ -163,8 +163,10 @@ def _run_dask(args, chunks, write, workers, scheduler, client):
             while nxt in pending:
                 write(nxt, pending.pop(nxt))
                 nxt += 1
-            k2 = next(todo, None)
-            if k2 is not None:
+            while futures.count() + len(pending) < window:  # at most `window` chunks held or in flight
+                k2 = next(todo, None)
+                if k2 is None:
+                    break
                 futures.add(client.submit(_task, *args[:3], k2, args[3], pure=False))
     finally:
         for o in own:
