@@ -66,7 +66,8 @@ def main():
         c, p, cb, b = (pick(x) for x in (cxx, py, cxx_b, batch))
         print("%s round" % ("fastest" if pick is min else "median"))
         print("  C++ evaluation (evaluate, wrenches, sigma) %8.3f us/state" % (c * us))
-        print("  Scene.evaluate from Python              %8.3f us/call  = %.3f x C++ + %.3f us (goal <= 1.3 x + 1 us: %s)"
+        print("  Scene.evaluate from Python              %8.3f us/call  = %.3f x C++ + %.3f us "
+              "(goal <= 1.3 x + 1 us: %s)"
               % (p * us, p / c, (p - c) * us, "met" if p <= 1.3 * c + 1e-6 else "NOT met"))
         print("  C++ loop, %d states                  %8.3f us/state" % (a.batch, cb * us))
         print("  Scene.evaluate_batch, %d states      %8.3f us/state = %.1f %% of the C++ rate (goal >= 90 %%: %s)"

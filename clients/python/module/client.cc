@@ -2,6 +2,10 @@
 // torque commands and measured states published (signed with the daemon's key when given one),
 // outputs and loop statistics received on LCM's thread, queued as bytes and decoded when read
 // (output_adapter.h). Waiting releases the GIL.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -11,10 +15,6 @@
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <pybind11/numpy.h>
-#include <pybind11/pybind11.h>
-#include <pybind11/stl.h>
 
 #include "clients/python/module/output_adapter.h"
 #include "service/io/auth.h"
@@ -47,8 +47,10 @@ class Inbox {
     const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout);
     if (!cv_.wait_until(l, until, [&] { return !q_.empty(); })) return std::nullopt;
     std::vector<uint8_t> m = latest ? std::move(q_.back()) : std::move(q_.front());
-    if (latest) q_.clear();
-    else q_.pop_front();
+    if (latest)
+      q_.clear();
+    else
+      q_.pop_front();
     return m;
   }
   long long received() const {
@@ -105,8 +107,8 @@ void values_of(pyb::handle x, pyb::handle names, const char* arg, std::vector<st
 class Client {
  public:
   Client(const std::string& url, const std::string& output_channel, const std::string& stats_channel,
-         const std::string& command_channel, const std::string& state_channel, const std::optional<std::string>& key_file,
-         size_t queue)
+         const std::string& command_channel, const std::string& state_channel,
+         const std::optional<std::string>& key_file, size_t queue)
       : outputs_(queue), stats_(queue), command_channel_(command_channel), state_channel_(state_channel) {
     if (key_file) {
       try {

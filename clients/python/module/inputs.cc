@@ -29,8 +29,8 @@ void read_dict(const pyb::dict& d, const char* arg, const std::vector<std::strin
     try {
       x = pyb::float_(pyb::reinterpret_borrow<pyb::object>(item.second)).cast<double>();
     } catch (const pyb::error_already_set&) {
-      throw pyb::value_error(std::string(arg) + "['" + key + "'] is not a number: " +
-                             std::string(pyb::str(pyb::repr(item.second))));
+      throw pyb::value_error(std::string(arg) + "['" + key +
+                             "'] is not a number: " + std::string(pyb::str(pyb::repr(item.second))));
     }
     if (!std::isfinite(x))
       throw pyb::value_error(std::string(arg) + "['" + key + "'] is " + (std::isnan(x) ? "NaN" : "infinite") +
@@ -67,8 +67,8 @@ void read_vector(pyb::handle obj, const char* arg, const std::vector<std::string
   const pyb::array_t<double> a = as_doubles(obj, arg);
   const auto n = static_cast<pyb::ssize_t>(names.size());
   if (a.ndim() != 1 || a.shape(0) != n)
-    throw pyb::value_error(std::string(arg) + ": expected shape (" + std::to_string(n) + ",) in the order of the scene's " +
-                           order + ", got shape " + shape_text(a));
+    throw pyb::value_error(std::string(arg) + ": expected shape (" + std::to_string(n) +
+                           ",) in the order of the scene's " + order + ", got shape " + shape_text(a));
   const double* x = a.data();
   for (pyb::ssize_t i = 0; i < n; ++i)
     if (!std::isfinite(x[i])) not_finite(arg, "[" + std::to_string(i) + "]", names[static_cast<size_t>(i)], x[i]);
@@ -87,8 +87,8 @@ pyb::array_t<double> read_stack(pyb::handle obj, const char* arg, const std::vec
   }
   pyb::array_t<double> a = as_doubles(obj, arg);
   if (a.ndim() != 2 || a.shape(1) != n)
-    throw pyb::value_error(std::string(arg) + ": expected shape (N, " + std::to_string(n) + "), columns in the order of the scene's " +
-                           order + ", got shape " + shape_text(a));
+    throw pyb::value_error(std::string(arg) + ": expected shape (N, " + std::to_string(n) +
+                           "), columns in the order of the scene's " + order + ", got shape " + shape_text(a));
   if (*rows >= 0 && a.shape(0) != *rows)
     throw pyb::value_error(std::string(arg) + ": has " + std::to_string(a.shape(0)) + " rows, the other inputs " +
                            std::to_string(*rows));
@@ -97,7 +97,8 @@ pyb::array_t<double> read_stack(pyb::handle obj, const char* arg, const std::vec
   for (pyb::ssize_t r = 0; r < a.shape(0); ++r)
     for (pyb::ssize_t i = 0; i < n; ++i)
       if (!std::isfinite(x[r * n + i]))
-        not_finite(arg, "[" + std::to_string(r) + ", " + std::to_string(i) + "]", names[static_cast<size_t>(i)], x[r * n + i]);
+        not_finite(arg, "[" + std::to_string(r) + ", " + std::to_string(i) + "]", names[static_cast<size_t>(i)],
+                   x[r * n + i]);
   return a;
 }
 

@@ -3,12 +3,12 @@
 // index or name (a wrong shape, a NaN or infinity, an unknown name, a value that is not a number).
 #pragma once
 
-#include <string>
-#include <vector>
-
-#include <Eigen/Core>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
 
 namespace coopdyn::py {
 

@@ -13,7 +13,8 @@ namespace {
 pyb::array_t<double> arr(const std::vector<double>& x) { return pyb::array_t<double>(x.size(), x.data()); }
 pyb::dict by_name(const std::vector<std::string>& names, const std::vector<std::array<double, 6>>& w) {
   pyb::dict d;
-  for (size_t k = 0; k < names.size() && k < w.size(); ++k) d[pyb::str(names[k])] = pyb::array_t<double>(6, w[k].data());
+  for (size_t k = 0; k < names.size() && k < w.size(); ++k)
+    d[pyb::str(names[k])] = pyb::array_t<double>(6, w[k].data());
   return d;
 }
 }  // namespace
@@ -38,7 +39,8 @@ pyb::dict output_dict(const io::DecodedOutput& o) {
   d["sigma"] = o.sigma_source ? by_name(o.wrench_names, o.wrench_sigma) : pyb::dict();
   d["wrench_residual"] = by_name(o.wrench_names, o.wrench_residual);
   pyb::dict stresses;
-  for (size_t k = 0; k < o.stress_names.size() && k < o.stress.size(); ++k) stresses[pyb::str(o.stress_names[k])] = o.stress[k];
+  for (size_t k = 0; k < o.stress_names.size() && k < o.stress.size(); ++k)
+    stresses[pyb::str(o.stress_names[k])] = o.stress[k];
   d["stresses"] = stresses;
   pyb::dict contacts;
   for (size_t k = 0; k < o.contact_names.size(); ++k)
@@ -60,7 +62,8 @@ pyb::dict stats_dict(const io::StatsFrame& s) {
   d["receiver_restarts"] = s.receiver_restarts, d["inputs_dropped"] = s.inputs_dropped;
   d["missed"] = s.missed, d["inputs_filtered"] = s.inputs_filtered;
   pyb::dict by;
-  for (int k = 1; k < io::kRejectKinds; ++k) by[pyb::str(io::reject_key(static_cast<io::Reject>(k)))] = s.rejected_by_reason[k];
+  for (int k = 1; k < io::kRejectKinds; ++k)
+    by[pyb::str(io::reject_key(static_cast<io::Reject>(k)))] = s.rejected_by_reason[k];
   d["rejected_by_reason"] = by;
   d["closure_rejected"] = s.closure_rejected, d["inputs_malformed"] = s.inputs_malformed;
   d["controls_received"] = s.controls_received, d["controls_accepted"] = s.controls_accepted;

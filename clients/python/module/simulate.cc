@@ -1,10 +1,10 @@
 #include "clients/python/module/simulate.h"
 
+#include <pybind11/numpy.h>
+
 #include <cmath>
 #include <optional>
 #include <vector>
-
-#include <pybind11/numpy.h>
 
 #include "clients/python/module/inputs.h"
 #include "service/dynamics/integrators.h"
@@ -97,8 +97,8 @@ pyb::dict simulate(Scene& s, double duration, double dt, pyb::handle torque, boo
     const double t = i * dt;
     if (call) {
       tau.setZero();
-      const pyb::object x = pyb::reinterpret_borrow<pyb::object>(torque)(
-          t, pyb::array_t<double>(q.size(), q.data()), pyb::array_t<double>(v.size(), v.data()));
+      const pyb::object x = pyb::reinterpret_borrow<pyb::object>(torque)(t, pyb::array_t<double>(q.size(), q.data()),
+                                                                         pyb::array_t<double>(v.size(), v.data()));
       read_vector(x, ("torque(t=" + std::to_string(t) + ")").c_str(), nm.v, "v_names", tau);
     } else {
       tau = tau_const;

@@ -2,9 +2,9 @@
 // step's start, the torque applied over it, its accelerations, wrenches, stresses and status).
 #pragma once
 
-#include <string>
-
 #include <pybind11/pybind11.h>
+
+#include <string>
 
 #include "clients/python/module/scene.h"
 

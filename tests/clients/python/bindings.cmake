@@ -10,7 +10,8 @@ if(NOT pytest_rc EQUAL 0)
                   "the tests of the Python bindings are not run")
   return()
 endif()
-set(bindings_env PYTHONPATH=${COOPDYN_PYTHON_DIR} COOPDYN_SOURCE_DIR=${PROJECT_SOURCE_DIR} COOPDYN=$<TARGET_FILE:coopdyn>
+set(bindings_env PYTHONPATH=${COOPDYN_PYTHON_DIR} COOPDYN_SOURCE_DIR=${PROJECT_SOURCE_DIR}
+    COOPDYN=$<TARGET_FILE:coopdyn>
     COOPDYND=$<TARGET_FILE:coopdynd>)
 foreach(t evaluate inputs batch simulate kinematics client)
   add_test(NAME python.bindings.${t}
