@@ -88,7 +88,8 @@ def main():
               f"(overhead vs bare {100 * (te / tb - 1):.0f} %), payload {pay.count / tp:.1f} poses/s")
         same = open(os.path.join(tmp, f"e{w}.csv"), "rb").read() == open(os.path.join(tmp, "s.csv"), "rb").read()
         print(f"  file identical to serial: {same}")
-    print(f"2 workers / 1 worker: evaluate {rates[2][0] / rates[1][0]:.2f} x, payload {rates[2][1] / rates[1][1]:.2f} x")
+    print(f"2 workers / 1 worker: evaluate {rates[2][0] / rates[1][0]:.2f} x, "
+          f"payload {rates[2][1] / rates[1][1]:.2f} x")
     print(f"load average {os.getloadavg()[0]:.1f}")
     return 0
 

@@ -7,8 +7,10 @@
 import sys
 import types
 
-from .spec import StudyError, load  # noqa: F401
-from .run import run  # noqa: F401
+from .spec import StudyError, load
+from .run import run
+
+__all__ = ["StudyError", "load", "run"]
 
 
 class _CallableModule(types.ModuleType):
