@@ -79,10 +79,13 @@ def run_chunk(spec, k):
         if status != "ok":
             rows.append(tuple(head + [status] + [math.nan] * (ncol - len(head) - 1)))
             continue
-        if spec.kind == "payload":
-            rows.append(tuple(head + _payload_sample(spec, q, act, limit, hands)))
-        else:
-            rows.append(tuple(head + _hold_sample(spec, values, r, q, act, limit, hands)))
+        try:
+            if spec.kind == "payload":
+                rows.append(tuple(head + _payload_sample(spec, q, act, limit, hands)))
+            else:
+                rows.append(tuple(head + _hold_sample(spec, values, r, q, act, limit, hands)))
+        except ValueError:  # the bindings' refusal of a state (a singular mass matrix): no value
+            rows.append(tuple(head + ["invalid"] + [math.nan] * (ncol - len(head) - 1)))
     return rows
 
 
