@@ -17,9 +17,9 @@
 #include <vector>
 
 #include "clients/python/module/output_adapter.h"
-#include "service/io/auth.h"
-#include "service/io/codec.h"
-#include "service/io/lcm_bus.h"
+#include "service/io/transport/auth.h"
+#include "service/io/codec/codec.h"
+#include "service/io/transport/lcm_bus.h"
 
 namespace coopdyn::py {
 

@@ -5,7 +5,7 @@
 
 #include <pybind11/pybind11.h>
 
-#include "service/io/messages.h"
+#include "service/io/codec/messages.h"
 
 namespace coopdyn::py {
 

@@ -14,7 +14,7 @@
 #include "service/dynamics/constrained_dynamics.h"
 #include "service/dynamics/holding_torque.h"
 #include "service/dynamics/system.h"
-#include "service/dynamics/wrench_sigma.h"
+#include "service/dynamics/sigma/wrench_sigma.h"
 #include "service/dynamics/wrenches.h"
 
 namespace coopdyn::py {
