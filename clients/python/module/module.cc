@@ -170,13 +170,14 @@ void bind_scene(pyb::module_& m) {
            "reason, stopped. torque: array or dict (constant) or callable torque(t, q, v).")
       .def(
           "holding_torque",
-          [](Scene& s, pyb::handle q, pyb::handle v) {
+          [](Scene& s, pyb::handle q, pyb::handle v, bool clamp) {
             s.read_state(q, v, pyb::none());
-            const Eigen::VectorXd th = s.holding_torque();
+            const Eigen::VectorXd th = s.holding_torque(clamp);
             return pyb::array_t<double>(th.size(), th.data());
           },
-          "q"_a = pyb::none(), "v"_a = pyb::none(),
-          "The torques that hold (q, v) at rest, clamped to the torque limits (coopdynd's safe torque `hold`).")
+          "q"_a = pyb::none(), "v"_a = pyb::none(), "clamp"_a = true,
+          "The torques that hold (q, v) at rest, clamped to the torque limits (coopdynd's safe torque `hold`); "
+          "clamp=False: as solved (a joint may exceed its limit).")
       .def(
           "frame_pose",
           [](Scene& s, const std::string& name, pyb::handle q) {

@@ -63,13 +63,13 @@ EvalResult Scene::evaluate(bool hold) {
   return r;
 }
 
-Eigen::VectorXd Scene::holding_torque() {
+Eigen::VectorXd Scene::holding_torque(bool clamp) {
   if (!hold_) hold_ = std::make_unique<HoldWorkspace>(*sys_, default_actuated(*sys_));
   Eigen::VectorXd th(sys_->model.nv());
   if (!coopdyn::holding_torque(*sys_, *hold_, q_, v_, th))
     throw pybind11::value_error(
         "holding_torque: the state is not valid (a non-unit quaternion, or a singular mass matrix)");
-  clamp_to_torque_limits(*sys_, *hold_, th);
+  if (clamp) clamp_to_torque_limits(*sys_, *hold_, th);
   return th;
 }
 

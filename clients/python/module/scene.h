@@ -58,7 +58,7 @@ class Scene {
   // The evaluation at read_state's state (hold: plus the holding torques, as `coopdyn eval --hold`).
   EvalResult evaluate(bool hold);
   // The holding torques at (q, v) clamped to the torque limits (coopdynd's safe torque `hold`).
-  Eigen::VectorXd holding_torque();
+  Eigen::VectorXd holding_torque(bool clamp = true);  // clamp: to the torque limits (else as solved)
   Transform frame_pose(const std::string& frame);      // at q_
   Eigen::MatrixXd jacobian(const std::string& frame);  // at q_: 6 x nv, world axes, [angular; linear]
   Eigen::MatrixXd mass_matrix();                       // at q_

@@ -21,3 +21,13 @@ foreach(t evaluate inputs batch simulate kinematics client)
 endforeach()
 # the Client against coopdynd over udpm on loopback (private ports, ttl=0)
 set_tests_properties(python.bindings.client PROPERTIES LABELS "python;bindings;daemon")
+# coopdyn.study on Dask (Debian python3-dask python3-distributed python3-yaml): LocalClusters of 2 workers
+execute_process(COMMAND ${COOPDYN_PYTHON3} -c "import distributed, yaml" RESULT_VARIABLE dask_rc
+                OUTPUT_QUIET ERROR_QUIET)
+if(dask_rc EQUAL 0)
+  add_test(NAME python.study COMMAND ${COOPDYN_PYTHON3} -B -m pytest -q -p no:cacheprovider
+                                     ${CMAKE_CURRENT_LIST_DIR}/test_study.py)
+  set_tests_properties(python.study PROPERTIES ENVIRONMENT "${bindings_env}" LABELS "python;study" TIMEOUT 300)
+else()
+  message(STATUS "coopdyn: python3-distributed or python3-yaml missing: the study tests are not run")
+endif()
