@@ -23,6 +23,11 @@ import sys
 import time
 
 try:
+    import numpy  # noqa: F401 (the bindings' arrays)
+except ImportError:
+    sys.exit("live_client.py: numpy is not installed for %s (Debian: python3-numpy; the bindings are built for "
+             "/usr/bin/python3)" % sys.executable)
+try:
     import coopdyn
     coopdyn.Client
 except (ImportError, AttributeError):
