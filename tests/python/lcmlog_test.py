@@ -135,16 +135,21 @@ class LcmLog(unittest.TestCase):
         self.assertEqual((back.utime, back.seq, back.action, back.mac_len), (7, 8, coopdyn.control_t.ACTION_PAUSE, 0))
 
     def test_loop_stats_recorded_before_the_control_counts_still_decode(self):
-        # loop_stats_t before outputs_dropped (and before controls_*, inputs_malformed): those fields read as 0
+        # loop_stats_t before limit_ticks* (and before outputs_dropped, controls_*, inputs_malformed): those
+        # fields read as 0
         m = coopdyn.loop_stats_t()
         m.tick, m.commands_rejected, m.inputs_malformed, m.controls_bad_mac, m.outputs_dropped = 50, 5, 11, 2, 13
+        m.limit_ticks, m.limit_ticks_velocity = 9, 8
         m.num_reject_reasons, m.reject_reasons, m.rejected_by_reason = 1, ["bad_mac"], [5]
-        for old, cut in (("5f3a349535103d01", 1), ("48bcc81f9a071c5a", 7), ("7f11746fd02903b9", 8)):
+        for old, cut in (("fd6321dfc5613009", 4), ("5f3a349535103d01", 5), ("48bcc81f9a071c5a", 11),
+                         ("7f11746fd02903b9", 12)):
             back = lcmlog.decode(bytes.fromhex(old) + m.encode()[8:-8 * cut])
             self.assertIsInstance(back, coopdyn.loop_stats_t, old)
-            self.assertEqual((back.tick, back.commands_rejected, back.outputs_dropped), (50, 5, 0), old)
-            self.assertEqual(back.controls_bad_mac, 2 if cut == 1 else 0, old)
-            self.assertEqual(back.inputs_malformed, 0 if cut == 8 else 11, old)
+            self.assertEqual((back.tick, back.commands_rejected, back.limit_ticks, back.limit_ticks_velocity),
+                             (50, 5, 0, 0), old)
+            self.assertEqual(back.outputs_dropped, 13 if cut == 4 else 0, old)
+            self.assertEqual(back.controls_bad_mac, 2 if cut <= 5 else 0, old)
+            self.assertEqual(back.inputs_malformed, 0 if cut == 12 else 11, old)
 
     def test_write_read_identity(self):
         log, _ = self.logs["four_wheel_car"]
