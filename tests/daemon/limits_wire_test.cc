@@ -1,7 +1,8 @@
 // Joint limits on the wire: a real LCM round trip (memq://) through the running loop. Two iiwa arms
 // (URDF speed limits 1.31-2.36 rad/s) are reset by a control_t to a state moving far faster; the
 // output_t of that state carries LIMIT_VELOCITY on exactly the joints whose published |v| passes
-// their v_limit, and loop_stats_t counts the ticks past a limit, by kind.
+// their v_limit, and loop_stats_t counts the ticks past a limit, by kind. (output_t LIMIT_* are
+// joint_limits.h's bits: a static_assert in codec.cc.)
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -11,7 +12,6 @@
 #include <thread>
 #include <vector>
 
-#include "coopdyn/output_t.hpp"
 #include "service/dynamics/joint_limits.h"
 #include "service/io/transport/lcm_bus.h"
 #include "service/runtime/service_loop.h"
@@ -58,7 +58,7 @@ TEST(LimitsOnTheWire, MemqOutputCarriesTheBitsAndStatsCountTheTicks) {
   std::thread th([&] { loop.run(stop); });
 
   // held still by the safe torque first: no limit passed (outputs say 0, not unknown)
-  const bool held = testing::wait_until([&] {
+  const bool held = coopdyn::testing::wait_until([&] {
     std::lock_guard<std::mutex> lk(sink.mu);
     return sink.outs.size() >= 5 && sink.stats_frames > 0;
   });
@@ -72,7 +72,7 @@ TEST(LimitsOnTheWire, MemqOutputCarriesTheBitsAndStatsCountTheTicks) {
   bus.publish(cfg.control_channel.c_str(), b.data(), static_cast<int>(b.size()));
   // the output of the reset state, then a loop_stats_t published after it
   int64_t reset_tick = -1;
-  const bool got = testing::wait_until([&] {
+  const bool got = coopdyn::testing::wait_until([&] {
     std::lock_guard<std::mutex> lk(sink.mu);
     for (const auto& o : sink.outs)
       if (reset_tick < 0 && o.control_seq == 1 && o.control_result == static_cast<int>(io::ControlResult::kOk))
@@ -94,9 +94,9 @@ TEST(LimitsOnTheWire, MemqOutputCarriesTheBitsAndStatsCountTheTicks) {
     if (o.tick == reset_tick) first = &o;
     if (o.tick >= sink.stats.tick) continue;
     past += o.limits != 0;
-    past_q += (o.limits & coopdyn::output_t::LIMIT_POSITION) != 0;
-    past_v += (o.limits & coopdyn::output_t::LIMIT_VELOCITY) != 0;
-    past_tau += (o.limits & coopdyn::output_t::LIMIT_EFFORT) != 0;
+    past_q += (o.limits & kLimitPosition) != 0;
+    past_v += (o.limits & kLimitVelocity) != 0;
+    past_tau += (o.limits & kLimitEffort) != 0;
   }
   ASSERT_NE(first, nullptr);
   const io::DecodedOutput& o = *first;
@@ -108,9 +108,9 @@ TEST(LimitsOnTheWire, MemqOutputCarriesTheBitsAndStatsCountTheTicks) {
     const int bits = o.limit_mask[static_cast<size_t>(d)];
     any |= bits;
     // velocity: exactly the joints whose published speed passes their limit
-    EXPECT_EQ((bits & coopdyn::output_t::LIMIT_VELOCITY) != 0, std::abs(o.v[d]) > sys.v_limit[d]) << o.v_names[d];
-    EXPECT_EQ(bits & coopdyn::output_t::LIMIT_EFFORT, 0) << "the hold is clamped to tau_limit: " << o.v_names[d];
-    flagged += (bits & coopdyn::output_t::LIMIT_VELOCITY) != 0;
+    EXPECT_EQ((bits & kLimitVelocity) != 0, std::abs(o.v[d]) > sys.v_limit[d]) << o.v_names[d];
+    EXPECT_EQ(bits & kLimitEffort, 0) << "the hold is clamped to tau_limit: " << o.v_names[d];
+    flagged += (bits & kLimitVelocity) != 0;
   }
   EXPECT_GT(flagged, 0) << "a reset to up to 10 rad/s passes some speed limit";
   EXPECT_EQ(o.limits, any) << "limits is the union of limit_mask";
