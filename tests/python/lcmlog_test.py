@@ -59,7 +59,7 @@ class LcmLog(unittest.TestCase):
                 msg = w["message"]
                 if w["type"] == "output_t":
                     self.assertIsInstance(m, coopdyn.output_t, where)
-                    self.assertEqual(len(msg), 53)  # every field the C++ side decodes (sigma: version 3; bound: 4)
+                    self.assertEqual(len(msg), 55)  # every field the C++ side decodes (sigma: 3; bound: 4; limits: 5)
                     for k, v in msg.items():
                         same(self, getattr(m, k), v, "%s: %s" % (where, k))
                 elif w["type"] == "loop_stats_t":
@@ -190,7 +190,18 @@ class LcmLog(unittest.TestCase):
             self.assertEqual(r.returncode, 0, r.stderr)
             with open(os.path.join(out, "COOPDYN_OUTPUT.csv")) as f:
                 csv[name] = f.read()
-        self.assertEqual(csv["old"], csv["new"])
+        # the same but for the joint limits, which the old layout lacks: -1 (unknown) there
+        def split(text, keep):
+            rows = [line.split(",") for line in text.splitlines()]
+            head = next(r for r in rows if not r[0].startswith("#"))
+            lim = [i for i, h in enumerate(head) if h == "limits" or h.startswith("limit:")]
+            return [[c for i, c in enumerate(r) if (i in lim) == keep] if len(r) == len(head) else r for r in rows]
+        self.assertEqual(split(csv["old"], False), split(csv["new"], False))
+        old_limits, new_limits = split(csv["old"], True), split(csv["new"], True)
+        head = next(r for r in old_limits if r and r[0] == "limits")
+        self.assertIn("limit:fl_spin", head)
+        self.assertEqual({c for r in old_limits[old_limits.index(head) + 1:] for c in r}, {"-1"})
+        self.assertEqual({c for r in new_limits[new_limits.index(head) + 1:] for c in r}, {"0"})
         self.assertIn("fl.fz", csv["new"])
         self.assertGreaterEqual(csv["new"].count("\n"), 41)
 

@@ -52,7 +52,8 @@ class PythonTypes(unittest.TestCase):
 
     def test_package_needs_no_lcm_module(self):
         self.assertNotIn("lcm", sys.modules)
-        for t in (coopdyn.output_t, coopdyn.output_v4_t, coopdyn.output_v3_t, coopdyn.output_v2_t, coopdyn.output_v1_t, coopdyn.wrench_t, coopdyn.torque_command_t,
+        for t in (coopdyn.output_t, coopdyn.output_v4_t, coopdyn.output_v3_t, coopdyn.output_v2_t, coopdyn.output_v1_t,
+                  coopdyn.wrench_t, coopdyn.torque_command_t,
                   coopdyn.measured_state_t, coopdyn.control_t, coopdyn.loop_stats_t):
             m = t()
             self.assertEqual(t.decode(m.encode()).encode(), m.encode(), t.__name__)

@@ -550,8 +550,8 @@ template <class T>
 void reset(std::vector<T>& xs, double v) {
   for (T& x : xs) reset(x, v);
 }
-static_assert(coopdyn::output_t::LIMIT_POSITION == kLimitPosition && coopdyn::output_t::LIMIT_VELOCITY == kLimitVelocity &&
-                  coopdyn::output_t::LIMIT_EFFORT == kLimitEffort,
+static_assert(coopdyn::output_t::LIMIT_POSITION == kLimitPosition && coopdyn::output_t::LIMIT_VELOCITY == kLimitVelocity
+                  && coopdyn::output_t::LIMIT_EFFORT == kLimitEffort,
               "output_t LIMIT_* are joint_limits.h's bits");
 // the joint limits the loop checked (joint_limits.h), else none
 void put_limits(const LimitData* l, coopdyn::output_t& o) {

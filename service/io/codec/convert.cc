@@ -238,7 +238,8 @@ struct Layout {
 #include "service/io/codec/output_fields.def"
 };
 static_assert(coopdyn::output_t::VERSION == 5, "a new VERSION: freeze the old layout (messages.md, Adding a field)");
-using OutputLayouts = std::tuple<Layout<coopdyn::output_t, 5>, Layout<coopdyn::output_v4_t, 4>, Layout<coopdyn::output_v3_t, 3>,
+using OutputLayouts = std::tuple<Layout<coopdyn::output_t, 5>, Layout<coopdyn::output_v4_t, 4>,
+                                 Layout<coopdyn::output_v3_t, 3>,
                                  Layout<coopdyn::output_v2_t, 2>, Layout<coopdyn::output_v1_t, 1>>;
 
 // The one upgrader: a message of any layout into the current fields, the absent ones marked. The
