@@ -37,8 +37,10 @@ coopdyn_test(coopdynd_tests
 # output_t's one field list: every older layout through the upgrader, messages.md's table (its own
 # executable, with the generated types: it writes old layouts)
 coopdyn_test(coopdyn_output_fields_tests FILES io/codec/output_fields_test.cc LIBS coopdyn_io coopdyn_scene coopdyn_lcmtypes)
-# The safe torque through the loop: a held subset, brought to rest (its own executable: small to build)
+# The safe torque through the loop: a held subset, brought to rest; joint limits checked by the loop and
+# published over memq:// (its own executable: small to build)
 coopdyn_test(coopdyn_safe_torque_tests FILES runtime/safe_torque_test.cc dynamics/joint_limits_test.cc
+  daemon/limits_wire_test.cc
   LIBS coopdyn_runtime coopdyn_scene
   PROPERTIES LABELS daemon)
 

@@ -112,6 +112,8 @@ void write_header(std::FILE* f, const std::string& what, const CsvColumns& c) {
   for (int k = 0; k < 4; ++k) c->add(std::string("closure_") + kClosureKinds[k] + "_at", unit);
 #define COOPDYN_LOG_COLUMN_wrench_bits(field, unit) \
   for (const auto& w : s.wrenches) c->add(w.name + "." #field, unit);
+#define COOPDYN_LOG_COLUMN_joint_bits(field, unit) \
+  for (const auto& n : s.v_names) c->add("limit:" + n, unit);
 constexpr const char* kClosureKinds[4] = {"position", "orientation", "linear_velocity", "angular_velocity"};
 constexpr const char* kClosureUnits[4] = {"m", "rad", "m/s", "rad/s"};
 void add_log_columns(const StepSchema& s, CsvColumns* c) {
@@ -136,6 +138,8 @@ void add_log_columns(const StepSchema& s, CsvColumns* c) {
       l.text(o.constraint_names[static_cast<size_t>(c)].c_str());     \
   }
 #define COOPDYN_LOG_CELL_wrench_bits(name) \
+  for (int m : o.name) l.sep(), l.integer(m);
+#define COOPDYN_LOG_CELL_joint_bits(name) \
   for (int m : o.name) l.sep(), l.integer(m);
 void write_log_cells(CsvLine& l, const io::DecodedOutput& o, double log_time) {
   l.sep(), l.num(log_time);

@@ -73,9 +73,10 @@ def types():
     """{fingerprint bytes: class} of the coopdyn message types; output_v1_t is output_t as logs
     recorded before message version 2 carry it (wrenches as [mx my mz fx fy fz] lists), output_v2_t
     as logs of version 2 carry it (no wrench_sigma), output_v3_t as logs of version 3 (no
-    wrench_bound)."""
+    wrench_bound), output_v4_t as logs of version 4 (no limits)."""
     import coopdyn
-    return {t._get_packed_fingerprint(): t for t in (coopdyn.output_t, coopdyn.output_v3_t, coopdyn.output_v2_t, coopdyn.output_v1_t,
+    return {t._get_packed_fingerprint(): t for t in (coopdyn.output_t, coopdyn.output_v4_t, coopdyn.output_v3_t,
+                                                     coopdyn.output_v2_t, coopdyn.output_v1_t,
                                                      coopdyn.loop_stats_t,
                                                      coopdyn.torque_command_t, coopdyn.measured_state_t,
                                                      coopdyn.control_t)}
@@ -126,14 +127,14 @@ def decode(data):
 
 
 def upgrade(msg):
-    """(output_t, missing): an output_t of any layout (output_v1_t .. output_v3_t, from decode) as the
+    """(output_t, missing): an output_t of any layout (output_v1_t .. output_v4_t, from decode) as the
     current output_t, and the set of the names of its fields the layout lacked: each holds its absent
     value (coopdyn.output_fields.OUTPUT_FIELDS: 0, -1, or zeros per wrench), version the layout's.
     The field list is the daemon's (service/io/codec/output_fields.def), as the C++ decode_output reads it."""
     import coopdyn
     from coopdyn import output_fields
     out, missing = coopdyn.output_t(), set()
-    version = {"output_v1_t": 1, "output_v2_t": 2, "output_v3_t": 3}.get(type(msg).__name__)
+    version = {"output_v1_t": 1, "output_v2_t": 2, "output_v3_t": 3, "output_v4_t": 4}.get(type(msg).__name__)
     count = {"one": lambda: 1, "four": lambda: 4, "wrenches": lambda: len(out.wrench_names),
              "contacts": lambda: len(out.contact_names), "stresses": lambda: len(out.stress_names),
              "constraints": lambda: len(out.constraint_names), "q": lambda: len(out.q_names),

@@ -307,8 +307,8 @@ void read_report_cells(const std::vector<std::string>& cells, const std::vector<
     r->contact_state.push_back(code);
   }
   for (const auto& [name, c] : c_lim) {
-    const int bits = static_cast<int>(num(c));
-    for (int k = 0; k < 3; ++k)
+    const int bits = static_cast<int>(num(c));  // -1: unknown (a daemon log of version 4 or older)
+    for (int k = 0; k < 3 && bits > 0; ++k)
       if (bits & (1 << k))
         r->limits += (r->limits.empty() ? "" : ", ") + name + " " + limit_word(static_cast<LimitBit>(1 << k));
   }
@@ -483,6 +483,7 @@ std::string view_frame_json(const ViewFrames& vf, size_t i) {
   d += ",\"indet\":";
   jints(d, vf.indet[i]);
   d += ",\"free\":" + json_string(vf.free[i]);
+  d += ",\"limits\":" + json_string(vf.limits[i]);
   d += ",\"note\":" + json_string(vf.note[i]);
   d += ",\"wf\":";
   jexact(d, vf.wrench_F[i]);

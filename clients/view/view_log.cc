@@ -7,6 +7,7 @@
 
 #include "clients/cli/lcm_log.h"
 #include "clients/view/view.h"
+#include "service/dynamics/joint_limits.h"
 #include "service/dynamics/wrenches.h"
 #include "service/io/codec/codec.h"
 #include "service/io/codec/messages.h"
@@ -18,6 +19,17 @@ std::string joined(const std::vector<std::string>& v, size_t max = 6) {
   std::string s;
   for (size_t i = 0; i < v.size() && i < max; ++i) s += (i ? ", " : "") + v[i];
   if (v.size() > max) s += ", ...";
+  return s;
+}
+// The joint limits an output's state and torque pass (output_t limit_mask, version 5), for the status
+// line's "past limits": "arm1.q1 velocity, ..."; "" none, or a log of an older version (-1: unknown).
+std::string limits_text(const io::DecodedOutput& o) {
+  std::string s;
+  if (!o.has(io::OutputField::limit_mask) || o.limit_mask.size() != o.v_names.size()) return s;
+  for (size_t i = 0; i < o.limit_mask.size(); ++i)
+    for (int k = 0; k < 3; ++k)
+      if (o.limit_mask[i] > 0 && (o.limit_mask[i] & (1 << k)))
+        s += (s.empty() ? "" : ", ") + o.v_names[i] + " " + limit_word(static_cast<LimitBit>(1 << k));
   return s;
 }
 }  // namespace
@@ -112,6 +124,7 @@ bool sample_of_output(const System& sys, const ViewFrames& geo, const io::Decode
     r->contact_u.push_back(o.contact_friction_needed[k]);
     r->contact_state.push_back(o.contact_state[k] >= 0 && o.contact_state[k] <= 2 ? o.contact_state[k] : 0);
   }
+  r->limits = limits_text(o);
   int count[kFreeClasses] = {};
   for (int c : o.free_class)
     if (c >= 0 && c < kFreeClasses) ++count[c];

@@ -492,6 +492,7 @@ void ServiceLoop::fill_counters(io::StatsFrame& s) const {
   s.controls_bad_mac = ctl_by[static_cast<int>(io::Reject::kBadMac)];
   s.controls_replayed = ctl_by[static_cast<int>(io::Reject::kReplayed)];
   s.outputs_dropped = outputs_dropped();
+  for (int k = 0; k < 4; ++k) s.limit_ticks[k] = limit_ticks(k);
 }
 
 void ServiceLoop::publish_stats() {

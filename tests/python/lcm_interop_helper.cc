@@ -120,6 +120,7 @@ std::string output_json(const io::DecodedOutput& o) {
   j.add("q_names", arr(o.q_names, kStr)).add("q", arr(o.q, kHex));
   j.add("v_names", arr(o.v_names, kStr)).add("v", arr(o.v, kHex));
   j.add("tau", arr(o.tau, kHex)).add("vdot", arr(o.vdot, kHex));
+  j.add("limits", num(o.limits)).add("limit_mask", arr(o.limit_mask, kNum));
   return j.end();
 }
 
@@ -141,7 +142,11 @@ std::string stats_json(const io::StatsFrame& s) {
                              std::make_pair("controls_unauthenticated", s.controls_unauthenticated),
                              std::make_pair("controls_bad_mac", s.controls_bad_mac),
                              std::make_pair("controls_replayed", s.controls_replayed),
-                             std::make_pair("outputs_dropped", s.outputs_dropped)})
+                             std::make_pair("outputs_dropped", s.outputs_dropped),
+                             std::make_pair("limit_ticks", s.limit_ticks[0]),
+                             std::make_pair("limit_ticks_position", s.limit_ticks[1]),
+                             std::make_pair("limit_ticks_velocity", s.limit_ticks[2]),
+                             std::make_pair("limit_ticks_effort", s.limit_ticks[3])})
     j.add(k, num(v));
   std::vector<std::string> keys;
   std::vector<long long> counts;

@@ -59,7 +59,7 @@ class LcmLog(unittest.TestCase):
                 msg = w["message"]
                 if w["type"] == "output_t":
                     self.assertIsInstance(m, coopdyn.output_t, where)
-                    self.assertEqual(len(msg), 53)  # every field the C++ side decodes (sigma: version 3; bound: 4)
+                    self.assertEqual(len(msg), 55)  # every field the C++ side decodes (sigma: 3; bound: 4; limits: 5)
                     for k, v in msg.items():
                         same(self, getattr(m, k), v, "%s: %s" % (where, k))
                 elif w["type"] == "loop_stats_t":
@@ -135,16 +135,21 @@ class LcmLog(unittest.TestCase):
         self.assertEqual((back.utime, back.seq, back.action, back.mac_len), (7, 8, coopdyn.control_t.ACTION_PAUSE, 0))
 
     def test_loop_stats_recorded_before_the_control_counts_still_decode(self):
-        # loop_stats_t before outputs_dropped (and before controls_*, inputs_malformed): those fields read as 0
+        # loop_stats_t before limit_ticks* (and before outputs_dropped, controls_*, inputs_malformed): those
+        # fields read as 0
         m = coopdyn.loop_stats_t()
         m.tick, m.commands_rejected, m.inputs_malformed, m.controls_bad_mac, m.outputs_dropped = 50, 5, 11, 2, 13
+        m.limit_ticks, m.limit_ticks_velocity = 9, 8
         m.num_reject_reasons, m.reject_reasons, m.rejected_by_reason = 1, ["bad_mac"], [5]
-        for old, cut in (("5f3a349535103d01", 1), ("48bcc81f9a071c5a", 7), ("7f11746fd02903b9", 8)):
+        for old, cut in (("fd6321dfc5613009", 4), ("5f3a349535103d01", 5), ("48bcc81f9a071c5a", 11),
+                         ("7f11746fd02903b9", 12)):
             back = lcmlog.decode(bytes.fromhex(old) + m.encode()[8:-8 * cut])
             self.assertIsInstance(back, coopdyn.loop_stats_t, old)
-            self.assertEqual((back.tick, back.commands_rejected, back.outputs_dropped), (50, 5, 0), old)
-            self.assertEqual(back.controls_bad_mac, 2 if cut == 1 else 0, old)
-            self.assertEqual(back.inputs_malformed, 0 if cut == 8 else 11, old)
+            self.assertEqual((back.tick, back.commands_rejected, back.limit_ticks, back.limit_ticks_velocity),
+                             (50, 5, 0, 0), old)
+            self.assertEqual(back.outputs_dropped, 13 if cut == 4 else 0, old)
+            self.assertEqual(back.controls_bad_mac, 2 if cut <= 5 else 0, old)
+            self.assertEqual(back.inputs_malformed, 0 if cut == 12 else 11, old)
 
     def test_write_read_identity(self):
         log, _ = self.logs["four_wheel_car"]
@@ -185,7 +190,18 @@ class LcmLog(unittest.TestCase):
             self.assertEqual(r.returncode, 0, r.stderr)
             with open(os.path.join(out, "COOPDYN_OUTPUT.csv")) as f:
                 csv[name] = f.read()
-        self.assertEqual(csv["old"], csv["new"])
+        # the same but for the joint limits, which the old layout lacks: -1 (unknown) there
+        def split(text, keep):
+            rows = [line.split(",") for line in text.splitlines()]
+            head = next(r for r in rows if not r[0].startswith("#"))
+            lim = [i for i, h in enumerate(head) if h == "limits" or h.startswith("limit:")]
+            return [[c for i, c in enumerate(r) if (i in lim) == keep] if len(r) == len(head) else r for r in rows]
+        self.assertEqual(split(csv["old"], False), split(csv["new"], False))
+        old_limits, new_limits = split(csv["old"], True), split(csv["new"], True)
+        head = next(r for r in old_limits if r and r[0] == "limits")
+        self.assertIn("limit:fl_spin", head)
+        self.assertEqual({c for r in old_limits[old_limits.index(head) + 1:] for c in r}, {"-1"})
+        self.assertEqual({c for r in new_limits[new_limits.index(head) + 1:] for c in r}, {"0"})
         self.assertIn("fl.fz", csv["new"])
         self.assertGreaterEqual(csv["new"].count("\n"), 41)
 

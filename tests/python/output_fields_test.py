@@ -7,7 +7,7 @@ import unittest
 import coopdyn
 from coopdyn import lcmlog, output_fields
 
-LAYOUTS = ((coopdyn.output_v1_t, 1), (coopdyn.output_v2_t, 2), (coopdyn.output_v3_t, 3),
+LAYOUTS = ((coopdyn.output_v1_t, 1), (coopdyn.output_v2_t, 2), (coopdyn.output_v3_t, 3), (coopdyn.output_v4_t, 4),
            (coopdyn.output_t, coopdyn.output_t.VERSION))
 
 
@@ -31,6 +31,7 @@ def some_output():
     m.contact_friction_needed, m.contact_utilisation, m.contact_state = [0.2], [0.25], [0]
     m.nq, m.q_names, m.q, m.nv, m.v_names = 1, ["q1"], [0.1], 1, ["q1"]
     m.v, m.tau, m.vdot = [0.2], [0.3], [0.4]
+    m.limits, m.limit_mask = coopdyn.output_t.LIMIT_VELOCITY, [coopdyn.output_t.LIMIT_VELOCITY]
     return m
 
 
@@ -85,7 +86,8 @@ class OutputFields(unittest.TestCase):
                 if name == "version":
                     continue
                 if name in missing:
-                    want = [[absent] * 6] * len(m.wrench) if typ == "wrenches" else absent
+                    n = len(getattr(m, name)) if size != "one" else 0
+                    want = [[absent] * 6] * n if typ == "wrenches" else [absent] * n if size != "one" else absent
                     self.assertEqual(plain(getattr(got, name)), want, (layout.__name__, name))
                 else:
                     self.assertEqual(plain(getattr(got, name)), plain(getattr(m, name)), (layout.__name__, name))

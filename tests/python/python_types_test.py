@@ -52,7 +52,8 @@ class PythonTypes(unittest.TestCase):
 
     def test_package_needs_no_lcm_module(self):
         self.assertNotIn("lcm", sys.modules)
-        for t in (coopdyn.output_t, coopdyn.output_v3_t, coopdyn.output_v2_t, coopdyn.output_v1_t, coopdyn.wrench_t, coopdyn.torque_command_t,
+        for t in (coopdyn.output_t, coopdyn.output_v4_t, coopdyn.output_v3_t, coopdyn.output_v2_t, coopdyn.output_v1_t,
+                  coopdyn.wrench_t, coopdyn.torque_command_t,
                   coopdyn.measured_state_t, coopdyn.control_t, coopdyn.loop_stats_t):
             m = t()
             self.assertEqual(t.decode(m.encode()).encode(), m.encode(), t.__name__)
@@ -163,6 +164,8 @@ class PythonTypes(unittest.TestCase):
         m.nq, m.q_names, m.q = 2, ["j1", "j2"], [0.3, -0.7]
         m.nv, m.v_names = 2, ["j1", "j2"]
         m.v, m.tau, m.vdot = [1.0, 2.0], [float("-inf"), 3.0], [r.gauss(0, 1e3), 0.0]
+        m.limits, m.limit_mask = coopdyn.output_t.LIMIT_POSITION | coopdyn.output_t.LIMIT_EFFORT, \
+            [coopdyn.output_t.LIMIT_EFFORT, coopdyn.output_t.LIMIT_POSITION]
         (d,) = self.decode(m)
         self.assertEqual(d["reject"], "")
         o = d["message"]
@@ -170,8 +173,21 @@ class PythonTypes(unittest.TestCase):
                                                       "num_contacts", "num_stresses", "nq", "nv"})
         for k in o:
             same(self, getattr(m, k), o[k], k)
-        # the same message without the friction bound (what the layout of version 3 decodes to)
-        nobound = coopdyn.output_t.decode(m.encode())
+        # the same message with the limits unknown (-1: what the layout of version 4 decodes to)
+        nolimits = coopdyn.output_t.decode(m.encode())
+        nolimits.limits, nolimits.limit_mask = -1, [-1, -1]
+        (dl,) = self.decode(nolimits)
+        v4 = coopdyn.output_v4_t()
+        for k in v4.__slots__:
+            setattr(v4, k, getattr(m, k))
+        v4.version = 4
+        self.assertNotEqual(v4.encode()[:8], m.encode()[:8])
+        (d4,) = self.decode(v4)
+        self.assertEqual(d4["reject"], "")
+        self.assertEqual(d4["message"], dl["message"])
+        self.assertIsInstance(lcmlog.decode(v4.encode()), coopdyn.output_v4_t)
+        # ... and without the friction bound (what the layout of version 3 decodes to)
+        nobound = coopdyn.output_t.decode(nolimits.encode())
         nobound.joint_losses, nobound.friction_resting = coopdyn.output_t.JOINT_LOSSES_NONE, 0
         nobound.wrench_bound = [wrench([0.0] * 6) for _ in range(nw)]
         (db,) = self.decode(nobound)

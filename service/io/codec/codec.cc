@@ -550,6 +550,15 @@ template <class T>
 void reset(std::vector<T>& xs, double v) {
   for (T& x : xs) reset(x, v);
 }
+static_assert(coopdyn::output_t::LIMIT_POSITION == kLimitPosition && coopdyn::output_t::LIMIT_VELOCITY == kLimitVelocity
+                  && coopdyn::output_t::LIMIT_EFFORT == kLimitEffort,
+              "output_t LIMIT_* are joint_limits.h's bits");
+// the joint limits the loop checked (joint_limits.h), else none
+void put_limits(const LimitData* l, coopdyn::output_t& o) {
+  o.limits = static_cast<int8_t>(l ? l->any : 0);
+  for (size_t i = 0; i < o.limit_mask.size(); ++i)
+    o.limit_mask[i] = static_cast<int8_t>(l && i < l->mask.size() ? l->mask[i] : 0);
+}
 // the rolling contacts the loop computed (contacts.h), else their error values; false on a non-finite value
 bool put_contacts(const ContactData* c, coopdyn::output_t& o) {
   if (!c) {
@@ -621,6 +630,8 @@ struct OutputEncoder::Impl {
     msg.v.assign(model.nv(), 0.0);
     msg.tau.assign(model.nv(), 0.0);
     msg.vdot.assign(model.nv(), 0.0);
+    msg.limits = 0;
+    msg.limit_mask.assign(model.nv(), 0);
     msg.input_seq = msg.input_utime = -1;
     msg.control_seq = -1;
     msg.control_action = msg.control_result = -1;
@@ -681,6 +692,7 @@ int OutputEncoder::encode(const OutputFrame& f, uint8_t* buf, int cap, bool* san
     o.closure[k] = std::isfinite(c) ? c : -1.0;
     o.closure_constraint[k] = static_cast<int16_t>(f.closure ? f.closure->spec[k] : -1);
   }
+  put_limits(f.limits, o);
   bool finite = std::isfinite(f.sim_time);
   finite = copy_finite(f.q, o.q) && finite;
   finite = copy_finite(f.v, o.v) && finite;

@@ -90,7 +90,7 @@ struct OutputFrame {
   JointLosses joint_losses = JointLosses::kNone;  // estimate: how the joints' damping and friction were taken
   const FrictionBoundData* bound = nullptr;  // estimate, compensated: compute_friction_bound() of it
   const ContactData* contacts = nullptr;     // compute_contacts() of it when valid (none: 0 and -1, as on error)
-  // the joint limits (q, v, tau) exceed (check_joint_limits(); null: not checked). Not yet on the wire.
+  // the joint limits (q, v, tau) exceed (check_joint_limits(); null: not checked): output_t limits, limit_mask
   const LimitData* limits = nullptr;
 };
 

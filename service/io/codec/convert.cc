@@ -13,6 +13,7 @@
 #include "coopdyn/output_v1_t.hpp"
 #include "coopdyn/output_v2_t.hpp"
 #include "coopdyn/output_v3_t.hpp"
+#include "coopdyn/output_v4_t.hpp"
 #include "coopdyn/torque_command_t.hpp"
 #include "service/io/codec/codec.h"
 #include "service/io/codec/output_traits.h"
@@ -58,7 +59,7 @@ struct StatsLayout {
   uint64_t hash;
   int version;
 };
-constexpr int kStatsVersion = 4;
+constexpr int kStatsVersion = 5;
 constexpr StatsLayout kStatsLayouts[] = {
 #define COOPDYN_STATS_LAYOUT(hash, version) {hash, version},
 #include "service/io/codec/stats_fields.def"
@@ -236,8 +237,9 @@ struct Layout {
   static_assert(has_##name<M>::value == ((since) <= V), "output_fields.def: since of " #name);
 #include "service/io/codec/output_fields.def"
 };
-static_assert(coopdyn::output_t::VERSION == 4, "a new VERSION: freeze the old layout (messages.md, Adding a field)");
-using OutputLayouts = std::tuple<Layout<coopdyn::output_t, 4>, Layout<coopdyn::output_v3_t, 3>,
+static_assert(coopdyn::output_t::VERSION == 5, "a new VERSION: freeze the old layout (messages.md, Adding a field)");
+using OutputLayouts = std::tuple<Layout<coopdyn::output_t, 5>, Layout<coopdyn::output_v4_t, 4>,
+                                 Layout<coopdyn::output_v3_t, 3>,
                                  Layout<coopdyn::output_v2_t, 2>, Layout<coopdyn::output_v1_t, 1>>;
 
 // The one upgrader: a message of any layout into the current fields, the absent ones marked. The

@@ -121,6 +121,8 @@ struct StatsFrame {
   int64_t controls_received = 0, controls_accepted = 0, controls_rejected = 0;
   int64_t controls_unauthenticated = 0, controls_bad_mac = 0, controls_replayed = 0;
   int64_t outputs_dropped = 0;  // output_t and loop_stats_t messages the loop's bus refused (publish() != 0)
+  // ticks past a joint limit: any, then position, velocity, effort (ServiceLoop::limit_ticks)
+  int64_t limit_ticks[4] = {0, 0, 0, 0};
   // decode_stats: bit k set when field k of stats_fields.def is absent from the layout the message
   // was recorded in (it reads 0)
   uint64_t missing = 0;

@@ -1,5 +1,5 @@
 // output_t's one field list (service/io/codec/output_fields.def): every older layout (output_v1_t ..
-// output_v3_t) decodes through the one upgrader into the current fields, equal to the current
+// output_v4_t) decodes through the one upgrader into the current fields, equal to the current
 // message's where the layout has the field, its absent value and marked missing where it does not;
 // and docs/reference/messages.md's output_t table is the list's.
 #include <gtest/gtest.h>
@@ -14,7 +14,9 @@
 #include "coopdyn/output_v1_t.hpp"
 #include "coopdyn/output_v2_t.hpp"
 #include "coopdyn/output_v3_t.hpp"
+#include "coopdyn/output_v4_t.hpp"
 #include "service/dynamics/contacts.h"
+#include "service/dynamics/joint_limits.h"
 #include "service/dynamics/sigma/wrench_sigma.h"
 #include "service/io/codec/codec.h"
 #include "service/io/codec/output_schema.h"
@@ -100,6 +102,12 @@ struct Published {
     f.wrenches = &wd;
     f.sigma = sd.declared ? &sd : nullptr;
     f.contacts = &cd;
+    // a joint past its velocity and effort limits, as the loop's check_joint_limits() leaves it
+    LimitData ld(sys);
+    ld.mask[1] = kLimitVelocity | kLimitEffort;
+    ld.exceeded = 1;
+    ld.any = ld.mask[1];
+    f.limits = &ld;
     f.input_seq = 7;
     io::OutputEncoder enc(sys);
     std::vector<uint8_t> b(static_cast<size_t>(enc.max_size()));
@@ -150,20 +158,28 @@ TEST(OutputFields, EveryLayoutReadsAsTheCurrentFieldsTheAbsentOnesMarked) {
   ASSERT_EQ(p.now.contact_names.size(), 4u);
   ASSERT_NE(p.now.sigma_source, 0);
   ASSERT_GT(std::abs(p.now.wrench_sigma[0][5]), 0.0);
+  // the limits as the loop handed them over: the union, and each velocity coordinate's bits
+  EXPECT_EQ(p.now.limits, coopdyn::output_t::LIMIT_VELOCITY | coopdyn::output_t::LIMIT_EFFORT);
+  std::vector<int> mask(p.sys.model.v_names.size(), 0);
+  mask[1] = coopdyn::output_t::LIMIT_VELOCITY | coopdyn::output_t::LIMIT_EFFORT;
+  EXPECT_EQ(p.now.limit_mask, mask);
   EXPECT_EQ(p.now.missing, 0u);
   EXPECT_EQ(p.now.version, int{coopdyn::output_t::VERSION});
   expect_upgraded<coopdyn::output_t>(p, coopdyn::output_t::VERSION);
+  expect_upgraded<coopdyn::output_v4_t>(p, 4);
   expect_upgraded<coopdyn::output_v3_t>(p, 3);
   expect_upgraded<coopdyn::output_v2_t>(p, 2);
   expect_upgraded<coopdyn::output_v1_t>(p, 1);
 }
 
-// loop_stats_t by the same rule: a layout before outputs_dropped (its fingerprint, the 8 bytes of the
-// last field cut) reads with exactly that field marked missing; the current one with none.
+// loop_stats_t by the same rule: each older layout (its fingerprint, the 8 bytes of each field added
+// after it cut from the end) reads with exactly those fields marked missing and 0; the current one
+// with none.
 TEST(OutputFields, StatsLayoutsMarkTheFieldsTheyLack) {
   io::StatsFrame s;
   s.tick = 50;
   s.outputs_dropped = 13;
+  for (int k = 0; k < 4; ++k) s.limit_ticks[k] = 20 + k;
   io::StatsEncoder enc;
   std::vector<uint8_t> b(static_cast<size_t>(enc.max_size()));
   const int n = enc.encode(s, b.data(), static_cast<int>(b.size()));
@@ -172,18 +188,31 @@ TEST(OutputFields, StatsLayoutsMarkTheFieldsTheyLack) {
   ASSERT_TRUE(io::decode_stats(b.data(), n, &back));
   EXPECT_EQ(back.missing, 0u);
   EXPECT_EQ(back.outputs_dropped, 13);
-  int fields = 0, dropped = -1;
+  for (int k = 0; k < 4; ++k) EXPECT_EQ(back.limit_ticks[k], 20 + k);
+  struct Layout {
+    uint64_t hash;
+    int version;
+  };
+  const std::vector<Layout> layouts = {
+#define COOPDYN_STATS_LAYOUT(hash, version) {hash, version},
+#include "service/io/codec/stats_fields.def"
+  };
+  ASSERT_EQ(layouts.size(), 4u);
+  for (const Layout& l : layouts) {
+    uint64_t lacks = 0;
+    int fields = 0, after = 0;
 #define COOPDYN_STATS_FIELD(lcm, frame, put, since) \
-  if (std::string(#lcm) == "outputs_dropped") dropped = fields; \
+  if ((since) > l.version) lacks |= uint64_t{1} << fields, ++after; \
   ++fields;
 #include "service/io/codec/stats_fields.def"
-  b.resize(static_cast<size_t>(n - 8));
-  const uint64_t before = 0x5f3a349535103d01ULL;
-  for (int i = 0; i < 8; ++i) b[static_cast<size_t>(i)] = static_cast<uint8_t>(before >> (56 - 8 * i));
-  ASSERT_TRUE(io::decode_stats(b.data(), static_cast<int>(b.size()), &back));
-  EXPECT_EQ(back.tick, 50);
-  EXPECT_EQ(back.outputs_dropped, 0);
-  EXPECT_EQ(back.missing, uint64_t{1} << dropped);
+    std::vector<uint8_t> old(b.begin(), b.begin() + (n - 8 * after));
+    for (int i = 0; i < 8; ++i) old[static_cast<size_t>(i)] = static_cast<uint8_t>(l.hash >> (56 - 8 * i));
+    ASSERT_TRUE(io::decode_stats(old.data(), static_cast<int>(old.size()), &back)) << l.version;
+    EXPECT_EQ(back.tick, 50);
+    EXPECT_EQ(back.missing, lacks) << l.version;
+    EXPECT_EQ(back.outputs_dropped, l.version >= 4 ? 13 : 0) << l.version;
+    for (int k = 0; k < 4; ++k) EXPECT_EQ(back.limit_ticks[k], 0) << l.version;
+  }
 }
 
 TEST(OutputFields, MessagesMdTableIsTheFieldList) {
