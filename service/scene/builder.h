@@ -123,10 +123,17 @@ YAML::Node constraint_node(const YAML::Node& root, const std::string& name);
 // projected onto the constraints); what moved is appended to `warnings`. The joints of `keep` (per
 // body) and of the bodies `held` never move, nor pseudo-joints. Returns false and leaves q0 as it
 // was when the constraints cannot be closed (the caller reports the constraint that stays open);
-// then *q_closest (if given) is the closest state the solver found.
+// then *q_closest (if given) is the closest state the solver found. Closing moves no joint beyond
+// its limits (System::q_lower, q_upper; one given beyond a limit no further): when only the limits
+// keep the constraints open, *beyond (if given) lists the DOFs held at a bound with the value each
+// would take without limits (refuse_beyond_limits reports them).
 bool close_initial_state(System& sys, const std::vector<unsigned char>& q_given, const std::vector<unsigned char>& keep,
                          std::vector<std::string>* warnings, const std::vector<int>& held = {},
-                         Eigen::VectorXd* q_closest = nullptr);
+                         Eigen::VectorXd* q_closest = nullptr, std::vector<std::pair<int, double>>* beyond = nullptr);
+// A closing the joint limits forbid (`beyond` from close_initial_state, not empty): an error naming
+// each binding joint, its limit and where it comes from, at the joint's `q` entry in the scene.
+[[noreturn]] void refuse_beyond_limits(const Builder& B, const YAML::Node& root, const Eigen::VectorXd& q_closest,
+                                       const std::vector<std::pair<int, double>>& beyond);
 // arms + load, after the initial state was closed (q = sys.q0, closed) or not (q = the closest
 // state found): an arm whose end-effector misses its grasp is an error at its `grasp` line with the
 // miss per axis; a joint the closing moved outside its URDF limits is a warning.

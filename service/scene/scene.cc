@@ -202,7 +202,9 @@ System compile_scene(Builder& B, YAML::Node root, const SceneOverrides& ov) {
   std::vector<unsigned char> keep;
   const bool close = read_close_initial_state(c, root, sys.model, keep);
   Eigen::VectorXd q_closest = sys.q0;
-  const bool closed = !close || close_initial_state(sys, B.q_given, keep, &sys.warnings, B.held_bodies, &q_closest);
+  std::vector<std::pair<int, double>> beyond;  // closing the limits forbid
+  const bool closed = !close || close_initial_state(sys, B.q_given, keep, &sys.warnings, B.held_bodies, &q_closest, &beyond);
+  if (!closed && !beyond.empty()) refuse_beyond_limits(B, root, q_closest, beyond);
   close_grasps_check(B, closed ? sys.q0 : q_closest, closed);  // arms + load: a grasp that stays open, at its line
   check_initial_state_closes(c, root, sys, data, close);
   check_mass_matrix_regular(c, root, sys.model, sys.constraints, data);

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "service/dynamics/wrenches.h"
+#include "service/scene/builder.h"
 #include "tests/support/test_util.h"
 
 using namespace coopdyn;
@@ -278,9 +279,10 @@ TEST(GraspClose, KeptJointsDoNotMove) {
       << warnings_besides_dynamics(sys)[0];
 }
 
-// The URDF limit warning is about the closed angle: iiwa joint 6 given 2.05 rad (inside its
-// +-2.094 limit) closes to 2.15 rad, beyond it.
-TEST(GraspClose, LimitWarningIsAboutTheClosedAngle) {
+// A grasp the joint limits forbid is refused at the binding joint's `q` entry, naming it, its limit
+// and the limit's source: iiwa joint 6 given 2.05 rad would have to close at 2.15 rad (its grasp
+// was read there), beyond its +-2.0944 limit, the other arm1 joints kept and the load held.
+TEST(GraspClose, GraspTheLimitsForbidIsRefusedNamingTheJoint) {
   const Case& k = kCases[1];
   std::vector<std::vector<double>> q = {{0, 0.7, 0, -1.2, 0, 2.15, 0}, {0, 0.7, 0, -1.2, 0, 0.9, 0}};
   std::vector<std::string> at = {"at_initial_state", "at_initial_state"};
@@ -292,10 +294,42 @@ TEST(GraspClose, LimitWarningIsAboutTheClosedAngle) {
   const std::string text = "close_initial_state: {keep: [arm1.iiwa_joint_1, arm1.iiwa_joint_2, arm1.iiwa_joint_3, "
                            "arm1.iiwa_joint_4, arm1.iiwa_joint_5, arm1.iiwa_joint_7]}\n" +
                            edited(scene_text(k.scene), q, grasps);
-  const System sys = load_scene_string(text, scene_path(k.scene));
-  EXPECT_NEAR(q_of(sys, "arm1.iiwa_joint_6"), 2.15, 1e-9);
-  ASSERT_EQ(warnings_besides_dynamics(sys).size(), 2u) << warnings_besides_dynamics(sys).back();
-  EXPECT_NE(warnings_besides_dynamics(sys)[1].find("arm 'arm1' joint iiwa_joint_6 q = 2.15 (closed from 2.05) is outside its limits [-2.0944, 2.0944]"),
-            std::string::npos)
-      << warnings_besides_dynamics(sys)[1];
+  // the line of arm1's `q:` (the first arm's)
+  std::stringstream in(text);
+  std::string line;
+  int n = 0, q_line = 0;
+  while (std::getline(in, line) && !q_line) q_line = (++n, line.rfind("    q: ", 0) == 0 ? n : 0);
+  const std::string e = error_of(text, scene_path(k.scene));
+  EXPECT_EQ(e.rfind(scene_path(k.scene) + ":" + std::to_string(q_line) + ":", 0), 0u) << e;
+  EXPECT_NE(e.find("cannot close within the joint limits: joint arm1.iiwa_joint_6 binds at its upper limit 2.0944 (URDF "),
+            std::string::npos) << e;
+  EXPECT_NE(e.find("iiwa14.urdf:"), std::string::npos) << e;
+  EXPECT_NE(e.find("(closing without limits would move it to 2.15)"), std::string::npos) << e;
+}
+
+// Closing is the bounded least change: with every arm joint free (the load held), the same grasps
+// (read at joint 6 = 2.15, beyond its 2.0944 limit) from joint 6 = 2.08 close without limits only
+// by moving joint 6 beyond 2.0944; with them the loader refuses, naming that joint.
+TEST(GraspClose, ClosingStaysWithinTheJointLimits) {
+  const Case& k = kCases[1];
+  std::vector<std::vector<double>> q = {{0, 0.7, 0, -1.2, 0, 2.15, 0}, {0, 0.7, 0, -1.2, 0, 0.9, 0}};
+  std::vector<std::string> at = {"at_initial_state", "at_initial_state"};
+  const System beyond = load_scene_string(edited(scene_text(k.scene), q, at), scene_path(k.scene));
+  const std::vector<std::string> grasps = {grasp_yaml(beyond, "arm1"), grasp_yaml(beyond, "arm2")};
+  q[0][5] = 2.08;
+  const std::string e = error_of(edited(scene_text(k.scene), q, grasps), scene_path(k.scene));
+  EXPECT_NE(e.find("cannot close within the joint limits: joint arm1.iiwa_joint_6 binds at its upper limit 2.0944"),
+            std::string::npos) << e;
+  // the same closing without the limits: from the scene's values, joint 6 passes its limit
+  const int i6 = index_of(beyond.model.v_names, "arm1.iiwa_joint_6");
+  ASSERT_NEAR(beyond.q_upper[i6], 2.0944, 1e-4);
+  System free = beyond;
+  free.q0[index_of(free.model.q_names, "arm1.iiwa_joint_6")] = 2.08;
+  free.q_lower.setConstant(-HUGE_VAL);
+  free.q_upper.setConstant(HUGE_VAL);
+  std::vector<std::string> w;
+  const std::vector<unsigned char> given(free.model.nq(), 1);
+  ASSERT_TRUE(scene_detail::close_initial_state(free, given, {}, &w, {free.model.body_index("load")}));
+  EXPECT_LT(constraint_error(free), 1e-10);
+  EXPECT_GT(q_of(free, "arm1.iiwa_joint_6"), beyond.q_upper[i6] + 1e-3);
 }
