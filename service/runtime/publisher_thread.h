@@ -3,10 +3,9 @@
 // and one FUTEX_WAKE only when the thread sleeps); the thread hands each slot, in order, to the inner
 // bus (LcmBus: lcm_publish, one sendmsg). Used by coopdynd's fixed-rate loop (config
 // realtime.publisher_thread): on UDP multicast the sendmsg also delivers the datagram to every
-// subscriber on the host and wakes it, on the sending thread's CPU and inside its time (about 10 us
-// warm, 21-27 us p50 after the loop's 1 ms sleep on a loaded machine, bench/README.md "Loop timing");
-// here that is the publisher thread's, kept off the loop's CPU when the loop is pinned. What the
-// loop keeps: the copy (0.3 us) and the wake of this thread (a few us; more across vCPUs).
+// subscriber on the host and wakes it, on the sending thread's CPU and inside its time (bench/README.md,
+// "Loop timing"); here that is the publisher thread's, kept off the loop's CPU when the loop is
+// pinned. What the loop keeps: the copy and the wake of this thread.
 // publish() does not allocate, lock, block or throw; when every slot is still waiting (the thread has
 // not run for kSlots messages) the message is dropped and counted, never waited for. A queued message
 // the inner bus refuses is counted too (failed(), Bus::failed_after_accept()).
