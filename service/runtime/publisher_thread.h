@@ -12,7 +12,7 @@
 // Priority (start()): SCHED_FIFO (coopdynd: just below the loop) or a nice value, so that the
 // processes loading the machine at SCHED_OTHER cannot hold the thread off for kSlots ticks (outputs
 // dropped); it only ever runs for what the loop queued, so it cannot hog a CPU. What each costs the
-// loop and saves: bench/README.md, "Outputs under load".
+// loop and saves: bench/README.md, "Commands at 1 kHz and outputs under load".
 #pragma once
 
 #include <atomic>
