@@ -3,8 +3,10 @@
 # over 120 columns in the C++ sources (service/, clients/, tests/, bench/: *.cc, *.h, *.def). Prints
 # every violation; exit 1 if there is one. `clang-format -i` with the repository's .clang-format
 # fixes most long lines (not long strings or URLs).
-# Usage: bash .ci/style.sh
+# Usage: bash .ci/style.sh [--warn-columns]   (--warn-columns: long lines counted, not failed; until
+# the tree is formatted once, .ci/run passes it)
 set -uo pipefail
+warn_columns=0; [ "${1:-}" = "--warn-columns" ] && warn_columns=1
 cd "$(dirname "$0")/.."
 status=0
 if command -v ctags >/dev/null && ctags --version 2>/dev/null | grep -q Universal; then
@@ -19,7 +21,7 @@ long=$(find service clients tests bench -type f \( -name '*.cc' -o -name '*.h' -
 if [ -n "$long" ]; then
   echo "$long" | sed 's/$/: over 120 columns/'
   echo "$(echo "$long" | wc -l) lines over 120 columns"
-  status=1
+  [ $warn_columns -eq 1 ] && echo "style: long lines not failed (--warn-columns)" || status=1
 fi
 [ $status -eq 0 ] && echo "style: no function over 100 lines, no line over 120 columns"
 exit $status

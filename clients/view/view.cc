@@ -47,9 +47,12 @@ Mat3 y_to(const Vec3& a) {
   return Eigen::Quaterniond::FromTwoVectors(Vec3::UnitY(), a.normalized()).toRotationMatrix();
 }
 
-// The drawn shapes: a cylinder per wheel and, for each free body, the box of uniform density with
-// its inertia; is_shape marks the bodies drawn so.
-void add_shapes(const System& sys, ViewFrames* vf, std::vector<char>& is_shape) {
+}  // namespace
+
+namespace {
+
+// The shapes drawn whole: each rolling wheel, and each free body as the box of its inertia.
+void add_view_shapes(const System& sys, ViewFrames* vf, std::vector<char>& is_shape) {
   const Model& m = sys.model;
   for (const ConstraintSpec& c : sys.constraints.specs) {
     if (c.kind != ConstraintKind::kRolling || c.body < 0 || is_shape[c.body]) continue;
@@ -86,44 +89,23 @@ void add_shapes(const System& sys, ViewFrames* vf, std::vector<char>& is_shape) 
   }
 }
 
-// The rolling contacts, their planes, the pseudo-joints and the joint couplings.
-void add_contacts_and_stresses(const System& sys, ViewFrames* vf) {
-  const Model& m = sys.model;
-  // the rolling contacts in the contact report's order (ContactData::spec) and the distinct planes
-  // they roll on: the scene's `ground`, or a wheel's own
+// The rolling contacts in the contact report's order (ContactData::spec) and the distinct planes
+// they roll on: the scene's `ground`, or a wheel's own.
+void add_view_contacts(const System& sys, ViewFrames* vf) {
   const ContactData cd(sys);
   for (int s : cd.spec) {
     const ConstraintSpec& c = sys.constraints.specs[static_cast<size_t>(s)];
     vf->contacts.push_back({c.name, s, c.mu});
     const int k = static_cast<int>(vf->contacts.size()) - 1;
-    auto same = [&](const ViewFrames::Ground& g) { return (g.n - c.ground_n).norm() < 1e-12 && std::abs(g.d - c.ground_d) < 1e-12; };
+    auto same = [&](const ViewFrames::Ground& g) {
+      return (g.n - c.ground_n).norm() < 1e-12 && std::abs(g.d - c.ground_d) < 1e-12;
+    };
     auto it = std::find_if(vf->grounds.begin(), vf->grounds.end(), same);
     if (it == vf->grounds.end()) {
       vf->grounds.push_back({c.ground_n, c.ground_d, {}});
       it = vf->grounds.end() - 1;
     }
     it->contacts.push_back(k);
-  }
-  for (int dof : m.pseudo_dofs) {
-    ViewFrames::Pseudo p;
-    p.dof = dof;
-    p.body = m.dof_body[dof];
-    p.name = m.v_names[dof];
-    p.unit = m.bodies[p.body].joint.type == JointType::kPrismatic ? "N" : "N*m";
-    vf->pseudos.push_back(p);
-  }
-  // then each joint coupling (<mimic>): its force on the mimicking joint, in Workspace::stress's order
-  for (int k = static_cast<int>(m.pseudo_dofs.size()); k < num_stresses(sys); ++k) {
-    const std::string name = stress_name(sys, k);
-    const auto it = std::find(m.v_names.begin(), m.v_names.end(), name);
-    if (it == m.v_names.end()) break;
-    ViewFrames::Pseudo p;
-    p.dof = static_cast<int>(it - m.v_names.begin());
-    p.body = m.dof_body[p.dof];
-    p.name = name;
-    p.unit = stress_unit(sys, k);
-    p.coupling = true;
-    vf->pseudos.push_back(p);
   }
 }
 
@@ -135,7 +117,7 @@ ViewFrames view_geometry(const System& sys, const ViewVisuals* vis) {
   if (vis) out.visuals = *vis;
   const Model& m = sys.model;
   std::vector<char> is_shape(m.nbodies(), 0);
-  add_shapes(sys, vf, is_shape);
+  add_view_shapes(sys, vf, is_shape);
   // links: from the parent's origin (or the joint's place in the world) to the body's origin, and
   // from a link's origin to the operational frames fixed in it (a cut, a tool point)
   for (int b = 0; b < m.nbodies(); ++b) {
@@ -162,7 +144,28 @@ ViewFrames view_geometry(const System& sys, const ViewVisuals* vis) {
   }
   for (size_t k = 0; k < sys.wrenches.outputs.size(); ++k)
     if (sys.wrenches.outputs[k].kind != WrenchKind::kJoint) vf->wrenches.push_back(static_cast<int>(k));
-  add_contacts_and_stresses(sys, vf);
+  add_view_contacts(sys, vf);
+  for (int dof : m.pseudo_dofs) {
+    ViewFrames::Pseudo p;
+    p.dof = dof;
+    p.body = m.dof_body[dof];
+    p.name = m.v_names[dof];
+    p.unit = m.bodies[p.body].joint.type == JointType::kPrismatic ? "N" : "N*m";
+    vf->pseudos.push_back(p);
+  }
+  // then each joint coupling (<mimic>): its force on the mimicking joint, in Workspace::stress's order
+  for (int k = static_cast<int>(m.pseudo_dofs.size()); k < num_stresses(sys); ++k) {
+    const std::string name = stress_name(sys, k);
+    const auto it = std::find(m.v_names.begin(), m.v_names.end(), name);
+    if (it == m.v_names.end()) break;
+    ViewFrames::Pseudo p;
+    p.dof = static_cast<int>(it - m.v_names.begin());
+    p.body = m.dof_body[p.dof];
+    p.name = name;
+    p.unit = stress_unit(sys, k);
+    p.coupling = true;
+    vf->pseudos.push_back(p);
+  }
   return out;
 }
 
@@ -288,65 +291,27 @@ std::vector<std::array<int, 6>> wrench_columns(const System& sys, const ViewFram
   }
   return cols;
 }
-
-// The columns read_view_frames takes from the per-step CSV.
-struct ViewColumns {
-  int t = -1, status = -1;
-  std::vector<int> q;
-  std::vector<std::array<int, 6>> w, sigma, bound;
-  std::vector<std::array<int, 3>> contacts;  // utilisation, friction needed, contact state
-  std::vector<std::pair<std::string, int>> limits;
-};
-
-// One row of the CSV (cells, at `where`) as a sample; throws naming the place of a bad cell.
-ViewSample read_view_row(const System& sys, const ViewColumns& cols, const std::vector<std::string>& head,
-                         const std::vector<std::string>& cells, const std::string& where) {
-  const Model& m = sys.model;
-  auto num = [&](int c) {
-    try {
-      size_t pos = 0;
-      const double x = std::stod(cells[c], &pos);
-      if (pos != cells[c].size()) throw std::invalid_argument("");
-      return x;
-    } catch (const std::exception&) {
-      throw std::runtime_error(where + ": bad number '" + cells[c] + "' in column '" + head[c] + "'");
-    }
-  };
-  ViewSample r;
-  r.t = num(cols.t);
-  r.status = cells[cols.status];
-  if (r.status != "ok" && r.status != "indeterminate" && r.status != "error")
-    throw std::runtime_error(where + ": unknown status '" + r.status + "'");
-  r.q.resize(m.nq());
-  for (int i = 0; i < m.nq(); ++i) r.q[i] = num(cols.q[i]);
-  auto wrenches6 = [&](const std::vector<std::array<int, 6>>& wcols, std::vector<Vec6>* out) {
-    for (const auto& c : wcols) {
-      Vec6 w;
-      for (int j = 0; j < 6; ++j) w[j] = num(c[j]);
-      out->push_back(w);
-    }
-  };
-  wrenches6(cols.w, &r.w);
-  wrenches6(cols.sigma, &r.sigma);
-  wrenches6(cols.bound, &r.bound);
-  for (const auto& c : cols.contacts) {
-    r.contact_u.push_back(num(c[0]));
-    r.contact_u.push_back(num(c[1]));
+// A row's contact report (utilisation, friction needed, state) and the joints' limits it flags.
+template <class Num>
+void read_report_cells(const std::vector<std::string>& cells, const std::vector<std::string>& head,
+                       const std::string& where, const std::vector<std::array<int, 3>>& c_c,
+                       const std::vector<std::pair<std::string, int>>& c_lim, const Num& num, ViewSample* r) {
+  for (const auto& c : c_c) {
+    r->contact_u.push_back(num(c[0]));
+    r->contact_u.push_back(num(c[1]));
     const std::string& st = cells[c[2]];
     const int code = st == "ok" ? 0 : st == "slip" ? 1 : st == "lift_off" ? 2 : -1;
     if (code < 0)
       throw std::runtime_error(where + ": unknown contact state '" + st + "' in column '" + head[c[2]] +
                                "' (ok, slip or lift_off)");
-    r.contact_state.push_back(code);
+    r->contact_state.push_back(code);
   }
-  for (const auto& [name, c] : cols.limits) {
+  for (const auto& [name, c] : c_lim) {
     const int bits = static_cast<int>(num(c));
     for (int k = 0; k < 3; ++k)
       if (bits & (1 << k))
-        r.limits += (r.limits.empty() ? "" : ", ") + name + " " + limit_word(static_cast<LimitBit>(1 << k));
+        r->limits += (r->limits.empty() ? "" : ", ") + name + " " + limit_word(static_cast<LimitBit>(1 << k));
   }
-  if (!configuration_valid(m, r.q)) throw std::runtime_error(where + ": not a valid configuration of scene '" + sys.name + "'");
-  return r;
 }
 }  // namespace
 
@@ -368,30 +333,31 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
                                "' needs: is this a `coopdyn sim` CSV of that scene?");
     return it->second;
   };
-  ViewColumns cols;
-  cols.t = need("t");
-  cols.status = need("status");
-  for (const auto& n : m.q_names) cols.q.push_back(need("q:" + n));
+  const int c_t = need("t"), c_status = need("status");
+  std::vector<int> c_q;
+  for (const auto& n : m.q_names) c_q.push_back(need("q:" + n));
   for (const auto& h : head)
     if (h.rfind("q:", 0) == 0 && std::find(m.q_names.begin(), m.q_names.end(), h.substr(2)) == m.q_names.end())
       throw std::runtime_error(path + ":" + std::to_string(hdr.line_no) + ": column '" + h + "' is not a coordinate of scene '" + sys.name +
                                "': the CSV was written for another scene");
   const ViewFrames geo = view_geometry(sys);
-  cols.w = wrench_columns(sys, geo, "", need);
+  const std::vector<std::array<int, 6>> c_w = wrench_columns(sys, geo, "", need);
   // each wrench's sigma and friction bound, when the CSV has them (clients/csv/step_csv.h): all of
   // them or none
   auto has = [&](const char* tag) {
     return !geo.wrenches.empty() && col.count(sys.wrenches.outputs[geo.wrenches[0]].name + "." + tag + "mx") > 0;
   };
-  if (has("sigma_")) cols.sigma = wrench_columns(sys, geo, "sigma_", need);
-  if (has("bound_")) cols.bound = wrench_columns(sys, geo, "bound_", need);
+  const std::vector<std::array<int, 6>> c_sigma = has("sigma_") ? wrench_columns(sys, geo, "sigma_", need) : std::vector<std::array<int, 6>>{};
+  const std::vector<std::array<int, 6>> c_bound = has("bound_") ? wrench_columns(sys, geo, "bound_", need) : std::vector<std::array<int, 6>>{};
 
   // the contact report of each wheel (clients/cli/sim.cc writes it for every rolling contact)
+  std::vector<std::array<int, 3>> c_c;
   for (const auto& c : geo.contacts)
-    cols.contacts.push_back({need(c.name + ".utilisation"), need(c.name + ".friction_needed"), need(c.name + ".contact")});
+    c_c.push_back({need(c.name + ".utilisation"), need(c.name + ".friction_needed"), need(c.name + ".contact")});
   // the joints' limits exceeded (limit:NAME, bits 1 position, 2 velocity, 4 effort), when the CSV has them
+  std::vector<std::pair<std::string, int>> c_lim;
   for (size_t i = 0; i < head.size(); ++i)
-    if (head[i].rfind("limit:", 0) == 0) cols.limits.emplace_back(head[i].substr(6), static_cast<int>(i));
+    if (head[i].rfind("limit:", 0) == 0) c_lim.emplace_back(head[i].substr(6), static_cast<int>(i));
 
   std::vector<ViewSample> rows;
   int ln = hdr.line_no;
@@ -403,7 +369,35 @@ ViewFrames read_view_frames(const System& sys, const std::string& path, int max_
     if (cells.size() != head.size())
       throw std::runtime_error(where + ": " + std::to_string(cells.size()) + " columns, the header has " +
                                std::to_string(head.size()));
-    ViewSample r = read_view_row(sys, cols, head, cells, where);
+    auto num = [&](int c) {
+      try {
+        size_t pos = 0;
+        const double x = std::stod(cells[c], &pos);
+        if (pos != cells[c].size()) throw std::invalid_argument("");
+        return x;
+      } catch (const std::exception&) {
+        throw std::runtime_error(where + ": bad number '" + cells[c] + "' in column '" + head[c] + "'");
+      }
+    };
+    ViewSample r;
+    r.t = num(c_t);
+    r.status = cells[c_status];
+    if (r.status != "ok" && r.status != "indeterminate" && r.status != "error")
+      throw std::runtime_error(where + ": unknown status '" + r.status + "'");
+    r.q.resize(m.nq());
+    for (int i = 0; i < m.nq(); ++i) r.q[i] = num(c_q[i]);
+    auto wrenches6 = [&](const std::vector<std::array<int, 6>>& cols, std::vector<Vec6>* out) {
+      for (const auto& c : cols) {
+        Vec6 w;
+        for (int j = 0; j < 6; ++j) w[j] = num(c[j]);
+        out->push_back(w);
+      }
+    };
+    wrenches6(c_w, &r.w);
+    wrenches6(c_sigma, &r.sigma);
+    wrenches6(c_bound, &r.bound);
+    read_report_cells(cells, head, where, c_c, c_lim, num, &r);
+    if (!configuration_valid(m, r.q)) throw std::runtime_error(where + ": not a valid configuration of scene '" + sys.name + "'");
     rows.push_back(std::move(r));
   }
   if (rows.empty()) throw std::runtime_error(path + ": no rows after the header");

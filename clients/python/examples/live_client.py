@@ -1,166 +1,131 @@
 #!/usr/bin/env python3
-"""A live Python client of coopdynd: publishes torque commands and reads the outputs.
+"""A small controller of coopdynd in Python: holds the robots, pulses one joint, prints the wrenches.
 
     build/bin/coopdynd --scene config/scenes/two_puma_load.yaml &
-    python3 live_client.py --add arm1.q2=5 --duration 2
+    PYTHONPATH=build/python python3 live_client.py --scene config/scenes/two_puma_load.yaml --outputs 200
 
-It waits for the daemon's first output_t, takes the torque the daemon applies there (its safe torque
-with no command: by default the holding torque) on the DOFs that carry one, adds --add NAME=DELTA
-[N*m or N], and publishes that as a torque_command_t (by joint name, seq 1, 2, ...) at --rate Hz
-while printing, once a second, the outputs' input (command or not), the applied torque of the first
-named joint and the end-effector wrenches. At the end it checks that the daemon applied the commands.
+For every output_t of the daemon it receives (coopdyn.Client: liblcm and the service's own codec, no
+Python LCM package), it answers with a torque_command_t over all of the scene's joints: the holding
+torque at the output's state (Scene.holding_torque(q, v), the daemon's safe torque `hold`), plus
+--pulse (N*m or N) on --joint in its first --pulse-commands commands. It always answers the newest
+output (older ones queued meanwhile are skipped). The scene must be the daemon's (its joints are
+checked against the outputs' names).
 
-With --key-file (the daemon's auth.key_file: 64 hex digits, mode 0600) each command is signed as
-the daemon checks it (docs/guide/service.md "Authenticated inputs"): encoded with mac_len 0, those 4 bytes dropped, an
-HMAC-SHA256 under the key of the channel name, a NUL and the remaining bytes, then mac_len 32 and
-the MAC appended. Standard library only (hmac, hashlib).
-
-Needs the `lcm` Python module, which Debian 12 does not package: `pip install lcm` (PyPI wheels of
-LCM's own bindings) in a virtual environment, or LCM built from source with Python. Without it this
-exits with status 77 (what ctest reads as "skipped").
+One line per output answered: sim_time (s), the input the daemon applied (`command #SEQ` for ours), the seq of
+the command sent in answer and the pulse it carries, and every wrench [mx my mz fx fy fz] (N*m, N, in
+the frame of `coopdyn eval`'s wrenches) with floats printed so that they read back to the same doubles.
+It stops after --outputs outputs or --duration s (whichever first), prints a summary and exits 0 if
+the daemon applied at least one of its commands, 1 otherwise (refused: see the daemon's loop_stats_t).
+With --key-file (the daemon's auth.key_file) every command is signed as the daemon checks it.
 """
 import argparse
-import hashlib
-import hmac
-import os
-import stat
-import struct
 import sys
 import time
 
 try:
-    import lcm
+    import numpy  # noqa: F401 (the bindings' arrays)
 except ImportError:
-    print("live_client.py: the lcm Python module is not installed (Debian 12 has no package for it; "
-          "`pip install lcm` in a virtual environment, or build LCM from source with Python); skipping",
-          file=sys.stderr)
-    sys.exit(77)
-
+    sys.exit("live_client.py: numpy is not installed for %s (Debian: python3-numpy; the bindings are built for "
+             "/usr/bin/python3)" % sys.executable)
 try:
     import coopdyn
-except ImportError:
-    sys.exit("live_client.py: the coopdyn Python package is not on the path: PYTHONPATH=build/python in the build "
-             "tree, or PREFIX/lib/python3.X/site-packages after cmake --install (README: Python)")
+    coopdyn.Client
+except (ImportError, AttributeError):
+    sys.exit("live_client.py: the coopdyn Python package with its compiled bindings is not on the path: "
+             "PYTHONPATH=build/python in the build tree, or pip install ./clients/python (docs/guide/python.md)")
 
 DEFAULT_URL = "udpm://239.255.76.67:7667?ttl=0"  # coopdynd's default (config/coopdynd.yaml)
-MAC_BYTES = 32  # HMAC-SHA256
 
 
-def read_key_file(path):
-    """The 32-byte key of a key file, checked as coopdynd checks it; exits with the reason otherwise."""
-    try:
-        st = os.stat(path)
-        with open(path, "rb") as f:
-            text = f.read(80)
-    except OSError as e:
-        sys.exit("live_client.py: --key-file %s: cannot read the key file: %s" % (path, e.strerror))
-    if not stat.S_ISREG(st.st_mode):
-        sys.exit("live_client.py: --key-file %s: the key file is not a regular file" % path)
-    if st.st_mode & 0o077:
-        sys.exit("live_client.py: --key-file %s: the key file is readable or writable by group or others (mode %04o); "
-                 "chmod 600 %s" % (path, stat.S_IMODE(st.st_mode), path))
-    if text.endswith(b"\n"):
-        text = text[:-1]
-    if text.endswith(b"\r"):
-        text = text[:-1]
-    try:
-        if len(text) != 2 * MAC_BYTES:
-            raise ValueError
-        return bytes.fromhex(text.decode("ascii"))
-    except ValueError:
-        sys.exit("live_client.py: --key-file %s: not a key: expected 64 hex digits (32 bytes) and at most a newline"
-                 % path)
+def fmt(x):
+    return repr(float(x))  # the shortest text that reads back to the same double
 
 
-def sign(data, channel, key):
-    """An encoded message with mac_len 0 (its last 4 bytes), signed for channel: mac_len 32 and the MAC."""
-    if data[-4:] != b"\0\0\0\0":
-        raise ValueError("sign: the message does not end with mac_len 0")
-    body = data[:-4]
-    mac = hmac.new(key, channel.encode() + b"\0" + body, hashlib.sha256).digest()
-    return body + struct.pack(">i", MAC_BYTES) + mac
+def parse_args():
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[1])
+    p.add_argument("--scene", required=True, help="the daemon's scene file (YAML)")
+    p.add_argument("--url", default=DEFAULT_URL, help="LCM URL of the daemon (default: %(default)s)")
+    p.add_argument("--joint", default=None, help="the joint to pulse (default: the scene's first actuated one)")
+    p.add_argument("--pulse", type=float, default=0.5, help="N*m or N added to --joint (default: %(default)s)")
+    p.add_argument("--pulse-commands", type=int, default=20,
+                   help="how many commands (the first ones) carry the pulse (default: %(default)s)")
+    p.add_argument("--outputs", type=int, default=0, help="stop after this many outputs (0: no limit)")
+    p.add_argument("--duration", type=float, default=0.0, help="stop after this many seconds (0: no limit)")
+    p.add_argument("--wait", type=float, default=5.0, help="s to wait for each output (default: %(default)s)")
+    p.add_argument("--key-file", default=None, help="sign the commands with the daemon's auth key (auth.key_file)")
+    a = p.parse_args()
+    if a.outputs <= 0 and a.duration <= 0:
+        p.error("give --outputs N or --duration S (when to stop)")
+    return a
+
+
+def pulse_index(scene, joint):
+    """Index in v_names of the joint to pulse: a named actuated joint, or the first actuated one."""
+    limits = scene.tau_limit
+    if joint is None:
+        actuated = [i for i, lim in enumerate(limits) if lim > 0]
+        if not actuated:
+            sys.exit("live_client.py: the scene has no actuated joint to pulse")
+        return actuated[0]
+    if joint not in scene.v_names:
+        sys.exit("live_client.py: --joint %s: no such joint in the scene (its joints: %s)"
+                 % (joint, ", ".join(scene.v_names)))
+    i = scene.v_names.index(joint)
+    if limits[i] <= 0:
+        sys.exit("live_client.py: --joint %s: the joint is not actuated (tau_limit 0)" % joint)
+    return i
+
+
+def line(o, seq, pulse):
+    ws = "  ".join("%s [%s]" % (n, " ".join(fmt(x) for x in w)) for n, w in o["wrenches"].items())
+    inp = "command #%d" % o["input_seq"] if o["input"] == "command" else o["input"]
+    return "t %s  input %s  sent #%d pulse %s  %s" % (fmt(o["sim_time"]), inp, seq, fmt(pulse), ws)
+
+
+def run(a, scene, c):
+    j = pulse_index(scene, a.joint)
+    first = c.next_output(timeout=a.wait, latest=True)
+    if first is None:
+        sys.exit("live_client.py: no output_t at %s within %g s: is coopdynd running (build/bin/coopdynd --scene "
+                 "...) on that URL?" % (a.url, a.wait))
+    if list(first["v_names"]) != scene.v_names:
+        sys.exit("live_client.py: --scene %s is not the daemon's scene: its joints %s, the daemon's %s"
+                 % (a.scene, scene.v_names, list(first["v_names"])))
+    start, o = time.monotonic(), first
+    sent, received, applied, ours = 0, 0, 0, set()
+    while True:
+        received += 1
+        if o["input"] == "command" and o["input_seq"] in ours:
+            applied += 1
+        pulse = a.pulse if sent < a.pulse_commands else 0.0
+        tau = scene.holding_torque(o["q"], o["v"])
+        tau[j] += pulse
+        seq = c.publish_torque(tau, names=scene.v_names)
+        ours.add(seq)
+        sent += 1
+        print(line(o, seq, pulse), flush=True)
+        if (a.outputs > 0 and received >= a.outputs) or (a.duration > 0 and time.monotonic() - start >= a.duration):
+            break
+        o = c.next_output(timeout=a.wait, latest=True)
+        if o is None:
+            sys.exit("live_client.py: the daemon's outputs stopped (none within %g s)" % a.wait)
+    print("%d outputs answered, %d commands sent (pulse %s on %s), %d outputs applied ours"
+          % (received, sent, fmt(a.pulse), scene.v_names[j], applied))
+    return applied
 
 
 def main():
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[1])
-    p.add_argument("--lcm-url", default=DEFAULT_URL, help="LCM URL of the daemon (default: %(default)s)")
-    p.add_argument("--command-channel", default="COOPDYN_COMMAND", help="default: %(default)s")
-    p.add_argument("--output-channel", default="COOPDYN_OUTPUT", help="default: %(default)s")
-    p.add_argument("--add", action="append", default=[], metavar="NAME=DELTA",
-                   help="add DELTA (N*m or N) to joint NAME's torque (repeatable)")
-    p.add_argument("--rate", type=float, default=100.0, help="commands per second (default: %(default)s)")
-    p.add_argument("--duration", type=float, default=2.0, help="seconds to run (default: %(default)s)")
-    p.add_argument("--wait", type=float, default=2.0, help="seconds to wait for the daemon's first output "
-                                                            "(default: %(default)s)")
-    p.add_argument("--key-file", help="sign the commands with the daemon's auth key (auth.key_file)")
-    a = p.parse_args()
-    key = read_key_file(a.key_file) if a.key_file else None
-
-    lc = lcm.LCM(a.lcm_url)
-    latest = []
-
-    def on_output(channel, data):
-        latest.append(coopdyn.output_t.decode(data))
-
-    lc.subscribe(a.output_channel, on_output)
-    deadline = time.time() + a.wait
-    while not latest and time.time() < deadline:
-        lc.handle_timeout(100)
-    if not latest:
-        sys.exit("live_client.py: no output_t on %s at %s within %g s: is coopdynd running (build/bin/coopdynd "
-                 "--scene ...) on that URL?" % (a.output_channel, a.lcm_url, a.wait))
-    first = latest[-1]
-    names = [n for n, t in zip(first.v_names, first.tau) if t != 0.0]
-    tau = {n: t for n, t in zip(first.v_names, first.tau) if t != 0.0}
-    for item in a.add:
-        name, _, delta = item.partition("=")
-        if name not in first.v_names:
-            sys.exit("live_client.py: --add %s: no joint %r in the daemon's scene (its joints: %s)"
-                     % (item, name, ", ".join(first.v_names)))
-        if name not in tau:
-            names.append(name)
-            tau[name] = 0.0
-        tau[name] += float(delta)
-    if not names:
-        sys.exit("live_client.py: the daemon applies no torque and no --add was given: nothing to command")
-
-    seq, sent, applied, outputs = 0, 0, 0, 0
-    start = last_print = time.time()
-    next_send = start
-    while time.time() - start < a.duration:
-        now = time.time()
-        if now >= next_send:
-            seq += 1
-            c = coopdyn.torque_command_t()
-            c.utime, c.seq = int(now * 1e6), seq
-            c.num_names, c.names = len(names), names
-            c.num_torques, c.tau = len(names), [tau[n] for n in names]
-            c.num_targets, c.target_names, c.target = 0, [], []
-            c.mac_len, c.mac = 0, b""
-            data = c.encode()
-            lc.publish(a.command_channel, sign(data, a.command_channel, key) if key else data)
-            sent += 1
-            next_send += 1.0 / a.rate
-        del latest[:]
-        lc.handle_timeout(max(1, int((next_send - time.time()) * 1000)))
-        for m in latest:
-            outputs += 1
-            if m.input == coopdyn.output_t.INPUT_COMMAND and 0 < m.input_seq <= seq:
-                # the daemon applied one of ours: its tau on the named joints is what was sent
-                got = {n: t for n, t in zip(m.v_names, m.tau)}
-                if all(got[n] == tau[n] for n in names):
-                    applied += 1
-        if latest and time.time() - last_print >= 1.0:
-            last_print = time.time()
-            m = latest[-1]
-            ee = ["%s [%.4g %.4g %.4g %.4g %.4g %.4g]" % (n, w.mx, w.my, w.mz, w.fx, w.fy, w.fz)
-                  for n, w, k in zip(m.wrench_names, m.wrench, m.wrench_kind) if k == m.KIND_END_EFFECTOR]
-            print("t %.3f s  input %d (seq %d)  %s %.6g  %s" % (m.sim_time, m.input, m.input_seq, names[0],
-                                                               dict(zip(m.v_names, m.tau))[names[0]], "  ".join(ee)))
-    print("sent %d commands, received %d outputs, %d applied our torques exactly" % (sent, outputs, applied))
+    a = parse_args()
+    try:
+        scene = coopdyn.load_scene(a.scene)
+        c = coopdyn.Client(a.url, key_file=a.key_file)
+    except ValueError as e:  # a broken scene (file:line:col: reason) or key file
+        sys.exit("live_client.py: %s" % e)
+    with c:
+        applied = run(a, scene, c)
     if applied == 0:
-        sys.exit("live_client.py: the daemon applied none of the commands (rejected? see its loop_stats_t, "
-                 "coopdyn send --help)")
+        sys.exit("live_client.py: the daemon applied none of the commands (refused? see its loop_stats_t: "
+                 "coopdyn spy)")
 
 
 if __name__ == "__main__":
