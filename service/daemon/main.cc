@@ -72,7 +72,8 @@ std::unique_ptr<coopdyn::runtime::PublisherThread> make_publisher(const coopdyn:
   const int max_bytes = runtime::ServiceLoop::max_message_bytes(sys);
   auto p = std::make_unique<runtime::PublisherThread>(bus, max_bytes);
   // SCHED_FIFO just below the loop when the loop asks for it: the processes loading the machine
-  // cannot hold the outputs back (nice -20 could: bench/README.md, "Outputs under load")
+  // cannot hold the outputs back (nice -20 could: bench/README.md, "Commands at 1 kHz and outputs
+  // under load")
   const int fifo = runtime::loop_asks_fifo(cfg.realtime) ? std::max(1, cfg.realtime.priority - 1) : 0;
   try {
     p->start(cfg.realtime.cpu, fifo);

@@ -44,17 +44,21 @@ const char* status_name(Status s) {
 
 const char* reason_text(Reason r) {
   switch (r) {
+// clang-format off
 #define COOPDYN_REASON(e, code, key, text) \
   case Reason::e: return text;
 #include "service/dynamics/reasons.def"
+// clang-format on
   }
   return "?";
 }
 const char* reason_key(Reason r) {
   switch (r) {
+// clang-format off
 #define COOPDYN_REASON(e, code, key, text) \
   case Reason::e: return #key;
 #include "service/dynamics/reasons.def"
+// clang-format on
   }
   return "unknown";
 }
@@ -104,6 +108,30 @@ void size_joint_losses(const System& sys, Workspace& ws) {
     ws.rest_dvdot.setZero(n, k);
     ws.rest_dlambda.setZero(sys.constraints.rows, k);
   }
+}
+
+// the SVD baseline's buffers: each tip's own columns (the DOFs only it moves) and its factors
+void size_svd_baseline(const System& sys, Workspace& ws) {
+  const int n = sys.model.nv(), m = sys.constraints.rows;
+  const ConstraintSet& cs = sys.constraints;
+  for (size_t s = 0; s < sys.constraints.specs.size(); ++s) {
+    const int k = sys.constraints.row_count[s];
+    const ConstraintSpec& c = sys.constraints.specs[s];
+    ws.own_cols.emplace_back();
+    if (c.kind == ConstraintKind::kWeld && c.frame_b >= 0 && sys.model.frames[c.frame_b].body >= 0) {
+      const std::vector<int>& other = sys.model.body_support[sys.model.frames[c.frame_b].body];
+      for (int d : cs.support[s])
+        if (!std::binary_search(other.begin(), other.end(), d)) ws.own_cols.back().push_back(d);
+    } else {
+      ws.own_cols.back() = cs.support[s];  // a weld to the world, a wheel, a lock: every DOF it touches
+    }
+    ws.tip_rank.push_back(0);
+    ws.tip_B.push_back(Eigen::MatrixXd::Zero(k, n));
+    ws.tip_U.push_back(Eigen::MatrixXd::Zero(k, k));
+    ws.tip_s.push_back(Eigen::VectorXd::Zero(k));
+  }
+  ws.R.setZero(m, m);
+  ws.Gr.setZero(m, n);
 }
 }  // namespace
 
@@ -211,26 +239,7 @@ Workspace::Workspace(const System& sys)
     d4_llt.compute(Eigen::MatrixXd::Identity(p, p));  // sizes it; LLT(p) leaves its info unset
     tp.setZero(p);
   }
-  if (sys.options.formulation == Formulation::kSvdBaseline) {
-    for (size_t s = 0; s < sys.constraints.specs.size(); ++s) {
-      const int k = sys.constraints.row_count[s];
-      const ConstraintSpec& c = sys.constraints.specs[s];
-      own_cols.emplace_back();
-      if (c.kind == ConstraintKind::kWeld && c.frame_b >= 0 && sys.model.frames[c.frame_b].body >= 0) {
-        const std::vector<int>& other = sys.model.body_support[sys.model.frames[c.frame_b].body];
-        for (int d : cs.support[s])
-          if (!std::binary_search(other.begin(), other.end(), d)) own_cols.back().push_back(d);
-      } else {
-        own_cols.back() = cs.support[s];  // a weld to the world, a wheel, a lock: every DOF it touches
-      }
-      tip_rank.push_back(0);
-      tip_B.push_back(Eigen::MatrixXd::Zero(k, n));
-      tip_U.push_back(Eigen::MatrixXd::Zero(k, k));
-      tip_s.push_back(Eigen::VectorXd::Zero(k));
-    }
-    R.setZero(m, m);
-    Gr.setZero(m, n);
-  }
+  if (sys.options.formulation == Formulation::kSvdBaseline) size_svd_baseline(sys, *this);
 }
 
 namespace {

@@ -1,34 +1,14 @@
 // The torques that hold a constrained system still: the safe-torque policy `hold` of coopdynd.
 //
-// At (q, v), find actuator torques tau (on the actuated DOFs only; a floating platform, a
-// pseudo-joint or a DOF with a zero torque limit carries none) such that the constrained
-// accelerations vanish: M 0 + h = tau + G^T lambda for some lambda, i.e. the torques balance the bias
-// forces h (gravity, Coriolis, centrifugal) along every motion the constraints allow:
-//     N^T (S_a^T tau_a - h) = 0,        N: an orthonormal basis of the null space of G.
-// For cooperating arms this has many solutions (an internal squeeze is free); the rule is the
-// least squares of the torques as fractions of each joint's limit, min sum (tau_i / limit_i)^2
-// (plain minimum norm where no limit is given): the strong joints carry more, and no squeeze is
-// added beyond what balance needs. At rest (v = 0, gamma = 0) the system
-// then stays where it is; the residual |N^T (S_a^T tau_a - h)| says how well the actuators can
-// hold it (nonzero when they cannot balance some motion, e.g. a free platform nobody reaches).
-//
-// Solve (no allocation after construction). The balance says tau = h + G^T mu for some mu, with
-// the unactuated rows zero: tau_a = h_a + G_a^T mu, h_u + G_u^T mu = 0. So tau_a is the point of
-// least weighted norm of an affine set parametrized by mu (m unknowns, not n), found from h and G
-// of the loop's own evaluation (begin_evaluation(): nothing is evaluated twice):
-//   min_mu |b + Gs^T mu|^2  subject to  G_u^T mu = -h_u,
-// Gs = G with each actuated column divided by its limit (the unactuated ones as they are, a term
-// that is zero on the constraint), b = h scaled alike. Gs Gs^T (rows x rows, summed per pair of
-// constraint specs over the DOFs both touch) is factored by a Cholesky with diagonal pivoting: it
-// keeps a set of independent rows of G (the multipliers of the others are set to zero, which changes
-// no torque: their rows are combinations of the kept ones), then the constraint by its
-// Schur complement S = G_u^T (Gs Gs^T)^-1 G_u (nu x nu, Cholesky). This is the same torque as the
-// definition's two SVDs (to rounding: at most 6e-10 relative in the tests, every shipped scene)
-// when the rank decisions are clear: every kept pivot >= kKeep times the largest and the first
-// dropped <= kDrop times it, S positive definite with pivots >= kKeep times its largest. Otherwise (a near-singular grasp, an
-// unactuated DOF the constraints do not reach, the residual not zero) it falls back to the
-// reference solve below: the SVD of G^T (its null space N) and the SVD of N^T S_a^T W (minimum-norm
-// least squares), rank tolerance 1e-10 relative.
+// At (q, v), the actuator torques tau (on the actuated DOFs only; a floating platform, a
+// pseudo-joint or a DOF with a zero torque limit carries none) that balance the bias forces h along
+// every motion the constraints allow, N^T (S_a^T tau_a - h) = 0 (N: the null space of G), of least
+// sum (tau_i / limit_i)^2 (plain minimum norm where no limit is given): no squeeze beyond what
+// balance needs. The residual |N^T (S_a^T tau_a - h)| says how well the actuators can hold it.
+// Solved in the m multipliers from the loop's own h and G (begin_evaluation(): nothing evaluated
+// twice) by a pivoted Cholesky and a Schur complement; where a rank decision is not clear, by the
+// reference solve (two SVDs, rank tolerance 1e-10 relative). No allocation after construction.
+// The derivation and the rank thresholds: docs/method.md, "The holding torque".
 #pragma once
 
 #include <Eigen/SVD>

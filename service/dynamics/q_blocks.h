@@ -1,46 +1,17 @@
 // The Cholesky of Q = G M^-1 G^T per arm, coupled through the platform only: linear in the number
 // of arms instead of cubic in the rows.
 //
-// With M = L^T L tree-sparse and Y = G L^-1, the rows of a spec reach (in Y) only the DOFs on the
-// paths from its bodies to the root. In the mobile-platform form every arm's weld reaches its own
-// joints and the platform's DOFs; in the classic form every grasp reaches its arm's joints and the
-// load's. So, with the specs in groups g that share no DOF but the common set C (the DOFs every
-// spec reaches, at most 6) and B_g = Y_g restricted to C (rows_g x |C|),
-//   Q = blkdiag(A_g) + B B^T,   A_g = Y_g Y_g^T over the group's own DOFs,
-// a block diagonal plus a rank-|C| term. The block Cholesky of Q, blocks in row order, is then
-// exactly (in exact arithmetic) the dense Cholesky of Q:
-//   P_1 = I;  for g = 1, 2, ...:  L_g L_g^T = A_g + B_g P_g B_g^T,   W_g = L_g^-1 B_g P_g,
-//                                  P_{g+1} = P_g - W_g^T W_g,
-// and the factor's off-diagonal blocks are L_hg = B_h W_g^T (h > g), never formed. The pivots (the
-// diagonals of the L_g) are those of the dense factor, so the fast-path test and the condition
-// estimate of QSolver (q_solve.h) are the same. Solve: y_g = L_g^-1 (b_g - B_g z), z += W_g^T y_g
-// forward; x_g = L_g^-T (y_g - W_g t), t += B_g^T x_g backward. Each group costs O(rows_g^3 +
-// rows_g^2 |C|) whatever the number of groups.
-//
-// Nominal base links (System::nominal_bases: joint 1 without armature): the condition diagnostic is
-// that of Q with each nominal direction eliminated (constrained_dynamics.cc,
-// condition_without_nominal): a Householder reflection H of the base weld's six rows, Q <- H Q H,
-// and one row dropped. The weld's rows lie in one group, so H Q H = blkdiag(H A_g H) + (H B)(H B)^T
-// keeps the structure. factor() then factors Q once, as QSolver::factor_nominal_last factors the
-// dense Q (q_solve.h): R Q R^T with the reduced rows of every group first (in row order) and the N
-// dropped (nominal) rows last, so the leading pivots are the reduced Q's (the condition) and the
-// whole factor solves Q. The reduced part is the block Cholesky above on the reduced groups (Ar_g,
-// Br_g: H A_g H and H B_g without the dropped rows). The last N rows need L_dr = Q_dr L_rr^-T and
-// the N x N Schur complement S = Q_dd - L_dr L_dr^T. With a_g the dropped rows' columns of H A_g H
-// on the group's kept rows, the block forward solve of Q_rd gives the columns of L_dr^T in group g as
-//   Y_g = L_g^-1 (Br_g Z + a_g E_g),   Z <- Z - W_g^T Y_g,   Z (6 x N) starting at Bd^T,
-// (Bd: the dropped rows of H B, E_g: the group's dropped rows among the N), and
-//   S = blkdiag(dropped rows of H A_g H) + Bd Bd^T - sum_g Y_g^T Y_g,   L_S L_S^T = S.
-// The fast-path test reads every pivot of R Q R^T (the reduced ones and L_S's), as the dense
-// factor_nominal_last does; where it fails, the caller takes the dense path. Solve: b <- R b, the
-// block forward solve on the reduced rows with y_d = L_S^-1 (b_d - sum_g Y_g^T y_g), x_d = L_S^-T y_d,
-// the block backward solve of y_r - L_dr^T x_d, x <- R^T x. Each group then also costs O(N^2) for
-// its S update; N is padded to 4 or 8 with zero rows so that those updates run at fixed sizes.
+// With the constraint specs in groups that share no DOF but a common set C (at most 6 DOFs: the
+// platform's or the load's), Q = blkdiag(A_g) + B B^T, and its block Cholesky is exactly the dense
+// one: the same pivots, so the fast-path test and the condition estimate are QSolver's (q_solve.h).
+// With nominal base links the factor is that of R Q R^T with the nominal rows last, as
+// QSolver::factor_nominal_last.
 //
 // Where the structure does not hold (fewer than two groups, a group's rows not contiguous in the
 // spec order, more than 6 common DOFs or 12 rows in a group) plan() leaves it unusable; where Q is
 // not positive definite to the fast-path tolerance, factor() returns false and the caller takes the
 // dense path (the rank-revealing solve of q_solve.h). Sized once; allocation-free afterwards.
+// The recurrences and the nominal rows: docs/method.md, "The block factor of Q".
 #pragma once
 
 #include <utility>

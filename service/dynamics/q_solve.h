@@ -2,55 +2,15 @@
 // systems, beyond the paper: README).
 //
 // factor() takes the Cholesky fast path when every pivot of Q is >= fast_tol * the largest;
-// otherwise it reveals the rank, flags the rows of lambda the physics leaves free and prepares the
-// scene's redundancy rule (minimum norm or compliance-weighted). solve() may then be called for any
-// number of right-hand sides. Sized once from the number of rows; allocation-free afterwards.
-//
-// Rank path: Cholesky with symmetric (diagonal) pivoting (Higham, "Accuracy and Stability of
-// Numerical Algorithms", 2nd ed., s.10.3; LAPACK dpstrf), unblocked:
-//   P Q P^T = [L11; L21] [L11^T L21^T] + S,   L11 (r x r) lower, L21 ((m-r) x r),
-// where step j takes the largest remaining diagonal of the Schur complement as its pivot and the
-// factorization stops at the first step whose largest remaining pivot is
-//   <= rank_tol * max_i Q(i, i)                                          (rank_tol = 1e-10 default)
-// so that rank = r and the neglected Schur complement S has every diagonal entry <= that
-// tolerance. What this guarantees (Weyl's inequality on P Q P^T = L L^T + S):
-//   - a dropped direction is small: eigenvalue r+1 of Q <= trace(S) <= (m - r) rank_tol max Q(i, i);
-//   - a direction is kept when its eigenvalue > (m - r + 1) rank_tol max Q(i, i) (the r-th pivot is
-//     >= eigenvalue r / (m - r + 1)).
-// In between the pivot test and the former eigenvalue test (eigenvalue <= rank_tol * lambda_max,
-// a singular value of G M^-1/2 below sqrt(rank_tol) = 1e-5 relative) may disagree: the last pivot
-// is about lambda / v_p^2 (v_p the component of that eigenvector on the last pivot row), so an
-// eigenvalue a few decades below the threshold can be kept. Exact dependencies (the rigid axle,
-// the planar arms) leave round-off eigenvalues ~1e-16 relative, far below it. max_i Q(i, i) lies
-// in [lambda_max / m, lambda_max].
-//   Null space of Q: N = P^T [-L11^-T L21^T; I] (m x k, k = m - r), orthonormalized by modified
-//   Gram-Schmidt applied twice.
-//   Minimum-norm solution (= Q^+ b, also for a b with a component outside the range of Q, which
-//   is removed first): b_r = b - N N^T b, x_b = P^T [L11^-T L11^-1 (P b_r)_1; 0], x = x_b - N N^T x_b.
-//   Indeterminate rows: the rows i with |N(i, :)|^2 > 1e-12 (components that the null space moves).
-//   Redundancy::kCompliance: x += N z, z minimizing (x + N z)^T C (x + N z), C = diag(compliance),
-//   i.e. (N^T C N) z = -N^T C x (regularized by 1e-12 max C on its diagonal).
-//   Condition: (L11(0,0) / L11(r-1,r-1))^2, the ratio of the largest to the smallest kept pivot of
-//   Q. It is an ESTIMATE of lambda_max / lambda_r of Q on its range: it never exceeds m times the
-//   true value, but it can underestimate it (by the 1 / v_p^2 above, a factor ~m for a random
-//   orientation, more when the small direction barely touches the last pivot row). The fast path
-//   reports the same ratio for its unpivoted factor.
-//
-// Nominal directions (System::nominal_bases: an arm's joint 1 without armature). In the weld's six
-// rows the direction u = G's column of joint 1 carries Q's ~1 / (nominal inertia) eigenvalue; the
-// condition reported is that of Q with it eliminated (constrained_dynamics.h). factor_nominal_last()
-// factors Q once in the basis where that direction is one row and in the order where those rows
-// come last: per nominal direction a Householder reflection H of the weld's rows (H u = |u| e_0 up
-// to sign; the one row u lies along when it is a base axis, without H), R = Pi H (Pi the order: the
-// kept rows as they were, then the dropped ones), and the unpivoted Cholesky of R Q R^T. Its
-// leading (rows - N) pivots are those of the reduced Q (Q without the nominal directions), whose
-// ratio is the condition; the whole factor solves Q x = b as x = R^T (R Q R^T)^-1 R b (R orthogonal).
-// Against factoring Q and then the reduced Q apart (as before), the condition is the same up to
-// round-off (the same matrix, factored in the same order) and the solution equal to round-off. The
-// fast-path test reads R Q R^T's pivots instead of Q's: the unpivoted Cholesky of one matrix in two
-// orthogonally related bases, each pivot ratio an estimate of its condition (within a factor of
-// about the rows, above), so they can disagree only where that condition is within such a factor
-// of 1 / fast_tol; where R Q R^T fails, factor() on Q decides exactly as before.
+// otherwise it reveals the rank (Cholesky with diagonal pivoting, stopping at a pivot <= rank_tol
+// max_i Q(i, i)), flags the rows of lambda the physics leaves free (|N(i, :)|^2 > 1e-12, N the null
+// space) and prepares the scene's redundancy rule (minimum norm, = Q^+ b, or compliance-weighted).
+// solve() may then be called for any number of right-hand sides. The condition reported is the
+// ratio of the largest to the smallest kept pivot: an estimate of Q's on its range, never above m
+// times the true value. factor_nominal_last() factors Q with its nominal directions (an arm's joint
+// 1 without armature) eliminated last, so its leading pivots give the condition without them.
+// Sized once from the number of rows; allocation-free afterwards.
+// The rank test, what it guarantees and the nominal-direction factor: docs/method.md, "Solving Q".
 #pragma once
 
 #include <utility>

@@ -1,37 +1,19 @@
 // Completing a measured state from joint measurements alone, and the closure residual of a state.
 //
-// A real robot's drivers publish joint angles, velocities and torques; nobody measures the pose and
-// twist of the load the arms carry. The constraints fix them: every grasp (classic) or every base
-// weld (mobile platform) says where the load is, given the arm's joints. fit_state() finds them by
-// least squares over all the constraints together, and reports how far the arms disagree.
+// fit_state() finds what the joints do not give (the floating joints' coordinates: the load's
+// pose and twist; pseudo-joints, set to their initial value) by least squares over all the
+// constraints together (Gauss-Newton on the holonomic rows' position error, then the velocities
+// minimizing |G v|), and reports how far the arms disagree. What may be omitted is decided once
+// from the System at q0 (StateFitPlan): floating positions when the holonomic rows fix them,
+// floating velocities when all rows do; a vehicle's chassis pose never (its wheels do not fix it).
+// Rows are weighted as written (rad for rotation rows, m for translation rows, in the tip frame).
+// Allocation-free after the plan.
 //
-// What may be omitted (StateFitPlan, decided once from the System at its initial state q0):
-//   - the coordinates of the floating joints (the load's platform, a free load, a vehicle's chassis),
-//     all of them together, positions and velocities separately: positions when the holonomic
-//     constraint rows (welds, locks, wheel contact heights) fix them (rank of G over those rows and
-//     the floating position directions is full), velocities when all rows do (the wheels' no-slip
-//     rows included). A vehicle's chassis pose is not fixed by its wheels (it drives anywhere), so a
-//     vehicle must give the chassis pose from its own estimator; its twist then follows from the
-//     wheel spins. Omitted velocities get tau 0, so velocities of actuated floating DOFs (a scene
-//     that declares the load actuated) may not be omitted.
-//   - pseudo-joints (the paper's (22)-(26)): joints the real structure lacks, locked at their initial value;
-//     omitted, they are set to it exactly (q0, v = 0, tau = 0).
-//
-// Position fit: Gauss-Newton on the holonomic rows' position error e(q) over the omitted tangent
-// directions, dx = -(G_u^T G_u)^+ G_u^T e, q <- q (+) dx, from a start (the last fit, or q0), with
-// step halving when a step does not reduce |e|; stops when |e| is below 1e-14, stops decreasing,
-// or the step is below 1e-13 (rad, m). Velocity fit: the omitted velocities minimizing |G v| (G's rows all, the measured
-// velocities fixed): v_u = -(G_u^T G_u)^+ G_u^T (G_m v_m). The normal matrix (dimension = omitted
-// DOFs) is solved by Cholesky when well conditioned, else by the pseudo-inverse of an
-// allocation-free Jacobi eigen-decomposition; no allocation.
-// Least squares over all arms weights the rows as they are written: a weld's rotation rows in rad,
-// its translation rows in m, in the tip frame.
-//
-// Closure residual (of any state, fitted or fully measured): the largest |e| left over the
-// position-type rows (m) and the orientation-type rows (rad), and the largest |G v| over the
-// velocity rows of linear (m/s) and angular (rad/s) type, each with the constraint it is found in.
-// The residual of a fitted state is how far the arms disagree about where the load is; of a full
-// state, how far the measurement is from closing the constraints.
+// Closure residual (of any state, fitted or fully measured): the largest |e| over the position-type
+// rows (m) and the orientation-type rows (rad), and the largest |G v| over the velocity rows of
+// linear (m/s) and angular (rad/s) type, each with the constraint it is found in.
+// The iterations, their stopping rules and the omission rules: docs/method.md, "Completing a
+// measured state".
 #pragma once
 
 #include <vector>

@@ -46,9 +46,8 @@ enum class SchedFifo {
   kAuto,  // the default: SCHED_FIFO when the process may take it (root or CAP_SYS_NICE; else logged,
           // the loop runs SCHED_OTHER), except with busy_poll without a cpu of its own (a polling
           // loop at real-time priority would hold a shared CPU); the loop steps down to SCHED_OTHER
-          // by itself when it would hog its CPU (runtime/fifo_guard.h). On a loaded 2-vCPU VM the
-          // in-place tick measured 2.17-2.31x the warm tick with 0-17 overruns in 15,000 ticks,
-          // against 2.69-5.17x and 174-3560 with false (bench/README.md, "Loop timing")
+          // by itself when it would hog its CPU (runtime/fifo_guard.h). Fewer overruns on a loaded
+          // machine than false (bench/README.md, "Loop timing")
   kOn,    // SCHED_FIFO at `priority`, never stepped down (a lab that gives the loop its own CPU)
   kOff,   // SCHED_OTHER
 };
@@ -58,9 +57,9 @@ struct RealtimeOptions {
   int priority = 80;        // 1..99
   // The receive process and the receive thread, when the loop asks for SCHED_FIFO: SCHED_FIFO at
   // this priority, below the loop's (0: SCHED_OTHER). Under sched_fifo auto both step down to
-  // SCHED_OTHER when either would hog its CPU (a flood), as the loop does. 0 by default: at 70 a
-  // state's publish to wrenches on arrival measured 51-55 us slower at load 5, and a receive path held at real-time
-  // priority spends what a flood from another host costs (bench/README.md, "Commands under a flood").
+  // SCHED_OTHER when either would hog its CPU (a flood), as the loop does. 0 by default: a real-time
+  // receive path made a state's publish to wrenches on arrival slower on a loaded machine, and it
+  // spends what a flood from another host costs (bench/README.md, "Commands under a flood of junk").
   int receive_priority = 0;
   int cpu = -1;             // pin the loop thread to this CPU; -1: no affinity. The receive thread,
                             // the receive process and the publisher thread are then kept off this CPU
@@ -73,8 +72,8 @@ struct RealtimeOptions {
   // Hold /dev/cpu_dma_latency at 0 while running (the PM QoS request cyclictest makes: no deep
   // C-states, so no exit latency on wake-up and the loop's caches not flushed by a deep idle state
   // between ticks; needs root, else logged and ignored; the whole machine draws more power while the
-  // daemon runs). On by default: the in-place tick measured 1.41-1.67x the warm tick with it against
-  // 2.57-2.94x without (bench/README.md, "Loop timing").
+  // daemon runs). On by default: it brings the in-place tick closer to the warm tick (bench/README.md,
+  // "Loop timing").
   bool cpu_dma_latency_zero = true;
   // Event-driven estimate mode (trigger: arrival) only: the loop thread never sleeps waiting for a
   // state but polls for one, so no wake-up stands between a state's receipt and its computation.
@@ -98,7 +97,7 @@ struct RealtimeOptions {
 // validate() reject anything outside with the limits in the message.
 //   rate_hz         [1, 20000] Hz: the loop's period (1e9 / rate_hz ns) and dt = 1 / rate_hz; below
 //                   1 Hz it is no control loop (a 1 s step), above 20 kHz an RK4 step of the largest
-//                   shipped scene (11.7 us) no longer fits a period
+//                   shipped scene no longer fits a period (bench/README.md)
 //   watchdog_ms     [1, 3600000] ms: watchdog_ns() stays far inside 64 bits; a command is never held
 //                   for more than an hour, and a watchdog below 1 ms is below the receive jitter
 //   stats_period_s  [1 / rate_hz, 3600] s: at least one tick per window, at most an hour (at most

@@ -3,17 +3,16 @@
 // and one FUTEX_WAKE only when the thread sleeps); the thread hands each slot, in order, to the inner
 // bus (LcmBus: lcm_publish, one sendmsg). Used by coopdynd's fixed-rate loop (config
 // realtime.publisher_thread): on UDP multicast the sendmsg also delivers the datagram to every
-// subscriber on the host and wakes it, on the sending thread's CPU and inside its time (about 10 us
-// warm, 21-27 us p50 after the loop's 1 ms sleep on a loaded machine, bench/README.md "Loop timing");
-// here that is the publisher thread's, kept off the loop's CPU when the loop is pinned. What the
-// loop keeps: the copy (0.3 us) and the wake of this thread (a few us; more across vCPUs).
+// subscriber on the host and wakes it, on the sending thread's CPU and inside its time (bench/README.md,
+// "Loop timing"); here that is the publisher thread's, kept off the loop's CPU when the loop is
+// pinned. What the loop keeps: the copy and the wake of this thread.
 // publish() does not allocate, lock, block or throw; when every slot is still waiting (the thread has
 // not run for kSlots messages) the message is dropped and counted, never waited for. A queued message
 // the inner bus refuses is counted too (failed(), Bus::failed_after_accept()).
 // Priority (start()): SCHED_FIFO (coopdynd: just below the loop) or a nice value, so that the
 // processes loading the machine at SCHED_OTHER cannot hold the thread off for kSlots ticks (outputs
 // dropped); it only ever runs for what the loop queued, so it cannot hog a CPU. What each costs the
-// loop and saves: bench/README.md, "Outputs under load".
+// loop and saves: bench/README.md, "Commands at 1 kHz and outputs under load".
 #pragma once
 
 #include <atomic>

@@ -1,36 +1,18 @@
 // The fixed-rate loop of coopdynd.
 //
 // Each tick (tick(now)): take the newest input from the receive thread (triple buffer), apply the
-// watchdog, then
-//   simulate: one integrator step of dt = 1/rate under the command (or the safe torque), its lock
-//             targets (a steer angle; the scene's q without a fresh command) held by the lock rows; the
-//             published wrenches, stresses and accelerations are those of the step's start state,
-//             published together with that state (q, v) and tau, so any output can be reproduced
-//             offline by evaluate(q, v, tau) with the lock targets of the command it used;
-//   estimate: the measured state completed (state_fit.h: the load's pose and twist fitted when only
-//             the joints were given), its closure residual checked against closure_tolerance,
-//             evaluate() there, no integration;
-// then the scene's wrench outputs of that evaluation (compute_wrenches: end-effector, base, tip,
-// axle and the joint reactions it asks for);
-// encode output_t into a preallocated buffer and publish it; every stats period publish
-// loop_stats_t. A message the bus refuses (the publisher thread's ring full, lcm_publish failing) is
-// counted, in loop_stats_t outputs_dropped. tick() does not sleep, allocate, lock, log or throw;
+// watchdog, then simulate (one integrator step under the command or the safe torque; the outputs
+// are those of the step's start state, published with that state and tau, so evaluate(q, v, tau)
+// reproduces them) or estimate (the measured state completed by state_fit.h, its closure residual
+// checked, evaluate() there); then the scene's wrench outputs; encode output_t into a preallocated
+// buffer and publish it; every stats period publish loop_stats_t. A message the bus refuses is
+// counted (loop_stats_t outputs_dropped). tick() does not sleep, allocate, lock, log or throw;
 // tests call it directly.
-// run() calls tick() at absolute deadlines (clock_nanosleep TIMER_ABSTIME on CLOCK_MONOTONIC),
-// records wake-up lateness and compute time, and applies the overrun policy; with
-// realtime.spin_us it wakes spin_us before each deadline, evaluates the state it holds once (its
-// result is discarded: it brings the working set back into the caches and TLB after the sleep) and
-// polls the clock to the deadline.
-// Event-driven estimate mode (config trigger: arrival): run() sleeps on a doorbell the receive
-// thread rings after each accepted measured state (or, given an ArrivalSource, on the source's bell,
-// draining the source into the inboxes itself when it moves: the daemon's receive process rings it,
-// and no receive thread stands between) and calls tick() as soon as it wakes, one output
-// per state taken; while no fresh state is held it ticks at rate_hz (the error status, as the
-// fixed-rate path), and loop_stats_t follows stats_period_s of wall time. Its lateness is the
-// handoff: the loop's wake-up minus the state's receive time in the receive process (both
-// CLOCK_MONOTONIC); at a heartbeat, the wake-up minus its deadline. With realtime.busy_poll the
-// loop never sleeps on the doorbell but polls it and the clock (a dedicated CPU at 100 %): no
-// wake-up of the loop's CPU stands between a state's handoff and its computation.
+// run() calls tick() at absolute deadlines (CLOCK_MONOTONIC), records wake-up lateness and compute
+// time and applies the overrun policy (realtime.spin_us: wake early and warm the caches). In the
+// event-driven estimate mode (trigger: arrival) it ticks on each accepted measured state, at
+// rate_hz while none is fresh; realtime.busy_poll polls instead of sleeping.
+// The whole cycle, the lateness measured in each mode: docs/reference/internals.md, "The service loop".
 #pragma once
 
 #include <atomic>

@@ -87,8 +87,9 @@ bool parse_summary(const std::string& text, Summary* s) {
   s->out_of_order = std::stol(m[4]);
   if (!std::regex_search(text, m, std::regex(R"(missed \(seq gaps\) (\d+))"))) return false;
   s->missed = std::stol(m[1]);
-  if (!std::regex_search(text, m, std::regex(R"(inputs dropped (\d+), filtered (\d+), malformed (\d+), socket filter discards \(other channels, own outputs included\) and overflow (\d+))")))
-    return false;
+  const std::regex inputs(R"(inputs dropped (\d+), filtered (\d+), malformed (\d+), )"
+                          R"(socket filter discards \(other channels, own outputs included\) and overflow (\d+))");
+  if (!std::regex_search(text, m, inputs)) return false;
   s->dropped = std::stol(m[1]);
   s->filtered = std::stol(m[2]);
   s->malformed = std::stol(m[3]);

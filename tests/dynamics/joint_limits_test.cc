@@ -113,7 +113,8 @@ robots:
 )";
   const std::string rest = R"(
       - {a: 0.3, d: 0.0, alpha: 3.141592653589793, mass: 5.0, com: [-0.15, 0, 0], inertia: [0.01, 0.05, 0.05, 0, 0, 0]}
-      - {type: prismatic, theta: 0.0, d: 0.05, mass: 1.5, com: [0, 0, -0.1], inertia: [0.005, 0.005, 0.001, 0, 0, 0], limits: [0, 0.2]}
+      - {type: prismatic, theta: 0.0, d: 0.05, mass: 1.5, com: [0, 0, -0.1], inertia: [0.005, 0.005, 0.001, 0, 0, 0],
+         limits: [0, 0.2]}
       - {a: 0.0, d: 0.08, alpha: 0, mass: 0.5, com: [0, 0, 0.02], inertia: [0.001, 0.001, 0.001, 0, 0, 0]}
 load:
   name: load

@@ -54,14 +54,16 @@ class TempDir {
 // TIAGo's base_antenna_left_link's (products too large for its moments: eigenvalue -3.5e-8 kg*m^2).
 std::string arm_with_antenna(const std::string& antenna_inertia, double antenna_mass = 1e-6) {
   return R"(<robot name="arm">
-  <link name="base"><inertial><mass value="2"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="base"><inertial><mass value="2"/>
+    <inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial></link>
   <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/><axis xyz="0 1 0"/>
     <limit lower="-3" upper="3" effort="100" velocity="1"/></joint>
   <link name="l1"><inertial><origin xyz="0.5 0 0"/><mass value="1"/>
     <inertia ixx="0.01" iyy="0.08" izz="0.08" ixy="0" ixz="0" iyz="0"/></inertial></link>
   <joint name="j2" type="fixed"><parent link="l1"/><child link="tip"/><origin xyz="1 0 0"/></joint>
   <link name="tip"/>
-  <joint name="antenna_joint" type="fixed"><parent link="base"/><child link="antenna"/><origin xyz="-0.2 0.1 0.2"/></joint>
+  <joint name="antenna_joint" type="fixed"><parent link="base"/><child link="antenna"/>
+    <origin xyz="-0.2 0.1 0.2"/></joint>
   <link name="antenna"><inertial><mass value=")" +
          std::to_string(antenna_mass) + R"("/>
     <inertia )" + antenna_inertia + R"(/></inertial></link>
@@ -69,7 +71,8 @@ std::string arm_with_antenna(const std::string& antenna_inertia, double antenna_
 )";
 }
 const char* kTiagoAntenna =
-    R"(ixx="0.00000002371" ixy="0.00000006119" ixz="0.00000001179" iyy="0.00000002833" iyz="0.00000000774" izz="0.00000003849")";
+    R"(ixx="0.00000002371" ixy="0.00000006119" ixz="0.00000001179" )"
+    R"(iyy="0.00000002833" iyz="0.00000000774" izz="0.00000003849")";
 
 // a `bodies` scene with the whole robot (root: fixed unless body_extra gives a root, or root_default)
 std::string whole_scene(const std::string& urdf, const std::string& robot_extra = "", const std::string& body_extra = "",

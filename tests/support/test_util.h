@@ -165,11 +165,16 @@ inline std::string rigid_car_scene() {
 name: car
 gravity: [0, 0, -9.81]
 bodies:
-  - {name: chassis, parent: world, joint: {type: floating, name: chassis, q: {xyz: [0, 0, 0.3]}}, mass: 1200, inertia: [400, 1800, 2000, 0, 0, 0]}
-  - {name: fl, parent: chassis, placement: {xyz: [1.3, 0.75, 0]}, joint: {type: revolute, axis: [0, 1, 0], name: fl_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
-  - {name: fr, parent: chassis, placement: {xyz: [1.3, -0.75, 0]}, joint: {type: revolute, axis: [0, 1, 0], name: fr_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
-  - {name: rl, parent: chassis, placement: {xyz: [-1.3, 0.75, 0]}, joint: {type: revolute, axis: [0, 1, 0], name: rl_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
-  - {name: rr, parent: chassis, placement: {xyz: [-1.3, -0.75, 0]}, joint: {type: revolute, axis: [0, 1, 0], name: rr_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
+  - {name: chassis, parent: world, joint: {type: floating, name: chassis, q: {xyz: [0, 0, 0.3]}},
+     mass: 1200, inertia: [400, 1800, 2000, 0, 0, 0]}
+  - {name: fl, parent: chassis, placement: {xyz: [1.3, 0.75, 0]},
+     joint: {type: revolute, axis: [0, 1, 0], name: fl_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
+  - {name: fr, parent: chassis, placement: {xyz: [1.3, -0.75, 0]},
+     joint: {type: revolute, axis: [0, 1, 0], name: fr_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
+  - {name: rl, parent: chassis, placement: {xyz: [-1.3, 0.75, 0]},
+     joint: {type: revolute, axis: [0, 1, 0], name: rl_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
+  - {name: rr, parent: chassis, placement: {xyz: [-1.3, -0.75, 0]},
+     joint: {type: revolute, axis: [0, 1, 0], name: rr_spin}, mass: 15, inertia: [0.4, 0.7, 0.4, 0, 0, 0]}
 constraints:
   - {name: fl, type: rolling, body: fl, axle: [0, 1, 0], radius: 0.3}
   - {name: fr, type: rolling, body: fr, axle: [0, 1, 0], radius: 0.3}

@@ -352,8 +352,8 @@ void q_solve_rows(Workspace& ws, WrenchSigmaData& sd, Nc nc) {
 }
 
 // f(offset, count) over the parts of a row of K columns held in registers: the whole row where K is
-// a multiple of 4 (12: three 4-wide registers a row measured 3-5 % faster than in_parts' 8 + 4 at
-// 2 PUMAs), else in_parts (18: 8 + 8 + 2 instead of nine 2-wide, 20-25 % faster at 3 PUMAs)
+// a multiple of 4 (12: three 4-wide registers), else in_parts (18: 8 + 8 + 2 instead of nine
+// 2-wide); the choice measured in bench/README.md, "Each wrench's sigma: the cost"
 template <int K, class F>
 inline void held_parts(F&& f) {
   if constexpr (K % 4 == 0) f(std::integral_constant<int, 0>{}, std::integral_constant<int, K>{});

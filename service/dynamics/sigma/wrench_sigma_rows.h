@@ -176,9 +176,8 @@ inline void reaction_body(const RigidInertia& I, const RigidInertia& If, const d
 
 // to_frame of D = R + sum_t g_t F_t (kNs of them: a reaction's specs' forces, g_t = +-1) without
 // forming D: R a compact 6 x nc block, F_t 6 rows of stride lf, the output 6 rows of stride lo.
-// FrameChange's arithmetic written out: through FrameChange::put this loop took 1.3x the time
-// (wrench_sigma_bench pumas_2 all, 4.2 against 3.2 us), where to_frame gains by it (none: 2.0
-// against 2.2 us).
+// FrameChange's arithmetic written out: through FrameChange::put this loop is slower, where
+// to_frame is not (bench/README.md, "Each wrench's sigma: the cost").
 template <int kNs, class Nc>
 inline void to_frame_sum(const Mat3& Rt, const Vec3& p, const double* __restrict r, const double* const* f, const double* g,
                          Eigen::Index lf, double* __restrict o, Eigen::Index lo, Nc nc) {

@@ -18,15 +18,19 @@ namespace coopdyn::io {
 
 // every code of the tables (service/io/codec/codes.def, service/dynamics/reasons.def) is the LCM constant
 // of the same name
+// clang-format off
 #define COOPDYN_MODE(e, code, key, lcm) static_assert(static_cast<int>(Mode::e) == coopdyn::output_t::lcm, #lcm);
-#define COOPDYN_INPUT(e, code, key, name, lcm) static_assert(static_cast<int>(Input::e) == coopdyn::output_t::lcm, #lcm);
+#define COOPDYN_INPUT(e, code, key, name, lcm) \
+  static_assert(static_cast<int>(Input::e) == coopdyn::output_t::lcm, #lcm);
 #define COOPDYN_SERVICE_REASON(c, code, key, lcm) static_assert(c == coopdyn::output_t::lcm, #lcm);
 #define COOPDYN_CONTROL_ACTION(e, code, key, name, lcm) \
   static_assert(static_cast<int>(ControlAction::e) == coopdyn::control_t::lcm, #lcm);
 #define COOPDYN_CONTROL_RESULT(e, code, key, name, lcm) \
   static_assert(static_cast<int>(ControlResult::e) == coopdyn::output_t::lcm, #lcm);
-#define COOPDYN_JOINT_LOSSES(e, code, key, lcm) static_assert(static_cast<int>(JointLosses::e) == coopdyn::output_t::lcm, #lcm);
+#define COOPDYN_JOINT_LOSSES(e, code, key, lcm) \
+  static_assert(static_cast<int>(JointLosses::e) == coopdyn::output_t::lcm, #lcm);
 #include "service/io/codec/codes.def"
+// clang-format on
 static_assert(static_cast<int>(Reason::kNone) == coopdyn::output_t::REASON_NONE, "core reasons");
 static_assert(static_cast<int>(Reason::kNonFiniteInput) == coopdyn::output_t::REASON_NONFINITE_INPUT, "core reasons");
 static_assert(static_cast<int>(Reason::kMassMatrixSingular) == coopdyn::output_t::REASON_MASS_MATRIX_SINGULAR, "core reasons");
@@ -54,18 +58,22 @@ static_assert(static_cast<int>(WrenchKind::kJoint) == coopdyn::output_t::KIND_JO
 
 const char* reject_key(Reject r) {
   switch (r) {
+// clang-format off
 #define COOPDYN_REJECT(e, key, name) \
   case Reject::e: return #key;
 #include "service/io/codec/codes.def"
+// clang-format on
   }
   return "?";
 }
 
 const char* reject_name(Reject r) {
   switch (r) {
+// clang-format off
 #define COOPDYN_REJECT(e, key, name) \
   case Reject::e: return name;
 #include "service/io/codec/codes.def"
+// clang-format on
   }
   return "?";
 }
@@ -74,79 +82,99 @@ static_assert(kClosureAngularVelocity == coopdyn::output_t::CLOSURE_ANGULAR_VELO
 
 const char* control_action_name(ControlAction a) {
   switch (a) {
+// clang-format off
 #define COOPDYN_CONTROL_ACTION(e, code, key, name, lcm) \
   case ControlAction::e: return name;
 #include "service/io/codec/codes.def"
+// clang-format on
   }
   return "?";
 }
 const char* control_result_name(ControlResult r) {
   switch (r) {
+// clang-format off
 #define COOPDYN_CONTROL_RESULT(e, code, key, name, lcm) \
   case ControlResult::e: return name;
 #include "service/io/codec/codes.def"
+// clang-format on
   }
   return "?";
 }
 
 const char* input_name(Input i) {
   switch (i) {
+// clang-format off
 #define COOPDYN_INPUT(e, code, key, name, lcm) \
   case Input::e: return name;
 #include "service/io/codec/codes.def"
+// clang-format on
   }
   return "?";
 }
 
 const char* reason_key(int r) {
   switch (r) {
+// clang-format off
 #define COOPDYN_REASON(e, code, key, text) \
   case code: return #key;
 #include "service/dynamics/reasons.def"
+// clang-format on
+// clang-format off
 #define COOPDYN_SERVICE_REASON(c, code, key, lcm) \
   case code: return #key;
 #include "service/io/codec/codes.def"
+// clang-format on
   }
   return "unknown";
 }
 const char* input_key(int i) {
   switch (i) {
+// clang-format off
 #define COOPDYN_INPUT(e, code, key, name, lcm) \
   case code: return #key;
 #include "service/io/codec/codes.def"
+// clang-format on
   }
   return "unknown";
 }
 const char* joint_losses_key(int j) {
   switch (j) {
+// clang-format off
 #define COOPDYN_JOINT_LOSSES(e, code, key, lcm) \
   case code: return #key;
 #include "service/io/codec/codes.def"
+// clang-format on
   }
   return "unknown";
 }
 const char* mode_key(int m) {
   switch (m) {
+// clang-format off
 #define COOPDYN_MODE(e, code, key, lcm) \
   case code: return #key;
 #include "service/io/codec/codes.def"
+// clang-format on
   }
   return "unknown";
 }
 const char* control_action_key(int a) {
   if (a == -1) return "none";  // output_t: no control this tick
   switch (a) {
+// clang-format off
 #define COOPDYN_CONTROL_ACTION(e, code, key, name, lcm) \
   case code: return #key;
 #include "service/io/codec/codes.def"
+// clang-format on
   }
   return "unknown";
 }
 const char* control_result_key(int r) {
   switch (r) {
+// clang-format off
 #define COOPDYN_CONTROL_RESULT(e, code, key, name, lcm) \
   case code: return #key;
 #include "service/io/codec/codes.def"
+// clang-format on
   }
   return "unknown";
 }

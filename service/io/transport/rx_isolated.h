@@ -1,63 +1,17 @@
 // The daemon's receive path: its own UDP socket in a supervised child process; no liblcm.
 //
-// Why: liblcm 1.3.1's fragment reassembly writes out of bounds on a crafted LC03 datagram (one
-// 324-byte fragment with a huge offset; open upstream, in no release), and any process that
-// subscribes with liblcm dies. So nothing of the daemon receives with liblcm (it only publishes:
-// LCM's udpm transport opens its receive socket on the first subscribe). A child process
-// (`coopdynd --rx-child`, the same binary, exec'd, so it shares nothing but what it is given)
-// opens a UDP socket on the inbound URL's group and port (SO_REUSEADDR, as liblcm, so lcm-logger
-// listens beside it), reads datagrams with recvmmsg in batches and parses them with lcm_wire.h
-// (every length and offset checked, fragments reassembled in preallocated per-sender slots with a
-// timeout; the checks are input_gate.h's, which the in-loop receive path, rx_in_loop.h, shares);
-// a complete message on an input channel whose payload starts with that channel's type
-// fingerprint goes as raw bytes into a shared-memory ring (single producer, single consumer, fixed
-// slots); it decodes nothing. The daemon's receive thread drains the ring and hands the bytes to
-// the decoders (bounds-checked, codec.h); with drain_in_caller() the loop drains it itself, woken
-// by a futex word in the shared header (the event-driven hand-off, no receive thread in between). A refused datagram is counted by its reason
-// (malformed_by, `inputs_malformed` in loop_stats_t). The child stays as defence in depth: what
-// parses hostile bytes runs in a process that holds nothing but the ring.
-//
-// Start-up: the child sets `alive` to its pid in the shared header once its socket has joined the
-// group (datagrams sent from then on are queued for it) and rings the eventfd; the receive thread
-// sees it at that wake-up and reports it through the on_ready callback, once per child (the first
-// and each respawned one), and counts it (children_ready). The daemon says it runs only after the
-// first (daemon/receive.h wait_for_receiver).
-//
-// Supervision (the receive thread): the child is watched with waitpid(WNOHANG) at every wake-up
-// (at least every 20 ms); when it dies it is counted, reported through the on_restart callback
-// and respawned at once, then with a backoff doubling from 1 ms to 1 s while it keeps dying within
-// a second of its start. The loop keeps ticking and publishing meanwhile; commands expire through
-// the watchdog and the safe torque applies. The child dies with the daemon (PR_SET_PDEATHSIG) and
-// ignores SIGINT, SIGTERM, SIGHUP and SIGQUIT (a stop signalled to the process group is the daemon's: it
-// stops the child itself, and that is no restart). Messages larger than a slot, or arriving when
-// the ring is full, are dropped and counted by the child in the shared header.
-//
-// Floods (README "Guarantees"): the child accepts only coopdyn messages. Its socket gets the
-// configured SO_RCVBUF (0: the URL's recv_buf_size, else the OS default) and, before it is bound,
-// a classic BPF socket filter: a short LCM datagram (LC02) passes only if its channel is one of the
-// given channels and its payload starts with that channel's type fingerprint (the 8-byte hash of
-// the generated type); fragments (LC03) pass (their channel is only in the first one; messages
-// larger than a datagram need them); everything else is dropped by the kernel before it takes
-// socket buffer space, CPU time in this process or a ring slot. The kernel counts those drops with
-// the socket's overflow drops (SO_MEMINFO, `socket_drops`). The child checks the channel and
-// fingerprint again (a fragment 0 before it takes a reassembly slot, complete messages, or a
-// filter that could not be attached) and counts what it refuses as `filtered`.
-//
-// A complete message whose fields do not walk up to the MAC field (codec.h, mac_field_offset: junk
-// after a type fingerprint) is rejected by the child as malformed (Reject::kDecode, counted in
-// rejected_by as below), with or without authentication: it never takes a ring slot.
-//
-// Authentication (set_auth_key, auth.h): the child verifies each complete message's MAC under the
-// key for its channel, then the replay rule (input_gate.h: its utime above the last one the daemon
-// accepted on that channel, or the daemon's start; the daemon moves that window in the shared
-// header, and a respawned child keeps it), before the message takes a ring slot; what fails is
-// counted by channel and reason
-// (rejected_by: malformed, unauthenticated, bad_mac, replayed) and never reaches the daemon, so a
-// flood of unsigned, forged or replayed inputs cannot fill the ring ahead of the signed ones. The
-// daemon verifies what arrives through the ring again (the inboxes, inbox.h). The key is handed over
-// in the shared header; the child then holds the key, which a compromise of the child would reveal
-// (its parser is bounded and fuzzed; the alternative, junk through the ring, lost a third of the
-// valid commands under a flood: docs/guide/service.md, threat model).
+// liblcm 1.3.1's fragment reassembly writes out of bounds on a crafted LC03 datagram, so nothing of
+// the daemon receives with liblcm. A child process (`coopdynd --rx-child`) reads the inbound URL's
+// group and port, parses datagrams with lcm_wire.h under input_gate.h's checks and puts complete
+// messages of the input channels, fingerprint-checked (and MAC- and replay-checked with
+// set_auth_key), as raw bytes into a shared-memory ring; the daemon drains the ring (a receive
+// thread, or the loop itself with drain_in_caller()) and decodes (codec.h). Refusals are counted by
+// reason and channel (loop_stats_t). The child reports readiness once its socket has joined the
+// group (on_ready, children_ready), is respawned with a backoff when it dies (on_restart), dies with
+// the daemon and ignores stop signals meant for it. A kernel BPF filter drops other channels'
+// datagrams before they take buffer space (counted with the overflow drops, `socket_drops`).
+// Start-up, supervision, floods and authentication in full: docs/reference/internals.md,
+// "The isolated receive process".
 #pragma once
 
 #include <sched.h>
