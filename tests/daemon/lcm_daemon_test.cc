@@ -1112,9 +1112,10 @@ TEST_F(DaemonProcess, SendExitsNonZeroWhenItsCommandsAreRejected) {
   OutputSink sink;
   listen(sink);
   ASSERT_TRUE(sink.wait_for([](const io::DecodedOutput&) { return true; }, kEventLimit)) << slurp(d->err);
-  // the four-bar's 6 torques sent to a daemon running two_puma_load (18 DOFs): wrong count
+  // the four-bar's 6 torques (every joint: --others zero) sent to a daemon running two_puma_load (18 DOFs):
+  // wrong count
   Child bad({COOPDYN_PATH, "send", "--scene", scene_path("four_bar"), "--lcm-url", url_, "--rate", "100", "--duration",
-             "0.3", "--torque", "j1:constant:0.1"},
+             "0.3", "--torque", "j1:constant:0.1", "--others", "zero"},
             "send_bad");
   EXPECT_EQ(bad.wait(), 4) << slurp(bad.err);
   const std::string why = slurp(bad.err);

@@ -139,7 +139,7 @@ TEST(UrdfPublished, NonPsdInertiaBeyondTheToleranceIsRefusedNamingTheOptionThatR
   EXPECT_NE(e.find("link 'antenna': inertia tensor is not positive semi-definite"), std::string::npos) << e;
   EXPECT_NE(e.find("beyond the repair tolerance"), std::string::npos) << e;
   EXPECT_NE(e.find("robots.arm.repair_inertia: true"), std::string::npos) << e;
-  EXPECT_NE(e.find("arm.urdf:10"), std::string::npos) << e;  // the file and line of the <inertial>
+  EXPECT_NE(e.find("arm.urdf:12"), std::string::npos) << e;  // the file and line of the <inertial>
   // the option repairs it, with one warning; so for a chain
   for (const std::string& extra : {std::string(", repair_inertia: true")}) {
     const System sys = load_scene_string(whole_scene(urdf, extra), dir.path() + "/scene.yaml");
@@ -213,7 +213,9 @@ TEST(UrdfPublished, AMasslessHandIsNamedWholeWithBothRemediesAndLoadsHeldOrWithA
   EXPECT_EQ(arm.model.nv(), 4);
   EXPECT_EQ(couplings(arm), 2);
   for (const Body& b : arm.model.bodies)
-    if (b.joint.nv == 1) EXPECT_EQ(b.joint.armature, 0.01) << b.name;
+    if (b.joint.nv == 1) {
+      EXPECT_EQ(b.joint.armature, 0.01) << b.name;
+    }
   const std::string ea = error_of(whole_scene(urdf, ", armature: {nope: 1}"), dir.path() + "/s.yaml");
   EXPECT_NE(ea.find("robot 'arm'.armature: no joint 'nope'"), std::string::npos) << ea;
 }

@@ -66,7 +66,7 @@ TEST(StatsLog, CurrentEncodingRoundTripsTheControlAndOutputCounts) {
 
 TEST(StatsLog, RecordedBeforeOutputsDroppedReadsItAsZero) {
   const io::StatsFrame s = some_stats();
-  const auto b = as_before(s, 0x5f3a349535103d01ULL, 1 * 8);
+  const auto b = as_before(s, 0x5f3a349535103d01ULL, (1 + 4) * 8);
   EXPECT_EQ(io::identify(b.data(), static_cast<int>(b.size())), io::MessageType::kLoopStats);
   io::StatsFrame back;
   ASSERT_TRUE(io::decode_stats(b.data(), static_cast<int>(b.size()), &back));
@@ -115,7 +115,7 @@ TEST(StatsLog, AMessageOfTheTypeBeforeOutputsDroppedReads) {
 
 TEST(StatsLog, RecordedBeforeTheControlCountsReadsThemAsZero) {
   const io::StatsFrame s = some_stats();
-  const auto b = as_before(s, 0x48bcc81f9a071c5aULL, 7 * 8);
+  const auto b = as_before(s, 0x48bcc81f9a071c5aULL, (7 + 4) * 8);
   EXPECT_EQ(io::identify(b.data(), static_cast<int>(b.size())), io::MessageType::kLoopStats);
   io::StatsFrame back;
   ASSERT_TRUE(io::decode_stats(b.data(), static_cast<int>(b.size()), &back));
@@ -131,7 +131,7 @@ TEST(StatsLog, RecordedBeforeTheControlCountsReadsThemAsZero) {
 
 TEST(StatsLog, RecordedBeforeInputsMalformedReadsItAndTheControlCountsAsZero) {
   const io::StatsFrame s = some_stats();
-  const auto b = as_before(s, 0x7f11746fd02903b9ULL, 8 * 8);
+  const auto b = as_before(s, 0x7f11746fd02903b9ULL, (8 + 4) * 8);
   EXPECT_EQ(io::identify(b.data(), static_cast<int>(b.size())), io::MessageType::kLoopStats);
   io::StatsFrame back;
   ASSERT_TRUE(io::decode_stats(b.data(), static_cast<int>(b.size()), &back));
